@@ -1,0 +1,33 @@
+"""Online motion predictors (paper §3–5): one protocol, ``update`` / ``predict`` / ``reset``.
+
+>>> import numpy as np
+>>> from handvar.predictors import RVAR
+>>> rvar = RVAR()                      # γ = 0.8, c = 8, structured VAR inside
+>>> for x in np.zeros((5, 26)):
+...     rvar.update(x)
+>>> rvar.predict().shape
+(26,)
+"""
+
+from handvar.hand.params import hand_blocks
+from handvar.predictors.base import Predictor, one_step_predictions
+from handvar.predictors.kalman import KalmanCV
+from handvar.predictors.order import OrderSelection, select_order
+from handvar.predictors.rvar import RVAR, fit_trust_weights
+from handvar.predictors.simple import Decelerating, NoMotion
+from handvar.predictors.var import VAR, second_differences
+
+__all__ = [
+    "RVAR",
+    "VAR",
+    "Decelerating",
+    "KalmanCV",
+    "NoMotion",
+    "OrderSelection",
+    "Predictor",
+    "fit_trust_weights",
+    "hand_blocks",
+    "one_step_predictions",
+    "second_differences",
+    "select_order",
+]

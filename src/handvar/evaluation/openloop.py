@@ -1,0 +1,180 @@
+"""Open-loop evaluation of predictors on recorded motion (no tracker in the loop).
+
+Every predictor is run along a recorded pose series (``one_step_predictions``) and
+scored per parameter group: RMSE, mean absolute error and R̃² against no motion,
+1 − Σ(x − x̂)² / Σ(x − x_{t−1})², pooled over the group's parameters.  In one-step
+open loop the residual x_t − x̂_t equals the acceleration-domain residual
+y_t − ŷ_t, so this R̃² is eq. 18 with the recording standing in for the truth.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from handvar.hand import params
+from handvar.predictors import (
+    RVAR,
+    VAR,
+    Decelerating,
+    KalmanCV,
+    NoMotion,
+    Predictor,
+    hand_blocks,
+    one_step_predictions,
+)
+from handvar.predictors.base import as_series
+
+__all__ = [
+    "GROUPS",
+    "OpenLoopRow",
+    "default_predictors",
+    "evaluate_open_loop",
+    "format_table",
+    "read_pose_series",
+    "write_csv",
+]
+
+# Parameter groups of the table: (name, unit, indices).
+GROUPS: tuple[tuple[str, str, np.ndarray], ...] = (
+    ("palm translation", "mm", np.arange(0, 3)),
+    ("palm rotation", "deg", np.arange(3, 6)),
+    ("abduction", "deg", np.arange(6, 11)),
+    *(
+        (f"{digit} flexion", "deg", np.arange(11 + 3 * k, 14 + 3 * k))
+        for k, digit in enumerate(params.DIGITS)
+    ),
+    ("all fingers", "deg", np.arange(6, 26)),
+)
+
+
+def default_predictors() -> dict[str, Predictor]:
+    """The paper's predictors (§4–5) with its settings, plus the relative RVAR and Kalman."""
+    return {
+        "no motion": NoMotion(),
+        "decelerating": Decelerating(rho=0.4),
+        "full VAR": VAR(order=1, memory=150),
+        "structured VAR": VAR(order=1, memory=30, blocks=hand_blocks()),
+        "RVAR": RVAR(gamma=0.8, cutoff=8),
+        "RVAR relative": RVAR(gamma=0.8, cutoff=8, mode="relative"),
+        "Kalman CV": KalmanCV(),
+    }
+
+
+@dataclass(frozen=True)
+class OpenLoopRow:
+    """One predictor's score on one parameter group."""
+
+    group: str
+    unit: str
+    predictor: str
+    rmse: float
+    mae: float
+    r2_tilde: float
+    frames: int
+
+
+def read_pose_series(path: str | os.PathLike) -> np.ndarray:
+    """Read a pose series: whitespace text, CSV (header optional) or .npy; rows are frames.
+
+    Returns
+    -------
+    (T, d) ndarray
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"{path}: expected a pose file (text, CSV or .npy); no such file")
+    try:
+        if path.suffix == ".npy":
+            X = np.load(path, allow_pickle=False)
+        elif path.suffix == ".csv":
+            with path.open() as f:
+                first = f.readline()
+            header = any(c.isalpha() for c in first.replace("e", "").replace("E", ""))
+            X = np.loadtxt(path, delimiter=",", skiprows=int(header), ndmin=2)
+        else:
+            X = np.loadtxt(path, ndmin=2)
+    except ValueError as exc:
+        raise ValueError(f"{path}: expected a table of numbers; {exc}") from None
+    return as_series(X, str(path))
+
+
+def evaluate_open_loop(
+    X, predictors: dict[str, Predictor] | None = None, *, resets=()
+) -> tuple[list[OpenLoopRow], dict[str, np.ndarray]]:
+    """Score every predictor on a recorded series of hand poses, per parameter group.
+
+    Parameters
+    ----------
+    X : (T, 26) array_like
+        Poses in handvar's layout (mm, degrees), one row a frame.
+    predictors : dict of name to Predictor, optional
+        Default :func:`default_predictors`; ``"no motion"`` is always the reference.
+    resets : iterable of int
+        Rows where the recording restarts; predictors are reset there and those
+        rows are not scored.
+
+    Returns
+    -------
+    rows : list of OpenLoopRow
+    predictions : dict of name to (T, 26) ndarray
+    """
+    X = as_series(X)
+    if X.shape[1] != params.N_PARAMS:
+        raise ValueError(f"X: expected 26 columns (handvar's pose layout); got {X.shape[1]}")
+    predictors = dict(predictors or default_predictors())
+    predictors.setdefault("no motion", NoMotion())
+    preds = {name: one_step_predictions(p, X, resets=resets) for name, p in predictors.items()}
+    scored = np.all([np.isfinite(P).all(1) for P in preds.values()], axis=0)
+    if not scored.any():
+        raise ValueError(f"X: expected at least 2 frames to score; got {len(X)}")
+    base = (X - preds["no motion"])[scored]
+    rows = []
+    for group, unit, idx in GROUPS:
+        den = np.sum(base[:, idx] ** 2)
+        for name, P in preds.items():
+            err = (X - P)[scored][:, idx]
+            r2 = 1.0 - np.sum(err**2) / den if den > 0 else float("nan")
+            rows.append(
+                OpenLoopRow(
+                    group,
+                    unit,
+                    name,
+                    float(np.sqrt(np.mean(err**2))),
+                    float(np.mean(np.abs(err))),
+                    float(r2),
+                    int(scored.sum()),
+                )
+            )
+    return rows, preds
+
+
+def format_table(rows: list[OpenLoopRow]) -> str:
+    """The rows as plain-text tables, one per parameter group."""
+    lines = []
+    for group in dict.fromkeys(r.group for r in rows):
+        sub = [r for r in rows if r.group == group]
+        unit = sub[0].unit
+        lines.append(f"{group} ({unit}), {sub[0].frames} frames")
+        lines.append(f"  {'predictor':<16}{'RMSE':>10}{'MAE':>10}{'R̃² vs none':>12}")
+        for r in sub:
+            lines.append(f"  {r.predictor:<16}{r.rmse:>10.4f}{r.mae:>10.4f}{r.r2_tilde:>12.3f}")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def write_csv(rows: list[OpenLoopRow], path: str | os.PathLike) -> None:
+    """Write the rows as CSV, atomically (a temporary file renamed into place)."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp")
+    with tmp.open("w") as f:
+        f.write("group,unit,predictor,rmse,mae,r2_tilde,frames\n")
+        for r in rows:
+            f.write(
+                f"{r.group},{r.unit},{r.predictor},{r.rmse:.6g},{r.mae:.6g},"
+                f"{r.r2_tilde:.6g},{r.frames}\n"
+            )
+    os.replace(tmp, path)

@@ -1,0 +1,100 @@
+"""The predictor protocol shared by the tracker, the experiments and users' trackers.
+
+Every motion predictor speaks two verbs, as filterpy's estimators do: ``update(x)``
+hands it the tracker's estimate for the newest frame, ``predict()`` returns the
+initial value for the next frame.  ``reset()`` forgets everything.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+__all__ = ["Predictor", "as_series", "as_vector", "one_step_predictions"]
+
+
+@runtime_checkable
+class Predictor(Protocol):
+    """A one-step-ahead motion predictor.
+
+    ``predict()`` before the first ``update()`` raises ``RuntimeError``: there is
+    nothing to extrapolate from.
+    """
+
+    def update(self, x: np.ndarray) -> None:
+        """Take the estimate ``x`` (d,) of the newest frame."""
+
+    def predict(self) -> np.ndarray:
+        """Return the prediction (d,) for the next frame."""
+
+    def reset(self) -> None:
+        """Forget every frame seen so far."""
+
+
+def as_vector(x, name: str = "x", size: int | None = None) -> np.ndarray:
+    """Return `x` as a finite float64 vector, or raise ValueError naming `name`."""
+    arr = np.asarray(x, dtype=float)
+    if arr.ndim != 1 or (size is not None and arr.shape[0] != size):
+        want = f"({size},)" if size is not None else "(d,)"
+        raise ValueError(f"{name}: expected a vector of shape {want}; got shape {arr.shape}")
+    if not np.isfinite(arr).all():
+        raise ValueError(f"{name}: expected finite values; got NaN or infinity")
+    return arr
+
+
+def as_series(X, name: str = "X") -> np.ndarray:
+    """Return `X` as a finite float64 (T, d) array, or raise ValueError naming `name`."""
+    arr = np.asarray(X, dtype=float)
+    if arr.ndim != 2 or arr.shape[0] < 1 or arr.shape[1] < 1:
+        raise ValueError(f"{name}: expected a series of shape (T, d); got shape {arr.shape}")
+    if not np.isfinite(arr).all():
+        bad = np.argwhere(~np.isfinite(arr))[0]
+        raise ValueError(
+            f"{name}: expected finite values; got {arr[tuple(bad)]} at row {bad[0]}, "
+            f"column {bad[1]}"
+        )
+    return arr
+
+
+def one_step_predictions(predictor: Predictor, X, *, resets=()) -> np.ndarray:
+    """Run `predictor` along a recorded series: open-loop one-step prediction.
+
+    Parameters
+    ----------
+    predictor : Predictor
+        Reset first, then fed the rows of `X` one at a time.
+    X : (T, d) array_like
+        The recorded series, one row a frame.
+    resets : iterable of int, optional
+        Rows at which the recording restarts (a cut between two takes): the
+        predictor is reset before that row, whose prediction is then undefined.
+
+    Returns
+    -------
+    (T, d) ndarray
+        ``X_hat[t]`` is the prediction made from ``X[:t]`` (since the last reset);
+        rows with no history (row 0 and every reset row) are NaN.
+
+    Examples
+    --------
+    >>> from handvar.predictors import Decelerating
+    >>> one_step_predictions(Decelerating(rho=1.0), [[0.0], [1.0], [2.0]])[1:, 0]
+    array([1., 3.])
+    """
+    X = as_series(X)
+    cuts = {int(r) for r in resets}
+    if any(not 0 <= r < len(X) for r in cuts):
+        raise ValueError(f"resets: expected row numbers in [0, {len(X)}); got {sorted(cuts)}")
+    X_hat = np.full_like(X, np.nan)
+    predictor.reset()
+    fresh = True
+    for t, x in enumerate(X):
+        if t in cuts:
+            predictor.reset()
+            fresh = True
+        if not fresh:
+            X_hat[t] = predictor.predict()
+        predictor.update(x)
+        fresh = False
+    return X_hat
