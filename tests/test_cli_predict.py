@@ -1,0 +1,66 @@
+"""`handvar predict`: the open-loop table on the real recording, and its errors."""
+
+from __future__ import annotations
+
+import numpy as np
+from click.testing import CliRunner
+
+from handvar.cli import main
+from handvar.evaluation.openloop import evaluate_open_loop, read_pose_series
+from handvar.predictors import NoMotion, one_step_predictions
+from tests.conftest import EXAMPLES
+
+
+def test_predict_table_on_the_real_recording(tmp_path):
+    out = tmp_path / "table.csv"
+    result = CliRunner().invoke(
+        main,
+        [
+            "predict", str(EXAMPLES / "htrack-fingerfist.txt"), "--layout", "htrack",
+            "--reset-at", "4000", "--csv", str(out),
+        ],
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert "little flexion (deg)" in result.output
+    rows = np.genfromtxt(out, delimiter=",", names=True, dtype=None, encoding="utf-8")
+    none = rows[rows["predictor"] == "no motion"]
+    np.testing.assert_allclose(none["r2_tilde"], 0.0, atol=1e-12)
+    # Two recordings: both first frames are unscored.
+    assert set(rows["frames"]) == {6000 - 2}
+
+
+def test_open_loop_scores_equal_a_direct_computation(fingerfist):
+    from handvar.synth.motion import htrack_to_handvar
+
+    X = htrack_to_handvar(fingerfist[:300])
+    rows, preds = evaluate_open_loop(X)
+    none = one_step_predictions(NoMotion(), X)
+    dec = preds["decelerating"]
+    idx = np.arange(14, 17)  # index finger flexion
+    r2 = 1 - np.sum((X - dec)[1:, idx] ** 2) / np.sum((X - none)[1:, idx] ** 2)
+    (row,) = [r for r in rows if r.group == "index flexion" and r.predictor == "decelerating"]
+    assert abs(row.r2_tilde - r2) < 1e-12
+    assert abs(row.rmse - np.sqrt(np.mean((X - dec)[1:, idx] ** 2))) < 1e-12
+
+
+def test_pose_files_in_three_formats_read_the_same(tmp_path):
+    X = np.random.default_rng(0).normal(size=(7, 26))
+    np.save(tmp_path / "p.npy", X)
+    np.savetxt(tmp_path / "p.txt", X)
+    np.savetxt(tmp_path / "p.csv", X, delimiter=",", header=",".join(f"c{i}" for i in range(26)))
+    for name in ("p.npy", "p.txt", "p.csv"):
+        np.testing.assert_allclose(read_pose_series(tmp_path / name), X, rtol=1e-15)
+
+
+def test_predict_errors_are_one_line(tmp_path):
+    bad = tmp_path / "bad.txt"
+    bad.write_text("1 2 3\n4 5 nan\n")
+    runner = CliRunner()
+    for args in (
+        ["predict", str(tmp_path / "missing.txt")],
+        ["predict", str(bad)],
+    ):
+        result = runner.invoke(main, args)
+        assert result.exit_code == 2
+        assert len(result.output.strip().splitlines()) == 1
+        assert result.output.startswith("handvar: error:")

@@ -1,0 +1,60 @@
+"""R̃² (eq. 18, 21) and the mean joint error against hand-computed values."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from handvar.evaluation import mean_joint_error, r2_tilde, r2_tilde_acceleration, r2_tilde_joints
+
+
+def test_r2_tilde_joints_by_hand():
+    T = 5
+    truth = np.zeros((T, 2, 3))
+    with_model = truth.copy()
+    without = truth.copy()
+    with_model[:, 0, 0] = 1.0  # joint 0: error 1 with the model, 2 without
+    without[:, 0, 0] = 2.0
+    with_model[:, 1, 1] = 3.0  # joint 1: error 3 with the model, 1 without
+    without[:, 1, 2] = 1.0
+    np.testing.assert_allclose(r2_tilde_joints(truth, with_model, without), [1 - 1 / 4, 1 - 9])
+    np.testing.assert_allclose(r2_tilde(truth, with_model, without), [0.75, -8.0])
+
+
+def test_r2_tilde_acceleration_differences_the_series():
+    # Truth with constant acceleration 2; the model run's acceleration errs by 1 at
+    # one frame, the no-motion run's by 2 at the same frame: R̃² = 1 - 1/4.
+    t = np.arange(6.0)
+    truth = (t**2)[:, None]
+    with_model = truth.copy()
+    without = truth.copy()
+    with_model[3] += 1.0  # shifts y at t = 3, 4, 5 by +1, -2, +1: Σ = 6
+    without[3] += 2.0  # by +2, -4, +2: Σ = 24
+    np.testing.assert_allclose(r2_tilde_acceleration(truth, with_model, without), [1 - 6 / 24])
+
+
+def test_a_perfect_no_motion_run_has_no_score():
+    z = np.zeros((3, 1, 3))
+    assert np.isnan(r2_tilde(z, z + 1.0, z)[0])
+
+
+def test_mean_joint_error():
+    truth = np.zeros((2, 21, 3))
+    est = truth.copy()
+    est[0, :, 0] = 3.0
+    est[1, 0] = (3.0, 4.0, 0.0)  # one joint 5 mm off
+    np.testing.assert_allclose(mean_joint_error(truth, est), [3.0, 5.0 / 21])
+    assert mean_joint_error(truth[0], est[0]) == pytest.approx(3.0)
+
+
+@pytest.mark.parametrize(
+    ("args", "name"),
+    [
+        ((np.zeros((4, 2, 3)), np.zeros((4, 2, 3)), np.zeros((4, 3, 3))), "with_model"),
+        ((np.zeros((4, 2, 3)), np.full((4, 2, 3), np.nan), np.zeros((4, 2, 3))), "with_model"),
+        ((np.zeros(4), np.zeros(4), np.zeros(4)), "truth"),
+    ],
+)
+def test_bad_input_names_the_argument(args, name):
+    with pytest.raises(ValueError, match=rf"^{name}"):
+        r2_tilde(*args)
