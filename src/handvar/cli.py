@@ -35,3 +35,324 @@ def main() -> None:
 
 # --- commands ---------------------------------------------------------------------
 # Each command lives in its own section below; keep them independent.
+
+
+# --- synth: render a synthetic sequence with ground truth ------------------------------
+
+
+@main.command("synth")
+@click.argument("name")
+@click.argument("out", type=click.Path())
+@click.option(
+    "--seed",
+    type=click.IntRange(min=0),
+    default=0,
+    show_default=True,
+    help="Seed of the motion (and of the colour frames).",
+)
+@click.option("--rgb", is_flag=True, help="Also render shaded colour frames.")
+@click.option(
+    "--frames",
+    "n_frames",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Keep only the first N frames (a quick preview).",
+)
+@_one_line_errors
+def synth_command(name: str, out: str, seed: int, rgb: bool, n_frames: int | None) -> None:
+    """Render the synthetic sequence NAME (benchmark, flexion, flip) into directory OUT.
+
+    OUT receives sequence.json, per-camera PNG masks (and colour frames with --rgb)
+    and truth.npz; an existing sequence there is replaced only once the new one is
+    complete.
+    """
+    from tqdm import tqdm
+
+    from handvar.io import check_output_dir, write_sequence
+    from handvar.synth.sequences import make_sequence
+
+    check_output_dir(out)  # fail before rendering, not after
+    seq = make_sequence(
+        name,
+        seed=seed,
+        rgb=rgb,
+        n_frames=n_frames,
+        progress=lambda it: tqdm(it, desc=f"rendering {name}", unit="frame", leave=False),
+    )
+    path = write_sequence(
+        seq, out, progress=lambda it: tqdm(it, desc="writing", unit="frame", leave=False)
+    )
+    w, h = seq.image_size
+    click.echo(
+        f"{seq.name}: {seq.n_frames} frames, {seq.n_cameras} cameras {w}x{h}, "
+        f"{seq.fps:g} fps -> {path}"
+    )
+
+
+# --- show: draw a pose in the default stereo rig -----------------------------------------
+
+
+def load_pose(spec: str):
+    """A (26,) pose from a named pose (``open``, ``fist``, ...) or a pose file.
+
+    A pose file holds the 26 parameters (mm, degrees): a text file of 26 numbers
+    (whitespace or comma separated) or a ``.npy`` array.
+    """
+    import os
+
+    import numpy as np
+
+    from handvar.hand.kinematics import POSE_NAMES, named_pose
+    from handvar.hand.params import check_pose
+
+    if spec in POSE_NAMES:
+        return named_pose(spec)
+    if not os.path.isfile(spec):
+        raise ValueError(
+            f"POSE: expected a named pose ({', '.join(POSE_NAMES)}) or a pose file; got {spec!r}"
+        )
+    try:
+        if spec.lower().endswith(".npy"):
+            values = np.load(spec, allow_pickle=False)
+        else:
+            with open(spec) as fh:
+                values = np.array(fh.read().replace(",", " ").split(), dtype=float)
+    except ValueError as exc:
+        raise ValueError(f"{spec}: expected 26 numbers; {exc}") from None
+    values = np.asarray(values, dtype=float).ravel()
+    return check_pose(values, spec)
+
+
+@main.command("show")
+@click.argument("pose")
+@click.option(
+    "--out",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="PNG file to write [default: POSE.png, named after the pose].",
+)
+@click.option(
+    "--hand-length",
+    type=float,
+    default=185.0,
+    show_default=True,
+    help="Hand length (wrist crease to middle fingertip), mm.",
+)
+@click.option(
+    "--shaded/--silhouette",
+    default=False,
+    show_default=True,
+    help="Draw a shaded colour rendering instead of the silhouette.",
+)
+@click.option(
+    "--frame",
+    type=click.IntRange(min=0),
+    default=None,
+    help="POSE is a sequence directory: draw the true pose of frame K over its masks.",
+)
+@_one_line_errors
+def show_command(
+    pose: str, out: str | None, hand_length: float, shaded: bool, frame: int | None
+) -> None:
+    """Draw POSE (a named pose or a file of 26 numbers) in both default cameras.
+
+    Writes a PNG with the two views side by side: the model's silhouette (or a shaded
+    rendering) with the 21 joints and the bones drawn on it.
+    """
+    import os
+    import tempfile
+
+    import cv2
+    import numpy as np
+
+    from handvar.camera import Rig
+    from handvar.hand.anthropometry import HandShape
+    from handvar.hand.kinematics import HandModel
+    from handvar.render import draw_overlay, render_rgb, side_by_side, silhouettes
+
+    x = load_pose(pose) if frame is None else None
+    hand = HandModel(HandShape.from_size(hand_length))
+    rig = Rig.default()
+    if frame is not None:  # a frame of a sequence: its true pose, its rig, its masks
+        x, rig, masks = _sequence_frame(pose, frame)
+        pose = f"{pose.rstrip(os.sep)}-{frame:05d}"
+    joints = hand.joints(x)
+    if frame is None:
+        masks = silhouettes(hand, x, rig)
+    if shaded:
+        base = render_rgb(hand, x, rig, background="plain", rng=np.random.default_rng(0))
+    else:
+        base = masks
+    label = os.path.splitext(os.path.basename(pose))[0]
+    views = [draw_overlay(b, cam, joints) for b, cam in zip(base, rig, strict=True)]
+    titles = [f"{label} - {name} camera" for name in rig.names]
+    image = side_by_side(views, titles)
+    out = out or f"{label}.png"
+    folder = os.path.dirname(os.path.abspath(out))
+    fd, tmp = tempfile.mkstemp(prefix=".show-", suffix=".png", dir=folder)
+    os.close(fd)
+    try:
+        if not cv2.imwrite(tmp, cv2.cvtColor(image, cv2.COLOR_RGB2BGR)):
+            raise OSError(f"{out}: cannot write the PNG")
+        os.replace(tmp, out)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    click.echo(f"{label}: {len(rig)} views -> {out}")
+
+
+# --- predict: open-loop evaluation of the predictors on a recorded pose series ------
+@main.command("predict")
+@click.argument("file", type=click.Path(dir_okay=False))
+@click.option(
+    "--layout",
+    type=click.Choice(["handvar", "htrack"]),
+    default="handvar",
+    show_default=True,
+    help="Column layout: handvar's 26 parameters (mm, degrees), or htrack's (radians).",
+)
+@click.option(
+    "--stride", type=click.IntRange(min=1), default=1, show_default=True,
+    help="Use every K-th frame (simulates a slower camera).",
+)  # fmt: skip
+@click.option(
+    "--reset-at", "reset_at", type=click.IntRange(min=0), multiple=True,
+    help="Row (of the file) where a new recording starts; repeatable.",
+)  # fmt: skip
+@click.option("--csv", "csv_out", type=click.Path(dir_okay=False), help="Also write a CSV.")
+@_one_line_errors
+def predict_command(file, layout, stride, reset_at, csv_out) -> None:
+    """Score every predictor one step ahead on the recorded poses in FILE.
+
+    FILE is whitespace text, CSV or .npy; rows are frames, 26 columns.  Prints, per
+    parameter group, RMSE and mean absolute error (mm or degrees) and R̃² against
+    no motion (> 0: better than no motion).
+    """
+    from handvar.evaluation.openloop import (
+        evaluate_open_loop,
+        format_table,
+        read_pose_series,
+        write_csv,
+    )
+
+    X = read_pose_series(file)
+    if layout == "htrack":
+        from handvar.synth.motion import htrack_to_handvar
+
+        X = htrack_to_handvar(X)
+    if any(r >= len(X) for r in reset_at):
+        raise ValueError(f"--reset-at: expected rows below {len(X)}; got {list(reset_at)}")
+    # Reset rows map onto the first kept frame at or after them.
+    resets = sorted({-(-r // stride) for r in reset_at if -(-r // stride) < -(-len(X) // stride)})
+    X = X[::stride]
+    rows, _ = evaluate_open_loop(X, resets=resets)
+    click.echo(f"{file}: {len(X)} frames, {X.shape[1]} parameters, layout {layout}")
+    click.echo(format_table(rows))
+    if csv_out:
+        write_csv(rows, csv_out)
+        click.echo(f"wrote {csv_out}")
+
+
+def _sequence_frame(path: str, frame: int):
+    """True pose, rig and masks of frame `frame` of the sequence directory `path`."""
+    from handvar.io import read_sequence
+
+    seq = read_sequence(path, lazy=True)
+    if frame >= seq.n_frames:
+        raise ValueError(f"--frame: expected a frame below {seq.n_frames}; got {frame}")
+    if seq.truth is None:
+        raise ValueError(f"{path}: expected a sequence with truth.npz for --frame; it has none")
+    return seq.truth.poses[frame], seq.rig, seq.masks[frame]
+
+
+# --- experiment: the paper's tracking experiments on Dask ------------------------------
+
+
+@main.command("experiment")
+@click.option(
+    "--out",
+    "store",
+    type=click.Path(file_okay=False),
+    default="experiment.zarr",
+    show_default=True,
+    help="Zarr store of the results; an existing one is resumed.",
+)
+@click.option("--scheduler", default=None, help="Address of an existing Dask scheduler.")
+@click.option(
+    "--workers",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Worker processes of the embedded cluster [default: the number of cores].",
+)
+@click.option(
+    "--set", "assignments", multiple=True, metavar="KEY=VALUE",
+    help="Change the protocol: trials=4, frames=40, seed=1, trial=openloop, "
+    "rvar.gamma=0.7, tracker.FIELD=V, predictors=none,rvar, extras=true; repeatable.",
+)  # fmt: skip
+@click.option(
+    "--sweep", "sweeps", multiple=True, metavar="PRED.ARG=V1,V2,...",
+    help="Add variants of a predictor, e.g. rvar.gamma=0.5,0.6,0.7; repeatable.",
+)  # fmt: skip
+@click.option("--quick", is_flag=True, help="A reduced protocol: 3 trials of 40 frames.")
+@click.option("--extras", is_flag=True, help="Add the relative RVAR and the Kalman filter.")
+@click.option("--progress/--no-progress", default=True, show_default=True)
+@_one_line_errors
+def experiment_command(store, scheduler, workers, assignments, sweeps, quick, extras, progress):
+    """Run the paper's experiment (5 predictors x 50 trials x 175 frames) into a store.
+
+    Trials run as tasks on Dask: an embedded local cluster (one process per core)
+    or --scheduler.  Each finished trial is written at once; running the same
+    command again computes only the missing trials.  With an existing store and no
+    protocol options, its own configuration is resumed.
+    """
+    import os
+
+    from handvar.evaluation.experiment import (
+        ExperimentConfig,
+        read_config,
+        run_experiment,
+        summary_text,
+    )
+
+    if os.path.exists(store) and not (assignments or sweeps or quick or extras):
+        config = read_config(store)
+    else:
+        config = ExperimentConfig.quick() if quick else ExperimentConfig()
+        if extras:
+            config = config.with_extras()
+        config = config.with_overrides(assignments)
+        for sweep in sweeps:
+            config = config.with_sweep(sweep)
+    click.echo(
+        f"{len(config.predictors)} predictors x {config.trials} trials x {config.frames} "
+        f"frames of {config.sequence} ({config.trial_kind}) -> {store}"
+    )
+    summary = run_experiment(config, store, scheduler=scheduler, workers=workers, progress=progress)
+    click.echo(summary_text(summary))
+    if not summary.complete:
+        sys.exit(1)
+
+
+# --- report: the paper's figures and claims from an experiment store --------------------
+
+
+@main.command("report")
+@click.argument("store", type=click.Path(file_okay=False))
+@click.option(
+    "--out",
+    type=click.Path(file_okay=False),
+    default=None,
+    help="Output directory [default: STORE's name with -report].",
+)
+@_one_line_errors
+def report_command(store, out):
+    """Draw the paper's figures 2-6 and the table of its claims from STORE."""
+    import os
+
+    from handvar.evaluation.report import write_report
+
+    if out is None:
+        base = os.path.splitext(os.path.normpath(store))[0]
+        out = f"{base}-report"
+    path = write_report(store, out)
+    click.echo(f"report -> {path} (and report.html, figures in {out})")

@@ -1,0 +1,54 @@
+"""The hand model: 26 parameters, kinematics G(x) with Jacobians, sphere-mesh surface.
+
+- :mod:`~handvar.hand.params`: names, units, limits, optimiser groups and VAR blocks of
+  the 26 parameters.
+- :mod:`~handvar.hand.anthropometry`: bone lengths, joint positions and thickness from
+  hand length and breadth (`HandShape`).
+- :mod:`~handvar.hand.kinematics`: `HandModel` (forward kinematics, exact Jacobians,
+  surface queries) and `named_pose`.
+- :mod:`~handvar.hand.surface`: cone-sphere geometry (areas, sampling, ray
+  intersection, projected outlines).
+"""
+
+from handvar.hand.anthropometry import BONES, JOINTS, HandProportions, HandShape
+from handvar.hand.kinematics import POSE_NAMES, HandModel, named_pose
+from handvar.hand.params import (
+    DIGITS,
+    GROUPS,
+    LOWER,
+    N_PARAMS,
+    NAMES,
+    UNITS,
+    UPPER,
+    check_pose,
+    clamp,
+    hand_blocks,
+    index,
+    within_limits,
+)
+from handvar.hand.surface import Primitives, ProjectedPrimitives, SurfaceSamples
+
+__all__ = [
+    "BONES",
+    "DIGITS",
+    "GROUPS",
+    "JOINTS",
+    "LOWER",
+    "NAMES",
+    "N_PARAMS",
+    "POSE_NAMES",
+    "UNITS",
+    "UPPER",
+    "HandModel",
+    "HandProportions",
+    "HandShape",
+    "Primitives",
+    "ProjectedPrimitives",
+    "SurfaceSamples",
+    "check_pose",
+    "clamp",
+    "hand_blocks",
+    "index",
+    "named_pose",
+    "within_limits",
+]

@@ -1,0 +1,55 @@
+"""Synthetic hand motion and sequences with ground truth.
+
+:mod:`handvar.synth.motion` makes pose series (minimum-jerk key poses, replay of a real
+recording); :mod:`handvar.synth.sequences` builds the paper's three sequences
+(``benchmark``, ``flexion``, ``flip``) and renders them into a
+:class:`handvar.io.Sequence`.
+"""
+
+from handvar.synth.motion import (
+    HtrackMapping,
+    builtin_recording,
+    htrack_to_handvar,
+    keyframe_motion,
+    load_htrack,
+    minimum_jerk,
+    minimum_jerk_path,
+    poses_from_keys,
+    replay,
+    retime,
+)
+from handvar.synth.sequences import (
+    SEQUENCE_NAMES,
+    BenchmarkSettings,
+    FlexionSettings,
+    FlipSettings,
+    benchmark,
+    flexion,
+    flip,
+    make_sequence,
+    render_sequence,
+    sequence_poses,
+)
+
+__all__ = [
+    "SEQUENCE_NAMES",
+    "BenchmarkSettings",
+    "FlexionSettings",
+    "FlipSettings",
+    "HtrackMapping",
+    "benchmark",
+    "builtin_recording",
+    "flexion",
+    "flip",
+    "htrack_to_handvar",
+    "keyframe_motion",
+    "load_htrack",
+    "make_sequence",
+    "minimum_jerk",
+    "minimum_jerk_path",
+    "poses_from_keys",
+    "render_sequence",
+    "replay",
+    "retime",
+    "sequence_poses",
+]

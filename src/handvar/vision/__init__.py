@@ -1,0 +1,50 @@
+"""Hand silhouettes from colour video (paper section 6).
+
+`skin` classifies pixels by colour (the Jones–Rehg skin / non-skin mixtures, or a
+histogram trained on labelled images); `silhouette` cleans the resulting masks, cuts a
+visible forearm at the wrist and handles any number of cameras.
+"""
+
+from handvar.vision.silhouette import (
+    CLEANUP_DEFAULTS,
+    WRIST_DEFAULTS,
+    CleanupDefaults,
+    EmptySilhouetteError,
+    WristCut,
+    WristDefaults,
+    clean_mask,
+    cut_wrist,
+    find_wrist,
+    nearest_silhouette_pixel,
+    silhouettes_from_frames,
+    silhouettes_from_videos,
+)
+from handvar.vision.skin import (
+    SKIN_DEFAULTS,
+    GaussianMixture,
+    HistogramSkinModel,
+    SkinDefaults,
+    SkinModel,
+    jones_rehg_mixtures,
+)
+
+__all__ = [
+    "CLEANUP_DEFAULTS",
+    "SKIN_DEFAULTS",
+    "WRIST_DEFAULTS",
+    "CleanupDefaults",
+    "EmptySilhouetteError",
+    "GaussianMixture",
+    "HistogramSkinModel",
+    "SkinDefaults",
+    "SkinModel",
+    "WristCut",
+    "WristDefaults",
+    "clean_mask",
+    "cut_wrist",
+    "find_wrist",
+    "jones_rehg_mixtures",
+    "nearest_silhouette_pixel",
+    "silhouettes_from_frames",
+    "silhouettes_from_videos",
+]

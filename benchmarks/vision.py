@@ -1,0 +1,82 @@
+"""Speed of skin masks and silhouette clean-up on 1280×720 frames.
+
+Prints medians (milliseconds) over repeated runs on frames of the example video
+(``examples/data/dex-human-hand-video.mp4``); falls back to random frames if it cannot
+be read.  Target (DESIGN.md §10 and the vision part): skin mask of a 1280×720 frame
+≤ 10 ms; the one-off table build is printed separately.
+
+Run: ``.venv/bin/python benchmarks/vision.py``
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from handvar.vision import SkinModel, clean_mask, cut_wrist, silhouettes_from_frames
+
+VIDEO = Path(__file__).resolve().parents[1] / "examples" / "data" / "dex-human-hand-video.mp4"
+
+
+def load_frames(n: int = 20) -> list[np.ndarray]:
+    cap = cv2.VideoCapture(str(VIDEO))
+    frames = []
+    while len(frames) < n:
+        ok, frame = cap.read()
+        if not ok:
+            break
+        frames.append(frame)
+        for _ in range(25):
+            cap.grab()
+    cap.release()
+    if not frames:
+        rng = np.random.default_rng(0)
+        frames = [rng.integers(0, 256, (720, 1280, 3), dtype=np.uint8) for _ in range(n)]
+    return frames
+
+
+def median_ms(func, frames, repeats: int = 10) -> float:
+    times = []
+    for _ in range(repeats):
+        for f in frames:
+            t0 = time.perf_counter()
+            func(f)
+            times.append(time.perf_counter() - t0)
+    return 1e3 * float(np.median(times))
+
+
+def main() -> None:
+    frames = load_frames()
+    print(f"frames: {len(frames)} × {frames[0].shape[1]}×{frames[0].shape[0]}")
+    for bins in (32, 64, 128):
+        model = SkinModel(bins=bins)
+        t0 = time.perf_counter()
+        model.table  # noqa: B018 - builds and caches the lookup table
+        build = 1e3 * (time.perf_counter() - t0)
+        model.mask(frames[0])  # builds the boolean table for the default threshold
+        mask = median_ms(model.mask, frames)
+        print(f"bins={bins:3d}: table build {build:7.1f} ms   mask (LUT) median {mask:6.2f} ms")
+    model = SkinModel()
+    model.mask(frames[0])
+    clean = median_ms(lambda f: clean_mask(model.mask(f)), frames)
+    print(f"mask + clean_mask      median {clean:6.2f} ms")
+    print(
+        "mask + clean + wrist   median "
+        f"{median_ms(lambda f: cut_wrist(clean_mask(model.mask(f))), frames):6.2f} ms"
+    )
+    print(
+        "silhouettes_from_frames, 2 cameras, median "
+        f"{median_ms(lambda f: silhouettes_from_frames([f, f], model), frames):6.2f} ms"
+    )
+    small = [cv2.resize(f, (640, 480)) for f in frames]
+    print(
+        "640×480 (paper's cameras) mask + clean median "
+        f"{median_ms(lambda f: clean_mask(model.mask(f)), small):6.2f} ms"
+    )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,822 @@
+"""Pinhole cameras with OpenCV lens distortion, stereo rigs and calibration files.
+
+Conventions (DESIGN.md §3), the same as OpenCV's:
+
+- lengths in millimetres, image coordinates in pixels;
+- ``x_cam = R @ x_world + t`` (``R``, ``t``: world → camera);
+- camera frame: x to the right of the image, y down the image, z along the optical axis;
+- pixel ``(u, v)``: column ``u``, row ``v``; integer coordinates are pixel centres, so
+  pixel ``mask[i, j]`` is centred on ``(u, v) = (j, i)``;
+- lens distortion: OpenCV's model with coefficients ``(k1, k2, p1, p2, k3)`` or the
+  rational ``(k1, k2, p1, p2, k3, k4, k5, k6)``.
+
+Calibration files
+-----------------
+:meth:`Rig.save` writes, and :meth:`Rig.load` reads, ``cv2.FileStorage`` files (YAML
+``.yml``/``.yaml``, XML ``.xml`` or JSON ``.json``, chosen by the extension) with this
+layout::
+
+    cameras:                        # a sequence, one map per camera
+      - name: left
+        image_width: 640            # pixels
+        image_height: 480
+        camera_matrix: 3x3          # K = [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]
+        dist_coeffs: 1x5            # k1 k2 p1 p2 k3 (or 1x8 with k4 k5 k6)
+        R: 3x3                      # world -> camera rotation
+        T: 3x1                      # world -> camera translation, mm
+
+:meth:`Rig.load` also reads two layouts written by other OpenCV programs:
+
+- the stereo layout of ``cv2.stereoCalibrate`` users: ``K1`` (or ``M1``), ``D1``,
+  ``K2`` (or ``M2``), ``D2``, ``R``, ``T`` where ``R``, ``T`` map camera-1 coordinates to
+  camera-2 coordinates; camera 1 is put at the world origin (``R = I``, ``T = 0``);
+- the single-camera layout of OpenCV's calibration sample: ``camera_matrix`` (or ``K``),
+  ``distortion_coefficients`` (or ``dist_coeffs``, ``D``), optional ``R``, ``T``.
+
+In every layout the image size is ``image_width`` and ``image_height`` or a two-element
+sequence ``image_size``/``imageSize`` (width, height); the stereo layout has one size for
+both cameras. When a file has no size, pass ``size=`` to :meth:`Rig.load`. A
+``camera_matrix`` may be spelled ``K`` and ``dist_coeffs`` ``D`` or
+``distortion_coefficients`` everywhere; ``T`` may be ``t``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+
+__all__ = ["Camera", "Rig"]
+
+
+# --- validation --------------------------------------------------------------------
+
+
+def _check_array(value, shape: tuple[int | None, ...], name: str) -> np.ndarray:
+    """Return `value` as a finite float64 array of `shape` (None: any length)."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"{name}: expected a numeric array of shape {_fmt_shape(shape)}; got {value!r}"
+        ) from None
+    if arr.ndim != len(shape) or any(
+        s is not None and a != s for a, s in zip(arr.shape, shape, strict=True)
+    ):
+        raise ValueError(
+            f"{name}: expected an array of shape {_fmt_shape(shape)}; got shape {arr.shape}"
+        )
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: expected finite values; got NaN or infinity")
+    return arr
+
+
+def _fmt_shape(shape: tuple[int | None, ...]) -> str:
+    return "(" + ", ".join("N" if s is None else str(s) for s in shape) + ")"
+
+
+def _check_points(points, name: str = "points") -> np.ndarray:
+    """Return `points` as a finite float64 (N, 3) array."""
+    return _check_array(points, (None, 3), name)
+
+
+def _check_dist(dist) -> np.ndarray:
+    arr = np.asarray(dist, dtype=float).ravel() if dist is not None else np.zeros(5)
+    if arr.size == 0:
+        arr = np.zeros(5)
+    if arr.size == 4:
+        arr = np.concatenate([arr, [0.0]])
+    if arr.size not in (5, 8):
+        raise ValueError(
+            "dist: expected 4, 5 or 8 OpenCV distortion coefficients "
+            f"(k1 k2 p1 p2 [k3 [k4 k5 k6]]); got {arr.size}"
+        )
+    if arr.size == 8 and not np.any(arr[5:]):
+        arr = arr[:5]
+    if not np.all(np.isfinite(arr)):
+        raise ValueError("dist: expected finite values; got NaN or infinity")
+    return arr
+
+
+def _readonly(arr: np.ndarray) -> np.ndarray:
+    arr = np.array(arr, dtype=float)
+    arr.flags.writeable = False
+    return arr
+
+
+# --- distortion (pure functions) ----------------------------------------------------
+
+
+def distort_normalized(xy: np.ndarray, dist: np.ndarray) -> np.ndarray:
+    """Apply OpenCV's lens distortion to normalised image coordinates.
+
+    Parameters
+    ----------
+    xy : (N, 2) ndarray
+        Undistorted normalised coordinates ``(X/Z, Y/Z)``.
+    dist : (5,) or (8,) ndarray
+        ``k1 k2 p1 p2 k3 [k4 k5 k6]``.
+
+    Returns
+    -------
+    (N, 2) ndarray
+        Distorted normalised coordinates (OpenCV ``projectPoints`` model).
+    """
+    return _distort(xy, dist, jacobian=False)[0]
+
+
+def _distort(xy: np.ndarray, dist: np.ndarray, *, jacobian: bool):
+    """Distorted normalised coordinates and, optionally, their (N, 2, 2) Jacobian."""
+    x, y = xy[:, 0], xy[:, 1]
+    k1, k2, p1, p2, k3 = dist[:5]
+    r2 = x * x + y * y
+    # radial factor (1 + k1 r² + k2 r⁴ + k3 r⁶) / (1 + k4 r² + k5 r⁴ + k6 r⁶)
+    num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+    dnum = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)  # d num / d r²
+    if dist.size == 8:
+        k4, k5, k6 = dist[5:8]
+        den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))
+        dden = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2)
+        radial = num / den
+        dradial = (dnum * den - num * dden) / (den * den)
+    else:
+        radial = num
+        dradial = dnum
+    # x'' = x radial + 2 p1 x y + p2 (r² + 2x²);  y'' = y radial + p1 (r² + 2y²) + 2 p2 x y
+    xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
+    yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
+    out = np.stack([xd, yd], axis=-1)
+    if not jacobian:
+        return out, None
+    J = np.empty((xy.shape[0], 2, 2))
+    J[:, 0, 0] = radial + 2.0 * x * x * dradial + 2.0 * p1 * y + 6.0 * p2 * x
+    J[:, 0, 1] = 2.0 * x * y * dradial + 2.0 * p1 * x + 2.0 * p2 * y
+    J[:, 1, 0] = 2.0 * x * y * dradial + 2.0 * p1 * x + 2.0 * p2 * y
+    J[:, 1, 1] = radial + 2.0 * y * y * dradial + 6.0 * p1 * y + 2.0 * p2 * x
+    return out, J
+
+
+# --- Camera --------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class Camera:
+    """A calibrated pinhole camera with OpenCV lens distortion.
+
+    Parameters
+    ----------
+    fx, fy : float
+        Focal lengths, pixels.
+    cx, cy : float
+        Principal point, pixels (integer coordinates are pixel centres).
+    dist : (5,) or (8,) array_like, optional
+        OpenCV distortion ``k1 k2 p1 p2 k3 [k4 k5 k6]``; 4 values are padded with
+        ``k3 = 0``. Zeros (no distortion) by default.
+    R : (3, 3) array_like, optional
+        World → camera rotation (orthonormal, det +1). Identity by default.
+    t : (3,) array_like, optional
+        World → camera translation, mm: ``x_cam = R x_world + t``.
+    size : (int, int), optional
+        Image ``(width, height)``, pixels. ``(640, 480)`` by default.
+
+    Examples
+    --------
+    >>> cam = Camera(600.0, 600.0, 320.0, 240.0, t=[0.0, 0.0, 500.0])
+    >>> cam.project([[0.0, 0.0, 0.0], [50.0, 0.0, 0.0]]).round(3)
+    array([[320., 240.],
+           [380., 240.]])
+    """
+
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    dist: np.ndarray = field(default_factory=lambda: np.zeros(5))
+    R: np.ndarray = field(default_factory=lambda: np.eye(3))
+    t: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    size: tuple[int, int] = (640, 480)
+
+    def __post_init__(self) -> None:
+        for name in ("fx", "fy", "cx", "cy"):
+            value = getattr(self, name)
+            try:
+                value = float(value)
+            except (TypeError, ValueError):
+                raise ValueError(f"{name}: expected a number; got {value!r}") from None
+            if not np.isfinite(value):
+                raise ValueError(f"{name}: expected a finite number; got {value}")
+            object.__setattr__(self, name, value)
+        if self.fx <= 0 or self.fy <= 0:
+            raise ValueError(f"fx, fy: expected positive focal lengths; got {self.fx}, {self.fy}")
+        R = _check_array(self.R, (3, 3), "R")
+        if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
+            raise ValueError("R: expected a rotation matrix (orthonormal, det +1); got " + repr(R))
+        object.__setattr__(self, "R", _readonly(R))
+        object.__setattr__(self, "t", _readonly(_check_array(self.t, (3,), "t").ravel()))
+        object.__setattr__(self, "dist", _readonly(_check_dist(self.dist)))
+        try:
+            w, h = (int(v) for v in self.size)
+        except (TypeError, ValueError):
+            raise ValueError(f"size: expected (width, height); got {self.size!r}") from None
+        if w <= 0 or h <= 0 or (w, h) != tuple(self.size):
+            raise ValueError(f"size: expected positive integers (width, height); got {self.size}")
+        object.__setattr__(self, "size", (w, h))
+
+    # -- equality (array fields) --
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Camera):
+            return NotImplemented
+        return (
+            (self.fx, self.fy, self.cx, self.cy, self.size)
+            == (other.fx, other.fy, other.cx, other.cy, other.size)
+            and np.array_equal(self.dist, other.dist)
+            and np.array_equal(self.R, other.R)
+            and np.array_equal(self.t, other.t)
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def allclose(self, other: Camera, *, rtol: float = 1e-9, atol: float = 1e-9) -> bool:
+        """True when every parameter of `other` equals this camera's within tolerance."""
+        return (
+            self.size == other.size
+            and np.allclose(
+                [self.fx, self.fy, self.cx, self.cy],
+                [other.fx, other.fy, other.cx, other.cy],
+                rtol=rtol,
+                atol=atol,
+            )
+            and self.dist.shape == other.dist.shape
+            and np.allclose(self.dist, other.dist, rtol=rtol, atol=atol)
+            and np.allclose(self.R, other.R, rtol=rtol, atol=atol)
+            and np.allclose(self.t, other.t, rtol=rtol, atol=atol)
+        )
+
+    # -- derived quantities --
+    @property
+    def K(self) -> np.ndarray:
+        """(3, 3) intrinsic matrix ``[[fx, 0, cx], [0, fy, cy], [0, 0, 1]]``."""
+        return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
+
+    @property
+    def width(self) -> int:
+        """Image width, pixels."""
+        return self.size[0]
+
+    @property
+    def height(self) -> int:
+        """Image height, pixels."""
+        return self.size[1]
+
+    @property
+    def center(self) -> np.ndarray:
+        """(3,) world position of the optical centre, mm: ``-Rᵀ t``."""
+        return -self.R.T @ self.t
+
+    @property
+    def axis(self) -> np.ndarray:
+        """(3,) unit optical axis (camera +z) in world coordinates."""
+        return self.R[2].copy()
+
+    @property
+    def has_distortion(self) -> bool:
+        """True when any distortion coefficient is non-zero."""
+        return bool(np.any(self.dist))
+
+    # -- geometry --
+    def camera_from_world(self, points) -> np.ndarray:
+        """Map (N, 3) world points (mm) to (N, 3) camera coordinates (mm)."""
+        points = _check_points(points)
+        return points @ self.R.T + self.t
+
+    def pixels_from_normalized(self, xy: np.ndarray) -> np.ndarray:
+        """Distort (N, 2) normalised coordinates and apply K: (N, 2) pixels."""
+        xy = _check_array(xy, (None, 2), "xy")
+        if self.has_distortion:
+            xy = distort_normalized(xy, self.dist)
+        return xy * (self.fx, self.fy) + (self.cx, self.cy)
+
+    def project(self, points) -> np.ndarray:
+        """Project world points to pixels, with lens distortion.
+
+        Parameters
+        ----------
+        points : (N, 3) array_like
+            World points, mm. Points must lie in front of the camera (z_cam > 0);
+            others are projected by the same formula, as ``cv2.projectPoints`` does.
+
+        Returns
+        -------
+        (N, 2) ndarray
+            Pixel coordinates ``(u, v)``.
+        """
+        return self.project_jacobian(points, jacobian=False)[0]
+
+    def project_jacobian(self, points, *, jacobian: bool = True):
+        """Project world points and return the analytic Jacobian of the projection.
+
+        Parameters
+        ----------
+        points : (N, 3) array_like
+            World points, mm.
+        jacobian : bool, optional
+            Compute the Jacobian (default True).
+
+        Returns
+        -------
+        pixels : (N, 2) ndarray
+            Pixel coordinates.
+        J : (N, 2, 3) ndarray or None
+            ``d pixels / d points``, pixels per mm (world coordinates), including
+            distortion.
+        """
+        Xc = self.camera_from_world(points)
+        z = Xc[:, 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv_z = 1.0 / z
+        xy = Xc[:, :2] * inv_z[:, None]  # pinhole: (X/Z, Y/Z)
+        f = np.array([self.fx, self.fy])
+        if self.has_distortion:
+            xyd, Jd = _distort(xy, self.dist, jacobian=jacobian)
+        else:
+            xyd, Jd = xy, None
+        pixels = xyd * f + (self.cx, self.cy)
+        if not jacobian:
+            return pixels, None
+        # d(x, y)/d Xc = [[1/Z, 0, -X/Z²], [0, 1/Z, -Y/Z²]]
+        Jp = np.zeros((Xc.shape[0], 2, 3))
+        Jp[:, 0, 0] = inv_z
+        Jp[:, 1, 1] = inv_z
+        Jp[:, :, 2] = -xy * inv_z[:, None]
+        if Jd is not None:
+            Jp = Jd @ Jp
+        # d pixels / d x_world = diag(fx, fy) · d(xd, yd)/d(x, y) · d(x, y)/d Xc · R
+        J = (f[None, :, None] * Jp) @ self.R
+        return pixels, J
+
+    def rays(self, pixels) -> tuple[np.ndarray, np.ndarray]:
+        """Back-project pixels to world rays.
+
+        Parameters
+        ----------
+        pixels : (N, 2) array_like
+            Pixel coordinates ``(u, v)``.
+
+        Returns
+        -------
+        origins : (N, 3) ndarray
+            The optical centre, repeated, mm (world).
+        directions : (N, 3) ndarray
+            Unit ray directions (world). With distortion, pixels are undistorted by
+            ``cv2.undistortPoints`` (iterative; accurate to about 1e-6 in normalised
+            coordinates for calibrations with moderate distortion).
+        """
+        pixels = _check_array(pixels, (None, 2), "pixels")
+        if self.has_distortion and pixels.shape[0]:
+            criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-12)
+            xy = cv2.undistortPoints(
+                pixels.reshape(-1, 1, 2),
+                self.K,
+                self.dist,
+                R=np.eye(3),
+                P=np.eye(3),
+                criteria=criteria,
+            ).reshape(-1, 2)
+        else:
+            xy = (pixels - (self.cx, self.cy)) / (self.fx, self.fy)
+        d = np.concatenate([xy, np.ones((xy.shape[0], 1))], axis=1)
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        directions = d @ self.R  # Rᵀ d for each row
+        origins = np.broadcast_to(self.center, directions.shape).copy()
+        return origins, directions
+
+    def in_image(self, pixels) -> np.ndarray:
+        """(N,) bool: pixel coordinates inside the image (pixel-centre convention)."""
+        pixels = _check_array(pixels, (None, 2), "pixels")
+        w, h = self.size
+        return (
+            (pixels[:, 0] >= -0.5)
+            & (pixels[:, 0] < w - 0.5)
+            & (pixels[:, 1] >= -0.5)
+            & (pixels[:, 1] < h - 0.5)
+        )
+
+    # -- constructors --
+    @classmethod
+    def look_at(
+        cls,
+        eye,
+        target=(0.0, 0.0, 0.0),
+        up=(0.0, -1.0, 0.0),
+        *,
+        fx: float = 650.0,
+        fy: float | None = None,
+        cx: float | None = None,
+        cy: float | None = None,
+        size: tuple[int, int] = (640, 480),
+        dist=None,
+    ) -> Camera:
+        """A camera at `eye` looking at `target`, with world direction `up` up the image.
+
+        Parameters
+        ----------
+        eye, target : (3,) array_like
+            Optical centre and a point on the optical axis, mm (world).
+        up : (3,) array_like, optional
+            World direction that should point up in the image (camera −y); by default
+            world −y, so the camera y axis is close to world +y.
+        fx, fy : float, optional
+            Focal lengths, pixels (``fy`` defaults to ``fx``).
+        cx, cy : float, optional
+            Principal point; the image centre ``((w-1)/2, (h-1)/2)`` by default.
+        size : (int, int), optional
+            Image (width, height).
+        dist : array_like, optional
+            Distortion coefficients.
+        """
+        eye = _check_array(eye, (3,), "eye")
+        target = _check_array(target, (3,), "target")
+        up = _check_array(up, (3,), "up")
+        z = target - eye
+        if np.linalg.norm(z) == 0:
+            raise ValueError("target: expected a point different from eye; got the same point")
+        z /= np.linalg.norm(z)
+        y = -(up - (up @ z) * z)  # camera y points down the image
+        if np.linalg.norm(y) < 1e-9:
+            raise ValueError("up: expected a direction not parallel to the optical axis")
+        y /= np.linalg.norm(y)
+        x = np.cross(y, z)
+        R = np.stack([x, y, z])  # rows: camera axes in world coordinates
+        w, h = size
+        return cls(
+            fx=fx,
+            fy=fx if fy is None else fy,
+            cx=(w - 1) / 2.0 if cx is None else cx,
+            cy=(h - 1) / 2.0 if cy is None else cy,
+            dist=np.zeros(5) if dist is None else dist,
+            R=R,
+            t=-R @ eye,
+            size=size,
+        )
+
+    # -- serialisation --
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly description (lists of floats)."""
+        return {
+            "fx": self.fx,
+            "fy": self.fy,
+            "cx": self.cx,
+            "cy": self.cy,
+            "dist": self.dist.tolist(),
+            "R": self.R.tolist(),
+            "t": self.t.tolist(),
+            "size": list(self.size),
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], *, where: str = "camera") -> Camera:
+        """Inverse of :meth:`to_dict`; errors name the missing key and `where`."""
+        if not isinstance(data, dict):
+            raise ValueError(f"{where}: expected a mapping; got {type(data).__name__}")
+        missing = [k for k in ("fx", "fy", "cx", "cy", "R", "t", "size") if k not in data]
+        if missing:
+            raise ValueError(f"{where}: missing key {missing[0]!r}")
+        try:
+            return cls(
+                fx=data["fx"],
+                fy=data["fy"],
+                cx=data["cx"],
+                cy=data["cy"],
+                dist=data.get("dist", np.zeros(5)),
+                R=data["R"],
+                t=data["t"],
+                size=tuple(data["size"]),
+            )
+        except ValueError as exc:
+            raise ValueError(f"{where}: {exc}") from None
+
+
+# --- Rig -----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class RigDefaults:
+    """The convergent stereo pair of the paper (§2, figure 1).
+
+    Two 640×480 cameras on the world −z side, ``distance`` from the world origin,
+    ``baseline`` apart along world x, optical axes crossing at the origin (where the
+    hand is), image up = world −y. ``focal`` makes a 185 mm hand about half the image
+    height tall.
+    """
+
+    distance: float = 500.0  # mm, optical centre to the origin
+    baseline: float = 220.0  # mm
+    focal: float = 650.0  # pixels
+    size: tuple[int, int] = (640, 480)
+    names: tuple[str, str] = ("left", "right")
+
+
+@dataclass(frozen=True)
+class Rig:
+    """Several cameras observing the same scene, with names.
+
+    Parameters
+    ----------
+    cameras : sequence of Camera
+    names : sequence of str, optional
+        One unique name per camera; ``cam0, cam1, ...`` by default.
+
+    Examples
+    --------
+    >>> rig = Rig.default()
+    >>> rig.names, len(rig), rig["left"].size
+    (('left', 'right'), 2, (640, 480))
+    """
+
+    cameras: tuple[Camera, ...]
+    names: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        cams = tuple(self.cameras)
+        if not cams:
+            raise ValueError("cameras: expected at least one camera; got none")
+        for i, cam in enumerate(cams):
+            if not isinstance(cam, Camera):
+                raise ValueError(f"cameras[{i}]: expected a Camera; got {type(cam).__name__}")
+        names = tuple(str(n) for n in self.names) or tuple(f"cam{i}" for i in range(len(cams)))
+        if len(names) != len(cams):
+            raise ValueError(f"names: expected {len(cams)} names; got {len(names)}")
+        if len(set(names)) != len(names):
+            raise ValueError(f"names: expected unique names; got {names}")
+        object.__setattr__(self, "cameras", cams)
+        object.__setattr__(self, "names", names)
+
+    def __len__(self) -> int:
+        return len(self.cameras)
+
+    def __iter__(self) -> Iterator[Camera]:
+        return iter(self.cameras)
+
+    def __getitem__(self, key: int | str) -> Camera:
+        if isinstance(key, str):
+            try:
+                return self.cameras[self.names.index(key)]
+            except ValueError:
+                raise ValueError(
+                    f"camera: expected one of {', '.join(self.names)}; got {key!r}"
+                ) from None
+        return self.cameras[key]
+
+    def allclose(self, other: Rig, **tol: float) -> bool:
+        """True when names match and every camera agrees within tolerance."""
+        return (
+            self.names == other.names
+            and len(self) == len(other)
+            and all(a.allclose(b, **tol) for a, b in zip(self, other, strict=True))
+        )
+
+    @classmethod
+    def default(cls, defaults: RigDefaults | None = None) -> Rig:
+        """The paper's convergent stereo pair (see :class:`RigDefaults`)."""
+        d = RigDefaults() if defaults is None else defaults
+        half = d.baseline / 2.0
+        z = -np.sqrt(d.distance**2 - half**2)
+        cams = tuple(
+            Camera.look_at((sx * half, 0.0, z), (0.0, 0.0, 0.0), fx=d.focal, size=d.size)
+            for sx in (-1.0, 1.0)
+        )
+        return cls(cams, d.names)
+
+    # -- dictionaries --
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly description: ``{"cameras": [{"name": ..., **Camera.to_dict()}]}``."""
+        return {
+            "cameras": [
+                {"name": n, **c.to_dict()} for n, c in zip(self.names, self.cameras, strict=True)
+            ]
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> Rig:
+        """Inverse of :meth:`to_dict`; errors name the missing key."""
+        if not isinstance(data, dict) or "cameras" not in data:
+            raise ValueError("rig: missing key 'cameras'")
+        entries = data["cameras"]
+        if not isinstance(entries, Sequence) or isinstance(entries, str) or not entries:
+            raise ValueError("rig: expected 'cameras' to be a non-empty list")
+        cams, names = [], []
+        for i, entry in enumerate(entries):
+            cams.append(Camera.from_dict(entry, where=f"cameras[{i}]"))
+            names.append(entry.get("name", f"cam{i}"))
+        return cls(tuple(cams), tuple(names))
+
+    # -- OpenCV files --
+    def save(self, path: str | os.PathLike) -> None:
+        """Write the rig as an OpenCV ``FileStorage`` file (layout in the module docs).
+
+        The format follows the extension (``.yml``, ``.yaml``, ``.xml``, ``.json``). The
+        file is written to a temporary name and renamed, so an existing file is never
+        left half-written.
+        """
+        path = Path(path)
+        ext = path.suffix.lower()
+        if ext not in (".yml", ".yaml", ".xml", ".json"):
+            raise ValueError(f"path: expected a .yml, .yaml, .xml or .json file; got {path}")
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=ext, dir=path.parent or ".")
+        os.close(fd)
+        try:
+            fs = cv2.FileStorage(tmp, cv2.FILE_STORAGE_WRITE)
+            if not fs.isOpened():
+                raise OSError(f"{path}: cannot open for writing")
+            fs.startWriteStruct("cameras", cv2.FileNode_SEQ)
+            for name, cam in zip(self.names, self.cameras, strict=True):
+                fs.startWriteStruct("", cv2.FileNode_MAP)
+                fs.write("name", name)
+                fs.write("image_width", cam.width)
+                fs.write("image_height", cam.height)
+                fs.write("camera_matrix", cam.K)
+                fs.write("dist_coeffs", cam.dist.reshape(1, -1))
+                fs.write("R", cam.R)
+                fs.write("T", cam.t.reshape(3, 1))
+                fs.endWriteStruct()
+            fs.endWriteStruct()
+            fs.release()
+            os.replace(tmp, path)
+        finally:
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(tmp)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike, *, size: tuple[int, int] | None = None) -> Rig:
+        """Read a rig from an OpenCV ``FileStorage`` file (any layout in the module docs).
+
+        Parameters
+        ----------
+        path : path-like
+            YAML, XML or JSON file.
+        size : (int, int), optional
+            Image (width, height) for files that do not store it (e.g. the output of
+            OpenCV's stereo calibration sample); overrides the file otherwise.
+
+        Raises
+        ------
+        FileNotFoundError
+            The file does not exist.
+        ValueError
+            The file cannot be parsed or a key is missing; the message names the file
+            and the key.
+        """
+        path = Path(path)
+        if not path.is_file():
+            raise FileNotFoundError(f"{path}: calibration file not found")
+        try:
+            fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+        except Exception as exc:  # cv2.error or SystemError from the parser
+            msg = " ".join(str(exc).split())
+            raise ValueError(f"{path}: not a readable OpenCV calibration file ({msg})") from None
+        if not fs.isOpened():
+            raise ValueError(f"{path}: not a readable OpenCV calibration file")
+        try:
+            reader = _NodeReader(fs.root(), path)
+            if not fs.getNode("cameras").empty():
+                return _rig_from_cameras(fs.getNode("cameras"), path, size)
+            if reader.has("K1", "M1"):
+                return _rig_from_stereo(reader, size)
+            if reader.has("camera_matrix", "K"):
+                cam = _camera_from_node(reader, size, where=str(path))
+                return cls((cam,), ("cam0",))
+            raise ValueError(
+                f"{path}: missing key 'cameras' (or stereo 'K1', or single 'camera_matrix')"
+            )
+        finally:
+            fs.release()
+
+
+class _NodeReader:
+    """Typed access to a ``cv2.FileNode`` map with errors naming the file and the key."""
+
+    def __init__(self, node, path: Path, prefix: str = "") -> None:
+        self.node = node
+        self.path = path
+        self.prefix = prefix
+
+    def _get(self, key: str):
+        node = self.node.getNode(key)
+        return None if node is None or node.empty() or node.isNone() else node
+
+    def has(self, *keys: str) -> bool:
+        return any(self._get(k) is not None for k in keys)
+
+    def _first(self, keys: tuple[str, ...], required: bool):
+        for k in keys:
+            node = self._get(k)
+            if node is not None:
+                return k, node
+        if required:
+            raise ValueError(f"{self.path}: missing key {self.prefix}{keys[0]!r}")
+        return None, None
+
+    def matrix(self, *keys: str, required: bool = True) -> np.ndarray | None:
+        key, node = self._first(keys, required)
+        if node is None:
+            return None
+        if node.isMap():
+            mat = node.mat()
+        elif node.isSeq():
+            mat = np.array([node.at(i).real() for i in range(node.size())])
+        else:
+            mat = np.array([node.real()])
+        if mat is None:
+            raise ValueError(f"{self.path}: key {self.prefix}{key!r} is not a matrix")
+        return np.asarray(mat, dtype=float)
+
+    def number(self, *keys: str, required: bool = True) -> float | None:
+        key, node = self._first(keys, required)
+        if node is None:
+            return None
+        if not node.isReal() and not node.isInt():
+            raise ValueError(f"{self.path}: key {self.prefix}{key!r} is not a number")
+        return node.real()
+
+    def string(self, *keys: str) -> str | None:
+        _, node = self._first(keys, False)
+        return None if node is None else node.string()
+
+    def image_size(self, size: tuple[int, int] | None) -> tuple[int, int]:
+        if size is not None:
+            return (int(size[0]), int(size[1]))
+        if self.has("image_width") or self.has("image_height"):
+            return (int(self.number("image_width")), int(self.number("image_height")))
+        vec = self.matrix("image_size", "imageSize", required=False)
+        if vec is None:
+            raise ValueError(
+                f"{self.path}: missing key {self.prefix}'image_width' (or 'image_size'); "
+                "pass size=(width, height)"
+            )
+        if vec.size != 2:
+            raise ValueError(f"{self.path}: key 'image_size' expected 2 values; got {vec.size}")
+        return (int(vec.ravel()[0]), int(vec.ravel()[1]))
+
+
+def _camera_from_params(
+    K: np.ndarray, dist, R, T, size: tuple[int, int], where: str, prefix: str = ""
+) -> Camera:
+    if K.shape != (3, 3):
+        raise ValueError(f"{where}: key {prefix}'camera_matrix' expected 3x3; got {K.shape}")
+    try:
+        return Camera(
+            fx=K[0, 0],
+            fy=K[1, 1],
+            cx=K[0, 2],
+            cy=K[1, 2],
+            dist=np.zeros(5) if dist is None else np.ravel(dist),
+            R=np.eye(3) if R is None else R,
+            t=np.zeros(3) if T is None else np.ravel(T),
+            size=size,
+        )
+    except ValueError as exc:
+        raise ValueError(f"{where}: {prefix}{exc}") from None
+
+
+def _camera_from_node(reader: _NodeReader, size, where: str) -> Camera:
+    return _camera_from_params(
+        reader.matrix("camera_matrix", "K"),
+        reader.matrix("dist_coeffs", "distortion_coefficients", "D", required=False),
+        reader.matrix("R", required=False),
+        reader.matrix("T", "t", required=False),
+        reader.image_size(size),
+        where,
+        reader.prefix,
+    )
+
+
+def _rig_from_cameras(seq, path: Path, size) -> Rig:
+    if not seq.isSeq() or seq.size() == 0:
+        raise ValueError(f"{path}: key 'cameras' expected a non-empty sequence")
+    cams, names = [], []
+    for i in range(seq.size()):
+        reader = _NodeReader(seq.at(i), path, prefix=f"cameras[{i}].")
+        cams.append(_camera_from_node(reader, size, str(path)))
+        names.append(reader.string("name") or f"cam{i}")
+    return Rig(tuple(cams), tuple(names))
+
+
+def _rig_from_stereo(reader: _NodeReader, size) -> Rig:
+    where = str(reader.path)
+    wh = reader.image_size(size)
+    K1 = reader.matrix("K1", "M1")
+    K2 = reader.matrix("K2", "M2")
+    D1 = reader.matrix("D1", required=False)
+    D2 = reader.matrix("D2", required=False)
+    R = reader.matrix("R")
+    T = reader.matrix("T")
+    cam1 = _camera_from_params(K1, D1, None, None, wh, where)
+    cam2 = _camera_from_params(K2, D2, R, T, wh, where)
+    return Rig((cam1, cam2), ("left", "right"))

@@ -1,0 +1,1068 @@
+"""The paper's tracking experiments at scale (§4–5, DESIGN.md §7), on Dask distributed.
+
+One experiment is a set of predictors × trials on one synthetic sequence.  A trial
+tracks the whole sequence from its true first pose with one predictor; trials differ
+only by the seed of the optimiser's random generator, ``default_rng([seed, trial])``,
+which is the same for every predictor, so trial k of a predictor is compared with
+trial k of no motion (R̃², eq. 18 and 21).
+
+Everything goes to ONE Zarr store (written through xarray, Zarr format 2):
+
+=====================  =====================================  ========================
+variable               dims                                   meaning
+=====================  =====================================  ========================
+``poses``              predictor, trial, frame, param         estimates x_t (mm, deg)
+``joints``             predictor, trial, frame, joint, xyz    G(x_t) (mm)
+``error``              predictor, trial, frame                mean joint error (mm)
+``cost``               predictor, trial, frame                final cost of the frame
+``iterations``         predictor, trial, frame                optimiser iterations
+``timings``            predictor, trial, frame                seconds per frame
+``r2_joints``          predictor, trial, joint                R̃² of eq. 21
+``r2_params``          predictor, trial, param                R̃²_y of eq. 18
+``done``               predictor, trial                       the trial is complete
+``writes``             predictor, trial                       times the trial was written
+``truth_poses``        frame, param                           x*
+``truth_joints``       frame, joint, xyz                      z* = G(x*)
+``masks``              frame, camera, y, x                    the silhouettes tracked
+=====================  =====================================  ========================
+
+Attributes: ``config`` (the :class:`ExperimentConfig` as JSON), ``rig`` (the cameras,
+``Rig.to_dict()``), ``provenance`` (of the sequence) and ``fps``.
+
+The store is created in full before any trial runs (arrays of NaN, ``done`` False),
+and every finished trial is written into its own chunks as soon as its result
+arrives, ``done`` last; Zarr's local store writes each chunk atomically.  Killing a
+worker or the whole run therefore loses no finished trial, the store stays readable
+at any moment, and running again with the same store computes only the trials not
+yet done.  The same configuration gives the same store (all arrays but ``timings``).
+
+Examples
+--------
+>>> cfg = ExperimentConfig.quick().with_overrides(["trials=2"])
+>>> cfg.trials, cfg.frames, [s.label for s in cfg.predictors][:2]
+(2, 40, ['no motion', 'decelerating'])
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import json
+import os
+import time
+from collections.abc import Callable, Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from handvar.evaluation.metrics import mean_joint_error, r2_tilde_acceleration, r2_tilde_joints
+from handvar.hand import params
+
+__all__ = [
+    "EXTRA_PREDICTORS",
+    "PAPER_PREDICTORS",
+    "TRIAL_KINDS",
+    "ExperimentConfig",
+    "PredictorSpec",
+    "RunSummary",
+    "TrialResult",
+    "open_store",
+    "read_config",
+    "run_experiment",
+    "run_trial",
+    "store_sequence",
+    "summary_text",
+]
+
+FORMAT = "handvar-experiment"
+FORMAT_VERSION = 1
+
+# --- predictors --------------------------------------------------------------------
+
+_KINDS = ("none", "decelerating", "var", "rvar", "kalman")
+_PARAM_NAMES = {
+    "none": (),
+    "decelerating": ("rho",),
+    "var": ("order", "memory", "structured", "max_step"),
+    "rvar": ("gamma", "cutoff", "mode", "memory"),
+    "kalman": ("q", "r"),
+}
+# The paper's symbols and a few spellings accepted for the constructor arguments.
+_ALIASES = {
+    "ρ": "rho",
+    "γ": "gamma",
+    "c": "cutoff",
+    "n": "memory",
+    "N": "memory",
+    "p": "order",
+}
+
+
+def _param_value(value: Any) -> Any:
+    """A JSON-friendly scalar (bool, int, float, str or None)."""
+    if isinstance(value, np.generic):
+        value = value.item()
+    if value is None or isinstance(value, bool | int | float | str):
+        return value
+    raise ValueError(f"value: expected a number, a boolean or a string; got {value!r}")
+
+
+@dataclasses.dataclass(frozen=True)
+class PredictorSpec:
+    """A motion predictor of an experiment, by kind and constructor arguments.
+
+    Parameters
+    ----------
+    key : str
+        Short identifier used on the command line (``rvar``, ``structured_var``).
+    label : str
+        Name in the store and on the figures (``"RVAR"``).
+    kind : {"none", "decelerating", "var", "rvar", "kalman"}
+        :class:`~handvar.predictors.NoMotion`, :class:`~handvar.predictors.Decelerating`,
+        :class:`~handvar.predictors.VAR` (``structured=True``: the blocks of eq. 25),
+        :class:`~handvar.predictors.RVAR` (``memory``: N of its structured VAR) or
+        :class:`~handvar.predictors.KalmanCV`.
+    params : tuple of (str, value) pairs
+        Constructor arguments; missing ones take the predictor's defaults.
+    """
+
+    key: str
+    label: str
+    kind: str
+    params: tuple[tuple[str, Any], ...] = ()
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.key, str) or not self.key:
+            raise ValueError(f"key: expected a non-empty string; got {self.key!r}")
+        if not isinstance(self.label, str) or not self.label:
+            raise ValueError(f"label: expected a non-empty string; got {self.label!r}")
+        if self.kind not in _KINDS:
+            raise ValueError(f"kind: expected one of {', '.join(_KINDS)}; got {self.kind!r}")
+        items = dict(self.params.items() if isinstance(self.params, Mapping) else self.params)
+        clean = {}
+        for name, value in items.items():
+            name = _ALIASES.get(name, name)
+            if name not in _PARAM_NAMES[self.kind]:
+                allowed = ", ".join(_PARAM_NAMES[self.kind]) or "none"
+                raise ValueError(
+                    f"params: expected arguments of a {self.kind} predictor ({allowed}); "
+                    f"got {name!r}"
+                )
+            clean[name] = _param_value(value)
+        object.__setattr__(self, "params", tuple(sorted(clean.items())))
+
+    @property
+    def kwargs(self) -> dict[str, Any]:
+        """The constructor arguments as a dict."""
+        return dict(self.params)
+
+    def build(self):
+        """A fresh predictor (raises ValueError on a bad argument)."""
+        from handvar.predictors import RVAR, VAR, Decelerating, KalmanCV, NoMotion, hand_blocks
+
+        kw = self.kwargs
+        if self.kind == "none":
+            return NoMotion()
+        if self.kind == "decelerating":
+            return Decelerating(**kw)
+        if self.kind == "kalman":
+            return KalmanCV(**kw)
+        if self.kind == "var":
+            blocks = hand_blocks() if kw.pop("structured", False) else None
+            kw = {k: (int(v) if k in ("order", "memory") else v) for k, v in kw.items()}
+            return VAR(blocks=blocks, **kw)
+        memory = kw.pop("memory", None)
+        if "cutoff" in kw:
+            kw["cutoff"] = int(kw["cutoff"])
+        structured = None
+        if memory is not None:
+            structured = VAR(order=1, memory=int(memory), blocks=hand_blocks())
+        return RVAR(structured=structured, **kw)
+
+    def with_params(self, **changes: Any) -> PredictorSpec:
+        """A copy with some constructor arguments changed."""
+        return dataclasses.replace(self, params=tuple({**self.kwargs, **changes}.items()))
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly form."""
+        return {"key": self.key, "label": self.label, "kind": self.kind, "params": self.kwargs}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> PredictorSpec:
+        """Inverse of :meth:`to_dict`."""
+        try:
+            return cls(data["key"], data["label"], data["kind"], tuple(data["params"].items()))
+        except (KeyError, TypeError, AttributeError) as exc:
+            raise ValueError(
+                f"predictor: expected a mapping with key, label, kind, params; got {data!r}"
+            ) from exc
+
+
+# The paper's five predictors with its settings (§4: ρ = 0.4; §4.2: full VAR, N = 150;
+# §4.3: structured VAR, N = 30; §5: RVAR, γ = 0.8, c = 8; all VARs of order 1 with
+# the 10° step bound).
+PAPER_PREDICTORS: tuple[PredictorSpec, ...] = (
+    PredictorSpec("none", "no motion", "none"),
+    PredictorSpec("decelerating", "decelerating", "decelerating", (("rho", 0.4),)),
+    PredictorSpec("full_var", "full VAR", "var", (("order", 1), ("memory", 150))),
+    PredictorSpec(
+        "structured_var",
+        "structured VAR",
+        "var",
+        (("order", 1), ("memory", 30), ("structured", True)),
+    ),
+    PredictorSpec("rvar", "RVAR", "rvar", (("gamma", 0.8), ("cutoff", 8))),
+)
+# Beyond the paper: the relative interpolation mentioned after eq. 27 and the
+# textbook constant-velocity Kalman filter.
+EXTRA_PREDICTORS: tuple[PredictorSpec, ...] = (
+    PredictorSpec(
+        "rvar_relative",
+        "RVAR relative",
+        "rvar",
+        (("gamma", 0.8), ("cutoff", 8), ("mode", "relative")),
+    ),
+    PredictorSpec("kalman", "Kalman CV", "kalman"),
+)
+_CATALOGUE = {s.key: s for s in PAPER_PREDICTORS + EXTRA_PREDICTORS}
+
+
+# --- configuration -----------------------------------------------------------------
+
+TRIAL_KINDS = ("tracker", "openloop")
+
+
+def _parse_value(text: str) -> Any:
+    """``true``/``false``/``none``, an int, a float, else the string itself."""
+    low = text.strip().lower()
+    if low in ("true", "yes", "on"):
+        return True
+    if low in ("false", "no", "off"):
+        return False
+    if low in ("none", "null"):
+        return None
+    for cast in (int, float):
+        try:
+            return cast(text)
+        except ValueError:
+            pass
+    return text.strip()
+
+
+def _split_assignment(text: str, what: str) -> tuple[str, str]:
+    if not isinstance(text, str) or "=" not in text:
+        raise ValueError(f"{what}: expected KEY=VALUE; got {text!r}")
+    key, value = text.split("=", 1)
+    key = key.strip()
+    if not key:
+        raise ValueError(f"{what}: expected KEY=VALUE; got {text!r}")
+    return key, value
+
+
+def _format_value(value: Any) -> str:
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+@dataclasses.dataclass(frozen=True)
+class ExperimentConfig:
+    """One experiment: the paper's protocol (§4, DESIGN.md §7) by default.
+
+    Attributes
+    ----------
+    sequence : str
+        Synthetic sequence (``benchmark``, ``flexion``, ``flip``), rendered once.
+    sequence_seed : int
+        Seed of the sequence's motion.
+    frames : int
+        First frames of the sequence to track (the paper: all 175).
+    trials : int
+        Trials per predictor (the paper: 50).
+    seed : int
+        Trial k uses ``numpy.random.default_rng([seed, k])`` for every predictor.
+    predictors : tuple of PredictorSpec
+        The paper's five (:data:`PAPER_PREDICTORS`); :meth:`with_extras` adds
+        the relative RVAR and the Kalman filter.
+    trial_kind : {"tracker", "openloop"}
+        ``"tracker"``: the SMD tracker on the silhouettes (the experiment of the
+        paper).  ``"openloop"``: no tracker; the predictor runs one step ahead along
+        the truth plus Gaussian noise of standard deviation `noise` (mm, degrees), and
+        its predictions are the poses -- a quick check of predictors and machinery.
+    noise : float
+        Noise of the ``openloop`` trials.
+    tracker : tuple of (str, value) pairs
+        Overrides of the tracker's settings (the paper's by default, §4).
+    """
+
+    sequence: str = "benchmark"
+    sequence_seed: int = 0
+    frames: int = 175
+    trials: int = 50
+    seed: int = 0
+    predictors: tuple[PredictorSpec, ...] = PAPER_PREDICTORS
+    trial_kind: str = "tracker"
+    noise: float = 2.0
+    tracker: tuple[tuple[str, Any], ...] = ()
+
+    def __post_init__(self) -> None:
+        from handvar.synth.sequences import SEQUENCE_NAMES
+
+        if self.sequence not in SEQUENCE_NAMES:
+            raise ValueError(
+                f"sequence: expected one of {', '.join(SEQUENCE_NAMES)}; got {self.sequence!r}"
+            )
+        for name, low in (("sequence_seed", 0), ("frames", 3), ("trials", 1), ("seed", 0)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < low:
+                raise ValueError(f"{name}: expected an integer >= {low}; got {value!r}")
+            object.__setattr__(self, name, int(value))
+        if self.trial_kind not in TRIAL_KINDS:
+            raise ValueError(
+                f"trial_kind: expected one of {', '.join(TRIAL_KINDS)}; got {self.trial_kind!r}"
+            )
+        if not (isinstance(self.noise, int | float) and np.isfinite(self.noise)) or self.noise < 0:
+            raise ValueError(f"noise: expected a finite number >= 0; got {self.noise!r}")
+        object.__setattr__(self, "noise", float(self.noise))
+        specs = tuple(self.predictors)
+        if not specs or not all(isinstance(s, PredictorSpec) for s in specs):
+            raise ValueError("predictors: expected a non-empty tuple of PredictorSpec")
+        for attr in ("key", "label"):
+            names = [getattr(s, attr) for s in specs]
+            dup = sorted({n for n in names if names.count(n) > 1})
+            if dup:
+                raise ValueError(f"predictors: expected distinct {attr}s; got {dup} twice")
+        object.__setattr__(self, "predictors", specs)
+        tracker = dict(self.tracker.items() if isinstance(self.tracker, Mapping) else self.tracker)
+        object.__setattr__(
+            self, "tracker", tuple(sorted((k, _param_value(v)) for k, v in tracker.items()))
+        )
+
+    # -- presets and changes ----------------------------------------------------
+    @classmethod
+    def quick(cls) -> ExperimentConfig:
+        """A reduced protocol for a demonstration: 3 trials of the first 40 frames."""
+        return cls(trials=3, frames=40)
+
+    @property
+    def reference(self) -> PredictorSpec | None:
+        """The no-motion entry R̃² is measured against (the first of kind ``none``)."""
+        return next((s for s in self.predictors if s.kind == "none"), None)
+
+    @property
+    def labels(self) -> list[str]:
+        """The predictors' labels, in order."""
+        return [s.label for s in self.predictors]
+
+    def spec(self, key_or_label: str) -> PredictorSpec:
+        """The predictor entry with this key or label."""
+        for s in self.predictors:
+            if key_or_label in (s.key, s.label):
+                return s
+        raise ValueError(
+            f"predictor: expected one of {', '.join(s.key for s in self.predictors)}; "
+            f"got {key_or_label!r}"
+        )
+
+    def with_extras(self) -> ExperimentConfig:
+        """Add the relative RVAR and the Kalman filter (those not yet present)."""
+        keys = {s.key for s in self.predictors}
+        extra = tuple(s for s in EXTRA_PREDICTORS if s.key not in keys)
+        return dataclasses.replace(self, predictors=self.predictors + extra)
+
+    def with_overrides(self, assignments: Iterable[str]) -> ExperimentConfig:
+        """Apply ``KEY=VALUE`` assignments (the command line's ``--set``).
+
+        Keys: a field (``trials``, ``frames``, ``seed``, ``sequence``,
+        ``sequence_seed``, ``trial_kind`` or ``trial``, ``noise``); ``predictors`` with
+        a comma-separated list of keys (``none,decelerating,rvar,rvar_relative,kalman``
+        ...); ``extras=true``; ``tracker.FIELD`` for a tracker setting;
+        ``PREDICTOR.ARG`` for a predictor's argument (``rvar.gamma=0.7``,
+        ``decelerating.rho=0.5``, ``structured_var.N=20``).
+        """
+        cfg = self
+        for text in assignments:
+            key, raw = _split_assignment(text, "--set")
+            value = _parse_value(raw)
+            if key == "trial":
+                key = "trial_kind"
+            if key == "predictors":
+                wanted = [k.strip() for k in str(raw).split(",") if k.strip()]
+                unknown = [k for k in wanted if k not in _CATALOGUE]
+                if unknown or not wanted:
+                    raise ValueError(
+                        f"--set predictors: expected keys among {', '.join(_CATALOGUE)}; "
+                        f"got {raw!r}"
+                    )
+                cfg = dataclasses.replace(cfg, predictors=tuple(_CATALOGUE[k] for k in wanted))
+            elif key == "extras":
+                if value is True:
+                    cfg = cfg.with_extras()
+                elif value is not False:
+                    raise ValueError(f"--set extras: expected true or false; got {raw!r}")
+            elif key.startswith("tracker."):
+                field = key.split(".", 1)[1]
+                _check_tracker_field(field)
+                cfg = dataclasses.replace(cfg, tracker=(*cfg.tracker, (field, value)))
+            elif "." in key:
+                pkey, arg = key.split(".", 1)
+                spec = cfg.spec(pkey)
+                new = spec.with_params(**{arg: value})
+                new.build()
+                cfg = dataclasses.replace(
+                    cfg, predictors=tuple(new if s is spec else s for s in cfg.predictors)
+                )
+            elif key in {f.name for f in dataclasses.fields(self)} - {"predictors", "tracker"}:
+                cfg = dataclasses.replace(cfg, **{key: value})
+            else:
+                raise ValueError(
+                    f"--set: expected a field ({', '.join(_SETTABLE)}), tracker.FIELD or "
+                    f"PREDICTOR.ARG; got {key!r}"
+                )
+        return cfg
+
+    def with_sweep(self, text: str) -> ExperimentConfig:
+        """Add swept variants of one predictor: ``"rvar.gamma=0.5,0.6,0.7"``.
+
+        Each value becomes an extra predictor entry labelled like ``RVAR (gamma=0.5)``;
+        a value equal to the entry's own setting is not repeated.
+        """
+        key, raw = _split_assignment(text, "--sweep")
+        if "." not in key:
+            raise ValueError(f"--sweep: expected PREDICTOR.ARG=V1,V2,...; got {text!r}")
+        pkey, arg = key.split(".", 1)
+        base = self.spec(pkey)
+        arg = _ALIASES.get(arg, arg)
+        values = [_parse_value(v) for v in raw.split(",") if v.strip()]
+        if not values:
+            raise ValueError(f"--sweep: expected at least one value; got {text!r}")
+        specs = list(self.predictors)
+        for v in values:
+            variant = base.with_params(**{arg: v})
+            if variant.params == base.params:
+                continue
+            variant = dataclasses.replace(
+                variant,
+                key=f"{base.key}[{arg}={_format_value(v)}]",
+                label=f"{base.label} ({arg}={_format_value(v)})",
+            )
+            variant.build()
+            if all(s.key != variant.key for s in specs):
+                specs.append(variant)
+        return dataclasses.replace(self, predictors=tuple(specs))
+
+    # -- JSON -----------------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly form (stored in the store's attributes)."""
+        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        out["predictors"] = [s.to_dict() for s in self.predictors]
+        out["tracker"] = dict(self.tracker)
+        return out
+
+    def to_json(self) -> str:
+        """:meth:`to_dict` as a JSON string with sorted keys."""
+        return json.dumps(self.to_dict(), sort_keys=True)
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> ExperimentConfig:
+        """Inverse of :meth:`to_dict`."""
+        if not isinstance(data, Mapping):
+            raise ValueError(f"config: expected a mapping; got {type(data).__name__}")
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise ValueError(f"config: unknown keys {unknown}")
+        kw = dict(data)
+        if "predictors" in kw:
+            kw["predictors"] = tuple(PredictorSpec.from_dict(d) for d in kw["predictors"])
+        if "tracker" in kw:
+            kw["tracker"] = tuple(dict(kw["tracker"]).items())
+        return cls(**kw)
+
+    @classmethod
+    def from_json(cls, text: str) -> ExperimentConfig:
+        """Inverse of :meth:`to_json`."""
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"config: expected JSON; {exc}") from None
+        return cls.from_dict(data)
+
+
+_SETTABLE = ("sequence", "sequence_seed", "frames", "trials", "seed", "trial_kind", "noise")
+
+
+# --- the tracker ---------------------------------------------------------------------
+
+
+def _tracker_api():
+    """(Tracker, settings class) of :mod:`handvar.tracking`."""
+    try:
+        from handvar import tracking
+    except ImportError as exc:  # pragma: no cover - the package ships the tracker
+        raise ValueError(f"trial_kind: the tracker cannot be imported ({exc})") from None
+    tracker = getattr(tracking, "Tracker", None)
+    settings = getattr(tracking, "TrackerSettings", None)
+    if tracker is None:
+        raise ValueError(
+            "trial_kind: expected handvar.tracking.Tracker for tracker trials; it is not "
+            "available (use --set trial=openloop)"
+        )
+    return tracker, settings
+
+
+def _check_tracker_field(field: str) -> None:
+    try:
+        _, settings = _tracker_api()
+    except ValueError:
+        return  # checked again when a tracker trial is built
+    if settings is not None and dataclasses.is_dataclass(settings):
+        names = {f.name for f in dataclasses.fields(settings)}
+        if field not in names:
+            raise ValueError(
+                f"--set tracker.{field}: expected a tracker setting ({', '.join(sorted(names))})"
+            )
+
+
+@functools.lru_cache(maxsize=2)
+def _hand():
+    from handvar.hand.kinematics import HandModel
+
+    return HandModel()
+
+
+# --- one trial -----------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class TrialResult:
+    """What one trial produced.
+
+    Attributes
+    ----------
+    poses : (T, 26) ndarray
+        Estimated poses (mm, degrees); ``poses[0]`` is the true first pose.
+    joints : (T, 21, 3) ndarray
+        G(poses), mm.
+    cost : (T,) ndarray
+        Final cost per frame (NaN in open-loop trials).
+    iterations : (T,) int ndarray
+        Optimiser iterations per frame (0 in open-loop trials).
+    timings : (T,) ndarray
+        Seconds spent per frame.
+    """
+
+    poses: np.ndarray
+    joints: np.ndarray
+    cost: np.ndarray
+    iterations: np.ndarray
+    timings: np.ndarray
+
+
+def _openloop_trial(config, spec, rng, sequence) -> TrialResult:
+    """One step ahead along the truth plus noise: the predictions are the 'estimates'."""
+    truth = sequence.truth.poses[: config.frames]
+    observed = params.clamp(truth + rng.normal(0.0, config.noise, truth.shape))
+    observed[0] = truth[0]
+    predictor = spec.build()
+    n = len(truth)
+    poses = np.empty_like(truth)
+    timings = np.zeros(n)
+    poses[0] = truth[0]
+    predictor.update(observed[0])
+    for t in range(1, n):
+        start = time.perf_counter()
+        poses[t] = params.clamp(predictor.predict())
+        predictor.update(observed[t])
+        timings[t] = time.perf_counter() - start
+    hand = _hand()
+    joints = np.stack([hand.joints(x) for x in poses])
+    return TrialResult(poses, joints, np.full(n, np.nan), np.zeros(n, dtype=np.int16), timings)
+
+
+def _tracker_trial(config, spec, rng, sequence) -> TrialResult:
+    """The SMD tracker with this predictor on the sequence, from the true first pose."""
+    tracker_cls, settings_cls = _tracker_api()
+    settings = None
+    if settings_cls is not None:
+        settings = settings_cls(**dict(config.tracker))
+    elif config.tracker:
+        raise ValueError("tracker: the tracker takes no settings; remove the tracker.* overrides")
+    tracker = tracker_cls(sequence.rig, _hand(), spec.build(), rng, settings)
+    result = tracker.track(sequence, sequence.truth.poses[0])
+    n = sequence.n_frames
+    poses = np.asarray(result.poses, dtype=float).reshape(n, params.N_PARAMS)
+    joints = np.asarray(result.joints, dtype=float).reshape(n, 21, 3)
+    cost = _per_frame(getattr(result, "costs", None), n, np.nan)
+    iterations = _per_frame(getattr(result, "iterations", None), n, 0).astype(np.int16)
+    timings = _per_frame(getattr(result, "timings", None), n, np.nan)
+    return TrialResult(poses, joints, cost, iterations, timings)
+
+
+def _per_frame(values, n: int, fill) -> np.ndarray:
+    """A (n,) float array from a per-frame series (or a dict of them: summed)."""
+    if values is None:
+        return np.full(n, fill, dtype=float)
+    if isinstance(values, Mapping):
+        parts = [np.asarray(v, dtype=float).reshape(n, -1).sum(1) for v in values.values()]
+        return np.sum(parts, axis=0) if parts else np.full(n, fill, dtype=float)
+    arr = np.asarray(values, dtype=float)
+    if arr.ndim == 2 and arr.shape[0] == n:
+        arr = arr[:, -1] if arr.shape[1] else np.full(n, fill, dtype=float)
+    return arr.reshape(n)
+
+
+_TRIALS: dict[str, Callable] = {"tracker": _tracker_trial, "openloop": _openloop_trial}
+
+
+def run_trial(config: ExperimentConfig, key: str, trial: int, sequence) -> TrialResult:
+    """Run one trial: predictor `key` of `config`, trial number `trial`.
+
+    Parameters
+    ----------
+    config : ExperimentConfig
+    key : str
+        Key or label of one of ``config.predictors``.
+    trial : int
+        Trial number; the generator is ``default_rng([config.seed, trial])``.
+    sequence : handvar.io.Sequence
+        The sequence, with truth, cut to ``config.frames`` frames.
+
+    Returns
+    -------
+    TrialResult
+    """
+    spec = config.spec(key)
+    if sequence.truth is None:
+        raise ValueError("sequence: expected a sequence with ground truth; it has none")
+    if sequence.n_frames != config.frames:
+        raise ValueError(
+            f"sequence: expected {config.frames} frames (config.frames); got {sequence.n_frames}"
+        )
+    rng = np.random.default_rng([config.seed, int(trial)])
+    return _TRIALS[config.trial_kind](config, spec, rng, sequence)
+
+
+# --- the store ------------------------------------------------------------------------
+
+_PER_TRIAL = ("poses", "joints", "error", "cost", "iterations", "timings")
+
+
+def store_sequence(store: str | os.PathLike):
+    """The tracked sequence as kept in a store (masks, rig, truth) -- a Sequence."""
+    from handvar.camera import Rig
+    from handvar.io import Sequence, Truth
+
+    ds = open_store(store)
+    config = ExperimentConfig.from_json(ds.attrs["config"])
+    return Sequence(
+        name=config.sequence,
+        fps=float(ds.attrs["fps"]),
+        rig=Rig.from_dict(json.loads(ds.attrs["rig"])),
+        masks=ds["masks"].values,
+        truth=Truth(ds["truth_poses"].values, ds["truth_joints"].values),
+        provenance=json.loads(ds.attrs["provenance"]),
+    )
+
+
+def open_store(store: str | os.PathLike):
+    """Open an experiment store lazily as an ``xarray.Dataset``.
+
+    Raises ValueError if `store` is not an experiment store.
+    """
+    import xarray as xr
+
+    path = Path(store)
+    if not path.is_dir():
+        raise ValueError(f"store: expected an experiment store (a Zarr directory); {path} is not")
+    try:
+        ds = xr.open_zarr(path, consolidated=True)
+    except Exception as exc:  # zarr raises many kinds on a foreign directory
+        raise ValueError(f"store: {path} is not a readable Zarr store ({exc})") from None
+    if ds.attrs.get("format") != FORMAT:
+        raise ValueError(f"store: expected a {FORMAT} store; {path} is something else")
+    return ds
+
+
+def read_config(store: str | os.PathLike) -> ExperimentConfig:
+    """The configuration an experiment store was made with."""
+    return ExperimentConfig.from_json(open_store(store).attrs["config"])
+
+
+def _template(config: ExperimentConfig, sequence):
+    """The whole store, every trial missing (NaN, iterations −1, done False)."""
+    import xarray as xr
+
+    from handvar.hand.anthropometry import JOINTS
+
+    P, N, F = len(config.predictors), config.trials, config.frames
+    J, D = len(JOINTS), params.N_PARAMS
+    w, h = sequence.image_size
+    nan = np.nan
+
+    def full(shape, value, dtype=float):
+        return np.full(shape, value, dtype=dtype)
+
+    ds = xr.Dataset(
+        {
+            "poses": (("predictor", "trial", "frame", "param"), full((P, N, F, D), nan)),
+            "joints": (("predictor", "trial", "frame", "joint", "xyz"), full((P, N, F, J, 3), nan)),
+            "error": (("predictor", "trial", "frame"), full((P, N, F), nan)),
+            "cost": (("predictor", "trial", "frame"), full((P, N, F), nan)),
+            "iterations": (("predictor", "trial", "frame"), full((P, N, F), -1, np.int16)),
+            "timings": (("predictor", "trial", "frame"), full((P, N, F), nan)),
+            "r2_joints": (("predictor", "trial", "joint"), full((P, N, J), nan)),
+            "r2_params": (("predictor", "trial", "param"), full((P, N, D), nan)),
+            "done": (("predictor", "trial"), full((P, N), False, bool)),
+            "writes": (("predictor", "trial"), full((P, N), 0, np.int16)),
+            "truth_poses": (("frame", "param"), sequence.truth.poses),
+            "truth_joints": (("frame", "joint", "xyz"), sequence.truth.joints),
+            "masks": (("frame", "camera", "y", "x"), np.asarray(sequence.masks)),
+        },
+        coords={
+            "predictor": np.array(config.labels, dtype=str),
+            "trial": np.arange(N),
+            "frame": np.arange(F),
+            "param": np.array(params.NAMES, dtype=str),
+            "joint": np.array(JOINTS, dtype=str),
+            "xyz": np.array(["x", "y", "z"]),
+            "camera": np.array(sequence.rig.names, dtype=str),
+        },
+        attrs={
+            "format": FORMAT,
+            "format_version": FORMAT_VERSION,
+            "config": config.to_json(),
+            "rig": json.dumps(sequence.rig.to_dict()),
+            "provenance": json.dumps(sequence.provenance),
+            "fps": float(sequence.fps),
+        },
+    )
+    ds["poses"].attrs["units"] = "mm (tx, ty, tz), degrees (the rest)"
+    ds["joints"].attrs["units"] = "mm"
+    ds["error"].attrs.update(units="mm", long_name="mean joint error over the 21 points")
+    ds["timings"].attrs["units"] = "s"
+    ds["r2_joints"].attrs["long_name"] = "R̃² of eq. 21 against no motion, same trial"
+    ds["r2_params"].attrs["long_name"] = "R̃²_y of eq. 18 against no motion, same trial"
+    chunks = {
+        "poses": (1, 1, F, D),
+        "joints": (1, 1, F, J, 3),
+        "error": (1, 1, F),
+        "cost": (1, 1, F),
+        "iterations": (1, 1, F),
+        "timings": (1, 1, F),
+        "r2_joints": (1, 1, J),
+        "r2_params": (1, 1, D),
+        "done": (1, 1),
+        "writes": (1, 1),
+        "masks": (1, len(sequence.rig), h, w),
+    }
+    encoding = {k: {"chunks": c} for k, c in chunks.items()}
+    for k in ("iterations", "done", "writes", "masks"):
+        encoding[k]["_FillValue"] = None
+    return ds, encoding
+
+
+def _render(config: ExperimentConfig, progress: bool):
+    from handvar.synth.sequences import make_sequence
+
+    wrap = None
+    if progress:
+        from tqdm import tqdm
+
+        def wrap(it):
+            return tqdm(it, desc=f"rendering {config.sequence}", unit="frame", leave=False)
+
+    return make_sequence(
+        config.sequence, seed=config.sequence_seed, n_frames=config.frames, progress=wrap
+    )
+
+
+def _create_store(path: Path, config: ExperimentConfig, progress: bool):
+    """Render the sequence and write the empty store under a temporary name, then rename."""
+    import shutil
+    import tempfile
+
+    sequence = _render(config, progress)
+    if sequence.n_frames != config.frames:
+        raise ValueError(
+            f"frames: expected at most {sequence.n_frames} frames of {config.sequence}; "
+            f"got {config.frames}"
+        )
+    ds, encoding = _template(config, sequence)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent))
+    try:
+        ds.to_zarr(tmp / "store.zarr", mode="w-", encoding=encoding, zarr_format=2)
+        os.replace(tmp / "store.zarr", path)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return sequence
+
+
+def _write_region(path: Path, variables: dict, p: int | slice, t: int):
+    import xarray as xr
+
+    region = {
+        "predictor": p if isinstance(p, slice) else slice(p, p + 1),
+        "trial": slice(t, t + 1),
+    }
+    ds = xr.Dataset(variables)
+    ds.to_zarr(path, region=region, consolidated=False)
+
+
+def _write_trial(path: Path, p: int, t: int, result: TrialResult, truth_joints, writes: int):
+    """Write one finished trial into its chunks; ``done`` and ``writes`` go last."""
+    dims = ("predictor", "trial", "frame")
+    error = mean_joint_error(truth_joints, result.joints)
+    data = {
+        "poses": ((*dims, "param"), result.poses[None, None]),
+        "joints": ((*dims, "joint", "xyz"), result.joints[None, None]),
+        "error": (dims, error[None, None]),
+        "cost": (dims, np.asarray(result.cost, dtype=float)[None, None]),
+        "iterations": (dims, np.asarray(result.iterations, dtype=np.int16)[None, None]),
+        "timings": (dims, np.asarray(result.timings, dtype=float)[None, None]),
+    }
+    _write_region(path, data, p, t)
+    flags = {
+        "done": (("predictor", "trial"), np.ones((1, 1), dtype=bool)),
+        "writes": (("predictor", "trial"), np.full((1, 1), writes, dtype=np.int16)),
+    }
+    _write_region(path, flags, p, t)
+
+
+def _write_scores(path: Path, config: ExperimentConfig, t: int) -> None:
+    """R̃² (eq. 18 and 21) of every finished trial t against no motion's trial t."""
+    ref = config.reference
+    if ref is None:
+        return
+    ds = open_store(path)
+    done = ds["done"][:, t].values
+    r = config.predictors.index(ref)
+    if not done[r]:
+        return
+    truth_x, truth_z = ds["truth_poses"].values, ds["truth_joints"].values
+    poses, joints = ds["poses"][:, t].values, ds["joints"][:, t].values
+    P = len(config.predictors)
+    r2z = ds["r2_joints"][:, t].values
+    r2x = ds["r2_params"][:, t].values
+    for p in range(P):
+        if done[p]:
+            r2z[p] = r2_tilde_joints(truth_z, joints[p], joints[r])  # eq. 21
+            r2x[p] = r2_tilde_acceleration(truth_x, poses[p], poses[r])  # eq. 18
+    scores = {
+        "r2_joints": (("predictor", "trial", "joint"), r2z[:, None]),
+        "r2_params": (("predictor", "trial", "param"), r2x[:, None]),
+    }
+    _write_region(path, scores, slice(None), t)
+
+
+# --- running ------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class RunSummary:
+    """What one call of :func:`run_experiment` did.
+
+    Attributes
+    ----------
+    store : Path
+    total : int
+        Trials in the experiment (predictors × trials).
+    already_done : int
+        Trials found finished in the store and not run again.
+    computed : int
+        Trials computed and written by this call.
+    missing : tuple of (str, int)
+        (predictor label, trial) still not done when the call ended.
+    seconds : float
+        Wall-clock time of the call.
+    """
+
+    store: Path
+    total: int
+    already_done: int
+    computed: int
+    missing: tuple[tuple[str, int], ...]
+    seconds: float
+
+    @property
+    def complete(self) -> bool:
+        """Every trial of the experiment is in the store."""
+        return not self.missing
+
+
+def _open_or_create(path: Path, config: ExperimentConfig, progress: bool):
+    """(config, sequence, done) of the store, created if it does not exist."""
+    if path.exists():
+        ds = open_store(path)
+        stored = ExperimentConfig.from_json(ds.attrs["config"])
+        if stored != config:
+            raise ValueError(
+                f"store: {path} holds a different experiment (config {stored.to_json()}); "
+                "choose another --out or the same settings"
+            )
+        return stored, store_sequence(path), ds["done"].values.copy(), ds["writes"].values.copy()
+    sequence = _create_store(path, config, progress)
+    P, N = len(config.predictors), config.trials
+    return config, sequence, np.zeros((P, N), bool), np.zeros((P, N), np.int16)
+
+
+def _local_client(workers: int | None):
+    from distributed import Client, LocalCluster
+
+    n = workers or os.cpu_count() or 1
+    cluster = LocalCluster(
+        n_workers=n,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=None,
+        silence_logs=40,
+    )
+    return Client(cluster), cluster
+
+
+def run_experiment(
+    config: ExperimentConfig,
+    store: str | os.PathLike,
+    *,
+    client=None,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    progress: bool = True,
+    rounds: int = 3,
+    on_written: Callable[[str, int], None] | None = None,
+) -> RunSummary:
+    """Run (or resume) an experiment into one Zarr store.
+
+    Parameters
+    ----------
+    config : ExperimentConfig
+        What to run; must equal the configuration of an existing `store`.
+    store : path-like
+        The Zarr directory; created (with the rendered sequence) if missing.
+    client : distributed.Client, keyword-only, optional
+        Run on this client.  Otherwise on `scheduler`, otherwise on an embedded
+        ``LocalCluster`` of `workers` processes with one thread each (default: the
+        number of cores), closed on return.
+    scheduler : str, keyword-only, optional
+        Address of an existing Dask scheduler (``tcp://host:8786``).
+    workers : int, keyword-only, optional
+        Worker processes of the embedded cluster.
+    progress : bool, keyword-only
+        Show tqdm progress bars.
+    rounds : int, keyword-only
+        Times the trials still missing are resubmitted after losing workers or
+        their data (``client.restart()``, killed processes).
+    on_written : callable, keyword-only, optional
+        Called with (predictor label, trial) after each trial is written.
+
+    Returns
+    -------
+    RunSummary
+        Trials already done, computed now, and still missing.
+    """
+    start = time.perf_counter()
+    if not isinstance(config, ExperimentConfig):
+        raise ValueError(f"config: expected an ExperimentConfig; got {type(config).__name__}")
+    if workers is not None and (isinstance(workers, bool) or int(workers) < 1):
+        raise ValueError(f"workers: expected a positive integer; got {workers!r}")
+    if config.trial_kind == "tracker":
+        _tracker_api()
+    for spec in config.predictors:
+        spec.build()
+    path = Path(store)
+    config, sequence, done, writes = _open_or_create(path, config, progress)
+    labels = config.labels
+    P, N = done.shape
+    already = int(done.sum())
+    todo = [(p, t) for t in range(N) for p in range(P) if not done[p, t]]
+    computed = 0
+    if todo:
+        own = None
+        if client is None:
+            if scheduler is not None:
+                from distributed import Client
+
+                client = Client(scheduler)
+                own = (client, None)
+            else:
+                own = _local_client(workers)
+                client = own[0]
+        try:
+            computed = _run_tasks(
+                client, config, sequence, path, todo, done, writes, progress, rounds, on_written
+            )
+        finally:
+            if own is not None:
+                own[0].close()
+                if own[1] is not None:
+                    own[1].close()
+    for t in range(N):
+        _write_scores(path, config, t)
+    missing = tuple((labels[p], int(t)) for p, t in zip(*np.nonzero(~done), strict=True))
+    return RunSummary(path, P * N, already, computed, missing, time.perf_counter() - start)
+
+
+def _run_tasks(client, config, sequence, path, todo, done, writes, progress, rounds, on_written):
+    from concurrent.futures import CancelledError
+
+    from distributed import KilledWorker, as_completed
+    from tqdm import tqdm
+
+    labels = config.labels
+    truth_joints = sequence.truth.joints
+    computed = 0
+    bar = tqdm(total=len(todo), desc="trials", unit="trial", disable=not progress)
+    try:
+        for _ in range(max(1, int(rounds))):
+            todo = [(p, t) for p, t in todo if not done[p, t]]
+            if not todo:
+                break
+            shared = client.scatter(sequence, broadcast=True)
+            futures = {}
+            for p, t in todo:
+                fut = client.submit(
+                    run_trial,
+                    config,
+                    config.predictors[p].key,
+                    t,
+                    shared,
+                    pure=False,
+                )
+                futures[fut] = (p, t)
+            lost = False
+            for fut in as_completed(futures):
+                p, t = futures[fut]
+                try:
+                    result = fut.result()
+                except (CancelledError, KilledWorker):  # lost worker or data: next round
+                    lost = True
+                    continue
+                except ValueError:
+                    raise
+                except Exception as exc:
+                    raise RuntimeError(
+                        f"trial {t} of predictor {labels[p]!r} failed: {exc!r}"
+                    ) from exc
+                writes[p, t] += 1
+                _write_trial(path, p, t, result, truth_joints, int(writes[p, t]))
+                done[p, t] = True
+                computed += 1
+                bar.update(1)
+                _write_scores(path, config, t)
+                if on_written is not None:
+                    on_written(labels[p], t)
+            del futures
+            if not lost:
+                break
+    finally:
+        bar.close()
+    return computed
+
+
+def summary_text(summary: RunSummary) -> str:
+    """One line describing a run."""
+    state = "complete" if summary.complete else f"{len(summary.missing)} trials missing"
+    return (
+        f"{summary.store}: {summary.total} trials, {summary.already_done} already done, "
+        f"{summary.computed} computed in {summary.seconds:.1f} s ({state})"
+    )

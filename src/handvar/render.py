@@ -1,0 +1,835 @@
+"""Silhouette and colour rendering of the sphere-mesh hand model (DESIGN.md §2, §3).
+
+The hand surface is a union of cone-spheres, each the convex hull of two spheres. Under
+perspective projection segments map to segments, so the image of a cone-sphere is the
+convex hull of the images of its two spheres, and the image of a sphere is an ellipse
+bounded by the conic of its tangent cone. Silhouettes are therefore computed exactly:
+
+1. per sphere, the image ellipse in closed form (:func:`sphere_ellipses`);
+2. per cone-sphere, points of the convex hull of its two ellipses, taken as the support
+   points in a dense set of outward normal directions (the polygon is inscribed in the
+   true outline and differs from it by at most ``tol`` pixels);
+3. all outlines are scan-converted at once by a winding-number rasteriser: pixel
+   ``mask[i, j]`` is set exactly when its centre ``(u, v) = (j, i)`` lies inside an
+   outline (OpenCV's pixel-centre convention, as in ``cv2.projectPoints``).
+
+Which pixels count as covered (``coverage``): by default (``"touch"``) every pixel
+whose square ``[j − ½, j + ½] × [i − ½, i + ½]`` meets the model's image, obtained by
+growing each outline by half a pixel in u and v (its Minkowski sum with the pixel
+square) before scan conversion. Then every point of the model surface, projected and
+rounded to the nearest pixel, lands on a set pixel, and the mask equals a dense
+projection of surface samples. ``"centre"`` gives the point-sampled mask of a
+conventional renderer (pixel centre inside the image), about half a pixel thinner
+along the outline; the colour renderer uses it.
+
+Lens distortion: the outline is computed in undistorted normalised coordinates, its
+edges are cut into pieces shorter than ``tol_distortion`` pixels and every vertex is
+mapped through the distortion. This is exact up to that sampling as long as the
+distortion is one-to-one over the outline, which holds for a calibrated lens inside its
+calibrated field of view; outlines far outside the image may fold where the polynomial
+model does.
+
+Primitives not entirely in front of a camera (a sphere reaching the plane z_cam = 0) are
+not drawn in that camera: their image is not bounded.
+
+Colour images are RGB, ``uint8``, shape ``(H, W, 3)``; convert with
+``cv2.cvtColor(image, cv2.COLOR_RGB2BGR)`` before ``cv2.imwrite``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import cv2
+import numpy as np
+
+from handvar.camera import Camera, Rig, _check_array, distort_normalized
+from handvar.hand.params import check_pose
+
+__all__ = [
+    "SKELETON",
+    "Shading",
+    "SphereMeshModel",
+    "background_image",
+    "draw_overlay",
+    "intersect_conespheres",
+    "outlines",
+    "render_rgb",
+    "side_by_side",
+    "silhouette",
+    "silhouettes",
+    "sphere_ellipses",
+]
+
+
+class SphereMeshModel(Protocol):
+    """What the renderer needs from a hand model (``handvar.hand.HandModel``)."""
+
+    def world_spheres(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Centres (P, 2, 3) mm and radii (P, 2) mm of the cone-spheres at pose x."""
+        ...
+
+
+# Bones of the 21-point layout (DESIGN.md §2): wrist 0; thumb 1-4; index 5-8;
+# middle 9-12; ring 13-16; little 17-20 (MCP/CMC, PIP/MCP, DIP/IP, tip).
+SKELETON: tuple[tuple[int, int], ...] = (
+    (0, 1), (1, 2), (2, 3), (3, 4),
+    (0, 5), (5, 6), (6, 7), (7, 8),
+    (0, 9), (9, 10), (10, 11), (11, 12),
+    (0, 13), (13, 14), (14, 15), (15, 16),
+    (0, 17), (17, 18), (18, 19), (19, 20),
+    (5, 9), (9, 13), (13, 17),
+)  # fmt: skip
+
+# Overlay colours (RGB) per digit: thumb, index, middle, ring, little; palm links grey.
+_DIGIT_RGB = ((230, 60, 60), (240, 170, 30), (60, 200, 60), (40, 140, 240), (190, 80, 220))
+_PALM_RGB = (200, 200, 200)
+
+
+# --- sphere images ------------------------------------------------------------------
+
+
+def sphere_ellipses(centres: np.ndarray, radii: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Image ellipses of spheres, in normalised image coordinates.
+
+    The tangent cone from the optical centre to a sphere with centre ``c`` (camera
+    frame) and radius ``r`` is ``dᵀ C d = 0`` with ``C = c cᵀ − (cᵀc − r²) I``; on the
+    plane ``z = 1`` (``d = (x, y, 1)``) it is the conic ``xᵀ A x + 2 bᵀ x + e = 0`` with
+    ``A = C[:2, :2]``, ``b = C[:2, 2]``, ``e = C[2, 2]``, whose inside is
+    ``(x − x₀)ᵀ S⁻¹ (x − x₀) ≤ 1`` with ``x₀ = −A⁻¹ b`` and
+    ``S = (e + bᵀ x₀) (−A)⁻¹``.
+
+    Parameters
+    ----------
+    centres : (M, 3) ndarray
+        Sphere centres in camera coordinates, mm. Each must satisfy ``z > r``.
+    radii : (M,) ndarray
+        Radii, mm (0 gives a point).
+
+    Returns
+    -------
+    x0 : (M, 2) ndarray
+        Ellipse centres (normalised coordinates; not the image of the sphere centre).
+    S : (M, 2, 2) ndarray
+        Shape matrices: the ellipse is ``{x₀ + S^{1/2} u : |u| ≤ 1}``; the support
+        point for the outward normal ``n`` is ``x₀ + S n / sqrt(nᵀ S n)``.
+    """
+    c = np.asarray(centres, dtype=float)
+    r = np.asarray(radii, dtype=float)
+    cxy, cz = c[:, :2], c[:, 2]
+    s = np.einsum("ij,ij->i", c, c) - r * r  # cᵀc − r²
+    # A = c_xy c_xyᵀ − s I (negative definite when cz > r)
+    a11 = cxy[:, 0] ** 2 - s
+    a22 = cxy[:, 1] ** 2 - s
+    a12 = cxy[:, 0] * cxy[:, 1]
+    det = a11 * a22 - a12 * a12
+    b = cxy * cz[:, None]  # b = cz c_xy
+    e = cz * cz - s
+    # x0 = −A⁻¹ b
+    x0 = -np.stack([a22 * b[:, 0] - a12 * b[:, 1], a11 * b[:, 1] - a12 * b[:, 0]], -1)
+    x0 /= det[:, None]
+    m = e + np.einsum("ij,ij->i", b, x0)  # e − bᵀA⁻¹b
+    # S = m (−A)⁻¹
+    S = np.empty((c.shape[0], 2, 2))
+    S[:, 0, 0] = -a22
+    S[:, 1, 1] = -a11
+    S[:, 0, 1] = S[:, 1, 0] = a12
+    S *= (m / det)[:, None, None]
+    return x0, S
+
+
+def _n_normals(S_px: np.ndarray, tol: float) -> int:
+    """Number of normal directions so the inscribed outline is within `tol` pixels.
+
+    The sagitta of an arc of curvature radius ρ turning by Δθ is ρ Δθ² / 8; the largest
+    curvature radius of an ellipse with semi-axes a ≥ b is a² / b.
+    """
+    if S_px.shape[0] == 0:
+        return 32
+    half_tr = 0.5 * (S_px[:, 0, 0] + S_px[:, 1, 1])
+    det = S_px[:, 0, 0] * S_px[:, 1, 1] - S_px[:, 0, 1] ** 2
+    disc = np.sqrt(np.maximum(half_tr**2 - det, 0.0))
+    a2 = half_tr + disc
+    b = np.sqrt(np.maximum(half_tr - disc, 0.0))
+    rho = np.max(a2 / np.maximum(b, 1e-3))
+    k = int(np.ceil(2.0 * np.pi / np.sqrt(8.0 * tol / max(rho, 1e-9))))
+    return int(np.clip(k, 32, 2048))
+
+
+def _hull_polygons(
+    centres: np.ndarray, radii: np.ndarray, camera: Camera, tol: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Outlines of the cone-spheres in one camera, as polygons with K vertices each.
+
+    Returns the vertices (P', K, 2), in pixels without distortion or in undistorted
+    normalised coordinates with distortion, the outward normal direction of each
+    vertex (K, 2) (in the same coordinates) and the indices (P',) of the primitives
+    that are drawn (those entirely in front of the camera).
+    """
+    P = centres.shape[0]
+    cam_c = (centres.reshape(-1, 3) @ camera.R.T + camera.t).reshape(P, 2, 3)
+    keep = np.all(cam_c[:, :, 2] > radii * (1.0 + 1e-9) + 1e-9, axis=1)
+    idx = np.flatnonzero(keep)
+    x0, S = sphere_ellipses(cam_c[idx].reshape(-1, 3), radii[idx].reshape(-1))
+    f = np.array([camera.fx, camera.fy])
+    S_px = S * np.outer(f, f)
+    K = _n_normals(S_px, tol)
+    theta = np.linspace(0.0, 2.0 * np.pi, K, endpoint=False)
+    n = np.stack([np.cos(theta), np.sin(theta)], -1)  # outward normals (K, 2)
+    if not camera.has_distortion:
+        x0 = x0 * f + (camera.cx, camera.cy)
+        S = S_px
+    Sn = np.einsum("kj,mij->mki", n, S)  # S n, (M, K, 2)
+    q = np.sqrt(np.maximum(np.einsum("kj,mkj->mk", n, Sn), 0.0))
+    h = x0 @ n.T + q  # support function h(n) = nᵀx₀ + sqrt(nᵀ S n), (M, K)
+    pts = x0[:, None, :] + Sn / np.maximum(q, 1e-300)[:, :, None]  # support points
+    h = h.reshape(-1, 2, K)
+    pts = pts.reshape(-1, 2, K, 2)
+    first = h[:, 0] >= h[:, 1]  # support of the hull of both: the larger of the two
+    poly = np.where(first[..., None], pts[:, 0], pts[:, 1])
+    return poly, n, idx
+
+
+_COVERAGE = ("touch", "centre")
+
+
+def outlines(
+    centres,
+    radii,
+    camera: Camera,
+    *,
+    coverage: str = "touch",
+    tol: float = 0.02,
+    tol_distortion: float = 1.0,
+) -> list[np.ndarray]:
+    """Image outlines of cone-spheres, in pixels.
+
+    Parameters
+    ----------
+    centres : (P, 2, 3) array_like
+        Sphere centres of each cone-sphere, mm (world).
+    radii : (P, 2) array_like
+        Sphere radii, mm.
+    camera : Camera
+    coverage : {"touch", "centre"}, optional
+        ``centre``: the outline of the image itself; ``touch``: the outline grown by
+        half a pixel in u and in v (its Minkowski sum with the pixel square), so that a
+        pixel centre lies inside exactly when the pixel's square touches the image.
+    tol : float, optional
+        Largest distance (pixels) between the inscribed polygon and the true outline.
+    tol_distortion : float, optional
+        Longest polygon edge (pixels) mapped through the lens distortion as a straight
+        piece.
+
+    Returns
+    -------
+    list of (V, 2) ndarray
+        One closed polygon per drawn primitive, in pixels (primitives reaching behind
+        the camera plane are left out), all with the same orientation.
+    """
+    centres, radii = _check_spheres(centres, radii)
+    verts, _, poly_id = _outline_vertices(centres, radii, camera, coverage, tol, tol_distortion)
+    return [verts[poly_id == i] for i in np.unique(poly_id)]
+
+
+def _outline_vertices(centres, radii, camera: Camera, coverage: str, tol, tol_distortion):
+    """Polygon vertices (V, 2) in pixels, next-vertex index (V,), polygon index (V,)."""
+    if coverage not in _COVERAGE:
+        raise ValueError(f"coverage: expected one of {', '.join(_COVERAGE)}; got {coverage!r}")
+    poly, normals, _ = _hull_polygons(centres, radii, camera, tol)
+    n_poly, K = poly.shape[:2]
+    verts = poly.reshape(-1, 2)
+    poly_id = np.repeat(np.arange(n_poly), K)
+    f = np.array([camera.fx, camera.fy])
+    c = np.array([camera.cx, camera.cy])
+    if not camera.has_distortion:
+        vnormals = np.broadcast_to(normals, poly.shape).reshape(-1, 2)
+        nxt = _next_in_polygon(poly_id)
+    else:
+        # cut edges into pieces at most tol_distortion pixels long, then distort
+        nxt = _next_in_polygon(poly_id)
+        d = verts[nxt] - verts
+        m = np.maximum(np.ceil(np.linalg.norm(d * f, axis=1) / tol_distortion), 1).astype(int)
+        rep = np.repeat(np.arange(verts.shape[0]), m)
+        j = np.arange(rep.size) - np.repeat(np.cumsum(m) - m, m)
+        xy = verts[rep] + (j / m[rep])[:, None] * d[rep]
+        poly_id = poly_id[rep]
+        verts = distort_normalized(xy, camera.dist) * f + c
+        nxt = _next_in_polygon(poly_id)
+        if coverage == "touch":
+            # outward vertex normals from the neighbours: perpendicular to next − previous
+            prv = np.empty_like(nxt)
+            prv[nxt] = np.arange(nxt.size)
+            tangent = verts[nxt] - verts[prv]
+            vnormals = np.stack([tangent[:, 1], -tangent[:, 0]], -1)
+            vnormals *= _orientation(verts, nxt, poly_id, n_poly)[poly_id, None]
+    if coverage == "touch":
+        # support point of P ⊕ [−½, ½]²: h(n) + ½(|n_u| + |n_v|), i.e. move the vertex
+        # to the corner of the pixel square that faces along its outward normal
+        verts = verts + 0.5 * np.sign(vnormals)
+    return verts, nxt, poly_id
+
+
+def _next_in_polygon(poly_id: np.ndarray) -> np.ndarray:
+    """Index of the next vertex in the same (contiguously stored, closed) polygon."""
+    nxt = np.arange(1, poly_id.size + 1)
+    if poly_id.size:
+        last = np.flatnonzero(np.diff(poly_id, append=-1) != 0)  # last vertex of each
+        first = np.concatenate([[0], last[:-1] + 1])
+        nxt[last] = first
+    return nxt
+
+
+def _orientation(verts, nxt, poly_id, n_poly) -> np.ndarray:
+    """±1 per polygon: +1 when the vertex normal (t_v, −t_u) points outwards."""
+    cross = verts[:, 0] * verts[nxt, 1] - verts[:, 1] * verts[nxt, 0]
+    area = np.bincount(poly_id, weights=cross, minlength=n_poly)  # twice the signed area
+    # positive area: the order of increasing angle atan2(v, u), as for the support
+    # points c + r (cos θ, sin θ) whose tangent (−sin θ, cos θ) gives (cos θ, sin θ)
+    return np.where(area >= 0, 1.0, -1.0)
+
+
+def _rasterize(starts: np.ndarray, ends: np.ndarray, sign: np.ndarray, size) -> np.ndarray:
+    """Winding-number scan conversion of closed polygons given by their edges.
+
+    A pixel is set when its centre has a non-zero winding number: for every row of
+    pixel centres ``v = i``, each edge crossing it (half-open in v, so a vertex counts
+    once) adds ±1 from its crossing column onwards, and the running sum along the row
+    is the winding number.
+    """
+    w, h = size
+    y0, y1 = starts[:, 1], ends[:, 1]
+    lo = np.ceil(np.minimum(y0, y1))
+    hi = np.ceil(np.maximum(y0, y1)) - 1.0  # rows i with min ≤ i < max
+    lo = np.clip(lo, 0, h)
+    hi = np.clip(hi, -1, h - 1)
+    count = np.maximum(hi - lo + 1, 0).astype(np.int64)
+    if count.sum() == 0:
+        return np.zeros((h, w), dtype=bool)
+    e = np.repeat(np.arange(starts.shape[0]), count)
+    row = np.repeat(lo.astype(np.int64), count)
+    row += np.arange(e.size) - np.repeat(np.cumsum(count) - count, count)
+    x0, x1 = starts[e, 0], ends[e, 0]
+    ya, yb = y0[e], y1[e]
+    # crossing of the edge with the row v = row
+    x = x0 + (row - ya) * (x1 - x0) / (yb - ya)
+    col = np.clip(np.ceil(x), 0, w).astype(np.int64)
+    direction = np.where(yb > ya, 1.0, -1.0) * sign[e]
+    # accumulate only over the bounding box of the crossings: every row's crossings
+    # sum to zero, so the winding number vanishes left of the first and from the last
+    r0, r1 = int(row.min()), int(row.max()) + 1
+    c0, c1 = int(col.min()), min(int(col.max()), w)
+    out = np.zeros((h, w), dtype=bool)
+    if c1 <= c0:
+        return out
+    bw = c1 - c0 + 1
+    acc = np.bincount((row - r0) * bw + (col - c0), weights=direction, minlength=(r1 - r0) * bw)
+    winding = np.cumsum(acc.reshape(r1 - r0, bw)[:, :-1], axis=1)
+    out[r0:r1, c0:c1] = np.abs(winding) > 0.5
+    return out
+
+
+def _check_spheres(centres, radii) -> tuple[np.ndarray, np.ndarray]:
+    centres = _check_array(centres, (None, 2, 3), "centres")
+    radii = _check_array(radii, (None, 2), "radii")
+    if radii.shape[0] != centres.shape[0]:
+        raise ValueError(
+            f"radii: expected shape ({centres.shape[0]}, 2) to match centres; got {radii.shape}"
+        )
+    if np.any(radii < 0):
+        raise ValueError("radii: expected non-negative radii; got a negative one")
+    return centres, radii
+
+
+def silhouette(
+    centres,
+    radii,
+    camera: Camera,
+    *,
+    coverage: str = "touch",
+    tol: float = 0.02,
+    tol_distortion: float = 1.0,
+) -> np.ndarray:
+    """Exact silhouette mask of a union of cone-spheres in one camera.
+
+    Parameters
+    ----------
+    centres : (P, 2, 3) array_like
+        The two sphere centres of each cone-sphere, mm (world).
+    radii : (P, 2) array_like
+        Their radii, mm.
+    camera : Camera
+    coverage : {"touch", "centre"}, optional
+        ``touch`` (default): a pixel is set when the model's image touches its square
+        ``[j − ½, j + ½] × [i − ½, i + ½]``, so every projected model point, rounded to
+        the nearest pixel, lands on a set pixel. ``centre``: set when the image
+        contains the pixel centre (the point-sampled mask of a renderer).
+    tol, tol_distortion : float, optional
+        Outline accuracy in pixels (see :func:`outlines`).
+
+    Returns
+    -------
+    (H, W) bool ndarray
+        ``mask[i, j]`` for the pixel centred on ``(u, v) = (j, i)``.
+    """
+    centres, radii = _check_spheres(centres, radii)
+    verts, nxt, poly_id = _outline_vertices(centres, radii, camera, coverage, tol, tol_distortion)
+    n_poly = int(poly_id.max()) + 1 if poly_id.size else 0
+    sign = _orientation(verts, nxt, poly_id, n_poly)[poly_id]
+    return _rasterize(verts, verts[nxt], sign, camera.size)
+
+
+def _check_rig(rig: Rig) -> tuple[int, int]:
+    if not isinstance(rig, Rig):
+        raise ValueError(f"rig: expected a handvar.camera.Rig; got {type(rig).__name__}")
+    sizes = {cam.size for cam in rig}
+    if len(sizes) != 1:
+        raise ValueError(
+            f"rig: expected cameras of one image size to stack; got sizes {sorted(sizes)}"
+        )
+    return sizes.pop()
+
+
+def silhouettes(
+    hand: SphereMeshModel, x, rig: Rig, *, coverage: str = "touch", tol: float = 0.02
+) -> np.ndarray:
+    """Silhouette masks of the hand model at pose `x` in every camera of `rig`.
+
+    Parameters
+    ----------
+    hand : HandModel
+        Anything with ``world_spheres(x) -> (centres (P, 2, 3), radii (P, 2))``.
+    x : (26,) array_like
+        Pose (DESIGN.md §2).
+    rig : Rig
+        Cameras, all with the same image size.
+    coverage : {"touch", "centre"}, optional
+        Which pixels count as covered (see :func:`silhouette`).
+    tol : float, optional
+        Outline accuracy, pixels.
+
+    Returns
+    -------
+    (n_cams, H, W) bool ndarray
+
+    Examples
+    --------
+    >>> from handvar.hand.kinematics import HandModel, named_pose
+    >>> masks = silhouettes(HandModel(), named_pose("open"), Rig.default())
+    >>> masks.shape, masks.dtype
+    ((2, 480, 640), dtype('bool'))
+    """
+    x = check_pose(x, "x")
+    w, h = _check_rig(rig)
+    centres, radii = hand.world_spheres(x)
+    out = np.empty((len(rig), h, w), dtype=bool)
+    for k, cam in enumerate(rig):
+        out[k] = silhouette(centres, radii, cam, coverage=coverage, tol=tol)
+    return out
+
+
+# --- ray casting --------------------------------------------------------------------
+
+
+def intersect_conespheres(
+    centres, radii, origins, directions
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """First intersection of rays with a union of cone-spheres, with surface normals.
+
+    A cone-sphere is the union of its two balls and the solid frustum between the
+    circles where the common tangent cone touches them. The first hit of a ray is the
+    earliest entry into any of these pieces; the frustum's flat ends lie inside the
+    balls, so it is entered first through its lateral surface
+    ``ρ cos φ + y sin φ = r_a`` (``y`` along the axis from sphere a, ``ρ`` the distance
+    from the axis, ``sin φ = (r_a − r_b) / L``), between the tangent circles
+    ``0 ≤ y − ρ tan φ ≤ L``.
+
+    Parameters
+    ----------
+    centres : (P, 2, 3) array_like
+        Sphere centres, mm (world).
+    radii : (P, 2) array_like
+        Radii, mm.
+    origins : (N, 3) array_like
+        Ray origins, mm; outside the model.
+    directions : (N, 3) array_like
+        Unit directions.
+
+    Returns
+    -------
+    depth : (N,) ndarray
+        Distance along the ray to the first hit, mm; ``inf`` where the ray misses.
+    normals : (N, 3) ndarray
+        Outward unit normals at the hits (zeros for misses).
+    primitive : (N,) int ndarray
+        Index of the cone-sphere hit first (−1 for misses).
+    """
+    centres, radii = _check_spheres(centres, radii)
+    o = _check_array(origins, (None, 3), "origins")
+    d = _check_array(directions, (None, 3), "directions")
+    if o.shape != d.shape:
+        raise ValueError(f"directions: expected shape {o.shape} like origins; got {d.shape}")
+    N = o.shape[0]
+    depth = np.full(N, np.inf)
+    normals = np.zeros((N, 3))
+    prim = np.full(N, -1, dtype=np.int64)
+    for k in range(centres.shape[0]):
+        a, b = centres[k]
+        ra, rb = radii[k]
+        # cull by the bounding ball (centre m, radius R): keep rays passing within R
+        m = 0.5 * (a + b)
+        R = 0.5 * np.linalg.norm(b - a) + max(ra, rb)
+        om = m - o
+        along = np.einsum("ij,ij->i", om, d)
+        near = np.einsum("ij,ij->i", om, om) - along * along <= R * R
+        near &= along + R > 0
+        sel = np.flatnonzero(near)
+        if sel.size == 0:
+            continue
+        t, nrm = _hit_conesphere(a, b, ra, rb, o[sel], d[sel])
+        better = (t > 0) & (t < depth[sel])
+        sel = sel[better]
+        depth[sel] = t[better]
+        normals[sel] = nrm[better]
+        prim[sel] = k
+    return depth, normals, prim
+
+
+def _hit_conesphere(a, b, ra: float, rb: float, o: np.ndarray, d: np.ndarray):
+    """Entry distance (N,) (inf: miss) and outward normal (N, 3) for one cone-sphere."""
+    best = np.full(o.shape[0], np.inf)
+    normal = np.zeros_like(o)
+
+    def consider(t, nrm):
+        better = (t > 0) & (t < best)
+        best[better] = t[better]
+        normal[better] = nrm[better]
+
+    for c, r in ((a, ra), (b, rb)):  # the balls: |o + t d − c|² = r²
+        oc = o - c
+        bq = np.einsum("ij,ij->i", oc, d)
+        disc = bq * bq - (np.einsum("ij,ij->i", oc, oc) - r * r)
+        t = np.where(disc >= 0, -bq - np.sqrt(np.maximum(disc, 0.0)), np.inf)
+        hit = np.isfinite(t)
+        nrm = np.zeros_like(o)
+        nrm[hit] = (oc[hit] + t[hit, None] * d[hit]) / max(r, 1e-300)
+        consider(t, nrm)
+    ba = b - a
+    L = np.linalg.norm(ba)
+    rr = ra - rb
+    if L <= abs(rr) + 1e-12:
+        return best, normal  # one ball contains the other: no lateral surface
+    w = ba / L
+    sphi = rr / L
+    cphi = np.sqrt(1.0 - sphi * sphi)
+    oa = o - a
+    y0 = oa @ w
+    yd = d @ w
+    od = np.einsum("ij,ij->i", oa, d)
+    oo = np.einsum("ij,ij->i", oa, oa)
+    g = ra - sphi * y0
+    # cos²φ (|q|² − y²) = (r_a − y sin φ)² with q = oa + t d, y = y0 + t yd
+    qa = cphi**2 * (1.0 - yd * yd) - sphi * sphi * yd * yd
+    qb = 2.0 * (cphi**2 * (od - y0 * yd) + sphi * yd * g)
+    qc = cphi**2 * (oo - y0 * y0) - g * g
+    disc = qb * qb - 4.0 * qa * qc
+    ok = (disc >= 0) & (np.abs(qa) > 1e-15)
+    sq = np.sqrt(np.where(ok, disc, 0.0))
+    den = np.where(ok, 2.0 * qa, 1.0)
+    for t in ((-qb - sq) / den, (-qb + sq) / den):
+        t = np.where(ok, t, np.inf)
+        q = oa + np.where(ok, t, 0.0)[:, None] * d
+        y = q @ w
+        radial = q - y[:, None] * w
+        rho = np.linalg.norm(radial, axis=1)
+        u = radial / np.maximum(rho, 1e-300)[:, None]
+        nrm = cphi * u + sphi * w  # outward normal of the lateral surface
+        lam = y - rho * sphi / cphi  # axial position of the generating ball's centre
+        valid = (
+            ok
+            & (ra - sphi * y >= 0)  # not the mirrored nappe
+            & (lam >= 0)
+            & (lam <= L)
+            & (np.einsum("ij,ij->i", nrm, d) < 0)  # entering
+        )
+        consider(np.where(valid, t, np.inf), nrm)
+    return best, normal
+
+
+# --- colour rendering ---------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Shading:
+    """Lambert shading of the hand and the synthetic camera noise.
+
+    The paper's set-up (§2, figure 1) lights the hand strongly from above and behind
+    one of the cameras; ``light`` is the world direction towards that light (world −y
+    is up, the cameras are on the −z side).
+    """
+
+    skin_rgb: tuple[int, int, int] = (222, 170, 140)
+    ambient: float = 0.45
+    diffuse: float = 0.6
+    light: tuple[float, float, float] = (-0.35, -0.6, -1.0)
+    noise_sigma: float = 3.0  # grey levels, added to the whole image
+
+
+_BACKGROUNDS = ("clutter", "texture", "plain")
+
+
+def _non_skin_colours(n: int, rng: np.random.Generator) -> np.ndarray:
+    """(n, 3) uint8 RGB colours well away from skin tones.
+
+    Hues are drawn from green through blue to purple (60°–300° in HSV, i.e. no reds,
+    oranges or yellows), or the colour is a near-grey; either fails both the RGB skin
+    rule of Kovač et al. (2003) and the YCrCb box of Chai & Ngan (1999).
+    """
+    hsv = np.empty((n, 1, 3), dtype=np.uint8)
+    hsv[:, 0, 0] = rng.integers(45, 150, n)  # OpenCV hue = degrees / 2
+    grey = rng.random(n) < 0.25
+    hsv[:, 0, 1] = np.where(grey, rng.integers(0, 20, n), rng.integers(80, 256, n))
+    hsv[:, 0, 2] = rng.integers(30, 256, n)
+    return cv2.cvtColor(hsv, cv2.COLOR_HSV2RGB)[:, 0]
+
+
+def background_image(
+    size: tuple[int, int], kind: str = "clutter", rng: np.random.Generator | None = None
+) -> np.ndarray:
+    """A synthetic background image without skin-coloured pixels.
+
+    Parameters
+    ----------
+    size : (int, int)
+        Image (width, height).
+    kind : {"clutter", "texture", "plain"}
+        ``clutter``: random filled rectangles, ellipses, polygons and thick lines in
+        non-skin colours; ``texture``: smooth multi-scale noise blending non-skin
+        colours; ``plain``: one non-skin colour.
+    rng : numpy.random.Generator, optional
+        Source of randomness (``default_rng(0)`` when omitted).
+
+    Returns
+    -------
+    (H, W, 3) uint8 ndarray
+        RGB image.
+    """
+    if kind not in _BACKGROUNDS:
+        raise ValueError(f"kind: expected one of {', '.join(_BACKGROUNDS)}; got {kind!r}")
+    rng = np.random.default_rng(0) if rng is None else rng
+    w, h = int(size[0]), int(size[1])
+    if kind == "plain":
+        img = np.empty((h, w, 3), dtype=np.uint8)
+        img[:] = _non_skin_colours(1, rng)[0]
+        return img
+    if kind == "texture":
+        cols = _non_skin_colours(3, rng).astype(float)
+        field = np.zeros((h, w, 2))
+        for scale in (4, 8, 16, 32):
+            small = rng.random((scale * h // w + 2, scale + 2, 2)).astype(np.float32)
+            field += cv2.resize(small, (w, h), interpolation=cv2.INTER_CUBIC) / scale
+        field -= field.min(axis=(0, 1))
+        field /= np.maximum(field.max(axis=(0, 1)), 1e-9)
+        wts = np.concatenate([field, 1.0 - field.mean(axis=2, keepdims=True)], axis=2)
+        wts /= wts.sum(axis=2, keepdims=True)
+        # blends of green–blue–purple hues and greys stay away from skin tones
+        img = wts @ cols
+        return np.clip(img, 0, 255).astype(np.uint8)
+    img = np.empty((h, w, 3), dtype=np.uint8)
+    img[:] = _non_skin_colours(1, rng)[0]
+    n_shapes = 60
+    cols = _non_skin_colours(n_shapes, rng)
+    for k in range(n_shapes):
+        col = tuple(int(c) for c in cols[k])
+        kind_k = rng.integers(4)
+        cx, cy = int(rng.integers(-w // 8, w + w // 8)), int(rng.integers(-h // 8, h + h // 8))
+        sx, sy = int(rng.integers(10, w // 4)), int(rng.integers(10, h // 4))
+        if kind_k == 0:
+            cv2.rectangle(img, (cx - sx, cy - sy), (cx + sx, cy + sy), col, -1)
+        elif kind_k == 1:
+            angle = float(rng.uniform(0, 180))
+            cv2.ellipse(img, (cx, cy), (sx, sy), angle, 0, 360, col, -1, cv2.LINE_AA)
+        elif kind_k == 2:
+            pts = np.stack([cx + rng.integers(-sx, sx, 5), cy + rng.integers(-sy, sy, 5)], -1)
+            cv2.fillPoly(img, [pts.astype(np.int32)], col, cv2.LINE_AA)
+        else:
+            thick = int(rng.integers(2, 12))
+            cv2.line(img, (cx - sx, cy - sy), (cx + sx, cy + sy), col, thick, cv2.LINE_AA)
+    return img
+
+
+def render_rgb(
+    hand: SphereMeshModel,
+    x,
+    rig: Rig,
+    *,
+    background: str = "clutter",
+    rng: np.random.Generator | None = None,
+    shading: Shading | None = None,
+) -> np.ndarray:
+    """Shaded colour rendering of the hand over a synthetic background.
+
+    Every pixel whose centre sees the model (``coverage="centre"``) is ray-cast
+    against the cone-spheres (:func:`intersect_conespheres`) and shaded by Lambert's
+    law with a skin colour; the background (:func:`background_image`, one per camera)
+    and Gaussian sensor noise make the image a test for the real-video path (skin
+    detection, clean-up).
+
+    Parameters
+    ----------
+    hand : HandModel
+        Anything with ``world_spheres(x)``.
+    x : (26,) array_like
+        Pose.
+    rig : Rig
+        Cameras, all of one image size.
+    background : {"clutter", "texture", "plain"}, optional
+    rng : numpy.random.Generator, optional
+        Background and noise (``default_rng(0)`` when omitted).
+    shading : Shading, optional
+
+    Returns
+    -------
+    (n_cams, H, W, 3) uint8 ndarray
+        RGB images.
+    """
+    x = check_pose(x, "x")
+    if background not in _BACKGROUNDS:
+        raise ValueError(
+            f"background: expected one of {', '.join(_BACKGROUNDS)}; got {background!r}"
+        )
+    w, h = _check_rig(rig)
+    rng = np.random.default_rng(0) if rng is None else rng
+    sh = Shading() if shading is None else shading
+    centres, radii = hand.world_spheres(x)
+    light = np.asarray(sh.light, dtype=float)
+    light /= np.linalg.norm(light)
+    skin = np.asarray(sh.skin_rgb, dtype=float)
+    out = np.empty((len(rig), h, w, 3), dtype=np.uint8)
+    for k, cam in enumerate(rig):
+        img = background_image((w, h), background, rng).astype(np.float32)
+        mask = silhouette(centres, radii, cam, coverage="centre")  # point sampling
+        rows, cols = np.nonzero(mask)
+        if rows.size:
+            origins, dirs = cam.rays(np.stack([cols, rows], -1).astype(float))
+            depth, normals, _ = intersect_conespheres(centres, radii, origins, dirs)
+            hit = np.isfinite(depth)
+            # pixel centres on the outline that graze the surface: face the camera
+            normals[~hit] = -dirs[~hit]
+            lambert = np.maximum(normals @ light, 0.0)  # Lambert: max(0, n·l)
+            img[rows, cols] = skin * (sh.ambient + sh.diffuse * lambert)[:, None]
+        img += np.float32(sh.noise_sigma) * rng.standard_normal(img.shape, dtype=np.float32)
+        np.clip(np.rint(img, out=img), 0, 255, out=img)
+        out[k] = img
+    return out
+
+
+# --- overlays -----------------------------------------------------------------------
+
+
+def draw_overlay(
+    image: np.ndarray,
+    camera: Camera,
+    joints,
+    mask: np.ndarray | None = None,
+    *,
+    thickness: int = 2,
+) -> np.ndarray:
+    """Draw the 21 joints and the bones (and optionally a mask outline) on an image.
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8 or (H, W) bool/uint8 ndarray
+        RGB image, or a mask / grey image (drawn as grey).
+    camera : Camera
+        Camera of the image.
+    joints : (21, 3) array_like
+        Joint positions, mm (world).
+    mask : (H, W) bool ndarray, optional
+        A silhouette whose outline is drawn in yellow (e.g. the model's).
+    thickness : int, optional
+        Line thickness, pixels.
+
+    Returns
+    -------
+    (H, W, 3) uint8 ndarray
+        A new RGB image; digits are coloured thumb red, index orange, middle green,
+        ring blue, little purple.
+    """
+    img = np.asarray(image)
+    if img.ndim == 2:
+        grey = (img.astype(np.uint8) * 160) if img.dtype == bool else img.astype(np.uint8)
+        img = np.repeat(grey[:, :, None], 3, axis=2)
+    elif img.ndim == 3 and img.shape[2] == 3:
+        img = img.astype(np.uint8).copy()
+    else:
+        raise ValueError(f"image: expected (H, W) or (H, W, 3); got shape {img.shape}")
+    if (img.shape[1], img.shape[0]) != camera.size:
+        raise ValueError(
+            f"image: expected size {camera.size} (width, height) of the camera; "
+            f"got {(img.shape[1], img.shape[0])}"
+        )
+    joints = _check_array(joints, (21, 3), "joints")
+    img = np.ascontiguousarray(img)
+    if mask is not None:
+        mask = np.asarray(mask)
+        if mask.shape != img.shape[:2]:
+            raise ValueError(f"mask: expected shape {img.shape[:2]}; got {mask.shape}")
+        contours, _ = cv2.findContours(
+            mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE
+        )
+        cv2.drawContours(img, contours, -1, (255, 230, 0), 1, cv2.LINE_AA)
+    shift = 4
+    px = camera.project(joints)
+    finite = np.all(np.isfinite(px), axis=1) & (np.abs(px) < 1e5).all(axis=1)
+    pts = np.rint(np.where(finite[:, None], px, 0.0) * (1 << shift)).astype(np.int64)
+    for i, j in SKELETON:
+        if not (finite[i] and finite[j]):
+            continue
+        colour = _PALM_RGB if (i != 0 and j - i != 1) else _DIGIT_RGB[(max(i, j) - 1) // 4]
+        cv2.line(img, tuple(pts[i]), tuple(pts[j]), colour, thickness, cv2.LINE_AA, shift)
+    for i in range(21):
+        if finite[i]:
+            colour = (255, 255, 255) if i == 0 else _DIGIT_RGB[(i - 1) // 4]
+            cv2.circle(img, tuple(pts[i]), (thickness + 2) << shift, colour, -1, cv2.LINE_AA, shift)
+    return img
+
+
+def side_by_side(images, titles=None, *, gap: int = 4, bar: int = 28) -> np.ndarray:
+    """Put RGB images of one height next to each other, each under a title bar.
+
+    Parameters
+    ----------
+    images : sequence of (H, W, 3) uint8 ndarray
+    titles : sequence of str, optional
+        One title per image (ASCII), drawn in white on the dark bar above it.
+    gap : int, optional
+        Dark gap between images, pixels.
+    bar : int, optional
+        Height of the title bar, pixels (0 for none).
+
+    Returns
+    -------
+    (H + bar, sum(W) + gap · (n − 1), 3) uint8 ndarray
+    """
+    images = [np.asarray(im) for im in images]
+    if not images or any(im.ndim != 3 or im.shape[2] != 3 for im in images):
+        raise ValueError("images: expected one or more (H, W, 3) images")
+    h = images[0].shape[0]
+    if any(im.shape[0] != h for im in images):
+        raise ValueError(f"images: expected one height; got {[im.shape[0] for im in images]}")
+    titles = [""] * len(images) if titles is None else list(titles)
+    if len(titles) != len(images):
+        raise ValueError(f"titles: expected {len(images)} titles; got {len(titles)}")
+    panels = []
+    for k, (im, title) in enumerate(zip(images, titles, strict=True)):
+        panel = np.full((h + bar, im.shape[1], 3), 24, dtype=np.uint8)
+        panel[bar:] = im
+        if bar and title:
+            cv2.putText(panel, title, (8, bar - 9), cv2.FONT_HERSHEY_SIMPLEX, 0.55,
+                        (255, 255, 255), 1, cv2.LINE_AA)  # fmt: skip
+        panels.append(panel)
+        if gap and k < len(images) - 1:
+            panels.append(np.full((h + bar, gap, 3), 24, dtype=np.uint8))
+    return np.concatenate(panels, axis=1)

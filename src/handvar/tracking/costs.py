@@ -1,0 +1,876 @@
+"""The tracker's cost: silhouette term C_s and filling term C_f (paper §2.1, DESIGN.md §4).
+
+Per frame and camera j, :func:`prepare_frame` builds once, from the observed silhouette
+S_j, a field giving for every pixel its nearest silhouette pixel (OpenCV's labelled
+distance transform) and the list of silhouette pixels. Every optimiser iteration then
+draws fresh random samples (:meth:`SilhouetteCost.draw`): N points on the model surface,
+projected into every camera, and M pixels inside every silhouette. The paper uses
+"about 600 sample points" (§4); our default split is N = 150 surface points (300
+projections in a stereo rig) and M = 150 silhouette pixels per camera (300 in all), so
+that both terms are estimated from the same number of residuals.
+
+Terms, for a rig of n_c cameras (residuals in pixels, see *Unit* below):
+
+- C_s, the model inside the silhouette: the mean over surface samples i and cameras j of
+  ½‖p_ij(x) − s*(p_ij)‖², p_ij the projection of sample i into camera j and s* the
+  silhouette pixel nearest to the pixel p_ij falls on (zero when that pixel is in S_j).
+- C_f, the silhouette filled by the model (eq. 1): the mean over silhouette samples ŝ_ij
+  of ½‖ŝ_ij − h_ij(x)‖², h_ij the closest point of the model's image (zero where the
+  model covers the pixel). Eq. 1 sums over the cameras and averages over the samples;
+  we average over both, i.e. eq. 1 divided by n_c, so that one threshold serves a
+  monocular and a stereo rig alike.
+- C = 1.7 C_s + 0.4 C_f (§4).
+
+Gradients follow the chain rule residual × projection Jacobian × kinematic Jacobian with
+the matched targets s* and ŝ held fixed, as in ICP. The same quantities are returned as a
+stacked residual vector r and its Jacobian J with ``C = ½ rᵀr`` and ``∇C = Jᵀr``, so
+that a Gauss–Newton curvature-vector product is ``Jᵀ(J v)``.
+
+Unit
+----
+The cost is dimensionless: residuals are measured in units of ``pixel_scale`` pixels
+(`CostSettings`), i.e. C is in (pixel_scale px)². With the default pixel_scale of 8 px
+a cost of 0.006 (the paper's stopping threshold, §4) is a weighted mean squared misfit
+of 0.006 · 64 = 0.38 px², e.g. a quarter of the projected surface samples a
+pixel outside the silhouette; ``benchmarks/tracker.py`` prints the cost against the
+joint error that motivated the choice (see `CostSettings`).
+
+Speed
+-----
+All per-iteration work after the forward kinematics runs in one compiled kernel
+(numba). The kinematics are queried once per iteration for four reference points per
+bone: a bone moves rigidly, so the position and the Jacobian of any point attached to
+it are affine in the point's bone coordinates and follow from those four exactly.
+:func:`cost_reference` computes the same cost with the public numpy routines of
+:mod:`handvar.hand` and :mod:`handvar.camera`; the tests check that both agree.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from numba import njit
+
+from handvar.camera import Rig
+from handvar.hand.params import N_PARAMS, check_pose
+
+__all__ = [
+    "CostSettings",
+    "CostTerms",
+    "FrameData",
+    "Samples",
+    "SilhouetteCost",
+    "cost_reference",
+    "nearest_silhouette_field",
+    "prepare_frame",
+]
+
+
+@dataclass(frozen=True)
+class CostSettings:
+    """Weights and sample sizes of the tracking cost (paper §2.1 and §4).
+
+    Attributes
+    ----------
+    weight_silhouette : float
+        Weight of C_s, 1.7 (§4).
+    weight_filling : float
+        Weight of C_f, 0.4 (§4).
+    n_surface : int
+        Surface samples N per iteration, each projected into every camera.
+    n_pixels : int
+        Silhouette pixel samples M per camera and iteration. With the defaults a stereo
+        rig has 300 + 300 residuals, the paper's "about 600 sample points" (§4).
+    pixel_scale : float
+        Pixels per unit of residual, so that the cost is in (pixel_scale px)². 8 px puts
+        the paper's stopping threshold 0.006 (`SMDSettings.threshold`) at a weighted
+        mean squared misfit of 0.38 px²: measured on the benchmark sequence, the cost of
+        the true pose is about 0.002 (circle approximation of the model's outline,
+        pixel rounding), it exceeds 0.006 once the pose is off by more than about 1 mm
+        and 1° per parameter, and 2-3 mm of joint error correspond to a cost of about
+        0.01-0.02. The same scale brings the gradients into the range where the paper's
+        SMD gains (§4) are stable.
+    roi_margin : int
+        Pixels around a silhouette's bounding box in which the nearest-pixel field is
+        computed; model points projecting farther out are matched through the nearest
+        point of that region (a gross misfit either way, pulled back all the same).
+    """
+
+    weight_silhouette: float = 1.7
+    weight_filling: float = 0.4
+    n_surface: int = 150
+    n_pixels: int = 150
+    pixel_scale: float = 3.0
+    roi_margin: int = 64
+
+    def __post_init__(self) -> None:
+        for name in ("weight_silhouette", "weight_filling"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value >= 0):
+                raise ValueError(f"{name}: expected a finite weight >= 0; got {value!r}")
+        for name in ("n_surface", "n_pixels"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
+                raise ValueError(f"{name}: expected a positive integer; got {value!r}")
+        if not (np.isfinite(self.pixel_scale) and self.pixel_scale > 0):
+            raise ValueError(f"pixel_scale: expected a positive number; got {self.pixel_scale!r}")
+        if (
+            isinstance(self.roi_margin, bool)
+            or not isinstance(self.roi_margin, int | np.integer)
+            or self.roi_margin < 0
+        ):
+            raise ValueError(f"roi_margin: expected an integer >= 0; got {self.roi_margin!r}")
+
+
+# --- per-frame preprocessing --------------------------------------------------------------
+
+
+def nearest_silhouette_field(mask: np.ndarray, *, margin: int = 64):
+    """Nearest silhouette pixel of every pixel of a region around the silhouette.
+
+    OpenCV's labelled distance transform (``cv2.distanceTransformWithLabels``, L2 with
+    the 5×5 mask, ``DIST_LABEL_PIXEL``) of the inverted mask gives every pixel the
+    label of its nearest silhouette pixel; labels number the silhouette pixels in
+    raster order, which maps them back to coordinates. The 5×5 mask makes the match
+    approximate: the distance to it exceeds the exact Euclidean one by a fraction of
+    a pixel.
+
+    Parameters
+    ----------
+    mask : (H, W) bool ndarray
+        Silhouette (True inside); not empty.
+    margin : int, keyword-only
+        Pixels added around the silhouette's bounding box (clipped to the image).
+
+    Returns
+    -------
+    nearest : (h, w, 2) float64 ndarray
+        Image coordinates (u, v) of the nearest silhouette pixel for every pixel of the
+        region; a silhouette pixel is its own nearest pixel.
+    roi : (4,) int64 ndarray
+        ``(u0, v0, w, h)``: the region's top-left pixel and size.
+    pixels : (K, 2) float64 ndarray
+        Coordinates (u, v) of the K silhouette pixels, raster order.
+    """
+    m = np.asarray(mask)
+    if m.ndim != 2:
+        raise ValueError(f"mask: expected an (H, W) array; got shape {m.shape}")
+    m = m.astype(bool, copy=False)
+    rows = np.flatnonzero(m.any(axis=1))
+    cols = np.flatnonzero(m.any(axis=0))
+    if rows.size == 0:
+        raise ValueError("mask: expected a non-empty silhouette; got an empty mask")
+    H, W = m.shape
+    v0 = max(int(rows[0]) - margin, 0)
+    v1 = min(int(rows[-1]) + margin + 1, H)
+    u0 = max(int(cols[0]) - margin, 0)
+    u1 = min(int(cols[-1]) + margin + 1, W)
+    sub = m[v0:v1, u0:u1]
+    inverted = np.where(sub, 0, 1).astype(np.uint8)
+    _, labels = cv2.distanceTransformWithLabels(
+        inverted, cv2.DIST_L2, 5, labelType=cv2.DIST_LABEL_PIXEL
+    )
+    ys, xs = np.nonzero(sub)  # raster order, as the labels
+    coords = np.empty((ys.size, 2))
+    coords[:, 0] = xs + u0
+    coords[:, 1] = ys + v0
+    nearest = coords[labels - 1]
+    roi = np.array([u0, v0, u1 - u0, v1 - v0], dtype=np.int64)
+    return nearest, roi, coords
+
+
+@dataclass(frozen=True, eq=False)
+class FrameData:
+    """Everything the cost needs from one frame's silhouettes, computed once per frame.
+
+    Attributes
+    ----------
+    nearest : (n_cams, h, w, 2) float64 ndarray
+        Per camera, the nearest silhouette pixel (u, v) of every pixel of its region
+        (padded to the largest region).
+    roi : (n_cams, 4) int64 ndarray
+        ``(u0, v0, w, h)`` of each camera's region; w = h = 0 for an empty silhouette.
+    pixels : (n_cams, K, 2) float64 ndarray
+        Silhouette pixel coordinates per camera (padded to the largest count K).
+    counts : (n_cams,) int64 ndarray
+        Number of silhouette pixels per camera; a camera with none contributes no terms.
+    """
+
+    nearest: np.ndarray
+    roi: np.ndarray
+    pixels: np.ndarray
+    counts: np.ndarray
+
+    @property
+    def n_cameras(self) -> int:
+        return int(self.roi.shape[0])
+
+
+def prepare_frame(masks, rig: Rig, *, margin: int = 64) -> FrameData:
+    """Per-frame preprocessing of the silhouettes of all cameras (see `FrameData`).
+
+    Parameters
+    ----------
+    masks : (n_cams, H, W) bool array_like
+        One silhouette per camera of `rig`, True inside.
+    rig : Rig
+        The cameras; camera j saw ``masks[j]``.
+    margin : int, keyword-only
+        See `nearest_silhouette_field`.
+
+    Returns
+    -------
+    FrameData
+
+    Raises
+    ------
+    ValueError
+        When the shape does not match the rig, or every silhouette is empty. A camera
+        whose silhouette alone is empty (the hand out of its view) is skipped.
+    """
+    if not isinstance(rig, Rig):
+        raise ValueError(f"rig: expected a handvar.camera.Rig; got {type(rig).__name__}")
+    m = np.asarray(masks)
+    n = len(rig)
+    if m.ndim != 3 or m.shape[0] != n:
+        raise ValueError(
+            f"masks: expected shape ({n}, H, W), one silhouette per camera; got shape {m.shape}"
+        )
+    for name, cam in zip(rig.names, rig.cameras, strict=True):
+        if (m.shape[2], m.shape[1]) != tuple(cam.size):
+            raise ValueError(
+                f"masks: expected images of {cam.size[0]}x{cam.size[1]} for camera {name!r}; "
+                f"got {m.shape[2]}x{m.shape[1]}"
+            )
+    fields = []
+    for j in range(n):
+        if m[j].any():
+            fields.append(nearest_silhouette_field(m[j], margin=margin))
+        else:
+            fields.append(None)
+    if all(f is None for f in fields):
+        raise ValueError("masks: expected a non-empty silhouette in at least one camera; all empty")
+    h = max(f[1][3] for f in fields if f is not None)
+    w = max(f[1][2] for f in fields if f is not None)
+    k = max(f[2].shape[0] for f in fields if f is not None)
+    nearest = np.zeros((n, h, w, 2))
+    roi = np.zeros((n, 4), dtype=np.int64)
+    pixels = np.zeros((n, k, 2))
+    counts = np.zeros(n, dtype=np.int64)
+    for j, f in enumerate(fields):
+        if f is None:
+            continue
+        near, r, px = f
+        nearest[j, : r[3], : r[2]] = near
+        roi[j] = r
+        pixels[j, : px.shape[0]] = px
+        counts[j] = px.shape[0]
+    return FrameData(nearest, roi, pixels, counts)
+
+
+# --- samples and results ------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class Samples:
+    """The random samples of one optimiser iteration.
+
+    Attributes
+    ----------
+    bone : (N,) int ndarray
+        Bone of each surface sample.
+    local : (N, 3) ndarray
+        Surface samples in their bone's frame, mm.
+    pixels : (n_cams, M, 2) ndarray
+        Silhouette pixel samples ŝ per camera (meaningless for cameras without
+        silhouette pixels).
+    """
+
+    bone: np.ndarray
+    local: np.ndarray
+    pixels: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class CostTerms:
+    """The cost at one pose for one set of samples.
+
+    Attributes
+    ----------
+    cost : float
+        C = w_s C_s + w_f C_f, in (pixel_scale px)².
+    silhouette, filling : float
+        C_s and C_f (unweighted), same unit.
+    gradient : (26,) ndarray
+        dC/dx, per mm (translation) and per degree (angles).
+    sensitivity : (26,) ndarray or None
+        ``w_s · mean ‖∂p_ij/∂x_k‖² / scale²`` over all projected surface samples: the
+        diagonal of JᵀJ that the silhouette rows would have if every sample were
+        outside the silhouette. It measures how fast the model's image moves with each
+        parameter, whatever the current misfit (the optimiser's preconditioner).
+    residuals : (R,) ndarray or None
+        Stacked weighted residuals r with ``C = ½ rᵀr``: for every camera the 2N
+        silhouette rows (u, v per surface sample) then the 2M filling rows.
+    jacobian : (R, 26) ndarray or None
+        dr/dx, so that ``gradient = Jᵀ r`` and ``Jᵀ(J v)`` is the Gauss–Newton product.
+    """
+
+    cost: float
+    silhouette: float
+    filling: float
+    gradient: np.ndarray
+    sensitivity: np.ndarray | None = None
+    residuals: np.ndarray | None = None
+    jacobian: np.ndarray | None = None
+
+    def gauss_newton(self, v) -> np.ndarray:
+        """Gauss–Newton curvature-vector product ``Jᵀ(J v)``, (26,)."""
+        if self.jacobian is None:
+            raise ValueError("v: a Gauss–Newton product needs the residual Jacobian")
+        v = np.asarray(v, dtype=float)
+        if v.shape != (N_PARAMS,):
+            raise ValueError(f"v: expected shape (26,); got shape {v.shape}")
+        return self.jacobian.T @ (self.jacobian @ v)
+
+
+# --- the cost ------------------------------------------------------------------------------
+
+# Local coordinates of the four reference points of every bone: its origin and the ends of
+# its three unit axes.
+_REFERENCE = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+
+
+class SilhouetteCost:
+    """The cost C = w_s C_s + w_f C_f of a hand model seen by a rig (module docstring).
+
+    Holds what does not change between frames (the model's primitives, the camera
+    parameters in arrays for the compiled kernel).
+
+    Parameters
+    ----------
+    hand : HandModel
+        The hand (its surface pool is built on first use).
+    rig : Rig
+        The cameras.
+    settings : CostSettings, optional
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from handvar.camera import Rig
+    >>> from handvar.hand import HandModel, named_pose
+    >>> from handvar.render import silhouettes
+    >>> hand, rig, x = HandModel(), Rig.default(), named_pose("open")
+    >>> cost = SilhouetteCost(hand, rig)
+    >>> frame = cost.prepare(silhouettes(hand, x, rig))
+    >>> terms = cost.evaluate(x, frame, cost.draw(frame, np.random.default_rng(0)))
+    >>> terms.gradient.shape, bool(terms.cost < 0.006)
+    ((26,), True)
+    """
+
+    def __init__(self, hand, rig: Rig, settings: CostSettings | None = None) -> None:
+        if not isinstance(rig, Rig):
+            raise ValueError(f"rig: expected a handvar.camera.Rig; got {type(rig).__name__}")
+        settings = CostSettings() if settings is None else settings
+        if not isinstance(settings, CostSettings):
+            raise ValueError(f"settings: expected CostSettings; got {type(settings).__name__}")
+        self.hand = hand
+        self.rig = rig
+        self.settings = settings
+        prim = hand.primitives
+        self._prim_bone = np.ascontiguousarray(prim.bone, dtype=np.int64)
+        self._prim_local = np.ascontiguousarray(prim.centres, dtype=float)
+        self._prim_radii = np.ascontiguousarray(prim.radii, dtype=float)
+        n_bones = len(hand.bone_frames(np.zeros(N_PARAMS))[1])
+        self._ref_bone = np.repeat(np.arange(n_bones), 4)
+        self._ref_local = np.tile(_REFERENCE, (n_bones, 1))
+        n = len(rig)
+        self._cam_k = np.array([[c.fx, c.fy, c.cx, c.cy] for c in rig])
+        self._cam_dist = np.zeros((n, 8))
+        self._cam_rational = np.zeros(n, dtype=np.bool_)
+        for j, c in enumerate(rig):
+            self._cam_dist[j, : c.dist.size] = c.dist
+            self._cam_rational[j] = c.dist.size == 8
+        self._cam_R = np.ascontiguousarray([c.R for c in rig], dtype=float)
+        self._cam_t = np.ascontiguousarray([c.t for c in rig], dtype=float)
+
+    # -- per frame --
+    def prepare(self, masks) -> FrameData:
+        """`prepare_frame` for this rig, with the settings' margin."""
+        return prepare_frame(masks, self.rig, margin=self.settings.roi_margin)
+
+    # -- per iteration --
+    def draw(self, frame: FrameData, rng: np.random.Generator) -> Samples:
+        """Fresh random samples: N surface points and M silhouette pixels per camera.
+
+        Surface points are drawn uniformly from the model's pool of area-uniform samples
+        on the union's outer surface (`HandModel.surface_pool`); silhouette pixels
+        uniformly, with replacement, from each camera's silhouette.
+        """
+        if not isinstance(rng, np.random.Generator):
+            raise ValueError(f"rng: expected a numpy.random.Generator; got {type(rng).__name__}")
+        pool = self.hand.surface_pool.exposed
+        s = self.settings
+        idx = rng.integers(0, pool.bone.shape[0], s.n_surface)
+        n = frame.n_cameras
+        pixels = np.zeros((n, s.n_pixels, 2))
+        for j in range(n):
+            if frame.counts[j] > 0:
+                pixels[j] = frame.pixels[j, rng.integers(0, frame.counts[j], s.n_pixels)]
+        return Samples(pool.bone[idx], pool.local[idx], pixels)
+
+    def _reference_points(self, x: np.ndarray):
+        """Positions (B, 4, 3) and Jacobians (B, 4, 3, 26) of every bone's reference points."""
+        p, J = self.hand.points(x, self._ref_bone, self._ref_local, jacobian=True)
+        return p.reshape(-1, 4, 3), J.reshape(-1, 4, 3, N_PARAMS)
+
+    def evaluate(
+        self, x, frame: FrameData, samples: Samples, *, residuals: bool = False
+    ) -> CostTerms:
+        """Cost, its parts and gradient at pose `x` for the given frame and samples.
+
+        Parameters
+        ----------
+        x : (26,) array_like
+            Pose, mm and degrees.
+        frame : FrameData
+            From `prepare`.
+        samples : Samples
+            From `draw`.
+        residuals : bool, keyword-only
+            Also return the stacked residuals and their Jacobian (for Gauss–Newton
+            products).
+
+        Returns
+        -------
+        CostTerms
+        """
+        x = check_pose(x, "x")
+        if frame.n_cameras != len(self.rig):
+            raise ValueError(
+                f"frame: expected data of {len(self.rig)} cameras; got {frame.n_cameras}"
+            )
+        Q, JQ = self._reference_points(x)
+        s = self.settings
+        n_cams = frame.n_cameras
+        active = frame.counts > 0
+        n_active = int(active.sum())
+        N, M = samples.bone.shape[0], samples.pixels.shape[1]
+        scale2 = s.pixel_scale * s.pixel_scale
+        # r = a (pixel residual) with ½ Σ r² = w · mean ½‖pixel residual‖² / scale²
+        a_s = np.sqrt(s.weight_silhouette / (N * n_active * scale2))
+        a_f = np.sqrt(s.weight_filling / (M * n_active * scale2))
+        rows = 2 * (N + M) * n_cams
+        r = np.zeros(rows)
+        J = np.zeros((rows, N_PARAMS)) if residuals else np.zeros((0, N_PARAMS))
+        g = np.zeros(N_PARAMS)
+        parts = np.zeros(2)
+        sens = np.zeros(N_PARAMS)
+        _cost_kernel(
+            Q,
+            JQ,
+            np.ascontiguousarray(samples.bone, dtype=np.int64),
+            np.ascontiguousarray(samples.local, dtype=float),
+            self._prim_bone,
+            self._prim_local,
+            self._prim_radii,
+            self._cam_k,
+            self._cam_dist,
+            self._cam_rational,
+            self._cam_R,
+            self._cam_t,
+            frame.nearest,
+            frame.roi,
+            np.ascontiguousarray(samples.pixels, dtype=float),
+            active,
+            a_s,
+            a_f,
+            residuals,
+            r,
+            J,
+            g,
+            parts,
+            sens,
+        )
+        c_s = 0.5 * parts[0] / (N * n_active * scale2)
+        c_f = 0.5 * parts[1] / (M * n_active * scale2)
+        cost = s.weight_silhouette * c_s + s.weight_filling * c_f
+        return CostTerms(
+            float(cost), float(c_s), float(c_f), g, sens, r if residuals else None,
+            J if residuals else None,
+        )  # fmt: skip
+
+
+# --- compiled kernel ---------------------------------------------------------------------
+
+
+@njit(cache=True)
+def _project(k, dist, rational, R, t, p, J3, uv, J2):  # pragma: no cover - compiled
+    """Pixel (u, v) of world point p and d(u, v)/dx = d(u, v)/dp · J3; returns depth z.
+
+    Pinhole with OpenCV's distortion (handvar.camera.Camera.project_jacobian).
+    """
+    X = R[0, 0] * p[0] + R[0, 1] * p[1] + R[0, 2] * p[2] + t[0]
+    Y = R[1, 0] * p[0] + R[1, 1] * p[1] + R[1, 2] * p[2] + t[1]
+    Z = R[2, 0] * p[0] + R[2, 1] * p[1] + R[2, 2] * p[2] + t[2]
+    iz = 1.0 / Z
+    x = X * iz
+    y = Y * iz
+    k1, k2, p1, p2, k3 = dist[0], dist[1], dist[2], dist[3], dist[4]
+    r2 = x * x + y * y
+    num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+    dnum = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)
+    if rational:
+        k4, k5, k6 = dist[5], dist[6], dist[7]
+        den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))
+        dden = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2)
+        radial = num / den
+        dradial = (dnum * den - num * dden) / (den * den)
+    else:
+        radial = num
+        dradial = dnum
+    xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
+    yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
+    uv[0] = k[0] * xd + k[2]
+    uv[1] = k[1] * yd + k[3]
+    # d(xd, yd)/d(x, y)
+    a00 = radial + 2.0 * x * x * dradial + 2.0 * p1 * y + 6.0 * p2 * x
+    a01 = 2.0 * x * y * dradial + 2.0 * p1 * x + 2.0 * p2 * y
+    a10 = a01
+    a11 = radial + 2.0 * y * y * dradial + 6.0 * p1 * y + 2.0 * p2 * x
+    # d(x, y)/d(X, Y, Z) = [[1/Z, 0, -x/Z], [0, 1/Z, -y/Z]]; then · R (world)
+    P = np.empty((2, 3))
+    for c in range(3):
+        dx = iz * R[0, c] - x * iz * R[2, c]
+        dy = iz * R[1, c] - y * iz * R[2, c]
+        P[0, c] = k[0] * (a00 * dx + a01 * dy)
+        P[1, c] = k[1] * (a10 * dx + a11 * dy)
+    for i in range(2):
+        for col in range(J3.shape[1]):
+            J2[i, col] = P[i, 0] * J3[0, col] + P[i, 1] * J3[1, col] + P[i, 2] * J3[2, col]
+    return Z
+
+
+@njit(cache=True)
+def _attached(Q, JQ, b, loc, p, J3):  # pragma: no cover - compiled
+    """World point and Jacobian of local point `loc` on bone `b` (affine in `loc`)."""
+    for i in range(3):
+        v = Q[b, 0, i]
+        for k in range(3):
+            v += loc[k] * (Q[b, k + 1, i] - Q[b, 0, i])
+        p[i] = v
+        for col in range(JQ.shape[3]):
+            w = JQ[b, 0, i, col]
+            for k in range(3):
+                w += loc[k] * (JQ[b, k + 1, i, col] - JQ[b, 0, i, col])
+            J3[i, col] = w
+
+
+@njit(cache=True)
+def _closest_on_union(s0, s1, pc, prho, visible, h, dh6):  # pragma: no cover - compiled
+    """Closest point h of a union of 2D cone-spheres to pixel (s0, s1) and dh/dθ.
+
+    The scalar form of handvar.hand.surface.closest_point_cone_spheres_2d; returns the
+    chosen primitive (−1 when none is visible) and the signed distance.
+    """
+    best = -1
+    best_d = np.inf
+    best_reg = 0
+    for q in range(pc.shape[0]):
+        if not visible[q]:
+            continue
+        d0 = pc[q, 1, 0] - pc[q, 0, 0]
+        d1 = pc[q, 1, 1] - pc[q, 0, 1]
+        r1 = prho[q, 0]
+        r2 = prho[q, 1]
+        D = np.sqrt(d0 * d0 + d1 * d1)
+        w0 = s0 - pc[q, 0, 0]
+        w1 = s1 - pc[q, 0, 1]
+        n1 = np.sqrt(w0 * w0 + w1 * w1)
+        v0 = s0 - pc[q, 1, 0]
+        v1 = s1 - pc[q, 1, 1]
+        n2 = np.sqrt(v0 * v0 + v1 * v1)
+        sd1 = n1 - r1
+        sd2 = n2 - r2
+        if D <= abs(r1 - r2) * (1.0 + 1e-12) + 1e-12:  # one circle inside the other
+            if sd1 <= sd2:
+                sd, reg = sd1, 0
+            else:
+                sd, reg = sd2, 2
+        else:
+            u0, u1 = d0 / D, d1 / D
+            sa = (r1 - r2) / D
+            ca = np.sqrt(max(1.0 - sa * sa, 0.0))
+            a = w0 * u0 + w1 * u1
+            qq = abs(w1 * u0 - w0 * u1)
+            kk = a * ca - qq * sa
+            if kk < 0.0:
+                sd, reg = sd1, 0
+            elif kk > D * ca:
+                sd, reg = sd2, 2
+            else:
+                sd, reg = a * sa + qq * ca - r1, 1
+        if sd < best_d:
+            best_d, best, best_reg = sd, q, reg
+    h[0] = s0
+    h[1] = s1
+    for i in range(2):
+        for c in range(6):
+            dh6[i, c] = 0.0
+    if best < 0 or best_d <= 0.0:
+        return best, best_d
+    q = best
+    if best_reg != 1:  # circle i: h = c_i + ρ_i ê
+        i = best_reg // 2
+        c0, c1, ri = pc[q, i, 0], pc[q, i, 1], prho[q, i]
+        w0, w1 = s0 - c0, s1 - c1
+        n = np.sqrt(w0 * w0 + w1 * w1)
+        e0, e1 = w0 / n, w1 / n
+        h[0] = c0 + ri * e0
+        h[1] = c1 + ri * e1
+        f = ri / n  # dh/dc_i = I − ρ_i (I − ê êᵀ)/|s − c_i|, dh/dρ_i = ê
+        dh6[0, 2 * i] = 1.0 - f * (1.0 - e0 * e0)
+        dh6[0, 2 * i + 1] = f * e0 * e1
+        dh6[1, 2 * i] = f * e0 * e1
+        dh6[1, 2 * i + 1] = 1.0 - f * (1.0 - e1 * e1)
+        dh6[0, 4 + i] = e0
+        dh6[1, 4 + i] = e1
+        return best, best_d
+    # lateral: h = s − δ n, n = sin α u + σ cos α J u, δ = n·(s − c1) − ρ1
+    d0 = pc[q, 1, 0] - pc[q, 0, 0]
+    d1 = pc[q, 1, 1] - pc[q, 0, 1]
+    r1, r2 = prho[q, 0], prho[q, 1]
+    D = np.sqrt(d0 * d0 + d1 * d1)
+    u0, u1 = d0 / D, d1 / D
+    ss = (r1 - r2) / D
+    cc = np.sqrt(max(1.0 - ss * ss, 0.0))
+    w0 = s0 - pc[q, 0, 0]
+    w1 = s1 - pc[q, 0, 1]
+    sg = 1.0 if (w1 * u0 - w0 * u1) >= 0.0 else -1.0
+    j0, j1 = -u1, u0  # J u
+    n0 = ss * u0 + sg * cc * j0
+    n1 = ss * u1 + sg * cc * j1
+    delta = n0 * w0 + n1 * w1 - r1
+    h[0] = s0 - delta * n0
+    h[1] = s1 - delta * n1
+    # derivatives w.r.t. θ = (c1u, c1v, c2u, c2v, ρ1, ρ2)
+    dDelta = np.zeros((2, 6))  # d(c2 − c1)/dθ
+    dDelta[0, 0] = -1.0
+    dDelta[1, 1] = -1.0
+    dDelta[0, 2] = 1.0
+    dDelta[1, 3] = 1.0
+    du = np.empty((2, 6))
+    ud = np.empty(6)
+    for c in range(6):
+        # du = (I − u uᵀ) dDelta / D
+        t0 = (1.0 - u0 * u0) * dDelta[0, c] - u0 * u1 * dDelta[1, c]
+        t1 = -u0 * u1 * dDelta[0, c] + (1.0 - u1 * u1) * dDelta[1, c]
+        du[0, c] = t0 / D
+        du[1, c] = t1 / D
+        ud[c] = u0 * dDelta[0, c] + u1 * dDelta[1, c]
+    for c in range(6):
+        ds = -ss * ud[c] / D
+        if c == 4:
+            ds += 1.0 / D
+        elif c == 5:
+            ds -= 1.0 / D
+        dc = -ss * ds / cc if cc > 0.0 else 0.0
+        jd0, jd1 = -du[1, c], du[0, c]  # J du
+        dn0 = ds * u0 + ss * du[0, c] + sg * (dc * j0 + cc * jd0)
+        dn1 = ds * u1 + ss * du[1, c] + sg * (dc * j1 + cc * jd1)
+        dd = dn0 * w0 + dn1 * w1
+        if c == 0:
+            dd -= n0
+        elif c == 1:
+            dd -= n1
+        elif c == 4:
+            dd -= 1.0
+        dh6[0, c] = -dd * n0 - delta * dn0
+        dh6[1, c] = -dd * n1 - delta * dn1
+    return best, best_d
+
+
+@njit(cache=True)
+def _cost_kernel(
+    Q, JQ, s_bone, s_local, prim_bone, prim_local, prim_radii,
+    cam_k, cam_dist, cam_rational, cam_R, cam_t,
+    nearest, roi, pixels, active, a_s, a_f, want_jacobian, r, J, g, parts, sens,
+):  # fmt: skip  # pragma: no cover - compiled
+    """Residuals, gradient and the two sums of squares of the cost, in place.
+
+    Row layout per camera j (offset 2 (N + M) j): 2N silhouette rows, then 2M filling
+    rows. ``parts`` receives the sums of squared pixel residuals ‖p − s*‖² and ‖h − ŝ‖²
+    (unweighted, unscaled); ``sens`` the diagonal of JᵀJ over all silhouette rows,
+    whether their residual is zero or not.
+    """
+    n_par = JQ.shape[3]
+    N = s_bone.shape[0]
+    M = pixels.shape[1]
+    P = prim_bone.shape[0]
+    p = np.empty(3)
+    J3 = np.empty((3, n_par))
+    uv = np.empty(2)
+    J2 = np.empty((2, n_par))
+    # world sphere centres and their Jacobians (camera independent)
+    cw = np.empty((P, 2, 3))
+    cJ = np.empty((P, 2, 3, n_par))
+    for q in range(P):
+        for e in range(2):
+            _attached(Q, JQ, prim_bone[q], prim_local[q, e], p, J3)
+            cw[q, e] = p
+            cJ[q, e] = J3
+    pc = np.empty((P, 2, 2))
+    prho = np.empty((P, 2))
+    visible = np.empty(P, dtype=np.bool_)
+    dth = np.empty((P, 6, n_par))
+    h = np.empty(2)
+    dh6 = np.empty((2, 6))
+    # surface points and their Jacobians (camera independent)
+    sw = np.empty((N, 3))
+    sJ = np.empty((N, 3, n_par))
+    for i in range(N):
+        _attached(Q, JQ, s_bone[i], s_local[i], p, J3)
+        sw[i] = p
+        sJ[i] = J3
+    for j in range(cam_k.shape[0]):
+        base = 2 * (N + M) * j
+        if not active[j]:
+            continue
+        k = cam_k[j]
+        dist = cam_dist[j]
+        R = cam_R[j]
+        t = cam_t[j]
+        u0, v0, w, hgt = roi[j, 0], roi[j, 1], roi[j, 2], roi[j, 3]
+        # C_s: surface samples against the nearest silhouette pixel
+        for i in range(N):
+            z = _project(k, dist, cam_rational[j], R, t, sw[i], sJ[i], uv, J2)
+            row = base + 2 * i
+            if not (z > 0.0 and np.isfinite(uv[0]) and np.isfinite(uv[1])):
+                continue  # behind the camera: no match (rows stay zero)
+            for col in range(n_par):
+                sens[col] += a_s * a_s * (J2[0, col] * J2[0, col] + J2[1, col] * J2[1, col])
+            iu = np.floor(uv[0] + 0.5)
+            iv = np.floor(uv[1] + 0.5)
+            cu = int(min(max(iu - u0, 0.0), w - 1.0))
+            cv = int(min(max(iv - v0, 0.0), hgt - 1.0))
+            tu = nearest[j, cv, cu, 0]
+            tv = nearest[j, cv, cu, 1]
+            if tu == iu and tv == iv:
+                continue  # inside the silhouette
+            d0 = uv[0] - tu
+            d1 = uv[1] - tv
+            parts[0] += d0 * d0 + d1 * d1
+            e0 = a_s * d0
+            e1 = a_s * d1
+            r[row] = e0
+            r[row + 1] = e1
+            for col in range(n_par):
+                j0 = a_s * J2[0, col]
+                j1 = a_s * J2[1, col]
+                g[col] += e0 * j0 + e1 * j1
+                if want_jacobian:
+                    J[row, col] = j0
+                    J[row + 1, col] = j1
+        # C_f: the model's image, cone-spheres as hulls of circles
+        f = 0.5 * (k[0] + k[1])
+        for q in range(P):
+            vis = True
+            for e in range(2):
+                z = _project(k, dist, cam_rational[j], R, t, cw[q, e], cJ[q, e], uv, J2)
+                pc[q, e, 0] = uv[0]
+                pc[q, e, 1] = uv[1]
+                rad = prim_radii[q, e]
+                zz = z * z - rad * rad
+                if z > rad:
+                    rho = f * rad / np.sqrt(zz)
+                else:
+                    rho = 0.0
+                    vis = False
+                prho[q, e] = rho
+                for col in range(n_par):
+                    dth[q, 2 * e, col] = J2[0, col]
+                    dth[q, 2 * e + 1, col] = J2[1, col]
+                    # ρ = f r (z² − r²)^(−1/2): dρ = −ρ z/(z² − r²) dz, dz = R[2] · dc
+                    dz = R[2, 0] * cJ[q, e, 0, col] + R[2, 1] * cJ[q, e, 1, col]
+                    dz += R[2, 2] * cJ[q, e, 2, col]
+                    dth[q, 4 + e, col] = -rho * z / zz * dz if vis else 0.0
+            visible[q] = vis
+        for i in range(M):
+            row = base + 2 * N + 2 * i
+            s0 = pixels[j, i, 0]
+            s1 = pixels[j, i, 1]
+            q, d = _closest_on_union(s0, s1, pc, prho, visible, h, dh6)
+            if q < 0 or d <= 0.0:
+                continue  # covered by the model
+            d0 = h[0] - s0
+            d1 = h[1] - s1
+            parts[1] += d0 * d0 + d1 * d1
+            e0 = a_f * d0
+            e1 = a_f * d1
+            r[row] = e0
+            r[row + 1] = e1
+            for col in range(n_par):
+                j0 = 0.0
+                j1 = 0.0
+                for c in range(6):
+                    j0 += dh6[0, c] * dth[q, c, col]
+                    j1 += dh6[1, c] * dth[q, c, col]
+                j0 *= a_f
+                j1 *= a_f
+                g[col] += e0 * j0 + e1 * j1
+                if want_jacobian:
+                    J[row, col] = j0
+                    J[row + 1, col] = j1
+
+
+# --- the numpy route -----------------------------------------------------------------------
+
+
+def cost_reference(
+    hand, rig: Rig, frame: FrameData, samples: Samples, x, settings: CostSettings | None = None
+) -> CostTerms:
+    """The cost and gradient computed with the public numpy routines (slow, for checks).
+
+    Same definition as `SilhouetteCost.evaluate` (without the residual Jacobian), through
+    ``HandModel.points``, ``Camera.project_jacobian`` and
+    ``HandModel.closest_projected_point``.
+    """
+    settings = CostSettings() if settings is None else settings
+    x = check_pose(x, "x")
+    active = frame.counts > 0
+    n_active = int(active.sum())
+    N, M = samples.bone.shape[0], samples.pixels.shape[1]
+    scale2 = settings.pixel_scale**2
+    p, Jp = hand.points(x, samples.bone, samples.local, jacobian=True)
+    sum_s = sum_f = 0.0
+    g_s = np.zeros(N_PARAMS)
+    g_f = np.zeros(N_PARAMS)
+    for j, cam in enumerate(rig):
+        if not active[j]:
+            continue
+        uv, Jc = cam.project_jacobian(p)
+        J2 = Jc @ Jp  # (N, 2, 26)
+        u0, v0, w, h = frame.roi[j]
+        iuv = np.floor(uv + 0.5)
+        cu = np.clip(iuv[:, 0] - u0, 0, w - 1).astype(int)
+        cv = np.clip(iuv[:, 1] - v0, 0, h - 1).astype(int)
+        target = frame.nearest[j, cv, cu]
+        inside = np.all(target == iuv, axis=1)
+        res = np.where(inside[:, None], 0.0, uv - target)  # p − s*(p)
+        sum_s += 0.5 * np.sum(res * res)
+        g_s += np.einsum("nk,nkp->p", res, J2)
+        s_hat = samples.pixels[j]
+        hh, dh = hand.closest_projected_point(x, cam, s_hat)
+        res_f = hh - s_hat
+        sum_f += 0.5 * np.sum(res_f * res_f)
+        g_f += np.einsum("nk,nkp->p", res_f, dh)
+    c_s = sum_s / (N * n_active * scale2)
+    c_f = sum_f / (M * n_active * scale2)
+    g = (
+        settings.weight_silhouette * g_s / (N * n_active)
+        + settings.weight_filling * g_f / (M * n_active)
+    ) / scale2
+    cost = settings.weight_silhouette * c_s + settings.weight_filling * c_f
+    return CostTerms(float(cost), float(c_s), float(c_f), g)
