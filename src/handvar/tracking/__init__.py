@@ -1,0 +1,39 @@
+"""Model-based tracking: the silhouette cost, stochastic meta-descent and the tracker.
+
+- :mod:`~handvar.tracking.costs`: C_s, C_f (eq. 1) and their gradients (paper §2.1).
+- :mod:`~handvar.tracking.smd`: stochastic meta-descent (paper §4).
+- :mod:`~handvar.tracking.tracker`: `Tracker` (predict → optimise → update per frame).
+"""
+
+from handvar.tracking.costs import (
+    CostSettings,
+    CostTerms,
+    FrameData,
+    Samples,
+    SilhouetteCost,
+    cost_reference,
+    nearest_silhouette_field,
+    prepare_frame,
+)
+from handvar.tracking.smd import SMDResult, SMDSettings, initial_gains, minimise, smd_step
+from handvar.tracking.tracker import FrameResult, Tracker, TrackerSettings, TrackResult
+
+__all__ = [
+    "CostSettings",
+    "CostTerms",
+    "FrameData",
+    "FrameResult",
+    "SMDResult",
+    "SMDSettings",
+    "Samples",
+    "SilhouetteCost",
+    "TrackResult",
+    "Tracker",
+    "TrackerSettings",
+    "cost_reference",
+    "initial_gains",
+    "minimise",
+    "nearest_silhouette_field",
+    "prepare_frame",
+    "smd_step",
+]

@@ -29,11 +29,15 @@ that a Gauss–Newton curvature-vector product is ``Jᵀ(J v)``.
 Unit
 ----
 The cost is dimensionless: residuals are measured in units of ``pixel_scale`` pixels
-(`CostSettings`), i.e. C is in (pixel_scale px)². With the default pixel_scale of 8 px
-a cost of 0.006 (the paper's stopping threshold, §4) is a weighted mean squared misfit
-of 0.006 · 64 = 0.38 px², e.g. a quarter of the projected surface samples a
-pixel outside the silhouette; ``benchmarks/tracker.py`` prints the cost against the
-joint error that motivated the choice (see `CostSettings`).
+(`CostSettings`), i.e. C is in (pixel_scale px)². With the default pixel_scale of 3 px
+the paper's stopping threshold 0.006 (§4) is a weighted mean squared misfit of
+0.006 · 9 = 0.054 px². How it was chosen (benchmark sequence, stereo rig): at the true
+pose C ≈ 1–2·10⁻⁴ (circle approximation of the model's outline, pixel rounding); with
+every parameter 1 mm or 1° off C ≈ 0.05 (about 3 mm of mean joint error), and it stays
+above 0.006 down to about 0.3 mm / 0.3°. The threshold therefore stops the optimiser
+only once the silhouettes match to a fraction of a pixel, not while millimetres of
+error remain; on the benchmark about half to three quarters of the frames stop on it.
+The optimiser's steps do not depend on this unit (`handvar.tracking.smd`).
 
 Speed
 -----
@@ -84,14 +88,13 @@ class CostSettings:
         Silhouette pixel samples M per camera and iteration. With the defaults a stereo
         rig has 300 + 300 residuals, the paper's "about 600 sample points" (§4).
     pixel_scale : float
-        Pixels per unit of residual, so that the cost is in (pixel_scale px)². 8 px puts
+        Pixels per unit of residual, so that the cost is in (pixel_scale px)². 3 px puts
         the paper's stopping threshold 0.006 (`SMDSettings.threshold`) at a weighted
-        mean squared misfit of 0.38 px²: measured on the benchmark sequence, the cost of
-        the true pose is about 0.002 (circle approximation of the model's outline,
-        pixel rounding), it exceeds 0.006 once the pose is off by more than about 1 mm
-        and 1° per parameter, and 2-3 mm of joint error correspond to a cost of about
-        0.01-0.02. The same scale brings the gradients into the range where the paper's
-        SMD gains (§4) are stable.
+        mean squared misfit of 0.054 px², reached on synthetic frames within about
+        0.3 mm and 0.3° of the true pose (module docstring, *Unit*).
+    curvature_floor : float
+        Fraction of the sensitivity added to the Gauss–Newton diagonal in
+        `CostTerms.curvature`, the optimiser's preconditioner.
     roi_margin : int
         Pixels around a silhouette's bounding box in which the nearest-pixel field is
         computed; model points projecting farther out are matched through the nearest
@@ -104,6 +107,7 @@ class CostSettings:
     n_pixels: int = 150
     pixel_scale: float = 3.0
     roi_margin: int = 64
+    curvature_floor: float = 0.1
 
     def __post_init__(self) -> None:
         for name in ("weight_silhouette", "weight_filling"):
@@ -309,7 +313,9 @@ class CostTerms:
         ``w_s · mean ‖∂p_ij/∂x_k‖² / scale²`` over all projected surface samples: the
         diagonal of JᵀJ that the silhouette rows would have if every sample were
         outside the silhouette. It measures how fast the model's image moves with each
-        parameter, whatever the current misfit (the optimiser's preconditioner).
+        parameter, whatever the current misfit.
+    gauss_newton_diagonal : (26,) ndarray or None
+        ``diag(JᵀJ)`` of the stacked residuals (rows with zero residual do not count).
     residuals : (R,) ndarray or None
         Stacked weighted residuals r with ``C = ½ rᵀr``: for every camera the 2N
         silhouette rows (u, v per surface sample) then the 2M filling rows.
@@ -322,8 +328,20 @@ class CostTerms:
     filling: float
     gradient: np.ndarray
     sensitivity: np.ndarray | None = None
+    gauss_newton_diagonal: np.ndarray | None = None
     residuals: np.ndarray | None = None
     jacobian: np.ndarray | None = None
+
+    def curvature(self, floor: float) -> np.ndarray:
+        """Diagonal curvature for the optimiser: ``diag(JᵀJ) + floor · sensitivity``, (26,).
+
+        The Gauss–Newton diagonal shrinks with the misfit (only residuals outside the
+        silhouette or the model count); the floor keeps a fraction of the sensitivity
+        so that a parameter whose samples all fit is not given an unbounded gain.
+        """
+        if self.gauss_newton_diagonal is None or self.sensitivity is None:
+            raise ValueError("floor: the curvature needs the compiled route's diagonals")
+        return self.gauss_newton_diagonal + floor * self.sensitivity
 
     def gauss_newton(self, v) -> np.ndarray:
         """Gauss–Newton curvature-vector product ``Jᵀ(J v)``, (26,)."""
@@ -468,6 +486,7 @@ class SilhouetteCost:
         g = np.zeros(N_PARAMS)
         parts = np.zeros(2)
         sens = np.zeros(N_PARAMS)
+        gn = np.zeros(N_PARAMS)
         _cost_kernel(
             Q,
             JQ,
@@ -493,12 +512,13 @@ class SilhouetteCost:
             g,
             parts,
             sens,
+            gn,
         )
         c_s = 0.5 * parts[0] / (N * n_active * scale2)
         c_f = 0.5 * parts[1] / (M * n_active * scale2)
         cost = s.weight_silhouette * c_s + s.weight_filling * c_f
         return CostTerms(
-            float(cost), float(c_s), float(c_f), g, sens, r if residuals else None,
+            float(cost), float(c_s), float(c_f), g, sens, gn, r if residuals else None,
             J if residuals else None,
         )  # fmt: skip
 
@@ -696,14 +716,14 @@ def _closest_on_union(s0, s1, pc, prho, visible, h, dh6):  # pragma: no cover - 
 def _cost_kernel(
     Q, JQ, s_bone, s_local, prim_bone, prim_local, prim_radii,
     cam_k, cam_dist, cam_rational, cam_R, cam_t,
-    nearest, roi, pixels, active, a_s, a_f, want_jacobian, r, J, g, parts, sens,
+    nearest, roi, pixels, active, a_s, a_f, want_jacobian, r, J, g, parts, sens, gn,
 ):  # fmt: skip  # pragma: no cover - compiled
     """Residuals, gradient and the two sums of squares of the cost, in place.
 
     Row layout per camera j (offset 2 (N + M) j): 2N silhouette rows, then 2M filling
     rows. ``parts`` receives the sums of squared pixel residuals ‖p − s*‖² and ‖h − ŝ‖²
     (unweighted, unscaled); ``sens`` the diagonal of JᵀJ over all silhouette rows,
-    whether their residual is zero or not.
+    whether their residual is zero or not; ``gn`` the diagonal of JᵀJ (Gauss–Newton).
     """
     n_par = JQ.shape[3]
     N = s_bone.shape[0]
@@ -770,6 +790,7 @@ def _cost_kernel(
                 j0 = a_s * J2[0, col]
                 j1 = a_s * J2[1, col]
                 g[col] += e0 * j0 + e1 * j1
+                gn[col] += j0 * j0 + j1 * j1
                 if want_jacobian:
                     J[row, col] = j0
                     J[row + 1, col] = j1
@@ -820,6 +841,7 @@ def _cost_kernel(
                 j0 *= a_f
                 j1 *= a_f
                 g[col] += e0 * j0 + e1 * j1
+                gn[col] += j0 * j0 + j1 * j1
                 if want_jacobian:
                     J[row, col] = j0
                     J[row + 1, col] = j1

@@ -23,8 +23,8 @@ view axis most sensitive, distal finger joints least): with any single choice of
 units the paper's raw gains either diverge on the palm or leave the fingers where they
 started (SMD's multiplicative adaptation would need a 10⁴-fold growth, which the
 50 iterations cannot give). We therefore run SMD in coordinates normalised by the
-damped diagonal Gauss–Newton curvature h measured at the first iteration of each
-frame (a fixed diagonal preconditioner, the step ``x ← x − (p / h) ⊙ g``) and keep
+damped diagonal curvature h supplied with every gradient (a diagonal preconditioner
+refreshed at every iteration, the step ``x ← x − (p / h) ⊙ g``) and keep
 the paper's gains as the normalised gains: a gain of 1 is one full diagonal
 Gauss–Newton step. The SMD rule itself is unchanged, since ``g ⊙ v`` is the same in
 both coordinates. ``precondition=False`` runs the raw update with the gains in mm² and
@@ -274,25 +274,30 @@ def minimise(
     v = np.zeros_like(x)
     costs = np.empty(s.max_iterations)
     converged = False
+    supplies_h = False
     k = 0
     while k < s.max_iterations:
-        need_jacobian = (s.precondition and k == 0) or s.horizon > 0.0
+        need_jacobian = s.horizon > 0.0 or (s.precondition and not supplies_h)
         cost, g, J, h = objective(x, need_jacobian)
+        supplies_h = h is not None
         g = np.asarray(g, dtype=float)
         costs[k] = cost
         k += 1
         if cost < s.threshold:
             converged = True
             break
-        if k == 1 and s.precondition:
-            # gains as fractions of a diagonal Gauss–Newton step: p_i / (JᵀJ)_ii
+        if s.precondition:
             if h is None:
                 h = np.einsum("ri,ri->i", np.asarray(J), np.asarray(J))
-            p = p / damped(np.asarray(h, dtype=float), s.damping)
+            scale = 1.0 / damped(np.asarray(h, dtype=float), s.damping)
+        else:
+            scale = 1.0
         Gv = np.asarray(J).T @ (np.asarray(J) @ v) if s.horizon > 0.0 else None  # Gv = Jᵀ(J v)
-        x, p, v = smd_step(
-            x, p, v, g, Gv,
+        # SMD on coordinates z = x ⊙ √h: g_z ⊙ v_z = g ⊙ v, step p ⊙ g_z ↔ (p / h) ⊙ g in x
+        x, pe, v = smd_step(
+            x, p * scale, v, g, Gv,
             meta_gain=s.meta_gain, horizon=s.horizon, min_factor=s.min_factor,
             lower=lower, upper=upper,
         )  # fmt: skip
+        p = pe / scale
     return SMDResult(x, costs[:k].copy(), k, converged, p)

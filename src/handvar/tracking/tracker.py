@@ -206,10 +206,12 @@ class Tracker:
         frame = self.cost.prepare(masks)
         t2 = time.perf_counter()
         cost, rng = self.cost, self.rng
+        floor = self.settings.cost.curvature_floor
 
         def objective(x, need_jacobian):
             terms = cost.evaluate(x, frame, cost.draw(frame, rng), residuals=need_jacobian)
-            return terms.cost, terms.gradient, terms.jacobian, terms.sensitivity
+            h = terms.curvature(floor)
+            return terms.cost, terms.gradient, terms.jacobian, h
 
         res = minimise(objective, start, self.settings.smd)
         t3 = time.perf_counter()

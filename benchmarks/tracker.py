@@ -1,0 +1,67 @@
+"""Frames per second of the tracker on the benchmark sequence with the paper's settings.
+
+Prints the median wall time per frame split into preprocessing (distance fields),
+optimisation (SMD iterations) and prediction, the mean iterations per frame, the mean
+joint error, and with ``--profile`` the top functions of a cProfile run.
+
+    python benchmarks/tracker.py [--frames 175] [--predictor rvar] [--profile]
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import pstats
+import time
+
+import numpy as np
+
+from handvar.cli import make_predictor
+from handvar.hand import HandModel
+from handvar.synth.sequences import make_sequence
+from handvar.tracking import Tracker
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--frames", type=int, default=175)
+    ap.add_argument("--predictor", default="rvar")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--profile", action="store_true")
+    args = ap.parse_args()
+
+    seq = make_sequence("benchmark", n_frames=args.frames)
+    hand = HandModel()
+    # warm-up: compile the kernels, build the surface pool
+    Tracker(seq.rig, hand, make_predictor("none")).track(seq, seq.truth.poses[0], frames=3)
+
+    tracker = Tracker(seq.rig, hand, make_predictor(args.predictor),
+                      np.random.default_rng(args.seed))  # fmt: skip
+    t0 = time.perf_counter()
+    if args.profile:
+        prof = cProfile.Profile()
+        prof.enable()
+    result = tracker.track(seq, seq.truth.poses[0])
+    if args.profile:
+        prof.disable()
+    wall = time.perf_counter() - t0
+    T = result.poses.shape[0]
+    med = np.median(result.seconds, axis=0) * 1e3
+    per_frame = np.median(result.seconds.sum(axis=1)) * 1e3
+    per_iter = np.median(result.seconds[:, 1] / result.iterations) * 1e6
+    err = result.mean_joint_error(seq.truth.joints)
+    print(f"benchmark sequence, {T} frames, predictor {args.predictor}, seed {args.seed}")
+    print(f"  frames/s (wall, whole run)       {T / wall:8.1f}")
+    print(f"  median ms/frame                  {per_frame:8.2f}")
+    for name, ms in zip(result.TIMING_PARTS, med, strict=True):
+        print(f"    {name:<30s} {ms:8.3f}")
+    print(f"  median µs per SMD iteration      {per_iter:8.1f}")
+    print(f"  mean iterations/frame            {result.iterations.mean():8.1f}")
+    print(f"  frames stopped below threshold   {np.mean(result.iterations < 50):8.2f}")
+    print(f"  mean joint error, mm             {err.mean():8.2f}  (max {err.max():.2f})")
+    if args.profile:
+        pstats.Stats(prof).sort_stats("tottime").print_stats(15)
+
+
+if __name__ == "__main__":
+    main()
