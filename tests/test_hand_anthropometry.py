@@ -70,7 +70,7 @@ def test_custom_proportions():
      ({"breadth": 0.0}, "breadth"), ({"breadth": np.inf}, "breadth")],
 )  # fmt: skip
 def test_bad_size_raises(kwargs, name):
-    with pytest.raises(ValueError, match=name):
+    with pytest.raises(ValueError, match=f"{name}: expected a positive hand {name} in mm; got"):
         HandShape.from_size(**kwargs)
 
 
@@ -92,3 +92,5 @@ def test_bad_shape_arrays_raise():
         HandShape(**{**fields, "palm_radii": s.palm_radii[:2]})
     with pytest.raises(ValueError, match="radii"):  # tip spheres longer than the bones
         HandShape(**{**fields, "radii": s.radii * 4})
+    with pytest.raises(ValueError, match="breadth: expected a positive hand breadth in mm"):
+        HandShape(**{**fields, "breadth": None})

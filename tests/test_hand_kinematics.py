@@ -21,6 +21,7 @@ from handvar.hand import (
 from handvar.hand.anthropometry import bone_index
 
 MODEL = HandModel()
+NUMPY = HandModel(compiled=False)
 
 
 def random_pose(rng: np.random.Generator) -> np.ndarray:
@@ -287,16 +288,32 @@ def test_bad_pose_raises(bad):
             call(bad)
 
 
-def test_bad_points_raise():
+@pytest.mark.parametrize("model", [MODEL, NUMPY], ids=["compiled", "numpy"])
+@pytest.mark.parametrize("jacobian", [False, True])
+def test_bad_points_raise(model, jacobian):
     x = np.zeros(26)
-    with pytest.raises(ValueError, match="bone"):
-        MODEL.points(x, [0, 16], np.zeros((2, 3)))
-    with pytest.raises(ValueError, match="bone"):
-        MODEL.points(x, [0.5], np.zeros((1, 3)))
-    with pytest.raises(ValueError, match="local"):
-        MODEL.points(x, [0, 1], np.zeros((3, 3)))
-    with pytest.raises(ValueError, match="local"):
-        MODEL.points(x, [0], [[0.0, np.nan, 0.0]])
+    bone, local = np.array([0, 3, 15, 7]), np.zeros((4, 3))
+    for b in ([0, 3, 16, 7], [0, -1, 15, 7]):
+        with pytest.raises(ValueError, match=r"bone: expected indices in 0\.\.15; got values"):
+            model.points(x, b, local, jacobian=jacobian)
+    with pytest.raises(ValueError, match="bone: expected integer bone indices"):
+        model.points(x, bone + 0.5, local, jacobian=jacobian)
+    with pytest.raises(ValueError, match=r"bone: expected a \(N,\) array"):
+        model.points(x, bone[None], local, jacobian=jacobian)
+    with pytest.raises(ValueError, match=r"local: expected shape \(4, 3\) to match bone"):
+        model.points(x, bone, local[:3], jacobian=jacobian)
+    for bad in (np.nan, np.inf):
+        far = local.copy()
+        far[3, 1] = bad
+        with pytest.raises(ValueError, match="local: expected finite coordinates"):
+            model.points(x, bone, far, jacobian=jacobian)
+    # accepted: other integer dtypes, lists, and no points at all
+    ref = model.points(x, bone, local)
+    np.testing.assert_array_equal(model.points(x, bone.astype(np.uint8), local.tolist()), ref)
+    assert model.points(x, [], np.zeros((0, 3))).shape == (0, 3)
+
+
+def test_bad_model_input_raises():
     with pytest.raises(ValueError, match="name"):
         named_pose("wave")
     with pytest.raises(ValueError, match="shape"):

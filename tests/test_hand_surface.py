@@ -11,6 +11,7 @@ from handvar.hand import LOWER, UPPER, HandModel, named_pose
 from handvar.hand.surface import (
     closest_point_cone_spheres_2d,
     cone_sphere_areas,
+    cone_sphere_normals,
     cone_sphere_sdf,
     intersect_cone_spheres,
     sample_cone_spheres,
@@ -195,6 +196,42 @@ def test_sdf_matches_the_swept_balls(dim):
     assert np.all(sdf[~outside] <= 1e-9)
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+def test_normals_are_the_gradient_of_the_sdf(dim):
+    """Analytic normals against central differences of `cone_sphere_sdf`, in all three
+    regions of each primitive, and on the surface against the sampler's normals."""
+    rng = np.random.default_rng(20 + dim)
+    centres, radii = random_cone_spheres(rng, 6, dim)
+    pts = rng.normal(0.0, 50.0, (600, dim))
+    prim = rng.integers(0, 6, 600)
+    sdf = cone_sphere_sdf(centres, radii, pts)[np.arange(600), prim]
+    pts, prim = pts[sdf > 0.5], prim[sdf > 0.5]  # off the surface, outside: smooth there
+    rows = np.arange(prim.size)
+
+    def own_sdf(p):
+        return cone_sphere_sdf(centres, radii, p)[rows, prim]
+
+    eps = 1e-6
+    fd = np.stack([(own_sdf(pts + eps * e) - own_sdf(pts - eps * e)) / (2 * eps)
+                   for e in np.eye(dim)], axis=1)  # fmt: skip
+    normals = cone_sphere_normals(centres, radii, pts, prim)
+    np.testing.assert_allclose(normals, fd, atol=1e-6)
+    np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0, rtol=1e-12)
+    # all three regions were visited: nearest ball of the sweep at τ = 0, inside, τ = 1
+    c, r = centres[prim], radii[prim]
+    ct = c[:, None, 0] + TAU[None, :, None] * (c[:, None, 1] - c[:, None, 0])
+    rt = r[:, None, 0] + TAU * (r[:, None, 1] - r[:, None, 0])
+    k = np.argmin(np.linalg.norm(pts[:, None] - ct, axis=-1) - rt, axis=1)
+    assert (k == 0).sum() > 20 and (k == TAU.size - 1).sum() > 20
+    assert ((k > 0) & (k < TAU.size - 1)).sum() > 20
+    if dim == 3:
+        which, on_surface, ref = sample_cone_spheres(centres, radii, 2000, rng)
+        got = cone_sphere_normals(centres, radii, on_surface, which)
+        np.testing.assert_allclose(got, ref, atol=1e-9)
+        # a miss (primitive −1) has no normal
+        assert not cone_sphere_normals(centres, radii, on_surface[:3], [-1, -1, -1]).any()
+
+
 def _march(centres, radii, o, v, far=2000.0):
     """Reference depth by sphere tracing the signed distance function."""
     v = v / np.linalg.norm(v, axis=1, keepdims=True)
@@ -289,14 +326,19 @@ def test_projected_primitives_are_the_projected_spheres():
     assert proj.visible.all()
 
 
-@pytest.mark.parametrize("seed", range(3))
-def test_closest_projected_point_matches_brute_force(seed):
-    rng = np.random.default_rng(20 + seed)
+def _pixels_around_the_hand(seed: int, n: int):
+    """A random pose, a camera of the default rig and `n` pixels around the hand's image."""
+    rng = np.random.default_rng(seed)
     x = random_pose(rng)
     cam = Rig.default()[seed % 2]
     proj = MODEL.project_primitives(x, cam)
     lo, hi = proj.centres.reshape(-1, 2).min(0) - 40, proj.centres.reshape(-1, 2).max(0) + 40
-    pixels = rng.uniform(lo, hi, (400, 2))
+    return x, cam, proj, rng.uniform(lo, hi, (n, 2))
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_closest_projected_point_matches_brute_force(seed):
+    x, cam, proj, pixels = _pixels_around_the_hand(20 + seed, 400)
     h, dh = MODEL.closest_projected_point(x, cam, pixels)
     ref, dist = _brute_closest_2d(proj.centres, proj.radii, pixels)
     assert (dist > 0).sum() > 100 and (dist <= 0).sum() > 30
@@ -309,12 +351,7 @@ def test_closest_projected_point_matches_brute_force(seed):
 
 @pytest.mark.parametrize("seed", range(3))
 def test_closest_projected_point_jacobian_matches_central_differences(seed):
-    rng = np.random.default_rng(30 + seed)
-    x = random_pose(rng)
-    cam = Rig.default()[seed % 2]
-    proj = MODEL.project_primitives(x, cam)
-    lo, hi = proj.centres.reshape(-1, 2).min(0) - 40, proj.centres.reshape(-1, 2).max(0) + 40
-    pixels = rng.uniform(lo, hi, (300, 2))
+    x, cam, _, pixels = _pixels_around_the_hand(30 + seed, 300)
     h, dh = MODEL.closest_projected_point(x, cam, pixels)
     step = 1e-5
     fd = np.empty_like(dh)
@@ -396,6 +433,15 @@ def test_bad_surface_input_raises():
         MODEL.sample_surface(-1, rng)
     with pytest.raises(ValueError, match="rng"):
         MODEL.sample_surface(10, 42)
+    centres, radii = MODEL.world_spheres(x)
+    with pytest.raises(ValueError, match=r"points: expected shape \(N, 3\)"):
+        cone_sphere_normals(centres, radii, np.zeros((2, 2)), [0, 0])
+    with pytest.raises(ValueError, match="primitive: expected shape"):
+        cone_sphere_normals(centres, radii, np.zeros((2, 3)), [0])
+    with pytest.raises(ValueError, match="primitive: expected integer"):
+        cone_sphere_normals(centres, radii, np.zeros((2, 3)), [0.0, 1.0])
+    with pytest.raises(ValueError, match=r"primitive: expected indices in -1\.\.19"):
+        cone_sphere_normals(centres, radii, np.zeros((2, 3)), [0, 20])
 
 
 # --- the compiled routes agree with the numpy references ----------------------------------

@@ -12,7 +12,12 @@ from handvar.camera import Camera, Rig
 from handvar.cli import main
 from handvar.hand.kinematics import HandModel, named_pose
 from handvar.hand.params import LOWER, UPPER
-from handvar.hand.surface import cone_sphere_sdf, intersect_cone_spheres, sample_cone_spheres
+from handvar.hand.surface import (
+    cone_sphere_normals,
+    cone_sphere_sdf,
+    intersect_cone_spheres,
+    sample_cone_spheres,
+)
 
 BARREL = np.array([-0.25, 0.08, 0.001, -0.001, -0.01])
 
@@ -91,8 +96,7 @@ def test_centre_mask_equals_ray_casting(dist):
     mask = render.silhouette(centres, radii, cam, coverage="centre", tol=1e-3, tol_distortion=0.2)
     box = bounding_box(mask)
     origins, dirs, shape = pixel_rays(cam, box)
-    hit = np.isfinite(render.intersect_conespheres(centres, radii, origins, dirs)[0])
-    hit = hit.reshape(shape)
+    hit = np.isfinite(intersect_cone_spheres(centres, radii, origins, dirs)).reshape(shape)
     assert mask[box].sum() == mask.sum() > 1000
     # outlines within 0.001 px: at most a handful of pixel centres that close
     assert np.sum(hit != mask[box]) <= 3
@@ -188,24 +192,28 @@ def test_outlines_enclose_the_mask():
 
 
 def test_intersections_lie_on_the_surface_with_its_normal():
+    """Ray hits are on the zero set of the distance function; normals are its gradient."""
     rng = np.random.default_rng(16)
     centres, radii = random_conespheres(rng, 8)
     origins = np.tile([0.0, 0.0, -500.0], (4000, 1))
     targets = rng.normal(size=(4000, 3)) * 40
     dirs = targets - origins
     dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-    depth, normals, prim = render.intersect_conespheres(centres, radii, origins, dirs)
+    depth, prim = intersect_cone_spheres(centres, radii, origins, dirs, return_primitive=True)
     hit = np.isfinite(depth)
     assert 0.2 < hit.mean() < 0.95
     assert np.all(prim[hit] >= 0) and np.all(prim[~hit] == -1)
     p = origins[hit] + depth[hit, None] * dirs[hit]
     assert np.abs(union_sdf(centres, radii, p)).max() < 1e-8
-    # the normal is the gradient of the signed distance (central differences)
-    np.testing.assert_allclose(normals[hit], sdf_gradient(centres, radii, p), atol=1e-5)
-    # and the depth is the hand model's own ray casting
+    # the primitive hit is the one whose surface the point is on
     np.testing.assert_allclose(
-        intersect_cone_spheres(centres, radii, origins, dirs), depth, rtol=0, atol=1e-7
+        cone_sphere_sdf(centres, radii, p)[np.arange(p.shape[0]), prim[hit]], 0.0, atol=1e-8
     )
+    # the normal is the gradient of the signed distance (central differences)
+    normals = cone_sphere_normals(centres, radii, p, prim[hit])
+    np.testing.assert_allclose(normals, sdf_gradient(centres, radii, p), atol=1e-5)
+    # a ray enters the surface: against its normal
+    assert np.all(np.einsum("ij,ij->i", normals, dirs[hit]) < 0)
 
 
 def union_sdf(centres, radii, p):

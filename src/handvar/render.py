@@ -46,6 +46,7 @@ import numpy as np
 
 from handvar.camera import Camera, Rig, _check_array, distort_normalized
 from handvar.hand.params import check_pose
+from handvar.hand.surface import cone_sphere_normals, intersect_cone_spheres
 
 __all__ = [
     "SKELETON",
@@ -53,7 +54,6 @@ __all__ = [
     "SphereMeshModel",
     "background_image",
     "draw_overlay",
-    "intersect_conespheres",
     "outlines",
     "render_rgb",
     "side_by_side",
@@ -429,134 +429,6 @@ def silhouettes(
     return out
 
 
-# --- ray casting --------------------------------------------------------------------
-
-
-def intersect_conespheres(
-    centres, radii, origins, directions
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """First intersection of rays with a union of cone-spheres, with surface normals.
-
-    A cone-sphere is the union of its two balls and the solid frustum between the
-    circles where the common tangent cone touches them. The first hit of a ray is the
-    earliest entry into any of these pieces; the frustum's flat ends lie inside the
-    balls, so it is entered first through its lateral surface
-    ``ρ cos φ + y sin φ = r_a`` (``y`` along the axis from sphere a, ``ρ`` the distance
-    from the axis, ``sin φ = (r_a − r_b) / L``), between the tangent circles
-    ``0 ≤ y − ρ tan φ ≤ L``.
-
-    Parameters
-    ----------
-    centres : (P, 2, 3) array_like
-        Sphere centres, mm (world).
-    radii : (P, 2) array_like
-        Radii, mm.
-    origins : (N, 3) array_like
-        Ray origins, mm; outside the model.
-    directions : (N, 3) array_like
-        Unit directions.
-
-    Returns
-    -------
-    depth : (N,) ndarray
-        Distance along the ray to the first hit, mm; ``inf`` where the ray misses.
-    normals : (N, 3) ndarray
-        Outward unit normals at the hits (zeros for misses).
-    primitive : (N,) int ndarray
-        Index of the cone-sphere hit first (−1 for misses).
-    """
-    centres, radii = _check_spheres(centres, radii)
-    o = _check_array(origins, (None, 3), "origins")
-    d = _check_array(directions, (None, 3), "directions")
-    if o.shape != d.shape:
-        raise ValueError(f"directions: expected shape {o.shape} like origins; got {d.shape}")
-    N = o.shape[0]
-    depth = np.full(N, np.inf)
-    normals = np.zeros((N, 3))
-    prim = np.full(N, -1, dtype=np.int64)
-    for k in range(centres.shape[0]):
-        a, b = centres[k]
-        ra, rb = radii[k]
-        # cull by the bounding ball (centre m, radius R): keep rays passing within R
-        m = 0.5 * (a + b)
-        R = 0.5 * np.linalg.norm(b - a) + max(ra, rb)
-        om = m - o
-        along = np.einsum("ij,ij->i", om, d)
-        near = np.einsum("ij,ij->i", om, om) - along * along <= R * R
-        near &= along + R > 0
-        sel = np.flatnonzero(near)
-        if sel.size == 0:
-            continue
-        t, nrm = _hit_conesphere(a, b, ra, rb, o[sel], d[sel])
-        better = (t > 0) & (t < depth[sel])
-        sel = sel[better]
-        depth[sel] = t[better]
-        normals[sel] = nrm[better]
-        prim[sel] = k
-    return depth, normals, prim
-
-
-def _hit_conesphere(a, b, ra: float, rb: float, o: np.ndarray, d: np.ndarray):
-    """Entry distance (N,) (inf: miss) and outward normal (N, 3) for one cone-sphere."""
-    best = np.full(o.shape[0], np.inf)
-    normal = np.zeros_like(o)
-
-    def consider(t, nrm):
-        better = (t > 0) & (t < best)
-        best[better] = t[better]
-        normal[better] = nrm[better]
-
-    for c, r in ((a, ra), (b, rb)):  # the balls: |o + t d − c|² = r²
-        oc = o - c
-        bq = np.einsum("ij,ij->i", oc, d)
-        disc = bq * bq - (np.einsum("ij,ij->i", oc, oc) - r * r)
-        t = np.where(disc >= 0, -bq - np.sqrt(np.maximum(disc, 0.0)), np.inf)
-        hit = np.isfinite(t)
-        nrm = np.zeros_like(o)
-        nrm[hit] = (oc[hit] + t[hit, None] * d[hit]) / max(r, 1e-300)
-        consider(t, nrm)
-    ba = b - a
-    L = np.linalg.norm(ba)
-    rr = ra - rb
-    if L <= abs(rr) + 1e-12:
-        return best, normal  # one ball contains the other: no lateral surface
-    w = ba / L
-    sphi = rr / L
-    cphi = np.sqrt(1.0 - sphi * sphi)
-    oa = o - a
-    y0 = oa @ w
-    yd = d @ w
-    od = np.einsum("ij,ij->i", oa, d)
-    oo = np.einsum("ij,ij->i", oa, oa)
-    g = ra - sphi * y0
-    # cos²φ (|q|² − y²) = (r_a − y sin φ)² with q = oa + t d, y = y0 + t yd
-    qa = cphi**2 * (1.0 - yd * yd) - sphi * sphi * yd * yd
-    qb = 2.0 * (cphi**2 * (od - y0 * yd) + sphi * yd * g)
-    qc = cphi**2 * (oo - y0 * y0) - g * g
-    disc = qb * qb - 4.0 * qa * qc
-    ok = (disc >= 0) & (np.abs(qa) > 1e-15)
-    sq = np.sqrt(np.where(ok, disc, 0.0))
-    den = np.where(ok, 2.0 * qa, 1.0)
-    for t in ((-qb - sq) / den, (-qb + sq) / den):
-        t = np.where(ok, t, np.inf)
-        q = oa + np.where(ok, t, 0.0)[:, None] * d
-        y = q @ w
-        radial = q - y[:, None] * w
-        rho = np.linalg.norm(radial, axis=1)
-        u = radial / np.maximum(rho, 1e-300)[:, None]
-        nrm = cphi * u + sphi * w  # outward normal of the lateral surface
-        lam = y - rho * sphi / cphi  # axial position of the generating ball's centre
-        valid = (
-            ok
-            & (ra - sphi * y >= 0)  # not the mirrored nappe
-            & (lam >= 0)
-            & (lam <= L)
-            & (np.einsum("ij,ij->i", nrm, d) < 0)  # entering
-        )
-        consider(np.where(valid, t, np.inf), nrm)
-    return best, normal
-
-
 # --- colour rendering ---------------------------------------------------------------
 
 
@@ -671,8 +543,10 @@ def render_rgb(
     """Shaded colour rendering of the hand over a synthetic background.
 
     Every pixel whose centre sees the model (``coverage="centre"``) is ray-cast
-    against the cone-spheres (:func:`intersect_conespheres`) and shaded by Lambert's
-    law with a skin colour; the background (:func:`background_image`, one per camera)
+    against the cone-spheres (:func:`handvar.hand.surface.intersect_cone_spheres`),
+    given the outward normal of the primitive hit
+    (:func:`handvar.hand.surface.cone_sphere_normals`) and shaded by Lambert's law
+    with a skin colour; the background (:func:`background_image`, one per camera)
     and Gaussian sensor noise make the image a test for the real-video path (skin
     detection, clean-up).
 
@@ -713,10 +587,14 @@ def render_rgb(
         rows, cols = np.nonzero(mask)
         if rows.size:
             origins, dirs = cam.rays(np.stack([cols, rows], -1).astype(float))
-            depth, normals, _ = intersect_conespheres(centres, radii, origins, dirs)
-            hit = np.isfinite(depth)
+            depth, prim = intersect_cone_spheres(
+                centres, radii, origins, dirs, return_primitive=True
+            )
+            hit = prim >= 0
             # pixel centres on the outline that graze the surface: face the camera
-            normals[~hit] = -dirs[~hit]
+            normals = -dirs
+            points = origins[hit] + depth[hit, None] * dirs[hit]
+            normals[hit] = cone_sphere_normals(centres, radii, points, prim[hit])
             lambert = np.maximum(normals @ light, 0.0)  # Lambert: max(0, n·l)
             img[rows, cols] = skin * (sh.ambient + sh.diffuse * lambert)[:, None]
         img += np.float32(sh.noise_sigma) * rng.standard_normal(img.shape, dtype=np.float32)

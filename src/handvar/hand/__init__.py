@@ -6,8 +6,8 @@
   hand length and breadth (`HandShape`).
 - :mod:`~handvar.hand.kinematics`: `HandModel` (forward kinematics, exact Jacobians,
   surface queries) and `named_pose`.
-- :mod:`~handvar.hand.surface`: cone-sphere geometry (areas, sampling, ray
-  intersection, projected outlines).
+- :mod:`~handvar.hand.surface`: cone-sphere geometry (areas, sampling, signed
+  distance and normals, ray intersection, projected outlines).
 """
 
 from handvar.hand.anthropometry import BONES, JOINTS, HandProportions, HandShape

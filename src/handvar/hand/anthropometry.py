@@ -177,6 +177,17 @@ def _check(value, shape: tuple[int, ...], name: str, *, positive: bool = False) 
     return _readonly(arr)
 
 
+def _positive_mm(value, name: str) -> float:
+    """`value` as a float, or ValueError naming `name` unless a positive number (mm)."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = math.nan
+    if not (math.isfinite(number) and number > 0):
+        raise ValueError(f"{name}: expected a positive hand {name} in mm; got {value!r}")
+    return number
+
+
 @dataclass(frozen=True, eq=False)
 class HandShape:
     """The fixed geometry of one hand: bone lengths, joint positions, thickness.
@@ -242,10 +253,7 @@ class HandShape:
         q = palm.shape[0]
         set_(self, "palm_radii", _check(self.palm_radii, (q, 2), "palm_radii", positive=True))
         for name in ("length", "breadth"):
-            value = float(getattr(self, name))
-            if not (np.isfinite(value) and value > 0):
-                raise ValueError(f"{name}: expected a positive length in mm; got {value}")
-            set_(self, name, value)
+            set_(self, name, _positive_mm(getattr(self, name), name))
         # The distal cone-sphere's last sphere touches the fingertip: its centre lies one
         # tip radius short of the end of the bone.
         tip = self.segments[:, 2] - self.radii[:, 3]
@@ -284,21 +292,8 @@ class HandShape:
         198.0
         """
         p = HandProportions() if proportions is None else proportions
-        try:
-            hl = float(length)
-        except (TypeError, ValueError):
-            raise ValueError(f"length: expected a number of mm; got {length!r}") from None
-        if not (np.isfinite(hl) and hl > 0):
-            raise ValueError(f"length: expected a positive hand length in mm; got {length}")
-        if breadth is None:
-            hb = p.breadth_ratio * hl
-        else:
-            try:
-                hb = float(breadth)
-            except (TypeError, ValueError):
-                raise ValueError(f"breadth: expected a number of mm; got {breadth!r}") from None
-            if not (np.isfinite(hb) and hb > 0):
-                raise ValueError(f"breadth: expected a positive breadth in mm; got {breadth}")
+        hl = _positive_mm(length, "length")
+        hb = p.breadth_ratio * hl if breadth is None else _positive_mm(breadth, "breadth")
 
         segments = np.asarray(p.segments) * hl
         bases = np.stack(

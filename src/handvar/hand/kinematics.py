@@ -268,25 +268,31 @@ class _Pose:
         return self._linear
 
 
-def _check_bone_local(bone, local) -> tuple[np.ndarray, np.ndarray]:
+def _check_bone_local(bone, local, *, values: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """`bone` as (N,) intp and `local` as (N, 3) float64 arrays, or raise ValueError.
+
+    Shapes and dtypes are always checked (a few attribute look-ups); with `values`
+    also the bone range and finite coordinates (full passes over the data). The
+    compiled route checks the values inside its loop at no extra cost, and calls this
+    with ``values=True`` only to name what is wrong.
+    """
     b = np.asarray(bone)
     if b.ndim != 1:
         raise ValueError(f"bone: expected a (N,) array of bone indices; got shape {b.shape}")
-    if b.size and not np.issubdtype(b.dtype, np.integer):
+    if b.size and b.dtype.kind not in "iu":
         raise ValueError(f"bone: expected integer bone indices; got dtype {b.dtype}")
-    b = b.astype(np.intp, copy=False)
-    if b.size and (b.min() < 0 or b.max() >= N_BONES):
-        raise ValueError(
-            f"bone: expected indices in 0..{N_BONES - 1}; got values {b.min()}..{b.max()}"
-        )
     loc = np.asarray(local, dtype=float)
     if loc.shape != (b.shape[0], 3):
         raise ValueError(
             f"local: expected shape ({b.shape[0]}, 3) to match bone; got shape {loc.shape}"
         )
-    if not np.all(np.isfinite(loc)):
+    if values and b.size and (b.min() < 0 or b.max() >= N_BONES):
+        raise ValueError(
+            f"bone: expected indices in 0..{N_BONES - 1}; got values {b.min()}..{b.max()}"
+        )
+    if values and not np.all(np.isfinite(loc)):
         raise ValueError("local: expected finite coordinates; got NaN or infinity")
-    return b, loc
+    return b.astype(np.intp, copy=False), loc
 
 
 class HandModel:
@@ -352,11 +358,12 @@ class HandModel:
 
     # -- forward kinematics ---------------------------------------------------------
     def _pose(self, x) -> _Pose:
-        x = check_pose(x)
-        key = x.tobytes()
+        arr = np.asarray(x, dtype=float)
+        key = arr.tobytes()
         cached = self._cache
-        if cached is not None and cached[0] == key:
-            return cached[1]
+        if cached is not None and arr.shape == (N_PARAMS,) and cached[0] == key:
+            return cached[1]  # checked when it was cached
+        x = check_pose(arr)
         pose = _Pose(self.shape, x, self.compiled)
         self._cache = (key, pose)
         return pose
@@ -414,18 +421,17 @@ class HandModel:
             mm for the translation and mm per degree for the angles.
         """
         pose = self._pose(x)
-        bone, local = _check_bone_local(bone, local)
         if self.compiled:
-            n = bone.shape[0]
+            b, loc = _check_bone_local(bone, local, values=False)
+            n = b.shape[0]
             p = np.empty((n, 3))
-            if not jacobian:
-                _points_kernel(pose.rotations, pose.origins, bone, local, _NO_A, _BONE_MASK, p,
-                               _NO_J, False)  # fmt: skip
-                return p
-            J = np.empty((n, 3, N_PARAMS))
-            _points_kernel(pose.rotations, pose.origins, bone, local, pose.linear_jacobian(),
-                           _BONE_MASK, p, J, True)  # fmt: skip
-            return p, J
+            J = np.empty((n, 3, N_PARAMS)) if jacobian else _NO_J
+            A = pose.linear_jacobian() if jacobian else _NO_A
+            if _points_kernel(pose.rotations, pose.origins, b, loc, A, _BONE_MASK, p, J,
+                              jacobian) >= 0:  # fmt: skip
+                _check_bone_local(bone, local)  # names the bad index or coordinate
+            return (p, J) if jacobian else p
+        bone, local = _check_bone_local(bone, local)
         p = np.einsum("nij,nj->ni", pose.rotations[bone], local)
         p += pose.origins[bone]
         if not jacobian:
@@ -689,11 +695,19 @@ def _linear_kernel(euler_axes, t, axes, anchors, A):  # pragma: no cover
 
 @njit(cache=True)
 def _points_kernel(rotations, origins, bone, local, A, mask, p, J, jacobian):  # pragma: no cover
-    """p = R_b l + o_b per point and, if `jacobian`, J[n] = mask_b ⊙ ([p, 1] A)."""
+    """p = R_b l + o_b per point and, if `jacobian`, J[n] = mask_b ⊙ ([p, 1] A).
+
+    Returns −1, or the first point whose bone is out of range or whose local
+    coordinates are not finite (the remaining points are then left unset).
+    """
     n_par = mask.shape[1]
     for n in range(bone.shape[0]):
         b = bone[n]
+        if b < 0 or b >= rotations.shape[0]:
+            return n
         l0, l1, l2 = local[n, 0], local[n, 1], local[n, 2]
+        if not (math.isfinite(l0) and math.isfinite(l1) and math.isfinite(l2)):
+            return n
         for i in range(3):
             p[n, i] = (
                 rotations[b, i, 0] * l0 + rotations[b, i, 1] * l1 + rotations[b, i, 2] * l2
@@ -708,6 +722,7 @@ def _points_kernel(rotations, origins, bone, local, A, mask, p, J, jacobian):  #
                     else:
                         j = r * n_par + c
                         J[n, r, c] = p0 * A[0, j] + p1 * A[1, j] + p2 * A[2, j] + A[3, j]
+    return -1
 
 
 def _parents() -> np.ndarray:

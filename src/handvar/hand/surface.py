@@ -270,6 +270,76 @@ def cone_sphere_sdf(centres, radii, points) -> np.ndarray:
     return np.where(k < 0.0, sphere1, np.where(k > d * c, sphere2, lateral))
 
 
+def cone_sphere_normals(centres, radii, points, primitive) -> np.ndarray:
+    """Outward unit normals of cone-spheres: the gradient of their signed distance.
+
+    For each point, the gradient of `cone_sphere_sdf` of its own primitive, region by
+    region as in the module docstring: ``(p − c1)/|p − c1|`` nearest to sphere 1,
+    ``(p − c2)/|p − c2|`` nearest to sphere 2, and ``sin α · u + cos α · e`` nearest to
+    the lateral surface (e the unit vector from the axis towards p). All three are the
+    direction from the centre of the nearest ball of the sweep between the end spheres,
+    which lies on the axis at ``m = clip(k / cos α, 0, d)`` (k as in the module
+    docstring): ``n = (p − c1 − m u) / |p − c1 − m u|``. On the surface this is the
+    outward normal; off it, the direction away from the nearest surface point. Works in
+    2D and 3D.
+
+    Parameters
+    ----------
+    centres : (P, 2, D) array_like
+        End sphere centres, mm (or pixels).
+    radii : (P, 2) array_like
+        End sphere radii.
+    points : (N, D) array_like
+        Points, in the frame of `centres`.
+    primitive : (N,) int array_like
+        The primitive of each point (e.g. the one a ray hit); −1 gives a zero normal.
+
+    Returns
+    -------
+    (N, D) ndarray
+        Unit normals; zero for ``primitive = −1`` and where the gradient is undefined
+        (a sphere's centre, the axis inside the frustum).
+
+    Examples
+    --------
+    On the side of a capsule along z, the normal points away from the axis:
+
+    >>> cone_sphere_normals([[[0, 0, 0], [0, 0, 2]]], [[1.0, 1.0]], [[0, 1.0, 1.0]], [0])
+    array([[0., 1., 0.]])
+    """
+    centres = np.asarray(centres, dtype=float)
+    radii = np.asarray(radii, dtype=float)
+    points = np.asarray(points, dtype=float)
+    prim = np.asarray(primitive)
+    dim = centres.shape[-1]
+    if points.ndim != 2 or points.shape[1] != dim:
+        raise ValueError(f"points: expected shape (N, {dim}) like centres; got {points.shape}")
+    if prim.shape != (points.shape[0],):
+        raise ValueError(
+            f"primitive: expected shape ({points.shape[0]},) like points; got {prim.shape}"
+        )
+    if prim.size and prim.dtype.kind not in "iu":
+        raise ValueError(f"primitive: expected integer indices; got dtype {prim.dtype}")
+    if prim.size and (prim.min() < -1 or prim.max() >= centres.shape[0]):
+        raise ValueError(
+            f"primitive: expected indices in -1..{centres.shape[0] - 1}; "
+            f"got values {prim.min()}..{prim.max()}"
+        )
+    normals = np.zeros_like(points)
+    sel = np.flatnonzero(prim >= 0)
+    k = prim[sel]
+    d, u, s, c = _axes(centres, radii)
+    uk = u[k]
+    w = points[sel] - centres[k, 0]
+    a = np.einsum("nd,nd->n", w, uk)
+    q = np.sqrt(np.maximum(np.einsum("nd,nd->n", w, w) - a * a, 0.0))
+    m = np.clip((a * c[k] - q * s[k]) / c[k], 0.0, d[k])  # nearest swept ball's centre
+    w -= m[:, None] * uk
+    norm = np.sqrt(np.einsum("nd,nd->n", w, w))[:, None]
+    normals[sel] = np.divide(w, norm, out=np.zeros_like(w), where=norm > 0.0)
+    return normals
+
+
 # --- surface samples ---------------------------------------------------------------------
 
 
@@ -786,33 +856,39 @@ def closest_point_projected(centres, radii, jacobian, camera, pixels):
 
 
 @njit(cache=True)
+def _axes_kernel(centres, radii):  # pragma: no cover
+    """`_axes` as a loop: d (P,), u (P, D) (``(1, 0, …)`` where d = 0), sin α, cos α."""
+    P, D = centres.shape[0], centres.shape[2]
+    d = np.empty(P)
+    u = np.zeros((P, D))
+    sa = np.zeros(P)
+    ca = np.ones(P)
+    for j in range(P):
+        dd = 0.0
+        for k in range(D):
+            u[j, k] = centres[j, 1, k] - centres[j, 0, k]
+            dd += u[j, k] * u[j, k]
+        d[j] = math.sqrt(dd)
+        if d[j] > 0.0:
+            for k in range(D):
+                u[j, k] /= d[j]
+            sa[j] = (radii[j, 0] - radii[j, 1]) / d[j]
+            ca[j] = math.sqrt(max(1.0 - sa[j] * sa[j], 0.0))
+        else:
+            u[j, 0] = 1.0
+    return d, u, sa, ca
+
+
+@njit(cache=True)
 def _intersect_kernel(centres, radii, origins, directions, depth, which):  # pragma: no cover
     """Fill depth (N,) and which (N,) with the first hit of each ray (see the numpy route)."""
     P = centres.shape[0]
-    ux = np.empty(P)
-    uy = np.empty(P)
-    uz = np.empty(P)
-    sa = np.empty(P)
-    c2 = np.empty(P)
-    lo = np.empty(P)
-    hi = np.empty(P)
-    mid = np.empty((P, 3))
-    bound2 = np.empty(P)
-    for j in range(P):
-        dx = centres[j, 1, 0] - centres[j, 0, 0]
-        dy = centres[j, 1, 1] - centres[j, 0, 1]
-        dz = centres[j, 1, 2] - centres[j, 0, 2]
-        d = math.sqrt(dx * dx + dy * dy + dz * dz)
-        r1, r2 = radii[j, 0], radii[j, 1]
-        ux[j], uy[j], uz[j] = dx / d, dy / d, dz / d
-        sa[j] = (r1 - r2) / d
-        c2[j] = max(1.0 - sa[j] * sa[j], 0.0)
-        lo[j] = r1 * sa[j]
-        hi[j] = d + r2 * sa[j]
-        for k in range(3):
-            mid[j, k] = 0.5 * (centres[j, 0, k] + centres[j, 1, k])
-        bound = 0.5 * d + max(r1, r2)
-        bound2[j] = bound * bound
+    d, u, sa, ca = _axes_kernel(centres, radii)
+    c2 = ca * ca
+    lo = radii[:, 0] * sa  # slab of the lateral surface along the axis
+    hi = d + radii[:, 1] * sa
+    mid = 0.5 * (centres[:, 0] + centres[:, 1])
+    bound2 = (0.5 * d + np.maximum(radii[:, 0], radii[:, 1])) ** 2
     for i in range(origins.shape[0]):
         ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
         vx, vy, vz = directions[i, 0], directions[i, 1], directions[i, 2]
@@ -846,8 +922,8 @@ def _intersect_kernel(centres, radii, origins, directions, depth, which):  # pra
             wx = ox - centres[j, 0, 0]
             wy = oy - centres[j, 0, 1]
             wz = oz - centres[j, 0, 2]
-            au0 = wx * ux[j] + wy * uy[j] + wz * uz[j]
-            au1 = vx * ux[j] + vy * uy[j] + vz * uz[j]
+            au0 = wx * u[j, 0] + wy * u[j, 1] + wz * u[j, 2]
+            au1 = vx * u[j, 0] + vy * u[j, 1] + vz * u[j, 2]
             wv = wx * vx + wy * vy + wz * vz
             ww = wx * wx + wy * wy + wz * wz
             hh = radii[j, 0] - sa[j] * au0
@@ -881,29 +957,13 @@ def _intersect_kernel(centres, radii, origins, directions, depth, which):  # pra
 def _closest_2d_kernel(centres, radii, valid, pixels, h, dh, prim, dist):  # pragma: no cover
     """Fill h, dh, prim, dist as `closest_point_cone_spheres_2d` (numpy route) does."""
     P = centres.shape[0]
-    ux = np.empty(P)
-    uy = np.empty(P)
-    sa = np.empty(P)
-    ca = np.empty(P)
-    Dp = np.empty(P)
-    strip_end = np.empty(P)
+    Dp, u, sa, ca = _axes_kernel(centres, radii)
+    ux, uy = u[:, 0], u[:, 1]
+    strip_end = Dp * ca
     for j in range(P):
-        dx = centres[j, 1, 0] - centres[j, 0, 0]
-        dy = centres[j, 1, 1] - centres[j, 0, 1]
-        D = math.sqrt(dx * dx + dy * dy)
-        r1, r2 = radii[j, 0], radii[j, 1]
-        Dp[j] = D
-        if D > 0.0:
-            ux[j], uy[j] = dx / D, dy / D
-        else:
-            ux[j], uy[j] = 1.0, 0.0
-        if D <= abs(r1 - r2) * (1.0 + 1e-12) + 1e-12:  # one circle inside the other
-            sa[j], ca[j] = 0.0, 1.0
+        if Dp[j] <= abs(radii[j, 0] - radii[j, 1]) * (1.0 + 1e-12) + 1e-12:
+            sa[j], ca[j] = 0.0, 1.0  # one circle inside the other: never the flank
             strip_end[j] = -np.inf
-        else:
-            sa[j] = (r1 - r2) / D
-            ca[j] = math.sqrt(max(1.0 - sa[j] * sa[j], 0.0))
-            strip_end[j] = D * ca[j]
     for i in range(pixels.shape[0]):
         sx, sy = pixels[i, 0], pixels[i, 1]
         best = -1
@@ -992,6 +1052,7 @@ __all__ = [
     "closest_point_cone_spheres_2d",
     "closest_point_projected",
     "cone_sphere_areas",
+    "cone_sphere_normals",
     "cone_sphere_sdf",
     "hand_primitives",
     "intersect_cone_spheres",
