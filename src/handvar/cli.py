@@ -429,9 +429,21 @@ def _track_views(hand, rig, masks, pose):
               help="Output directory.")  # fmt: skip
 @click.option("--video/--no-video", default=True, show_default=True,
               help="Also write overlay.mp4.")  # fmt: skip
+@click.option("--calib", type=click.Path(dir_okay=False), default=None,
+              help="Recordings only: OpenCV calibration file, one camera per "
+              "recording.")  # fmt: skip
+@click.option("--fov", type=click.FloatRange(1.0, 179.0), default=None,
+              help="One uncalibrated video: assumed horizontal field of view, degrees "
+              "[default: 60].")  # fmt: skip
+@click.option("--scale", type=click.FloatRange(0.05, 4.0), default=1.0, show_default=True,
+              help="Recordings only: resize the frames by this factor first.")  # fmt: skip
 @_one_line_errors
-def track_command(seq, predictor, init, seed, n_frames, out, video) -> None:
+def track_command(seq, predictor, init, seed, n_frames, out, video, calib, fov, scale) -> None:
     """Track the hand through the sequence SEQ (a sequence directory or a synthetic name).
+
+    SEQ may also be a real recording: a video file or an image folder, or several
+    separated by commas (one per camera of --calib); its skin-colour silhouettes are
+    tracked from the pose given with --init (see `handvar init`).
 
     OUT receives poses.csv (T × 26, mm and degrees), joints.csv (T × 63, mm),
     track.npz (poses, joints, starts, costs, iterations, seconds), overlay.png (a
@@ -452,7 +464,11 @@ def track_command(seq, predictor, init, seed, n_frames, out, video) -> None:
     from handvar.synth.sequences import SEQUENCE_NAMES, make_sequence
     from handvar.tracking import Tracker
 
-    if os.path.isdir(seq):
+    if _is_recording(seq):  # video files / image folders: see the init section below
+        sequence = _recording_sequence(seq, calib, fov, scale, n_frames)
+    elif calib is not None or fov is not None:
+        raise ValueError("--calib, --fov: expected only with a video or an image folder")
+    elif os.path.isdir(seq):
         sequence = read_sequence(seq, lazy=True)
     elif seq in SEQUENCE_NAMES:
         sequence = make_sequence(seq, n_frames=n_frames)
@@ -546,3 +562,144 @@ def track_command(seq, predictor, init, seed, n_frames, out, video) -> None:
     if sequence.truth is not None:
         err = result.mean_joint_error(sequence.truth.joints[:T])
         click.echo(f"mean joint error: {err.mean():.2f} mm (max {err.max():.2f} mm)")
+
+
+# --- init: the first frame's pose from real video (or a sequence) ------------------------
+
+
+def _open_recordings(sources, calib, fov, scale):
+    """A `VideoSource` for the video files / image folders `sources` (one per camera)."""
+    from handvar.vision.sources import open_source
+
+    return open_source(list(sources), calib, fov=fov, scale=scale)
+
+
+def _frame_silhouettes(sources, calib, fov, scale, frame, wrist, threshold):
+    """Rig, BGR images (or None) and masks of frame `frame` of a sequence or recordings."""
+    import os
+
+    if len(sources) == 1 and os.path.isfile(os.path.join(sources[0], "sequence.json")):
+        if calib is not None or fov is not None:
+            raise ValueError("--calib, --fov: a sequence directory has its own rig; got one")
+        rig, masks = _sequence_frame_masks(sources[0], frame)
+        return rig, None, masks
+    source = _open_recordings(sources, calib, fov, scale)
+    for _, images, masks in source.silhouettes(frame, frame + 1, wrist=wrist, threshold=threshold):
+        return source.rig, images, masks
+    raise ValueError(
+        f"--frame: expected a frame of the recording ({source.n_frames} frames); got {frame}"
+    )
+
+
+def _is_recording(spec: str) -> bool:
+    """True when `spec` names video files or image folders (comma-separated), not a sequence."""
+    import os
+
+    from handvar.vision.sources import IMAGE_SUFFIXES
+
+    if "," in spec or os.path.isfile(spec):
+        return True
+    return (
+        os.path.isdir(spec)
+        and not os.path.exists(os.path.join(spec, "sequence.json"))
+        and any(os.path.splitext(f)[1].lower() in IMAGE_SUFFIXES for f in os.listdir(spec))
+    )
+
+
+def _recording_sequence(spec: str, calib, fov, scale, n_frames):
+    """`handvar track` on a recording: its skin-colour silhouettes as a Sequence."""
+    from tqdm import tqdm
+
+    source = _open_recordings(spec.split(","), calib, fov, scale)
+    total = source.n_frames if n_frames is None else min(n_frames, source.n_frames)
+    return source.to_sequence(
+        stop=n_frames,
+        progress=lambda it: tqdm(it, total=total, desc="silhouettes", unit="frame", leave=False),
+    )
+
+
+def _sequence_frame_masks(path: str, frame: int):
+    """Rig and masks (n_cams, H, W) of frame `frame` of the sequence directory `path`."""
+    import numpy as np
+
+    from handvar.io import read_sequence
+
+    seq = read_sequence(path, lazy=True)
+    if frame >= seq.n_frames:
+        raise ValueError(f"--frame: expected a frame below {seq.n_frames}; got {frame}")
+    return seq.rig, np.asarray(seq.masks[frame])
+
+
+@main.command("init")
+@click.argument("sources", nargs=-1, required=True)
+@click.option("--calib", type=click.Path(dir_okay=False), default=None,
+              help="OpenCV calibration file (one camera per SOURCE) [default: for one video, "
+              "an assumed camera, see --fov].")  # fmt: skip
+@click.option("--fov", type=click.FloatRange(1.0, 179.0), default=None,
+              help="Horizontal field of view (degrees) assumed for an uncalibrated video "
+              "[default: 60].")  # fmt: skip
+@click.option("--scale", type=click.FloatRange(0.05, 4.0), default=1.0, show_default=True,
+              help="Resize the frames by this factor first (0.5 is about 4x faster).")  # fmt: skip
+@click.option("--frame", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Frame to fit.")  # fmt: skip
+@click.option("--wrist/--no-wrist", default=True, show_default=True,
+              help="Cut a visible forearm off the silhouettes at the wrist.")  # fmt: skip
+@click.option("--threshold", type=click.FloatRange(min=0.0, min_open=True), default=None,
+              help="Skin likelihood-ratio threshold [default: 0.5].")  # fmt: skip
+@click.option("--hand-length", type=click.FloatRange(min=50.0, max=400.0), default=185.0,
+              show_default=True, help="Hand length (wrist to middle fingertip), mm.")  # fmt: skip
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Seed of the refinement's random samples.")  # fmt: skip
+@click.option("--out", type=click.Path(dir_okay=False), default="init_pose.txt",
+              show_default=True,
+              help="Pose file to write (26 numbers, for track --init).")  # fmt: skip
+@click.option("--overlay", type=click.Path(dir_okay=False), default=None,
+              help="Also write a PNG of the fitted model over the frame.")  # fmt: skip
+@_one_line_errors
+def init_command(
+    sources, calib, fov, scale, frame, wrist, threshold, hand_length, seed, out, overlay
+) -> None:
+    """Find the hand's pose in one frame of SOURCES and write it as a pose file.
+
+    SOURCES are video files or image folders, one per camera of --calib (a single
+    video may go without calibration: its depth is then only as good as --fov and
+    --hand-length), or one sequence directory. The search tries named hand shapes over
+    a grid of palm orientations, places each by the silhouette's centroid and size,
+    scores it by silhouette IoU and refines the best with the tracker.
+    """
+    import os
+
+    import cv2
+    import numpy as np
+
+    from handvar.hand.anthropometry import HandShape
+    from handvar.hand.kinematics import HandModel
+    from handvar.tracking.init import initial_pose
+
+    rig, images, masks = _frame_silhouettes(sources, calib, fov, scale, frame, wrist, threshold)
+    hand = HandModel(HandShape.from_size(hand_length))
+    result = initial_pose(masks, rig, hand, rng=np.random.default_rng(seed))
+    line = " ".join(f"{v:.6f}" for v in result.pose) + "\n"
+
+    def write_text(path):
+        with open(path, "w", encoding="utf-8") as fh:
+            fh.write(line)
+
+    _atomic_write(out, write_text)
+    if overlay is not None:
+        from handvar.vision.sources import overlay_frame
+
+        if images is None:  # a sequence directory: draw over its masks
+            images = [np.repeat((np.asarray(m, np.uint8) * 160)[:, :, None], 3, 2) for m in masks]
+        picture = overlay_frame(images, rig, hand, result.pose, masks)
+
+        def write_png(path):
+            if not cv2.imwrite(path, picture):
+                raise OSError(f"{path}: cannot write the PNG")
+
+        _atomic_write(overlay, write_png)
+    where = os.path.basename(sources[0].rstrip(os.sep)) + ("" if len(sources) == 1 else ", ...")
+    click.echo(
+        f"{where} frame {frame}: IoU {result.iou:.3f} (shape {result.shape}, "
+        f"{result.n_candidates} candidates) -> {out}" + (f", {overlay}" if overlay else "")
+    )
