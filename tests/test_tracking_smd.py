@@ -86,3 +86,13 @@ def test_bad_settings_raise():
         SMDSettings(gain_finger=-1.0)
     with pytest.raises(ValueError, match="x0"):
         minimise(lambda x, n: (0.0, x, None, None), np.array([np.nan] * 26))
+
+
+def test_gain_growth_is_bounded_per_step():
+    # Aligned successive gradients make 1 − μ g v large; the factor is capped.
+    x, p, v = np.zeros(2), np.ones(2), np.array([-10.0, 0.0])
+    g = np.array([10.0, 1.0])
+    _, p_new, _ = smd_step(x, p, v, g, meta_gain=0.1, max_factor=2.0, lower=None, upper=None)
+    np.testing.assert_allclose(p_new, [2.0, 1.0])  # 1 + 0.1·100 = 11 → 2; factor 1 stays
+    _, p_raw, _ = smd_step(x, p, v, g, meta_gain=0.1, lower=None, upper=None)
+    np.testing.assert_allclose(p_raw, [11.0, 1.0])  # the paper's unbounded rule

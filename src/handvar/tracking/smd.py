@@ -69,6 +69,10 @@ class SMDSettings:
         Stop after this many cost evaluations, 50.
     min_factor : float
         The ½ of ``max(½, 1 − μ g v)``: a gain shrinks at most by this factor per step.
+    max_factor : float
+        A gain grows at most by this factor per step, 2 (our addition: the paper's
+        rule has no upper bound, and on a diverging fit — a lost track — successive
+        gradients stay aligned and the gains overflow).
     precondition : bool
         Read the gains as fractions of a diagonal Gauss–Newton step (module docstring);
         True by default (our addition, not in the paper).
@@ -86,6 +90,7 @@ class SMDSettings:
     threshold: float = 0.006
     max_iterations: int = 50
     min_factor: float = 0.5
+    max_factor: float = 2.0
     precondition: bool = True
     damping: float = 0.01
 
@@ -107,6 +112,8 @@ class SMDSettings:
             raise ValueError(f"damping: expected a positive number; got {self.damping!r}")
         if not 0 < self.min_factor <= 1:
             raise ValueError(f"min_factor: expected a number in (0, 1]; got {self.min_factor!r}")
+        if not (np.isfinite(self.max_factor) and self.max_factor >= 1):
+            raise ValueError(f"max_factor: expected a number >= 1; got {self.max_factor!r}")
 
 
 def initial_gains(settings: SMDSettings | None = None) -> np.ndarray:
@@ -130,6 +137,7 @@ def smd_step(
     meta_gain: float = 0.1,
     horizon: float = 0.0,
     min_factor: float = 0.5,
+    max_factor: float = np.inf,
     lower: np.ndarray | None = LOWER,
     upper: np.ndarray | None = UPPER,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -141,8 +149,8 @@ def smd_step(
         Parameters, gains, the v vector and the stochastic gradient at x.
     Gv : (d,) ndarray, optional
         Curvature-vector product G v at x (only used when ``horizon > 0``).
-    meta_gain, horizon, min_factor : float, keyword-only
-        μ, λ and the lower bound of the gain factor.
+    meta_gain, horizon, min_factor, max_factor : float, keyword-only
+        μ, λ and the bounds of the gain factor (no upper bound by default).
     lower, upper : (d,) ndarray or None, keyword-only
         Box onto which x is projected (the hand's joint limits by default; None for
         none).
@@ -159,7 +167,8 @@ def smd_step(
     >>> x, p, v
     (array([0.]), array([0.5]), array([-1.]))
     """
-    p = p * np.maximum(min_factor, 1.0 - meta_gain * g * v)  # p ← p ⊙ max(½, 1 − μ g ⊙ v)
+    factor = np.clip(1.0 - meta_gain * g * v, min_factor, max_factor)
+    p = p * factor  # p ← p ⊙ max(½, 1 − μ g ⊙ v), growth bounded by max_factor
     x = x - p * g  # x ← x − p ⊙ g
     if lower is not None or upper is not None:
         x = np.clip(x, lower, upper)  # clamp to the joint limits
@@ -296,8 +305,8 @@ def minimise(
         # SMD on coordinates z = x ⊙ √h: g_z ⊙ v_z = g ⊙ v, step p ⊙ g_z ↔ (p / h) ⊙ g in x
         x, pe, v = smd_step(
             x, p * scale, v, g, Gv,
-            meta_gain=s.meta_gain, horizon=s.horizon, min_factor=s.min_factor,
-            lower=lower, upper=upper,
+            meta_gain=s.meta_gain, horizon=s.horizon,
+            min_factor=s.min_factor, max_factor=s.max_factor, lower=lower, upper=upper,
         )  # fmt: skip
         p = pe / scale
     return SMDResult(x, costs[:k].copy(), k, converged, p)
