@@ -16,7 +16,7 @@ variable               dims                                   meaning
 ``error``              predictor, trial, frame                mean joint error (mm)
 ``cost``               predictor, trial, frame                final cost of the frame
 ``iterations``         predictor, trial, frame                optimiser iterations
-``timings``            predictor, trial, frame                seconds per frame
+``timings``            predictor, trial, frame, part          seconds per frame
 ``r2_joints``          predictor, trial, joint                R̃² of eq. 21
 ``r2_params``          predictor, trial, param                R̃²_y of eq. 18
 ``done``               predictor, trial                       the trial is complete
@@ -62,6 +62,7 @@ from handvar.hand import params
 __all__ = [
     "EXTRA_PREDICTORS",
     "PAPER_PREDICTORS",
+    "TIMING_PARTS",
     "TRIAL_KINDS",
     "ExperimentConfig",
     "PredictorSpec",
@@ -73,6 +74,7 @@ __all__ = [
     "run_trial",
     "store_sequence",
     "summary_text",
+    "tracker_settings",
 ]
 
 FORMAT = "handvar-experiment"
@@ -400,9 +402,11 @@ class ExperimentConfig:
                 elif value is not False:
                     raise ValueError(f"--set extras: expected true or false; got {raw!r}")
             elif key.startswith("tracker."):
-                field = key.split(".", 1)[1]
-                _check_tracker_field(field)
-                cfg = dataclasses.replace(cfg, tracker=(*cfg.tracker, (field, value)))
+                group, field = _tracker_key(key.split(".", 1)[1])
+                name = f"{group}.{field}"
+                tracker_settings([(name, value)])  # checks the value
+                kept = tuple((k, v) for k, v in cfg.tracker if k != name)
+                cfg = dataclasses.replace(cfg, tracker=(*kept, (name, value)))
             elif "." in key:
                 pkey, arg = key.split(".", 1)
                 spec = cfg.spec(pkey)
@@ -494,33 +498,49 @@ _SETTABLE = ("sequence", "sequence_seed", "frames", "trials", "seed", "trial_kin
 # --- the tracker ---------------------------------------------------------------------
 
 
-def _tracker_api():
-    """(Tracker, settings class) of :mod:`handvar.tracking`."""
-    try:
-        from handvar import tracking
-    except ImportError as exc:  # pragma: no cover - the package ships the tracker
-        raise ValueError(f"trial_kind: the tracker cannot be imported ({exc})") from None
-    tracker = getattr(tracking, "Tracker", None)
-    settings = getattr(tracking, "TrackerSettings", None)
-    if tracker is None:
-        raise ValueError(
-            "trial_kind: expected handvar.tracking.Tracker for tracker trials; it is not "
-            "available (use --set trial=openloop)"
-        )
-    return tracker, settings
+def tracker_settings(overrides: Iterable[tuple[str, Any]] = ()):
+    """The tracker's settings (the paper's, §4) with ``("group.field", value)`` overrides.
+
+    A group is a field of :class:`handvar.tracking.TrackerSettings` (``smd``, ``cost``);
+    a bare field name (``max_iterations``) is looked up in every group.
+
+    Examples
+    --------
+    >>> tracker_settings([("max_iterations", 20)]).smd.max_iterations
+    20
+    """
+    from handvar.tracking import TrackerSettings
+
+    base = TrackerSettings()
+    groups: dict[str, dict[str, Any]] = {}
+    for key, value in overrides:
+        group, name = _tracker_key(key)
+        groups.setdefault(group, {})[name] = value
+    return dataclasses.replace(
+        base,
+        **{g: dataclasses.replace(getattr(base, g), **kw) for g, kw in groups.items()},
+    )
 
 
-def _check_tracker_field(field: str) -> None:
-    try:
-        _, settings = _tracker_api()
-    except ValueError:
-        return  # checked again when a tracker trial is built
-    if settings is not None and dataclasses.is_dataclass(settings):
-        names = {f.name for f in dataclasses.fields(settings)}
-        if field not in names:
-            raise ValueError(
-                f"--set tracker.{field}: expected a tracker setting ({', '.join(sorted(names))})"
-            )
+def _tracker_key(key: str) -> tuple[str, str]:
+    """(group, field) of a tracker setting; ValueError naming the choices."""
+    from handvar.tracking import TrackerSettings
+
+    base = TrackerSettings()
+    fields = {
+        g.name: {f.name for f in dataclasses.fields(getattr(base, g.name))}
+        for g in dataclasses.fields(base)
+    }
+    choices = ", ".join(f"{g}.{f}" for g in fields for f in sorted(fields[g]))
+    if "." in key:
+        group, name = key.split(".", 1)
+        if name in fields.get(group, ()):
+            return group, name
+    else:
+        hits = [g for g in fields if key in fields[g]]
+        if len(hits) == 1:
+            return hits[0], key
+    raise ValueError(f"--set tracker.{key}: expected a tracker setting ({choices})")
 
 
 @functools.lru_cache(maxsize=2)
@@ -533,6 +553,9 @@ def _hand():
 # --- one trial -----------------------------------------------------------------------
 
 
+TIMING_PARTS = ("preprocessing", "optimisation", "prediction")
+
+
 @dataclasses.dataclass(frozen=True, eq=False)
 class TrialResult:
     """What one trial produced.
@@ -540,15 +563,16 @@ class TrialResult:
     Attributes
     ----------
     poses : (T, 26) ndarray
-        Estimated poses (mm, degrees); ``poses[0]`` is the true first pose.
+        Estimated poses (mm, degrees); ``poses[0]`` is fitted from the true first pose.
     joints : (T, 21, 3) ndarray
         G(poses), mm.
     cost : (T,) ndarray
-        Final cost per frame (NaN in open-loop trials).
+        Cost at the last iteration of each frame (NaN in open-loop trials).
     iterations : (T,) int ndarray
-        Optimiser iterations per frame (0 in open-loop trials).
-    timings : (T,) ndarray
-        Seconds spent per frame.
+        Cost evaluations per frame (0 in open-loop trials).
+    timings : (T, 3) ndarray
+        Seconds per frame spent on preprocessing, optimisation and prediction
+        (:data:`TIMING_PARTS`).
     """
 
     poses: np.ndarray
@@ -566,14 +590,14 @@ def _openloop_trial(config, spec, rng, sequence) -> TrialResult:
     predictor = spec.build()
     n = len(truth)
     poses = np.empty_like(truth)
-    timings = np.zeros(n)
+    timings = np.zeros((n, len(TIMING_PARTS)))
     poses[0] = truth[0]
     predictor.update(observed[0])
     for t in range(1, n):
         start = time.perf_counter()
         poses[t] = params.clamp(predictor.predict())
         predictor.update(observed[t])
-        timings[t] = time.perf_counter() - start
+        timings[t, 2] = time.perf_counter() - start
     hand = _hand()
     joints = np.stack([hand.joints(x) for x in poses])
     return TrialResult(poses, joints, np.full(n, np.nan), np.zeros(n, dtype=np.int16), timings)
@@ -581,34 +605,18 @@ def _openloop_trial(config, spec, rng, sequence) -> TrialResult:
 
 def _tracker_trial(config, spec, rng, sequence) -> TrialResult:
     """The SMD tracker with this predictor on the sequence, from the true first pose."""
-    tracker_cls, settings_cls = _tracker_api()
-    settings = None
-    if settings_cls is not None:
-        settings = settings_cls(**dict(config.tracker))
-    elif config.tracker:
-        raise ValueError("tracker: the tracker takes no settings; remove the tracker.* overrides")
-    tracker = tracker_cls(sequence.rig, _hand(), spec.build(), rng, settings)
+    from handvar.tracking import Tracker
+
+    settings = tracker_settings(config.tracker)
+    tracker = Tracker(sequence.rig, _hand(), spec.build(), rng, settings)
     result = tracker.track(sequence, sequence.truth.poses[0])
-    n = sequence.n_frames
-    poses = np.asarray(result.poses, dtype=float).reshape(n, params.N_PARAMS)
-    joints = np.asarray(result.joints, dtype=float).reshape(n, 21, 3)
-    cost = _per_frame(getattr(result, "costs", None), n, np.nan)
-    iterations = _per_frame(getattr(result, "iterations", None), n, 0).astype(np.int16)
-    timings = _per_frame(getattr(result, "timings", None), n, np.nan)
-    return TrialResult(poses, joints, cost, iterations, timings)
-
-
-def _per_frame(values, n: int, fill) -> np.ndarray:
-    """A (n,) float array from a per-frame series (or a dict of them: summed)."""
-    if values is None:
-        return np.full(n, fill, dtype=float)
-    if isinstance(values, Mapping):
-        parts = [np.asarray(v, dtype=float).reshape(n, -1).sum(1) for v in values.values()]
-        return np.sum(parts, axis=0) if parts else np.full(n, fill, dtype=float)
-    arr = np.asarray(values, dtype=float)
-    if arr.ndim == 2 and arr.shape[0] == n:
-        arr = arr[:, -1] if arr.shape[1] else np.full(n, fill, dtype=float)
-    return arr.reshape(n)
+    return TrialResult(
+        result.poses,
+        result.joints,
+        result.final_costs,
+        result.iterations.astype(np.int16),
+        result.seconds,
+    )
 
 
 _TRIALS: dict[str, Callable] = {"tracker": _tracker_trial, "openloop": _openloop_trial}
@@ -644,8 +652,6 @@ def run_trial(config: ExperimentConfig, key: str, trial: int, sequence) -> Trial
 
 # --- the store ------------------------------------------------------------------------
 
-_PER_TRIAL = ("poses", "joints", "error", "cost", "iterations", "timings")
-
 
 def store_sequence(store: str | os.PathLike):
     """The tracked sequence as kept in a store (masks, rig, truth) -- a Sequence."""
@@ -667,7 +673,8 @@ def store_sequence(store: str | os.PathLike):
 def open_store(store: str | os.PathLike):
     """Open an experiment store lazily as an ``xarray.Dataset``.
 
-    Raises ValueError if `store` is not an experiment store.
+    Variables are read from disk when indexed (``ds["error"].values``), only the
+    chunks needed.  Raises ValueError if `store` is not an experiment store.
     """
     import xarray as xr
 
@@ -675,7 +682,9 @@ def open_store(store: str | os.PathLike):
     if not path.is_dir():
         raise ValueError(f"store: expected an experiment store (a Zarr directory); {path} is not")
     try:
-        ds = xr.open_zarr(path, consolidated=True)
+        # chunks=None: lazily indexed numpy arrays, never dask -- reads stay local and
+        # cheap even while a distributed client is the default scheduler
+        ds = xr.open_zarr(path, consolidated=True, chunks=None)
     except Exception as exc:  # zarr raises many kinds on a foreign directory
         raise ValueError(f"store: {path} is not a readable Zarr store ({exc})") from None
     if ds.attrs.get("format") != FORMAT:
@@ -709,7 +718,7 @@ def _template(config: ExperimentConfig, sequence):
             "error": (("predictor", "trial", "frame"), full((P, N, F), nan)),
             "cost": (("predictor", "trial", "frame"), full((P, N, F), nan)),
             "iterations": (("predictor", "trial", "frame"), full((P, N, F), -1, np.int16)),
-            "timings": (("predictor", "trial", "frame"), full((P, N, F), nan)),
+            "timings": (("predictor", "trial", "frame", "part"), full((P, N, F, 3), nan)),
             "r2_joints": (("predictor", "trial", "joint"), full((P, N, J), nan)),
             "r2_params": (("predictor", "trial", "param"), full((P, N, D), nan)),
             "done": (("predictor", "trial"), full((P, N), False, bool)),
@@ -726,6 +735,7 @@ def _template(config: ExperimentConfig, sequence):
             "joint": np.array(JOINTS, dtype=str),
             "xyz": np.array(["x", "y", "z"]),
             "camera": np.array(sequence.rig.names, dtype=str),
+            "part": np.array(TIMING_PARTS, dtype=str),
         },
         attrs={
             "format": FORMAT,
@@ -739,7 +749,7 @@ def _template(config: ExperimentConfig, sequence):
     ds["poses"].attrs["units"] = "mm (tx, ty, tz), degrees (the rest)"
     ds["joints"].attrs["units"] = "mm"
     ds["error"].attrs.update(units="mm", long_name="mean joint error over the 21 points")
-    ds["timings"].attrs["units"] = "s"
+    ds["timings"].attrs.update(units="s", long_name="wall time per frame and part")
     ds["r2_joints"].attrs["long_name"] = "R̃² of eq. 21 against no motion, same trial"
     ds["r2_params"].attrs["long_name"] = "R̃²_y of eq. 18 against no motion, same trial"
     chunks = {
@@ -748,7 +758,7 @@ def _template(config: ExperimentConfig, sequence):
         "error": (1, 1, F),
         "cost": (1, 1, F),
         "iterations": (1, 1, F),
-        "timings": (1, 1, F),
+        "timings": (1, 1, F, 3),
         "r2_joints": (1, 1, J),
         "r2_params": (1, 1, D),
         "done": (1, 1),
@@ -819,7 +829,7 @@ def _write_trial(path: Path, p: int, t: int, result: TrialResult, truth_joints, 
         "error": (dims, error[None, None]),
         "cost": (dims, np.asarray(result.cost, dtype=float)[None, None]),
         "iterations": (dims, np.asarray(result.iterations, dtype=np.int16)[None, None]),
-        "timings": (dims, np.asarray(result.timings, dtype=float)[None, None]),
+        "timings": ((*dims, "part"), np.asarray(result.timings, dtype=float)[None, None]),
     }
     _write_region(path, data, p, t)
     flags = {
@@ -914,7 +924,7 @@ def _local_client(workers: int | None):
         n_workers=n,
         threads_per_worker=1,
         processes=True,
-        dashboard_address=None,
+        dashboard_address=":0",
         silence_logs=40,
     )
     return Client(cluster), cluster
@@ -966,7 +976,7 @@ def run_experiment(
     if workers is not None and (isinstance(workers, bool) or int(workers) < 1):
         raise ValueError(f"workers: expected a positive integer; got {workers!r}")
     if config.trial_kind == "tracker":
-        _tracker_api()
+        tracker_settings(config.tracker)  # checks the overrides before anything runs
     for spec in config.predictors:
         spec.build()
     path = Path(store)
@@ -996,8 +1006,12 @@ def run_experiment(
                 own[0].close()
                 if own[1] is not None:
                     own[1].close()
-    for t in range(N):
-        _write_scores(path, config, t)
+    # Scores a run stopped before writing (they are written after each trial).
+    ds = open_store(path)
+    done = ds["done"].values
+    unscored = done & np.isnan(ds["r2_joints"].values).all(axis=2)
+    for t in np.flatnonzero(unscored.any(axis=0)):
+        _write_scores(path, config, int(t))
     missing = tuple((labels[p], int(t)) for p, t in zip(*np.nonzero(~done), strict=True))
     return RunSummary(path, P * N, already, computed, missing, time.perf_counter() - start)
 

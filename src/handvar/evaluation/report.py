@@ -21,7 +21,6 @@ import html
 import json
 import os
 import re
-import tempfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -38,6 +37,8 @@ __all__ = [
     "mean_error_figure",
     "overlay_figure",
     "r2_boxplot",
+    "sweep_figure",
+    "sweeps",
     "write_report",
 ]
 
@@ -76,8 +77,8 @@ class Results:
     r2_params : (P, N, 26) ndarray
         R̃²_y of eq. 18 per trial and parameter.
     iterations : (P, N, F) ndarray
-    timings : (P, N, F) ndarray
-        Seconds per frame.
+    timings : (P, N, F, 3) ndarray
+        Seconds per frame: preprocessing, optimisation, prediction.
     """
 
     config: ExperimentConfig
@@ -212,6 +213,7 @@ def r2_boxplot(results: Results, predictor: str, *, ax=None):
                 mild, far = _outliers(d)
                 ax.plot(np.full(mild.size, x), mild, "+", color="tab:red", ms=6)
                 ax.plot(np.full(far.size, x), far, "o", mfc="none", color="tab:red", ms=4)
+        _limit_to_whiskers(ax, positions, data)
     else:
         ax.text(0.5, 0.5, "no finished trials", transform=ax.transAxes, ha="center")
     ax.axhline(0.0, color="0.5", lw=0.8, ls="--")
@@ -219,8 +221,37 @@ def r2_boxplot(results: Results, predictor: str, *, ax=None):
     ax.set_xlim(0.3, N_JOINTS + 0.7)
     ax.set_xlabel("joint / fingertip (paper's numbering)")
     ax.set_ylabel("R̃²(τ)")
-    ax.set_title(f"R̃² of {results.labels[p]} against no motion, {len(r2)} trials (eq. 21)")
+    ax.set_title(
+        f"R̃² of {results.labels[p]} against no motion, {len(r2)} trials (eq. 21); "
+        "↓n: n outliers below the axis"
+    )
     return fig if fig is not None else ax.figure
+
+
+def _limit_to_whiskers(ax, positions, data) -> None:
+    """Show the boxes and whiskers (and at least [-1, 1]); count the outliers cut off.
+
+    A few trials with R̃² of −100 would otherwise squash every box into a line.
+    """
+    lows, highs = [-1.0], [1.0]
+    for d in data:
+        if d.size:
+            q1, q3 = np.percentile(d, [25, 75])
+            inside = d[(d >= q1 - 1.5 * (q3 - q1)) & (d <= q3 + 1.5 * (q3 - q1))]
+            lows.append(inside.min())
+            highs.append(inside.max())
+    lo, hi = min(lows), max(highs)
+    pad = 0.08 * (hi - lo)
+    lo, hi = lo - pad, hi + pad
+    ax.set_ylim(lo, hi)
+    for x, d in zip(positions, data, strict=True):
+        below, above = int(np.sum(d < lo)), int(np.sum(d > hi))
+        if below:
+            ax.annotate(f"↓{below}", (x, lo), xytext=(0, 2), textcoords="offset points",
+                        ha="center", va="bottom", fontsize=7, color="tab:red")  # fmt: skip
+        if above:
+            ax.annotate(f"↑{above}", (x, hi), xytext=(0, -2), textcoords="offset points",
+                        ha="center", va="top", fontsize=7, color="tab:red")  # fmt: skip
 
 
 def error_peaks(curve, n: int = 3, *, separation: int = 10) -> list[int]:
@@ -286,6 +317,51 @@ def mean_error_figure(results: Results, *, peaks: Sequence[int] = (), ax=None):
     ax.set_xlim(frames[0], frames[-1])
     ax.set_ylim(bottom=0)
     return fig if fig is not None else ax.figure
+
+
+def sweeps(results: Results) -> dict[tuple[str, str], list[tuple[float, int]]]:
+    """Swept variants grouped by (base key, argument): [(value, predictor index)].
+
+    The base entry itself is included with its own value of the argument (when it
+    sets one), so a sweep ``rvar.gamma=0.5,0.9`` gives the points 0.5, 0.8, 0.9.
+    """
+    out: dict[tuple[str, str], list[tuple[float, int]]] = {}
+    for p, spec in enumerate(results.config.predictors):
+        m = re.fullmatch(r"(.+)\[(\w+)=([^\]]+)\]", spec.key)
+        if m is None:
+            continue
+        base, arg = m.group(1), m.group(2)
+        value = spec.kwargs.get(arg)
+        if isinstance(value, int | float) and not isinstance(value, bool):
+            out.setdefault((base, arg), []).append((float(value), p))
+    for (base, arg), points in out.items():
+        b = results.index(base)
+        own = results.config.predictors[b].kwargs.get(arg) if b is not None else None
+        if isinstance(own, int | float) and not isinstance(own, bool):
+            points.append((float(own), b))
+        points.sort()
+    return out
+
+
+def sweep_figure(results: Results, base: str, arg: str):
+    """Overall mean error and median R̃² against the swept argument of one predictor."""
+    points = sweeps(results).get((base, arg))
+    if not points:
+        raise ValueError(f"base, arg: expected a swept predictor argument; got {base}.{arg}")
+    points = [(v, p) for v, p in points if results.done[p].any()]
+    fig = _figure((6.0, 3.6))
+    ax = fig.add_subplot()
+    x = [v for v, _ in points]
+    ax.plot(x, [results.overall_error(p) for _, p in points], "o-", color="tab:red")
+    ax.set_xlabel(arg)
+    ax.set_ylabel("overall mean error (mm)", color="tab:red")
+    right = ax.twinx()
+    r2 = [_median(_joint_medians(results.r2(p))) for _, p in points]
+    right.plot(x, r2, "s--", color="tab:blue")
+    right.set_ylabel("median R̃² over joints", color="tab:blue")
+    label = results.config.spec(base).label
+    ax.set_title(f"{label}: sweep of {arg}")
+    return fig
 
 
 def _representative_trial(results: Results, p: int, frame: int) -> int | None:
@@ -667,22 +743,27 @@ def _slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9]+", "_", text).strip("_").lower()
 
 
+def _temporary(path: Path) -> Path:
+    """A hidden name beside `path` (created with the default permissions)."""
+    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
+
+
 def _save(fig, path: Path) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".png", dir=path.parent)
-    os.close(fd)
+    tmp = _temporary(path)
     try:
-        fig.savefig(tmp, dpi=110)
+        fig.savefig(tmp, dpi=110, format="png")
         os.replace(tmp, path)
     finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+        tmp.unlink(missing_ok=True)
 
 
 def _write_text(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    with os.fdopen(fd, "w", encoding="utf-8") as f:
-        f.write(text)
-    os.replace(tmp, path)
+    tmp = _temporary(path)
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 _FIGURE_NUMBER = {"decelerating": 2, "structured_var": 3, "rvar": 5}
@@ -698,7 +779,7 @@ def _summary_rows(results: Results) -> list[list[str]]:
             continue
         r2 = results.r2(p)
         it = results.iterations[p][results.done[p]][:, 1:]
-        tm = results.timings[p][results.done[p]][:, 1:]
+        tm = results.timings[p][results.done[p]][:, 1:].sum(axis=-1)
         rows.append(
             [
                 spec.label,
@@ -787,6 +868,13 @@ def write_report(
             f" (the paper's figure {number})" if number else ""
         )
         save(r2_boxplot(results, spec.key), name, caption)
+    for (base, arg), points in sweeps(results).items():
+        if any(results.done[p].any() for _, p in points):
+            save(
+                sweep_figure(results, base, arg),
+                f"sweep_{_slug(base)}_{_slug(arg)}.png",
+                f"{cfg.spec(base).label}: overall mean error and median R̃² against {arg}",
+            )
     peaks = error_peaks(_reference_curve(results))
     save(
         mean_error_figure(results, peaks=peaks),
@@ -819,6 +907,12 @@ def write_report(
         "R̃² compares each trial with the no-motion trial of the same seed; joints are "
         "numbered 1–21 as in the paper (1 = palm base).",
     ]
+    finished = results.done.sum(axis=1)
+    if finished.size and finished.min() < 10:
+        intro.append(
+            f"Some predictors have fewer than 10 finished trials (least: {int(finished.min())}); "
+            "their verdicts are indicative only (the paper used 50)."
+        )
     if cfg.tracker:
         intro.append(
             "Tracker settings changed: " + ", ".join(f"{k}={v}" for k, v in cfg.tracker) + "."
