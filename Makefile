@@ -12,18 +12,27 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[test]'
 	touch $(STAMP)
 
+# The main job on built-in defaults: the predictors on real recorded motion, then a
+# reduced run of the paper's experiment (3 trials x 40 frames) and its report.
 demo: $(STAMP)
-	$(BIN)/handvar predict examples/data/htrack-fingerfist.txt --fps 25
+	$(BIN)/handvar predict examples/data/htrack-fingerfist.txt --layout htrack --reset-at 4000
+	$(BIN)/handvar experiment --quick --out demo/experiment.zarr
+	$(BIN)/handvar report demo/experiment.zarr --out demo/report
 
 test: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks
 	$(BIN)/python -m pytest
 
+lint: $(STAMP)
+	$(BIN)/ruff check src tests benchmarks examples
+	$(BIN)/ruff format --check src tests benchmarks examples
+
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -m slow
 
 bench: $(STAMP)
-	$(BIN)/python benchmarks/predictors.py
+	for b in predictors hand vision tracker synth realvideo experiment; do \
+		$(BIN)/python benchmarks/$$b.py || exit 1; done
 
 clean:
-	rm -rf $(VENV) build src/*.egg-info
+	rm -rf $(VENV) build src/*.egg-info demo

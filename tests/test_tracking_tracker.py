@@ -8,7 +8,7 @@ import pytest
 from handvar.camera import Rig
 from handvar.evaluation.metrics import mean_joint_error
 from handvar.hand import HandModel
-from handvar.predictors import NoMotion
+from handvar.predictors import RVAR, NoMotion
 from handvar.render import silhouettes
 from handvar.synth.sequences import benchmark, make_sequence
 from handvar.tracking.tracker import Tracker
@@ -80,3 +80,18 @@ def test_bad_input_raises(first60):
         Tracker(rig, rng=0)
     with pytest.raises(ValueError, match="x0"):
         Tracker(rig).track(first60, np.zeros(25))
+
+
+def test_prepared_frames_give_the_same_track(first60):
+    # The preprocessing depends on the silhouettes only: prepared once and shared
+    # between trials, it must not change a single bit of the result.
+    seq = first60
+    x0 = seq.truth.poses[0]
+    tracker = Tracker(seq.rig, predictor=RVAR(), rng=np.random.default_rng(5))
+    prepared = [tracker.prepare(seq.masks[t]) for t in range(8)]
+    shared = tracker.track(seq, x0, frames=8, prepared=prepared)
+    again = Tracker(seq.rig, predictor=RVAR(), rng=np.random.default_rng(5))
+    fresh = again.track(seq, x0, frames=8)
+    np.testing.assert_array_equal(shared.poses, fresh.poses)
+    with pytest.raises(ValueError, match="prepared"):
+        tracker.track(seq, x0, frames=8, prepared=prepared[:4])

@@ -365,20 +365,14 @@ _TRACK_PREDICTORS = ("none", "decel", "fullvar", "svar", "rvar", "rvar-rel", "ka
 
 def make_predictor(name: str):
     """The predictor called `name` on the command line, with the paper's settings."""
-    from handvar.predictors import RVAR, VAR, Decelerating, KalmanCV, NoMotion, hand_blocks
+    from handvar.predictors.catalogue import make_predictor as build
 
-    factories = {
-        "none": NoMotion,
-        "decel": lambda: Decelerating(rho=0.4),
-        "fullvar": lambda: VAR(order=1, memory=150),
-        "svar": lambda: VAR(order=1, memory=30, blocks=hand_blocks()),
-        "rvar": lambda: RVAR(gamma=0.8, cutoff=8),
-        "rvar-rel": lambda: RVAR(gamma=0.8, cutoff=8, mode="relative"),
-        "kalman": KalmanCV,
-    }
-    if name not in factories:
-        raise ValueError(f"--predictor: expected one of {', '.join(factories)}; got {name!r}")
-    return factories[name]()
+    try:
+        return build(name)
+    except ValueError:
+        raise ValueError(
+            f"--predictor: expected one of {', '.join(_TRACK_PREDICTORS)}; got {name!r}"
+        ) from None
 
 
 def _atomic_write(path: str, write) -> None:
@@ -399,14 +393,19 @@ def _atomic_write(path: str, write) -> None:
             os.unlink(tmp)
 
 
-def _track_views(hand, rig, masks, pose):
-    """RGB views of one frame: observed masks, the fitted model's outline and joints."""
+def _track_views(hand, rig, backgrounds, pose):
+    """RGB views of one frame: the fitted model's outline and joints over `backgrounds`.
+
+    `backgrounds` are the observed masks (n_cams, H, W) or, for real recordings, the
+    colour frames (one RGB image per camera).
+    """
     from handvar.render import draw_overlay, silhouettes
 
     model = silhouettes(hand, pose, rig)
     joints = hand.joints(pose)
     return [
-        draw_overlay(m, cam, joints, mask=mm) for m, cam, mm in zip(masks, rig, model, strict=True)
+        draw_overlay(b, cam, joints, mask=m)
+        for b, cam, m in zip(backgrounds, rig, model, strict=True)
     ]
 
 
@@ -464,8 +463,9 @@ def track_command(seq, predictor, init, seed, n_frames, out, video, calib, fov, 
     from handvar.synth.sequences import SEQUENCE_NAMES, make_sequence
     from handvar.tracking import Tracker
 
+    source = None  # a real recording: its colour frames go under the overlays
     if _is_recording(seq):  # video files / image folders: see the init section below
-        sequence = _recording_sequence(seq, calib, fov, scale, n_frames)
+        source, sequence = _recording_sequence(seq, calib, fov, scale, n_frames)
     elif calib is not None or fov is not None:
         raise ValueError("--calib, --fov: expected only with a video or an image folder")
     elif os.path.isdir(seq):
@@ -510,11 +510,22 @@ def track_command(seq, predictor, init, seed, n_frames, out, video, calib, fov, 
 
     _atomic_write(os.path.join(out, "track.npz"), write_npz)
 
+    def backgrounds(frames):
+        """(t, per-camera backgrounds) for the frames: masks, or the recording's colour."""
+        if source is None:
+            for t in frames:
+                yield t, np.asarray(sequence.masks[t])
+            return
+        wanted = set(frames)
+        for t, images in source.frames(0, max(frames) + 1):
+            if t in wanted:
+                yield t, [cv2.cvtColor(im, cv2.COLOR_BGR2RGB) for im in images]
+
     # overlay strip: up to six evenly spaced frames, first camera, half size
     picks = np.unique(np.linspace(0, T - 1, min(6, T)).round().astype(int))
     tiles = []
-    for t in picks:
-        view = _track_views(hand, sequence.rig, np.asarray(sequence.masks[t]), result.poses[t])[0]
+    for t, views in backgrounds(picks.tolist()):
+        view = _track_views(hand, sequence.rig, views, result.poses[t])[0]
         tiles.append(cv2.resize(view, (view.shape[1] // 2, view.shape[0] // 2),
                                 interpolation=cv2.INTER_AREA))  # fmt: skip
     strip = side_by_side(tiles, [f"frame {t}" for t in picks])
@@ -531,9 +542,8 @@ def track_command(seq, predictor, init, seed, n_frames, out, video, calib, fov, 
         def write_mp4(path):
             writer = None
             try:
-                for t in range(T):
-                    views = _track_views(hand, sequence.rig, np.asarray(sequence.masks[t]),
-                                         result.poses[t])  # fmt: skip
+                for t, images in backgrounds(list(range(T))):
+                    views = _track_views(hand, sequence.rig, images, result.poses[t])
                     frame = cv2.cvtColor(side_by_side(views, list(sequence.rig.names)),
                                          cv2.COLOR_RGB2BGR)  # fmt: skip
                     if writer is None:
@@ -607,12 +617,12 @@ def _is_recording(spec: str) -> bool:
 
 
 def _recording_sequence(spec: str, calib, fov, scale, n_frames):
-    """`handvar track` on a recording: its skin-colour silhouettes as a Sequence."""
+    """`handvar track` on a recording: the source and its skin-colour silhouettes."""
     from tqdm import tqdm
 
     source = _open_recordings(spec.split(","), calib, fov, scale)
     total = source.n_frames if n_frames is None else min(n_frames, source.n_frames)
-    return source.to_sequence(
+    return source, source.to_sequence(
         stop=n_frames,
         progress=lambda it: tqdm(it, total=total, desc="silhouettes", unit="frame", leave=False),
     )

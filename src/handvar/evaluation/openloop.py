@@ -16,17 +16,9 @@ from pathlib import Path
 import numpy as np
 
 from handvar.hand import params
-from handvar.predictors import (
-    RVAR,
-    VAR,
-    Decelerating,
-    KalmanCV,
-    NoMotion,
-    Predictor,
-    hand_blocks,
-    one_step_predictions,
-)
+from handvar.predictors import NoMotion, Predictor, one_step_predictions
 from handvar.predictors.base import as_series
+from handvar.predictors.catalogue import CATALOGUE
 
 __all__ = [
     "GROUPS",
@@ -53,15 +45,7 @@ GROUPS: tuple[tuple[str, str, np.ndarray], ...] = (
 
 def default_predictors() -> dict[str, Predictor]:
     """The paper's predictors (§4–5) with its settings, plus the relative RVAR and Kalman."""
-    return {
-        "no motion": NoMotion(),
-        "decelerating": Decelerating(rho=0.4),
-        "full VAR": VAR(order=1, memory=150),
-        "structured VAR": VAR(order=1, memory=30, blocks=hand_blocks()),
-        "RVAR": RVAR(gamma=0.8, cutoff=8),
-        "RVAR relative": RVAR(gamma=0.8, cutoff=8, mode="relative"),
-        "Kalman CV": KalmanCV(),
-    }
+    return {spec.label: spec.build() for spec in CATALOGUE.values()}
 
 
 @dataclass(frozen=True)

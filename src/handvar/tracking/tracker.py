@@ -31,7 +31,7 @@ import numpy as np
 
 from handvar.camera import Rig
 from handvar.hand.params import N_PARAMS, check_pose, clamp
-from handvar.tracking.costs import CostSettings, SilhouetteCost
+from handvar.tracking.costs import CostSettings, FrameData, SilhouetteCost
 from handvar.tracking.smd import SMDSettings, minimise
 
 __all__ = ["FrameResult", "TrackResult", "Tracker", "TrackerSettings"]
@@ -183,13 +183,23 @@ class Tracker:
         """Frames tracked since the last `reset`."""
         return self._n
 
-    def step(self, masks) -> FrameResult:
+    def prepare(self, masks) -> FrameData:
+        """The per-frame preprocessing of `masks` (distance fields), for `step(frame=...)`.
+
+        It depends on the silhouettes only, so trials that track the same frames with
+        other predictors or seeds can prepare them once and share the result.
+        """
+        return self.cost.prepare(masks)
+
+    def step(self, masks=None, *, frame: FrameData | None = None) -> FrameResult:
         """Track one frame: predict, optimise from the prediction, update the predictor.
 
         Parameters
         ----------
         masks : (n_cams, H, W) bool array_like
             The frame's silhouettes, one per camera of the rig.
+        frame : FrameData, keyword-only, optional
+            The frame already prepared (`prepare`); then `masks` is not needed.
 
         Returns
         -------
@@ -203,7 +213,10 @@ class Tracker:
         else:
             start = clamp(check_pose(self.predictor.predict(), "predictor.predict()"))
         t1 = time.perf_counter()
-        frame = self.cost.prepare(masks)
+        if frame is None:
+            if masks is None:
+                raise ValueError("masks: expected the frame's silhouettes or frame=; got None")
+            frame = self.cost.prepare(masks)
         t2 = time.perf_counter()
         cost, rng = self.cost, self.rng
         floor = self.settings.cost.curvature_floor
@@ -228,6 +241,7 @@ class Tracker:
         *,
         frames: int | None = None,
         progress: Callable[[Iterable[int]], Iterable[int]] | None = None,
+        prepared: list[FrameData] | None = None,
     ) -> TrackResult:
         """Track a sequence from pose `x0` at its first frame.
 
@@ -241,6 +255,9 @@ class Tracker:
             Track only the first `frames` frames.
         progress : callable, keyword-only, optional
             Wraps the frame iterator (for instance ``tqdm.tqdm``).
+        prepared : list of FrameData, keyword-only, optional
+            The frames already prepared (`prepare`), one per frame tracked; their
+            preprocessing time is then not counted.
 
         Returns
         -------
@@ -272,8 +289,13 @@ class Tracker:
         it: Iterable[int] = range(n)
         if progress is not None:
             it = progress(it)
+        if prepared is not None and len(prepared) < n:
+            raise ValueError(f"prepared: expected {n} prepared frames; got {len(prepared)}")
         for t in it:
-            r = self.step(np.asarray(sequence.masks[t]))
+            if prepared is None:
+                r = self.step(np.asarray(sequence.masks[t]))
+            else:
+                r = self.step(frame=prepared[t])
             poses[t] = r.pose
             starts[t] = r.start
             costs[t, : r.iterations] = r.costs

@@ -1,0 +1,204 @@
+"""The predictors of the paper and beyond, by name, with the paper's settings.
+
+One catalogue serves the command line (``handvar track --predictor``), the open-loop
+evaluation (``handvar predict``) and the experiments: a :class:`PredictorSpec` names
+a predictor kind and its constructor arguments, is JSON-friendly (an experiment
+store records it) and builds a fresh predictor on demand.
+
+Examples
+--------
+>>> make_predictor("rvar")
+RVAR(gamma=0.8, cutoff=8, mode='absolute')
+>>> [s.key for s in PAPER_PREDICTORS]
+['none', 'decelerating', 'full_var', 'structured_var', 'rvar']
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "CATALOGUE",
+    "EXTRA_PREDICTORS",
+    "PAPER_PREDICTORS",
+    "PredictorSpec",
+    "make_predictor",
+]
+
+# --- predictors --------------------------------------------------------------------
+
+_KINDS = ("none", "decelerating", "var", "rvar", "kalman")
+_PARAM_NAMES = {
+    "none": (),
+    "decelerating": ("rho",),
+    "var": ("order", "memory", "structured", "max_step"),
+    "rvar": ("gamma", "cutoff", "mode", "memory"),
+    "kalman": ("q", "r"),
+}
+# The paper's symbols and a few spellings accepted for the constructor arguments.
+_ALIASES = {
+    "ρ": "rho",
+    "γ": "gamma",
+    "c": "cutoff",
+    "n": "memory",
+    "N": "memory",
+    "p": "order",
+}
+
+
+def _param_value(value: Any) -> Any:
+    """A JSON-friendly scalar (bool, int, float, str or None)."""
+    if isinstance(value, np.generic):
+        value = value.item()
+    if value is None or isinstance(value, bool | int | float | str):
+        return value
+    raise ValueError(f"value: expected a number, a boolean or a string; got {value!r}")
+
+
+@dataclasses.dataclass(frozen=True)
+class PredictorSpec:
+    """A motion predictor of an experiment, by kind and constructor arguments.
+
+    Parameters
+    ----------
+    key : str
+        Short identifier used on the command line (``rvar``, ``structured_var``).
+    label : str
+        Name in the store and on the figures (``"RVAR"``).
+    kind : {"none", "decelerating", "var", "rvar", "kalman"}
+        :class:`~handvar.predictors.NoMotion`, :class:`~handvar.predictors.Decelerating`,
+        :class:`~handvar.predictors.VAR` (``structured=True``: the blocks of eq. 25),
+        :class:`~handvar.predictors.RVAR` (``memory``: N of its structured VAR) or
+        :class:`~handvar.predictors.KalmanCV`.
+    params : tuple of (str, value) pairs
+        Constructor arguments; missing ones take the predictor's defaults.
+    """
+
+    key: str
+    label: str
+    kind: str
+    params: tuple[tuple[str, Any], ...] = ()
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.key, str) or not self.key:
+            raise ValueError(f"key: expected a non-empty string; got {self.key!r}")
+        if not isinstance(self.label, str) or not self.label:
+            raise ValueError(f"label: expected a non-empty string; got {self.label!r}")
+        if self.kind not in _KINDS:
+            raise ValueError(f"kind: expected one of {', '.join(_KINDS)}; got {self.kind!r}")
+        items = dict(self.params.items() if isinstance(self.params, Mapping) else self.params)
+        clean = {}
+        for name, value in items.items():
+            name = _ALIASES.get(name, name)
+            if name not in _PARAM_NAMES[self.kind]:
+                allowed = ", ".join(_PARAM_NAMES[self.kind]) or "none"
+                raise ValueError(
+                    f"params: expected arguments of a {self.kind} predictor ({allowed}); "
+                    f"got {name!r}"
+                )
+            clean[name] = _param_value(value)
+        object.__setattr__(self, "params", tuple(sorted(clean.items())))
+
+    @property
+    def kwargs(self) -> dict[str, Any]:
+        """The constructor arguments as a dict."""
+        return dict(self.params)
+
+    def build(self):
+        """A fresh predictor (raises ValueError on a bad argument)."""
+        from handvar.predictors import RVAR, VAR, Decelerating, KalmanCV, NoMotion, hand_blocks
+
+        kw = self.kwargs
+        if self.kind == "none":
+            return NoMotion()
+        if self.kind == "decelerating":
+            return Decelerating(**kw)
+        if self.kind == "kalman":
+            return KalmanCV(**kw)
+        if self.kind == "var":
+            blocks = hand_blocks() if kw.pop("structured", False) else None
+            kw = {k: (int(v) if k in ("order", "memory") else v) for k, v in kw.items()}
+            return VAR(blocks=blocks, **kw)
+        memory = kw.pop("memory", None)
+        if "cutoff" in kw:
+            kw["cutoff"] = int(kw["cutoff"])
+        structured = None
+        if memory is not None:
+            structured = VAR(order=1, memory=int(memory), blocks=hand_blocks())
+        return RVAR(structured=structured, **kw)
+
+    def with_params(self, **changes: Any) -> PredictorSpec:
+        """A copy with some constructor arguments changed."""
+        return dataclasses.replace(self, params=tuple({**self.kwargs, **changes}.items()))
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly form."""
+        return {"key": self.key, "label": self.label, "kind": self.kind, "params": self.kwargs}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> PredictorSpec:
+        """Inverse of :meth:`to_dict`."""
+        try:
+            return cls(data["key"], data["label"], data["kind"], tuple(data["params"].items()))
+        except (KeyError, TypeError, AttributeError) as exc:
+            raise ValueError(
+                f"predictor: expected a mapping with key, label, kind, params; got {data!r}"
+            ) from exc
+
+
+# The paper's five predictors with its settings (§4: ρ = 0.4; §4.2: full VAR, N = 150;
+# §4.3: structured VAR, N = 30; §5: RVAR, γ = 0.8, c = 8; all VARs of order 1 with
+# the 10° step bound).
+PAPER_PREDICTORS: tuple[PredictorSpec, ...] = (
+    PredictorSpec("none", "no motion", "none"),
+    PredictorSpec("decelerating", "decelerating", "decelerating", (("rho", 0.4),)),
+    PredictorSpec("full_var", "full VAR", "var", (("order", 1), ("memory", 150))),
+    PredictorSpec(
+        "structured_var",
+        "structured VAR",
+        "var",
+        (("order", 1), ("memory", 30), ("structured", True)),
+    ),
+    PredictorSpec("rvar", "RVAR", "rvar", (("gamma", 0.8), ("cutoff", 8))),
+)
+# Beyond the paper: the relative interpolation mentioned after eq. 27 and the
+# textbook constant-velocity Kalman filter.
+EXTRA_PREDICTORS: tuple[PredictorSpec, ...] = (
+    PredictorSpec(
+        "rvar_relative",
+        "RVAR relative",
+        "rvar",
+        (("gamma", 0.8), ("cutoff", 8), ("mode", "relative")),
+    ),
+    PredictorSpec("kalman", "Kalman CV", "kalman"),
+)
+CATALOGUE: dict[str, PredictorSpec] = {s.key: s for s in PAPER_PREDICTORS + EXTRA_PREDICTORS}
+
+# Short names of the command line.
+_SHORT = {
+    "decel": "decelerating",
+    "fullvar": "full_var",
+    "svar": "structured_var",
+    "rvar-rel": "rvar_relative",
+}
+
+
+def make_predictor(name: str):
+    """A fresh predictor from the catalogue, by key or command-line short name.
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`CATALOGUE` (``"none"``, ``"decelerating"``, ``"full_var"``,
+        ``"structured_var"``, ``"rvar"``, ``"rvar_relative"``, ``"kalman"``) or a
+        short name (``decel``, ``fullvar``, ``svar``, ``rvar-rel``).
+    """
+    key = _SHORT.get(name, name)
+    if key not in CATALOGUE:
+        names = ", ".join([*CATALOGUE, *_SHORT])
+        raise ValueError(f"predictor: expected one of {names}; got {name!r}")
+    return CATALOGUE[key].build()
