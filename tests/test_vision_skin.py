@@ -341,3 +341,19 @@ def test_histogram_rejects_bad_input(tmp_path):
         HistogramSkinModel.load(bad)
     with pytest.raises(FileNotFoundError):
         HistogramSkinModel.load(tmp_path / "missing.npz")
+
+
+@pytest.mark.parametrize("order", ["bgr", "rgb"])
+def test_compiled_lookup_equals_index_and_take(order):
+    # The mask's one-pass gather against the two-step numpy route.
+    from handvar.vision.skin import _gather, colour_indices
+
+    rng = np.random.default_rng(4)
+    image = rng.integers(0, 256, (37, 53, 3), dtype=np.uint8)
+    model = SkinModel(bins=32)
+    table = model.table
+    expected = table.ravel().take(colour_indices(image, 32, order=order))
+    np.testing.assert_array_equal(_gather(table, image, 32, order), expected)
+    np.testing.assert_array_equal(
+        model.mask(image, threshold=0.7, order=order), expected >= np.log(0.7)
+    )

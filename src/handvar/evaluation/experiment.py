@@ -58,6 +58,14 @@ import numpy as np
 
 from handvar.evaluation.metrics import mean_joint_error, r2_tilde_acceleration, r2_tilde_joints
 from handvar.hand import params
+from handvar.predictors.catalogue import (
+    ARG_ALIASES,
+    CATALOGUE,
+    EXTRA_PREDICTORS,
+    PAPER_PREDICTORS,
+    PredictorSpec,
+    json_scalar,
+)
 
 __all__ = [
     "EXTRA_PREDICTORS",
@@ -79,156 +87,6 @@ __all__ = [
 
 FORMAT = "handvar-experiment"
 FORMAT_VERSION = 1
-
-# --- predictors --------------------------------------------------------------------
-
-_KINDS = ("none", "decelerating", "var", "rvar", "kalman")
-_PARAM_NAMES = {
-    "none": (),
-    "decelerating": ("rho",),
-    "var": ("order", "memory", "structured", "max_step"),
-    "rvar": ("gamma", "cutoff", "mode", "memory"),
-    "kalman": ("q", "r"),
-}
-# The paper's symbols and a few spellings accepted for the constructor arguments.
-_ALIASES = {
-    "ρ": "rho",
-    "γ": "gamma",
-    "c": "cutoff",
-    "n": "memory",
-    "N": "memory",
-    "p": "order",
-}
-
-
-def _param_value(value: Any) -> Any:
-    """A JSON-friendly scalar (bool, int, float, str or None)."""
-    if isinstance(value, np.generic):
-        value = value.item()
-    if value is None or isinstance(value, bool | int | float | str):
-        return value
-    raise ValueError(f"value: expected a number, a boolean or a string; got {value!r}")
-
-
-@dataclasses.dataclass(frozen=True)
-class PredictorSpec:
-    """A motion predictor of an experiment, by kind and constructor arguments.
-
-    Parameters
-    ----------
-    key : str
-        Short identifier used on the command line (``rvar``, ``structured_var``).
-    label : str
-        Name in the store and on the figures (``"RVAR"``).
-    kind : {"none", "decelerating", "var", "rvar", "kalman"}
-        :class:`~handvar.predictors.NoMotion`, :class:`~handvar.predictors.Decelerating`,
-        :class:`~handvar.predictors.VAR` (``structured=True``: the blocks of eq. 25),
-        :class:`~handvar.predictors.RVAR` (``memory``: N of its structured VAR) or
-        :class:`~handvar.predictors.KalmanCV`.
-    params : tuple of (str, value) pairs
-        Constructor arguments; missing ones take the predictor's defaults.
-    """
-
-    key: str
-    label: str
-    kind: str
-    params: tuple[tuple[str, Any], ...] = ()
-
-    def __post_init__(self) -> None:
-        if not isinstance(self.key, str) or not self.key:
-            raise ValueError(f"key: expected a non-empty string; got {self.key!r}")
-        if not isinstance(self.label, str) or not self.label:
-            raise ValueError(f"label: expected a non-empty string; got {self.label!r}")
-        if self.kind not in _KINDS:
-            raise ValueError(f"kind: expected one of {', '.join(_KINDS)}; got {self.kind!r}")
-        items = dict(self.params.items() if isinstance(self.params, Mapping) else self.params)
-        clean = {}
-        for name, value in items.items():
-            name = _ALIASES.get(name, name)
-            if name not in _PARAM_NAMES[self.kind]:
-                allowed = ", ".join(_PARAM_NAMES[self.kind]) or "none"
-                raise ValueError(
-                    f"params: expected arguments of a {self.kind} predictor ({allowed}); "
-                    f"got {name!r}"
-                )
-            clean[name] = _param_value(value)
-        object.__setattr__(self, "params", tuple(sorted(clean.items())))
-
-    @property
-    def kwargs(self) -> dict[str, Any]:
-        """The constructor arguments as a dict."""
-        return dict(self.params)
-
-    def build(self):
-        """A fresh predictor (raises ValueError on a bad argument)."""
-        from handvar.predictors import RVAR, VAR, Decelerating, KalmanCV, NoMotion, hand_blocks
-
-        kw = self.kwargs
-        if self.kind == "none":
-            return NoMotion()
-        if self.kind == "decelerating":
-            return Decelerating(**kw)
-        if self.kind == "kalman":
-            return KalmanCV(**kw)
-        if self.kind == "var":
-            blocks = hand_blocks() if kw.pop("structured", False) else None
-            kw = {k: (int(v) if k in ("order", "memory") else v) for k, v in kw.items()}
-            return VAR(blocks=blocks, **kw)
-        memory = kw.pop("memory", None)
-        if "cutoff" in kw:
-            kw["cutoff"] = int(kw["cutoff"])
-        structured = None
-        if memory is not None:
-            structured = VAR(order=1, memory=int(memory), blocks=hand_blocks())
-        return RVAR(structured=structured, **kw)
-
-    def with_params(self, **changes: Any) -> PredictorSpec:
-        """A copy with some constructor arguments changed."""
-        return dataclasses.replace(self, params=tuple({**self.kwargs, **changes}.items()))
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-friendly form."""
-        return {"key": self.key, "label": self.label, "kind": self.kind, "params": self.kwargs}
-
-    @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> PredictorSpec:
-        """Inverse of :meth:`to_dict`."""
-        try:
-            return cls(data["key"], data["label"], data["kind"], tuple(data["params"].items()))
-        except (KeyError, TypeError, AttributeError) as exc:
-            raise ValueError(
-                f"predictor: expected a mapping with key, label, kind, params; got {data!r}"
-            ) from exc
-
-
-# The paper's five predictors with its settings (§4: ρ = 0.4; §4.2: full VAR, N = 150;
-# §4.3: structured VAR, N = 30; §5: RVAR, γ = 0.8, c = 8; all VARs of order 1 with
-# the 10° step bound).
-PAPER_PREDICTORS: tuple[PredictorSpec, ...] = (
-    PredictorSpec("none", "no motion", "none"),
-    PredictorSpec("decelerating", "decelerating", "decelerating", (("rho", 0.4),)),
-    PredictorSpec("full_var", "full VAR", "var", (("order", 1), ("memory", 150))),
-    PredictorSpec(
-        "structured_var",
-        "structured VAR",
-        "var",
-        (("order", 1), ("memory", 30), ("structured", True)),
-    ),
-    PredictorSpec("rvar", "RVAR", "rvar", (("gamma", 0.8), ("cutoff", 8))),
-)
-# Beyond the paper: the relative interpolation mentioned after eq. 27 and the
-# textbook constant-velocity Kalman filter.
-EXTRA_PREDICTORS: tuple[PredictorSpec, ...] = (
-    PredictorSpec(
-        "rvar_relative",
-        "RVAR relative",
-        "rvar",
-        (("gamma", 0.8), ("cutoff", 8), ("mode", "relative")),
-    ),
-    PredictorSpec("kalman", "Kalman CV", "kalman"),
-)
-_CATALOGUE = {s.key: s for s in PAPER_PREDICTORS + EXTRA_PREDICTORS}
-
 
 # --- configuration -----------------------------------------------------------------
 
@@ -336,7 +194,7 @@ class ExperimentConfig:
         object.__setattr__(self, "predictors", specs)
         tracker = dict(self.tracker.items() if isinstance(self.tracker, Mapping) else self.tracker)
         object.__setattr__(
-            self, "tracker", tuple(sorted((k, _param_value(v)) for k, v in tracker.items()))
+            self, "tracker", tuple(sorted((k, json_scalar(v)) for k, v in tracker.items()))
         )
 
     # -- presets and changes ----------------------------------------------------
@@ -389,13 +247,12 @@ class ExperimentConfig:
                 key = "trial_kind"
             if key == "predictors":
                 wanted = [k.strip() for k in str(raw).split(",") if k.strip()]
-                unknown = [k for k in wanted if k not in _CATALOGUE]
+                unknown = [k for k in wanted if k not in CATALOGUE]
                 if unknown or not wanted:
                     raise ValueError(
-                        f"--set predictors: expected keys among {', '.join(_CATALOGUE)}; "
-                        f"got {raw!r}"
+                        f"--set predictors: expected keys among {', '.join(CATALOGUE)}; got {raw!r}"
                     )
-                cfg = dataclasses.replace(cfg, predictors=tuple(_CATALOGUE[k] for k in wanted))
+                cfg = dataclasses.replace(cfg, predictors=tuple(CATALOGUE[k] for k in wanted))
             elif key == "extras":
                 if value is True:
                     cfg = cfg.with_extras()
@@ -435,7 +292,7 @@ class ExperimentConfig:
             raise ValueError(f"--sweep: expected PREDICTOR.ARG=V1,V2,...; got {text!r}")
         pkey, arg = key.split(".", 1)
         base = self.spec(pkey)
-        arg = _ALIASES.get(arg, arg)
+        arg = ARG_ALIASES.get(arg, arg)
         values = [_parse_value(v) for v in raw.split(",") if v.strip()]
         if not values:
             raise ValueError(f"--sweep: expected at least one value; got {text!r}")

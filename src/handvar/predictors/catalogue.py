@@ -22,10 +22,12 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "ARG_ALIASES",
     "CATALOGUE",
     "EXTRA_PREDICTORS",
     "PAPER_PREDICTORS",
     "PredictorSpec",
+    "json_scalar",
     "make_predictor",
 ]
 
@@ -40,7 +42,7 @@ _PARAM_NAMES = {
     "kalman": ("q", "r"),
 }
 # The paper's symbols and a few spellings accepted for the constructor arguments.
-_ALIASES = {
+ARG_ALIASES = {
     "ρ": "rho",
     "γ": "gamma",
     "c": "cutoff",
@@ -50,7 +52,7 @@ _ALIASES = {
 }
 
 
-def _param_value(value: Any) -> Any:
+def json_scalar(value: Any) -> Any:
     """A JSON-friendly scalar (bool, int, float, str or None)."""
     if isinstance(value, np.generic):
         value = value.item()
@@ -93,14 +95,14 @@ class PredictorSpec:
         items = dict(self.params.items() if isinstance(self.params, Mapping) else self.params)
         clean = {}
         for name, value in items.items():
-            name = _ALIASES.get(name, name)
+            name = ARG_ALIASES.get(name, name)
             if name not in _PARAM_NAMES[self.kind]:
                 allowed = ", ".join(_PARAM_NAMES[self.kind]) or "none"
                 raise ValueError(
                     f"params: expected arguments of a {self.kind} predictor ({allowed}); "
                     f"got {name!r}"
                 )
-            clean[name] = _param_value(value)
+            clean[name] = json_scalar(value)
         object.__setattr__(self, "params", tuple(sorted(clean.items())))
 
     @property

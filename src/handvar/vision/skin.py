@@ -46,6 +46,7 @@ from importlib import resources
 from pathlib import Path
 
 import numpy as np
+from numba import njit
 
 __all__ = [
     "SKIN_DEFAULTS",
@@ -329,6 +330,36 @@ def colour_indices(image: np.ndarray, bins: int, *, order: str = "bgr") -> np.nd
     return idx
 
 
+@njit(cache=True)
+def _gather_kernel(image, table, shift, k, r, b, out):  # pragma: no cover
+    """out[y, x] = table[colour_indices(image)[y, x]] in one pass over the pixels.
+
+    The same arithmetic as `colour_indices` followed by ``table.take``, compiled so
+    that a full-HD frame is classified without the three full-size temporaries.
+    """
+    h, w = out.shape
+    for y in range(h):
+        for x in range(w):
+            idx = (
+                ((image[y, x, r] >> shift) << (2 * k))
+                | ((image[y, x, 1] >> shift) << k)
+                | (image[y, x, b] >> shift)
+            )
+            out[y, x] = table[idx]
+
+
+def _gather(table: np.ndarray, image: np.ndarray, bins: int, order: str) -> np.ndarray:
+    """``table.ravel().take(colour_indices(image, bins, order=order))``, compiled."""
+    image = _check_image(image)
+    bins = _check_bins(bins)
+    order = _check_order(order)
+    k = bins.bit_length() - 1
+    r, b = (2, 0) if order == "bgr" else (0, 2)
+    out = np.empty(image.shape[:2], dtype=table.dtype)
+    _gather_kernel(np.ascontiguousarray(image), table.ravel(), 8 - k, k, r, b, out)
+    return out
+
+
 class _TableClassifier:
     """Classification of images through a log-likelihood-ratio lookup table."""
 
@@ -360,7 +391,7 @@ class _TableClassifier:
         (H, W) float32 ndarray
             Tabulated log ratio (natural log) of each pixel's colour cell.
         """
-        return self._log_ratio_table().take(colour_indices(image, self.bins, order=order))
+        return _gather(self._log_ratio_table(), image, self.bins, order)
 
     def mask(
         self, image: np.ndarray, *, threshold: float | None = None, order: str = "bgr"
@@ -393,7 +424,7 @@ class _TableClassifier:
             # One boolean table per threshold: the test becomes a single gather.
             cache = (theta, self._log_ratio_table() >= np.log(theta))
             self._mask_cache = cache
-        return cache[1].take(colour_indices(image, self.bins, order=order))
+        return _gather(cache[1], image, self.bins, order)
 
 
 class SkinModel(_TableClassifier):
