@@ -80,7 +80,7 @@ def one_step_predictions(predictor: Predictor, X, *, resets=()) -> np.ndarray:
     --------
     >>> from handvar.predictors import Decelerating
     >>> one_step_predictions(Decelerating(rho=1.0), [[0.0], [1.0], [2.0]])[1:, 0]
-    array([1., 3.])
+    array([0., 2.])
     """
     X = as_series(X)
     cuts = {int(r) for r in resets}
