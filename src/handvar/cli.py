@@ -409,6 +409,30 @@ def _track_views(hand, rig, backgrounds, pose):
     ]
 
 
+def _recording_options(func):
+    """The options of a real recording: --calib, --fov and --scale."""
+    options = [
+        click.option(
+            "--calib", type=click.Path(dir_okay=False), default=None,
+            help="Recordings only: OpenCV calibration file, one camera per recording "
+            "[default: for one video, an assumed camera, see --fov].",
+        ),
+        click.option(
+            "--fov", type=click.FloatRange(1.0, 179.0), default=None,
+            help="One uncalibrated video: assumed horizontal field of view, degrees "
+            "[default: 60].",
+        ),
+        click.option(
+            "--scale", type=click.FloatRange(0.05, 4.0), default=1.0, show_default=True,
+            help="Recordings only: resize the frames by this factor first (0.5 is about "
+            "4x faster).",
+        ),
+    ]  # fmt: skip
+    for option in reversed(options):
+        func = option(func)
+    return func
+
+
 @main.command("track")
 @click.argument("seq")
 @click.option(
@@ -428,16 +452,13 @@ def _track_views(hand, rig, backgrounds, pose):
               help="Output directory.")  # fmt: skip
 @click.option("--video/--no-video", default=True, show_default=True,
               help="Also write overlay.mp4.")  # fmt: skip
-@click.option("--calib", type=click.Path(dir_okay=False), default=None,
-              help="Recordings only: OpenCV calibration file, one camera per "
-              "recording.")  # fmt: skip
-@click.option("--fov", type=click.FloatRange(1.0, 179.0), default=None,
-              help="One uncalibrated video: assumed horizontal field of view, degrees "
-              "[default: 60].")  # fmt: skip
-@click.option("--scale", type=click.FloatRange(0.05, 4.0), default=1.0, show_default=True,
-              help="Recordings only: resize the frames by this factor first.")  # fmt: skip
+@click.option("--hand-length", type=click.FloatRange(min=50.0, max=400.0), default=185.0,
+              show_default=True, help="Hand length of the model, mm (as for `init`).")  # fmt: skip
+@_recording_options
 @_one_line_errors
-def track_command(seq, predictor, init, seed, n_frames, out, video, calib, fov, scale) -> None:
+def track_command(
+    seq, predictor, init, seed, n_frames, out, video, hand_length, calib, fov, scale
+) -> None:
     """Track the hand through the sequence SEQ (a sequence directory or a synthetic name).
 
     SEQ may also be a real recording: a video file or an image folder, or several
@@ -456,6 +477,7 @@ def track_command(seq, predictor, init, seed, n_frames, out, video, calib, fov, 
     import numpy as np
     from tqdm import tqdm
 
+    from handvar.hand.anthropometry import HandShape
     from handvar.hand.kinematics import HandModel
     from handvar.hand.params import NAMES
     from handvar.io import read_sequence
@@ -484,7 +506,7 @@ def track_command(seq, predictor, init, seed, n_frames, out, video, calib, fov, 
             f"{seq}: the sequence has no ground truth; give the first pose with --init"
         )
     os.makedirs(out, exist_ok=True)
-    hand = HandModel()
+    hand = HandModel(HandShape.from_size(hand_length))
     tracker = Tracker(sequence.rig, hand, make_predictor(predictor), np.random.default_rng(seed))
     result = tracker.track(
         sequence, x0, frames=n_frames,
@@ -642,14 +664,7 @@ def _sequence_frame_masks(path: str, frame: int):
 
 @main.command("init")
 @click.argument("sources", nargs=-1, required=True)
-@click.option("--calib", type=click.Path(dir_okay=False), default=None,
-              help="OpenCV calibration file (one camera per SOURCE) [default: for one video, "
-              "an assumed camera, see --fov].")  # fmt: skip
-@click.option("--fov", type=click.FloatRange(1.0, 179.0), default=None,
-              help="Horizontal field of view (degrees) assumed for an uncalibrated video "
-              "[default: 60].")  # fmt: skip
-@click.option("--scale", type=click.FloatRange(0.05, 4.0), default=1.0, show_default=True,
-              help="Resize the frames by this factor first (0.5 is about 4x faster).")  # fmt: skip
+@_recording_options
 @click.option("--frame", type=click.IntRange(min=0), default=0, show_default=True,
               help="Frame to fit.")  # fmt: skip
 @click.option("--wrist/--no-wrist", default=True, show_default=True,
