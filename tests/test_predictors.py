@@ -342,3 +342,17 @@ def test_compiled_trust_weights_equal_the_numpy_reference():
     _kernels.trust_weights(np.stack([x, a, b]), w, 1e-8, alpha, beta)
     np.testing.assert_allclose(alpha, ref[0], rtol=0, atol=1e-12)
     np.testing.assert_allclose(beta, ref[1], rtol=0, atol=1e-12)
+
+
+def test_a_parameter_that_never_moves_gets_the_minimum_norm_fit(real_degrees):
+    # Its block's W W' is singular: the minimum-norm solution (zero), as lstsq gives.
+    X = real_degrees[:60].copy()
+    X[:, 7] = 3.0  # abduction of the index finger held still
+    X[:, 14:17] = X[0, 14:17]  # index finger flexion held still (a 3 × 3 block)
+    online = one_step_predictions(VAR(order=1, memory=30, blocks=hand_blocks()), X)
+    batch = np.array([_batch_var(X, t, 1, 30, hand_blocks(), 10.0) for t in range(len(X) - 1)])
+    np.testing.assert_allclose(online[1:], batch, rtol=0, atol=1e-6)
+    var = VAR(order=1, memory=30, blocks=hand_blocks())
+    for x in X:
+        var.update(x)
+    assert np.all(var.coefs[0][7] == 0.0) and np.all(var.coefs[0][14:17] == 0.0)
