@@ -375,40 +375,6 @@ def make_predictor(name: str):
         ) from None
 
 
-def _atomic_write(path: str, write) -> None:
-    """Call ``write(tmp)`` on a temporary file next to `path`, then rename it to `path`."""
-    import os
-    import tempfile
-
-    folder = os.path.dirname(os.path.abspath(path))
-    suffix = os.path.splitext(path)[1]
-    fd, tmp = tempfile.mkstemp(prefix=".track-", suffix=suffix, dir=folder)
-    os.close(fd)
-    try:
-        write(tmp)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-
-
-def _track_views(hand, rig, backgrounds, pose):
-    """RGB views of one frame: the fitted model's outline and joints over `backgrounds`.
-
-    `backgrounds` are the observed masks (n_cams, H, W) or, for real recordings, the
-    colour frames (one RGB image per camera).
-    """
-    from handvar.render import draw_overlay, silhouettes
-
-    model = silhouettes(hand, pose, rig)
-    joints = hand.joints(pose)
-    return [
-        draw_overlay(b, cam, joints, mask=m)
-        for b, cam, m in zip(backgrounds, rig, model, strict=True)
-    ]
-
-
 def _recording_options(func):
     """The options of a real recording: --calib, --fov and --scale."""
     options = [
@@ -468,22 +434,20 @@ def track_command(
     OUT receives poses.csv (T × 26, mm and degrees), joints.csv (T × 63, mm),
     track.npz (poses, joints, starts, costs, iterations, seconds), overlay.png (a
     strip of frames: the observed masks with the fitted model's outline and joints)
-    and, with --video, overlay.mp4. Prints the mean joint error when the sequence has
-    ground truth.
+    and, with --video, overlay.mp4 (numbered PNGs in overlay_frames/ when OpenCV has
+    no mp4v codec). Prints the mean joint error when the sequence has ground truth.
     """
     import os
 
-    import cv2
     import numpy as np
     from tqdm import tqdm
 
     from handvar.hand.anthropometry import HandShape
     from handvar.hand.kinematics import HandModel
-    from handvar.hand.params import NAMES
     from handvar.io import read_sequence
-    from handvar.render import side_by_side
     from handvar.synth.sequences import SEQUENCE_NAMES, make_sequence
     from handvar.tracking import Tracker
+    from handvar.tracking.outputs import recording_backgrounds, write_track_outputs
 
     source = None  # a real recording: its colour frames go under the overlays
     if _is_recording(seq):  # video files / image folders: see the init section below
@@ -513,83 +477,18 @@ def track_command(
         progress=lambda it: tqdm(it, desc=f"tracking {sequence.name}", unit="frame", leave=False),
     )  # fmt: skip
     T = result.poses.shape[0]
-
-    header = ",".join(NAMES)
-    jheader = ",".join(f"j{j}_{c}" for j in range(21) for c in "xyz")
-    _atomic_write(os.path.join(out, "poses.csv"), lambda p: np.savetxt(
-        p, result.poses, delimiter=",", header=header, comments="", fmt="%.6f"))  # fmt: skip
-    _atomic_write(os.path.join(out, "joints.csv"), lambda p: np.savetxt(
-        p, result.joints.reshape(T, -1), delimiter=",", header=jheader, comments="",
-        fmt="%.4f"))  # fmt: skip
-
-    def write_npz(path):
-        with open(path, "wb") as fh:
-            np.savez_compressed(
-                fh, poses=result.poses, joints=result.joints, starts=result.starts,
-                costs=result.costs, iterations=result.iterations, seconds=result.seconds,
-                predictor=predictor, seed=seed,
-            )  # fmt: skip
-
-    _atomic_write(os.path.join(out, "track.npz"), write_npz)
-
-    def backgrounds(frames):
-        """(t, per-camera backgrounds) for the frames: masks, or the recording's colour."""
-        if source is None:
-            for t in frames:
-                yield t, np.asarray(sequence.masks[t])
-            return
-        wanted = set(frames)
-        for t, images in source.frames(0, max(frames) + 1):
-            if t in wanted:
-                yield t, [cv2.cvtColor(im, cv2.COLOR_BGR2RGB) for im in images]
-
-    # overlay strip: up to six evenly spaced frames, first camera, half size
-    picks = np.unique(np.linspace(0, T - 1, min(6, T)).round().astype(int))
-    tiles = []
-    for t, views in backgrounds(picks.tolist()):
-        view = _track_views(hand, sequence.rig, views, result.poses[t])[0]
-        tiles.append(cv2.resize(view, (view.shape[1] // 2, view.shape[0] // 2),
-                                interpolation=cv2.INTER_AREA))  # fmt: skip
-    strip = side_by_side(tiles, [f"frame {t}" for t in picks])
-
-    def write_png(path):
-        if not cv2.imwrite(path, cv2.cvtColor(strip, cv2.COLOR_RGB2BGR)):
-            raise OSError(f"{path}: cannot write the PNG")
-
-    _atomic_write(os.path.join(out, "overlay.png"), write_png)
-
-    wrote_video = False
-    if video:
-
-        def write_mp4(path):
-            writer = None
-            try:
-                for t, images in backgrounds(list(range(T))):
-                    views = _track_views(hand, sequence.rig, images, result.poses[t])
-                    frame = cv2.cvtColor(side_by_side(views, list(sequence.rig.names)),
-                                         cv2.COLOR_RGB2BGR)  # fmt: skip
-                    if writer is None:
-                        h, w = frame.shape[:2]
-                        writer = cv2.VideoWriter(path, cv2.VideoWriter_fourcc(*"mp4v"),
-                                                 sequence.fps, (w, h))  # fmt: skip
-                        if not writer.isOpened():
-                            raise OSError("cv2.VideoWriter cannot write MP4 here")
-                    writer.write(frame)
-            finally:
-                if writer is not None:
-                    writer.release()
-
-        try:
-            _atomic_write(os.path.join(out, "overlay.mp4"), write_mp4)
-            wrote_video = True
-        except OSError as exc:
-            click.echo(f"handvar: note: no video ({exc})", err=True)
+    written = write_track_outputs(
+        out, result, sequence, hand, predictor=predictor, seed=seed, video=video,
+        backgrounds=None if source is None else recording_backgrounds(source),
+    )  # fmt: skip
+    if "video_error" in written:
+        click.echo(f"handvar: note: no video ({written['video_error']})", err=True)
 
     fps = T / max(float(result.seconds.sum()), 1e-9)
     click.echo(
         f"{sequence.name}: {T} frames, predictor {predictor}, seed {seed}: "
         f"{result.iterations.mean():.1f} iterations/frame, {fps:.1f} frames/s -> {out}"
-        + (" (with overlay.mp4)" if wrote_video else "")
+        + (f" (with {written['video'].name})" if "video" in written else "")
     )
     if sequence.truth is not None:
         err = result.mean_joint_error(sequence.truth.joints[:T])
@@ -699,6 +598,7 @@ def init_command(
 
     from handvar.hand.anthropometry import HandShape
     from handvar.hand.kinematics import HandModel
+    from handvar.io import write_atomic
     from handvar.tracking.init import initial_pose
 
     rig, images, masks = _frame_silhouettes(sources, calib, fov, scale, frame, wrist, threshold)
@@ -710,7 +610,7 @@ def init_command(
         with open(path, "w", encoding="utf-8") as fh:
             fh.write(line)
 
-    _atomic_write(out, write_text)
+    write_atomic(out, write_text)
     if overlay is not None:
         from handvar.vision.sources import overlay_frame
 
@@ -722,7 +622,7 @@ def init_command(
             if not cv2.imwrite(path, picture):
                 raise OSError(f"{path}: cannot write the PNG")
 
-        _atomic_write(overlay, write_png)
+        write_atomic(overlay, write_png)
     where = os.path.basename(sources[0].rstrip(os.sep)) + ("" if len(sources) == 1 else ", ...")
     click.echo(
         f"{where} frame {frame}: IoU {result.iou:.3f} (shape {result.shape}, "

@@ -152,13 +152,11 @@ def format_table(rows: list[OpenLoopRow]) -> str:
 
 def write_csv(rows: list[OpenLoopRow], path: str | os.PathLike) -> None:
     """Write the rows as CSV, atomically (a temporary file renamed into place)."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp")
-    with tmp.open("w") as f:
-        f.write("group,unit,predictor,rmse,mae,r2_tilde,frames\n")
-        for r in rows:
-            f.write(
-                f"{r.group},{r.unit},{r.predictor},{r.rmse:.6g},{r.mae:.6g},"
-                f"{r.r2_tilde:.6g},{r.frames}\n"
-            )
-    os.replace(tmp, path)
+    from handvar.io import write_atomic
+
+    lines = ["group,unit,predictor,rmse,mae,r2_tilde,frames"]
+    lines += [
+        f"{r.group},{r.unit},{r.predictor},{r.rmse:.6g},{r.mae:.6g},{r.r2_tilde:.6g},{r.frames}"
+        for r in rows
+    ]
+    write_atomic(path, lambda tmp: Path(tmp).write_text("\n".join(lines) + "\n"))

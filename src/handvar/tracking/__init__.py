@@ -3,6 +3,7 @@
 - :mod:`~handvar.tracking.costs`: C_s, C_f (eq. 1) and their gradients (paper §2.1).
 - :mod:`~handvar.tracking.smd`: stochastic meta-descent (paper §4).
 - :mod:`~handvar.tracking.tracker`: `Tracker` (predict → optimise → update per frame).
+- :mod:`~handvar.tracking.outputs`: the files of a track (poses, joints, overlays).
 """
 
 from handvar.tracking.costs import (

@@ -1,0 +1,253 @@
+"""The files of a tracked sequence: poses, joints, the whole track and its overlays.
+
+:func:`write_track_outputs` writes into one folder::
+
+    poses.csv     T × 26 fitted poses, mm and degrees, a header of parameter names
+    joints.csv    T × 63 joint positions (j0_x, j0_y, j0_z, …), mm
+    track.npz     poses, joints, starts, costs, iterations, seconds (`TrackResult`),
+                  predictor and seed
+    overlay.png   a strip of up to six evenly spaced frames of the first camera at half
+                  size: the fitted model's outline and joints over the frame
+    overlay.mp4   every frame, all cameras side by side (`OverlayWriter`, which writes
+                  numbered PNGs to ``overlay_frames/`` when the codec is missing)
+
+Every file is written under a temporary name and renamed into place.  The overlays are
+drawn over the sequence's masks or, for a real recording, over its colour frames
+(:func:`recording_backgrounds`).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Iterable, Iterator
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from handvar.camera import Rig
+from handvar.hand.params import NAMES
+from handvar.io import Sequence, write_atomic
+from handvar.render import draw_overlay, side_by_side, silhouettes
+from handvar.tracking.tracker import TrackResult
+
+__all__ = [
+    "overlay_strip",
+    "overlay_views",
+    "recording_backgrounds",
+    "sequence_backgrounds",
+    "write_track_outputs",
+]
+
+_N_JOINTS = 21
+_STRIP_FRAMES = 6  # frames in overlay.png, at most
+_STRIP_SHRINK = 2  # overlay.png tiles are 1/_STRIP_SHRINK of the camera's size
+
+Backgrounds = Callable[[list[int]], Iterable[tuple[int, list[np.ndarray] | np.ndarray]]]
+
+
+def overlay_views(hand, rig: Rig, backgrounds, pose) -> list[np.ndarray]:
+    """RGB views of one frame: the model's outline and joints at `pose` over `backgrounds`.
+
+    Parameters
+    ----------
+    hand : HandModel
+    rig : Rig
+        The cameras of the frame.
+    backgrounds : (n_cams, H, W) bool array_like or sequence of (H, W, 3) uint8 ndarray
+        The observed masks, or one RGB image per camera.
+    pose : (26,) array_like
+        Pose, mm and degrees.
+
+    Returns
+    -------
+    list of (H, W, 3) uint8 ndarray
+        One RGB view per camera (`handvar.render.draw_overlay`).
+    """
+    model = silhouettes(hand, pose, rig)
+    joints = hand.joints(pose)
+    return [
+        draw_overlay(b, cam, joints, mask=m)
+        for b, cam, m in zip(backgrounds, rig, model, strict=True)
+    ]
+
+
+def sequence_backgrounds(sequence: Sequence) -> Backgrounds:
+    """The masks of `sequence` as overlay backgrounds: ``f(frames)`` yields ``(t, masks)``."""
+
+    def backgrounds(frames: list[int]) -> Iterator[tuple[int, np.ndarray]]:
+        for t in frames:
+            yield t, np.asarray(sequence.masks[t])
+
+    return backgrounds
+
+
+def recording_backgrounds(source) -> Backgrounds:
+    """The colour frames of a recording as overlay backgrounds.
+
+    Parameters
+    ----------
+    source : VideoSource
+        The recording (`handvar.vision.sources.open_source`), BGR frames.
+
+    Returns
+    -------
+    callable
+        ``f(frames)`` yields ``(t, images)`` for the ascending frame indices `frames`,
+        one RGB image per camera; the recording is read once, up to the last of them.
+    """
+
+    def backgrounds(frames: list[int]) -> Iterator[tuple[int, list[np.ndarray]]]:
+        wanted = set(frames)
+        for t, images in source.frames(0, max(frames) + 1):
+            if t in wanted:
+                yield t, [cv2.cvtColor(im, cv2.COLOR_BGR2RGB) for im in images]
+
+    return backgrounds
+
+
+def _check_result(result: TrackResult, sequence: Sequence) -> int:
+    n_frames = result.poses.shape[0]
+    if not 1 <= n_frames <= sequence.n_frames:
+        raise ValueError(
+            f"result: expected 1 to {sequence.n_frames} tracked frames (the sequence's); "
+            f"got {n_frames}"
+        )
+    return n_frames
+
+
+def overlay_strip(
+    result: TrackResult, sequence: Sequence, hand, *, backgrounds: Backgrounds | None = None
+) -> np.ndarray:
+    """Up to six evenly spaced frames of the first camera, half size, side by side.
+
+    Parameters
+    ----------
+    result : TrackResult
+        The track of the first T frames of `sequence`.
+    sequence : Sequence
+        The tracked sequence (its rig, and its masks unless `backgrounds` is given).
+    hand : HandModel
+        The model that was tracked.
+    backgrounds : callable, keyword-only, optional
+        What the model is drawn over: ``backgrounds(frames)`` yields ``(t, images)``
+        for the ascending frame indices `frames` (see :func:`recording_backgrounds`).
+        Default: the sequence's masks.
+
+    Returns
+    -------
+    (H, W, 3) uint8 ndarray
+        RGB image, each tile titled with its frame number.
+    """
+    n_frames = _check_result(result, sequence)
+    if backgrounds is None:
+        backgrounds = sequence_backgrounds(sequence)
+    picks = np.unique(np.linspace(0, n_frames - 1, min(_STRIP_FRAMES, n_frames)).round())
+    picks = picks.astype(int).tolist()
+    tiles = []
+    for t, images in backgrounds(picks):
+        view = overlay_views(hand, sequence.rig, images, result.poses[t])[0]
+        size = (view.shape[1] // _STRIP_SHRINK, view.shape[0] // _STRIP_SHRINK)
+        tiles.append(cv2.resize(view, size, interpolation=cv2.INTER_AREA))
+    return side_by_side(tiles, [f"frame {t}" for t in picks])
+
+
+def _write_video(path: Path, result: TrackResult, sequence: Sequence, hand, backgrounds) -> Path:
+    """Every tracked frame, all cameras side by side, as `path`; returns what was written."""
+    from handvar.vision.sources import OverlayWriter
+
+    with OverlayWriter(path, sequence.fps) as writer:
+        for t, images in backgrounds(list(range(result.poses.shape[0]))):
+            views = overlay_views(hand, sequence.rig, images, result.poses[t])
+            writer.write(
+                cv2.cvtColor(side_by_side(views, list(sequence.rig.names)), cv2.COLOR_RGB2BGR)
+            )
+    return writer.path_written
+
+
+def write_track_outputs(
+    out_dir: str | os.PathLike,
+    result: TrackResult,
+    sequence: Sequence,
+    hand,
+    *,
+    predictor: str,
+    seed: int,
+    video: bool = True,
+    backgrounds: Backgrounds | None = None,
+) -> dict[str, Path | str]:
+    """Write the files of a track (poses, joints, the track, overlays) into `out_dir`.
+
+    Parameters
+    ----------
+    out_dir : path-like
+        Output folder, created if missing.
+    result : TrackResult
+        The track of the first T frames of `sequence`.
+    sequence : Sequence
+        The tracked sequence.
+    hand : HandModel
+        The model that was tracked.
+    predictor : str, keyword-only
+        Name of the motion predictor, stored in track.npz.
+    seed : int, keyword-only
+        Seed of the optimiser's samples, stored in track.npz.
+    video : bool, keyword-only
+        Also write overlay.mp4.
+    backgrounds : callable, keyword-only, optional
+        What the overlays are drawn over (see :func:`overlay_strip`); default: the
+        sequence's masks.
+
+    Returns
+    -------
+    dict
+        ``"poses"``, ``"joints"``, ``"track"``, ``"overlay"``: the files written (Path);
+        ``"video"``: overlay.mp4, or the ``overlay_frames`` folder when the codec is
+        missing; ``"video_error"``: why no video was written (str), instead of raising.
+    """
+    n_frames = _check_result(result, sequence)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    if backgrounds is None:
+        backgrounds = sequence_backgrounds(sequence)
+    written: dict[str, Path | str] = {
+        "poses": out / "poses.csv",
+        "joints": out / "joints.csv",
+        "track": out / "track.npz",
+        "overlay": out / "overlay.png",
+    }
+
+    header = ",".join(NAMES)
+    jheader = ",".join(f"j{j}_{c}" for j in range(_N_JOINTS) for c in "xyz")
+    write_atomic(written["poses"], lambda p: np.savetxt(
+        p, result.poses, delimiter=",", header=header, comments="", fmt="%.6f"))  # fmt: skip
+    write_atomic(written["joints"], lambda p: np.savetxt(
+        p, result.joints.reshape(n_frames, -1), delimiter=",", header=jheader, comments="",
+        fmt="%.4f"))  # fmt: skip
+
+    def write_npz(path: str) -> None:
+        with open(path, "wb") as fh:
+            np.savez_compressed(
+                fh, poses=result.poses, joints=result.joints, starts=result.starts,
+                costs=result.costs, iterations=result.iterations, seconds=result.seconds,
+                predictor=predictor, seed=seed,
+            )  # fmt: skip
+
+    write_atomic(written["track"], write_npz)
+
+    strip = cv2.cvtColor(overlay_strip(result, sequence, hand, backgrounds=backgrounds),
+                         cv2.COLOR_RGB2BGR)  # fmt: skip
+
+    def write_png(path: str) -> None:
+        if not cv2.imwrite(path, strip):
+            raise OSError(f"{path}: cannot write the PNG")
+
+    write_atomic(written["overlay"], write_png)
+
+    if video:
+        try:
+            written["video"] = _write_video(out / "overlay.mp4", result, sequence, hand,
+                                            backgrounds)  # fmt: skip
+        except OSError as exc:
+            written["video_error"] = str(exc)
+    return written
