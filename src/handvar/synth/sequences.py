@@ -140,6 +140,15 @@ def _drift(rng, t, amplitude: float, period: float) -> tuple[np.ndarray, np.ndar
     return times, values
 
 
+def _palm_drift(poses, t, rng, rotation, translation: float, periods) -> None:
+    """Add slow random drifts of the palm: `rotation` ((name, degrees), ...) with knots
+    every ``periods[0]`` s, then ±`translation` mm on each axis every ``periods[1]`` s."""
+    for name, amplitude in rotation:
+        _add_path(poses, t, name, *_drift(rng, t, amplitude, periods[0]))
+    for name in ("tx", "ty", "tz"):
+        _add_path(poses, t, name, *_drift(rng, t, translation, periods[1]))
+
+
 def _check_seed(seed) -> int:
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
         raise ValueError(f"seed: expected a non-negative integer; got {seed!r}")
@@ -195,10 +204,7 @@ def benchmark(seed: int = 0, settings: BenchmarkSettings = BenchmarkSettings()) 
     poses[:, 3:6] += real[:, 3:6] - real[0, 3:6]  # the recorded palm rotation, from zero
 
     # slow palm rotations and translation (keyframed drift)
-    for name, amplitude in (("rx", 15.0), ("ry", 20.0), ("rz", 12.0)):
-        _add_path(poses, t, name, *_drift(rng, t, amplitude, 1.2))
-    for name in ("tx", "ty", "tz"):
-        _add_path(poses, t, name, *_drift(rng, t, 20.0, 1.5))
+    _palm_drift(poses, t, rng, (("rx", 15.0), ("ry", 20.0), ("rz", 12.0)), 20.0, (1.2, 1.5))
 
     def centred(frame: int, rise: float) -> float:
         return frame / s.fps - rise / 2.0  # start so that the rise is fastest at `frame`
@@ -281,10 +287,7 @@ def flexion(seed: int = 0, settings: FlexionSettings = FlexionSettings()) -> np.
     n = settings.n_frames
     t = np.arange(n) / settings.fps
     poses = _base(n)
-    for name, amplitude in (("rx", 8.0), ("ry", 10.0), ("rz", 6.0)):
-        _add_path(poses, t, name, *_drift(rng, t, amplitude, 2.0))
-    for name in ("tx", "ty", "tz"):
-        _add_path(poses, t, name, *_drift(rng, t, 10.0, 2.0))
+    _palm_drift(poses, t, rng, (("rx", 8.0), ("ry", 10.0), ("rz", 6.0)), 10.0, (2.0, 2.0))
 
     # the script: (digits, rise, hold, fall, amplitude, pause after), in seconds
     everything = ("thumb", *_FINGERS)
@@ -343,10 +346,7 @@ def flip(seed: int = 0, settings: FlipSettings = FlipSettings()) -> np.ndarray:
         for joint, value in relaxed.items():
             poses[:, index(f"{finger}_{joint}")] += value
     poses[:, index("thumb_cmc")] += 10.0
-    for name, amplitude in (("rx", 6.0), ("rz", 6.0)):
-        _add_path(poses, t, name, *_drift(rng, t, amplitude, 1.0))
-    for name in ("tx", "ty", "tz"):
-        _add_path(poses, t, name, *_drift(rng, t, 8.0, 1.0))
+    _palm_drift(poses, t, rng, (("rx", 6.0), ("rz", 6.0)), 8.0, (1.0, 1.0))
 
     lo, hi = settings.turn_deg
     angle = rng.uniform(lo, hi)
