@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from click.testing import CliRunner
 
-from handvar.cli import main
+from handvar.cli import main, make_predictor
 from handvar.evaluation.openloop import evaluate_open_loop, read_pose_series
 from handvar.predictors import NoMotion, one_step_predictions
 from tests.conftest import EXAMPLES
@@ -64,3 +64,30 @@ def test_predict_errors_are_one_line(tmp_path):
         assert result.exit_code == 2
         assert len(result.output.strip().splitlines()) == 1
         assert result.output.startswith("handvar: error:")
+
+
+def test_predict_on_real_keypoints(tmp_path):
+    # The second real recording: 621 frames of 21 keypoints (metres), wrist-centred.
+    out = tmp_path / "kp.csv"
+    path = EXAMPLES / "dex-human-hand-landmarks.npy"
+    result = CliRunner().invoke(
+        main, ["predict", str(path), "--layout", "keypoints", "--csv", str(out)]
+    )
+    assert result.exit_code == 0, result.output
+    rows = np.genfromtxt(out, delimiter=",", names=True, dtype=None, encoding="utf-8")
+    assert {"wrist", "thumb", "little", "all digits"} <= set(rows["group"])
+    # Direct check of one number: the decelerating predictor on the index finger (mm).
+    X = 1000.0 * np.load(path).reshape(621, 63)
+    dec = one_step_predictions(make_predictor("decel"), X)
+    idx = np.arange(15, 27)
+    rmse = np.sqrt(np.mean((X - dec)[1:, idx] ** 2))
+    (row,) = rows[(rows["group"] == "index") & (rows["predictor"] == "decelerating")]
+    assert abs(row["rmse"] - rmse) < 1e-4 * rmse
+
+
+def test_keypoints_need_63_columns(tmp_path):
+    bad = tmp_path / "x.npy"
+    np.save(bad, np.zeros((10, 26)))
+    result = CliRunner().invoke(main, ["predict", str(bad), "--layout", "keypoints"])
+    assert result.exit_code == 2
+    assert "63 columns" in result.output

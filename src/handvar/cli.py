@@ -206,10 +206,11 @@ def show_command(
 @click.argument("file", type=click.Path(dir_okay=False))
 @click.option(
     "--layout",
-    type=click.Choice(["handvar", "htrack"]),
+    type=click.Choice(["handvar", "htrack", "keypoints"]),
     default="handvar",
     show_default=True,
-    help="Column layout: handvar's 26 parameters (mm, degrees), or htrack's (radians).",
+    help="Column layout: handvar's 26 parameters (mm, degrees), htrack's (radians), or "
+    "21 keypoints x, y, z in metres (63 columns, or a (T, 21, 3) .npy).",
 )
 @click.option(
     "--stride", type=click.IntRange(min=1), default=1, show_default=True,
@@ -224,9 +225,9 @@ def show_command(
 def predict_command(file, layout, stride, reset_at, csv_out) -> None:
     """Score every predictor one step ahead on the recorded poses in FILE.
 
-    FILE is whitespace text, CSV or .npy; rows are frames, 26 columns.  Prints, per
-    parameter group, RMSE and mean absolute error (mm or degrees) and R̃² against
-    no motion (> 0: better than no motion).
+    FILE is whitespace text, CSV or .npy; rows are frames, 26 columns (or 63 for
+    keypoints).  Prints, per parameter group, RMSE and mean absolute error (mm or
+    degrees) and R̃² against no motion (> 0: better than no motion).
     """
     from handvar.evaluation.openloop import (
         evaluate_open_loop,
@@ -240,12 +241,16 @@ def predict_command(file, layout, stride, reset_at, csv_out) -> None:
         from handvar.synth.motion import htrack_to_handvar
 
         X = htrack_to_handvar(X)
+    elif layout == "keypoints":
+        X = 1000.0 * X  # metres -> millimetres
     if any(r >= len(X) for r in reset_at):
         raise ValueError(f"--reset-at: expected rows below {len(X)}; got {list(reset_at)}")
     # Reset rows map onto the first kept frame at or after them.
     resets = sorted({-(-r // stride) for r in reset_at if -(-r // stride) < -(-len(X) // stride)})
     X = X[::stride]
-    rows, _ = evaluate_open_loop(X, resets=resets)
+    rows, _ = evaluate_open_loop(
+        X, resets=resets, layout="handvar" if layout == "htrack" else layout
+    )
     click.echo(f"{file}: {len(X)} frames, {X.shape[1]} parameters, layout {layout}")
     click.echo(format_table(rows))
     if csv_out:

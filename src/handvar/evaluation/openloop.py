@@ -22,16 +22,19 @@ from handvar.predictors.catalogue import CATALOGUE
 
 __all__ = [
     "GROUPS",
+    "KEYPOINT_GROUPS",
     "OpenLoopRow",
     "default_predictors",
     "evaluate_open_loop",
     "format_table",
+    "keypoint_blocks",
     "read_pose_series",
     "write_csv",
 ]
 
 # Parameter groups of the table: (name, unit, indices).
-GROUPS: tuple[tuple[str, str, np.ndarray], ...] = (
+Groups = tuple[tuple[str, str, np.ndarray], ...]
+GROUPS: Groups = (
     ("palm translation", "mm", np.arange(0, 3)),
     ("palm rotation", "deg", np.arange(3, 6)),
     ("abduction", "deg", np.arange(6, 11)),
@@ -43,9 +46,27 @@ GROUPS: tuple[tuple[str, str, np.ndarray], ...] = (
 )
 
 
-def default_predictors() -> dict[str, Predictor]:
-    """The paper's predictors (§4–5) with its settings, plus the relative RVAR and Kalman."""
-    return {spec.label: spec.build() for spec in CATALOGUE.values()}
+# The 21 keypoints (the order of G(x)) flattened to 63 columns x, y, z: the wrist and
+# each digit's four points.
+KEYPOINT_GROUPS: Groups = (
+    ("wrist", "mm", np.arange(0, 3)),
+    *((digit, "mm", np.arange(3 + 12 * k, 15 + 12 * k)) for k, digit in enumerate(params.DIGITS)),
+    ("all digits", "mm", np.arange(3, 63)),
+)
+
+
+def keypoint_blocks() -> list[list[int]]:
+    """Eq. 25's assumption for 3D keypoints: the wrist alone, each digit's 12 coordinates
+    together (digits move independently, the joints of one digit together)."""
+    return [list(range(0, 3)), *[list(range(3 + 12 * k, 15 + 12 * k)) for k in range(5)]]
+
+
+def default_predictors(blocks=None) -> dict[str, Predictor]:
+    """The paper's predictors (§4–5) with its settings, plus the relative RVAR and Kalman.
+
+    `blocks` are the structured VARs' blocks (default: eq. 25 for hand parameters).
+    """
+    return {spec.label: spec.build(blocks) for spec in CATALOGUE.values()}
 
 
 @dataclass(frozen=True)
@@ -74,6 +95,8 @@ def read_pose_series(path: str | os.PathLike) -> np.ndarray:
     try:
         if path.suffix == ".npy":
             X = np.load(path, allow_pickle=False)
+            if X.ndim == 3:  # (T, J, 3) keypoints: one row a frame
+                X = X.reshape(len(X), -1)
         elif path.suffix == ".csv":
             with path.open() as f:
                 first = f.readline()
@@ -87,29 +110,44 @@ def read_pose_series(path: str | os.PathLike) -> np.ndarray:
 
 
 def evaluate_open_loop(
-    X, predictors: dict[str, Predictor] | None = None, *, resets=()
+    X,
+    predictors: dict[str, Predictor] | None = None,
+    *,
+    resets=(),
+    layout: str = "handvar",
 ) -> tuple[list[OpenLoopRow], dict[str, np.ndarray]]:
     """Score every predictor on a recorded series of hand poses, per parameter group.
 
     Parameters
     ----------
-    X : (T, 26) array_like
-        Poses in handvar's layout (mm, degrees), one row a frame.
+    X : (T, 26) or (T, 63) array_like
+        One row a frame: poses in handvar's layout (mm, degrees), or with
+        ``layout="keypoints"`` the 21 keypoints' x, y, z (mm) in the order of G(x).
     predictors : dict of name to Predictor, optional
-        Default :func:`default_predictors`; ``"no motion"`` is always the reference.
+        Default :func:`default_predictors` (with :func:`keypoint_blocks` for
+        keypoints); ``"no motion"`` is always the reference.
     resets : iterable of int
         Rows where the recording restarts; predictors are reset there and those
         rows are not scored.
+    layout : {"handvar", "keypoints"}
+        What the columns are; decides the groups of the table.
 
     Returns
     -------
     rows : list of OpenLoopRow
-    predictions : dict of name to (T, 26) ndarray
+    predictions : dict of name to (T, d) ndarray
     """
     X = as_series(X)
-    if X.shape[1] != params.N_PARAMS:
-        raise ValueError(f"X: expected 26 columns (handvar's pose layout); got {X.shape[1]}")
-    predictors = dict(predictors or default_predictors())
+    layouts = {
+        "handvar": (params.N_PARAMS, GROUPS, None),
+        "keypoints": (63, KEYPOINT_GROUPS, keypoint_blocks()),
+    }
+    if layout not in layouts:
+        raise ValueError(f"layout: expected one of {', '.join(layouts)}; got {layout!r}")
+    width, groups, blocks = layouts[layout]
+    if X.shape[1] != width:
+        raise ValueError(f"X: expected {width} columns (layout {layout}); got {X.shape[1]}")
+    predictors = dict(predictors or default_predictors(blocks))
     predictors.setdefault("no motion", NoMotion())
     preds = {name: one_step_predictions(p, X, resets=resets) for name, p in predictors.items()}
     scored = np.all([np.isfinite(P).all(1) for P in preds.values()], axis=0)
@@ -117,7 +155,7 @@ def evaluate_open_loop(
         raise ValueError(f"X: expected at least 2 frames to score; got {len(X)}")
     base = (X - preds["no motion"])[scored]
     rows = []
-    for group, unit, idx in GROUPS:
+    for group, unit, idx in groups:
         den = np.sum(base[:, idx] ** 2)
         for name, P in preds.items():
             err = (X - P)[scored][:, idx]

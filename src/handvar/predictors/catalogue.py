@@ -110,10 +110,19 @@ class PredictorSpec:
         """The constructor arguments as a dict."""
         return dict(self.params)
 
-    def build(self):
-        """A fresh predictor (raises ValueError on a bad argument)."""
+    def build(self, blocks=None):
+        """A fresh predictor (raises ValueError on a bad argument).
+
+        Parameters
+        ----------
+        blocks : sequence of sequences of int, optional
+            The kinematic blocks of the structured VARs (the structured VAR itself and
+            the one inside RVAR); default :func:`hand_blocks`, eq. 25 for the 26 hand
+            parameters.  Series in another layout (3D keypoints, say) pass their own.
+        """
         from handvar.predictors import RVAR, VAR, Decelerating, KalmanCV, NoMotion, hand_blocks
 
+        blocks = hand_blocks() if blocks is None else blocks
         kw = self.kwargs
         if self.kind == "none":
             return NoMotion()
@@ -122,16 +131,13 @@ class PredictorSpec:
         if self.kind == "kalman":
             return KalmanCV(**kw)
         if self.kind == "var":
-            blocks = hand_blocks() if kw.pop("structured", False) else None
+            structured = kw.pop("structured", False)
             kw = {k: (int(v) if k in ("order", "memory") else v) for k, v in kw.items()}
-            return VAR(blocks=blocks, **kw)
-        memory = kw.pop("memory", None)
+            return VAR(blocks=blocks if structured else None, **kw)
+        memory = int(kw.pop("memory", 30))  # §4.3: the structured VAR's N
         if "cutoff" in kw:
             kw["cutoff"] = int(kw["cutoff"])
-        structured = None
-        if memory is not None:
-            structured = VAR(order=1, memory=int(memory), blocks=hand_blocks())
-        return RVAR(structured=structured, **kw)
+        return RVAR(structured=VAR(order=1, memory=memory, blocks=blocks), **kw)
 
     def with_params(self, **changes: Any) -> PredictorSpec:
         """A copy with some constructor arguments changed."""
