@@ -603,26 +603,26 @@ def _claim_rvar_lowest(r: Results) -> tuple[str, bool]:
     )
 
 
-def _claim_constant_velocity(r: Results) -> tuple[str, bool]:
-    k, d = r.index("kalman"), r.index("decelerating")
-    a, b = r.overall_error(k), r.overall_error(d)
-    return (
-        f"overall mean error: Kalman CV {_fmt(a)} mm, decelerating {_fmt(b)} mm; median "
-        f"R̃²: {_fmt(_median(_joint_medians(r.r2(k))))} vs "
-        f"{_fmt(_median(_joint_medians(r.r2(d))))}",
-        bool(a > b),
+def _error_and_r2(r: Results, first: str, second: str, names: tuple[str, str]):
+    """Overall mean errors of two predictors and the sentence comparing them."""
+    i, j = r.index(first), r.index(second)
+    a, b = r.overall_error(i), r.overall_error(j)
+    text = (
+        f"overall mean error: {names[0]} {_fmt(a)} mm, {names[1]} {_fmt(b)} mm; median "
+        f"R̃²: {_fmt(_median(_joint_medians(r.r2(i))))} vs "
+        f"{_fmt(_median(_joint_medians(r.r2(j))))}"
     )
+    return text, a, b
+
+
+def _claim_constant_velocity(r: Results) -> tuple[str, bool]:
+    text, a, b = _error_and_r2(r, "kalman", "decelerating", ("Kalman CV", "decelerating"))
+    return text, bool(a > b)
 
 
 def _claim_relative(r: Results) -> tuple[str, bool]:
-    rel, ab = r.index("rvar_relative"), r.index("rvar")
-    a, b = r.overall_error(rel), r.overall_error(ab)
-    return (
-        f"overall mean error: relative {_fmt(a)} mm, absolute {_fmt(b)} mm; median R̃²: "
-        f"{_fmt(_median(_joint_medians(r.r2(rel))))} vs "
-        f"{_fmt(_median(_joint_medians(r.r2(ab))))}",
-        bool(a <= b),
-    )
+    text, a, b = _error_and_r2(r, "rvar_relative", "rvar", ("relative", "absolute"))
+    return text, bool(a <= b)
 
 
 # (section, claim, test, predictors needed, measurement)
