@@ -37,7 +37,7 @@ import cv2
 import numpy as np
 
 from handvar.hand import HandModel
-from handvar.hand.params import NAMES
+from handvar.params import NAMES
 from handvar.predictors import RVAR
 from handvar.render import silhouettes
 from handvar.tracking.init import initial_pose, silhouette_iou

@@ -10,6 +10,7 @@ import signal
 import numpy as np
 import pytest
 
+from handvar import params
 from handvar.evaluation.experiment import (
     EXTRA_PREDICTORS,
     PAPER_PREDICTORS,
@@ -23,7 +24,6 @@ from handvar.evaluation.experiment import (
     tracker_settings,
 )
 from handvar.evaluation.metrics import mean_joint_error, r2_tilde_acceleration, r2_tilde_joints
-from handvar.hand import params
 from handvar.predictors import RVAR, VAR, Decelerating, one_step_predictions
 
 # The paper's five predictors with the tracker, reduced: 2 trials of 40 frames.

@@ -11,13 +11,13 @@ from handvar import render
 from handvar.camera import Camera, Rig
 from handvar.cli import main
 from handvar.hand.kinematics import HandModel, named_pose
-from handvar.hand.params import LOWER, UPPER
 from handvar.hand.surface import (
     cone_sphere_normals,
     cone_sphere_sdf,
     intersect_cone_spheres,
     sample_cone_spheres,
 )
+from handvar.params import LOWER, UPPER
 
 BARREL = np.array([-0.25, 0.08, 0.001, -0.001, -0.01])
 

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from handvar.hand.params import LOWER, NAMES, UPPER, index, within_limits
+from handvar.params import LOWER, NAMES, UPPER, index, within_limits
 from handvar.synth.motion import (
     HTRACK_EXCERPT_FIRST_ROW,
     builtin_recording,

@@ -9,8 +9,8 @@ from click.testing import CliRunner
 from handvar.camera import Rig
 from handvar.cli import main
 from handvar.hand.kinematics import HandModel
-from handvar.hand.params import clamp, index, within_limits
 from handvar.io import read_sequence
+from handvar.params import clamp, index, within_limits
 from handvar.render import silhouettes
 from handvar.synth.motion import builtin_recording, replay
 from handvar.synth.sequences import (

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from handvar.hand import HandModel
-from handvar.hand.params import NAMES
+from handvar.params import NAMES
 from handvar.synth.sequences import make_sequence
 from handvar.tracking import Tracker
 from handvar.tracking.outputs import write_track_outputs

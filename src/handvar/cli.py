@@ -103,7 +103,7 @@ def load_pose(spec: str):
     import numpy as np
 
     from handvar.hand.kinematics import POSE_NAMES, named_pose
-    from handvar.hand.params import check_pose
+    from handvar.params import check_pose
 
     if spec in POSE_NAMES:
         return named_pose(spec)

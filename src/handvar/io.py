@@ -32,6 +32,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from handvar.atomic import write_atomic
 from handvar.camera import Rig
 
 __all__ = [
@@ -306,41 +307,6 @@ class Sequence:
 def _write_png(path: Path, image: np.ndarray, params: list[int]) -> None:
     if not cv2.imwrite(str(path), image, params):
         raise OSError(f"{path}: could not write the PNG image")
-
-
-def write_atomic(path: str | os.PathLike, write: Callable[[str], Any]) -> None:
-    """Write one file under a temporary name beside `path`, then rename it to `path`.
-
-    A failed write never leaves a half-written file nor destroys the previous one.
-
-    Parameters
-    ----------
-    path : path-like
-        File to write; its folder must exist.
-    write : callable
-        ``write(tmp)`` writes the whole file to the path ``tmp`` (a str with the
-        suffix of `path`, so writers that go by the suffix pick the right format).
-
-    Examples
-    --------
-    >>> import tempfile
-    >>> folder = tempfile.mkdtemp()
-    >>> write_atomic(os.path.join(folder, "x.txt"), lambda tmp: Path(tmp).write_text("1"))
-    >>> sorted(os.listdir(folder))
-    ['x.txt']
-    """
-    path = os.fspath(path)
-    folder = os.path.dirname(os.path.abspath(path))
-    name = os.path.basename(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{name}.", suffix=os.path.splitext(path)[1], dir=folder)
-    os.close(fd)
-    try:
-        write(tmp)
-        os.chmod(tmp, 0o644)  # mkstemp creates the file private
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
 
 
 def _is_sequence_dir(path: Path) -> bool:

@@ -45,8 +45,8 @@ import cv2
 import numpy as np
 
 from handvar.camera import Camera, Rig, _check_array, distort_normalized
-from handvar.hand.params import check_pose
 from handvar.hand.surface import cone_sphere_normals, intersect_cone_spheres
+from handvar.params import check_pose
 
 __all__ = [
     "SKELETON",

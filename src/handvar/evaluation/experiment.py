@@ -56,8 +56,8 @@ from typing import Any
 
 import numpy as np
 
+from handvar import params
 from handvar.evaluation.metrics import mean_joint_error, r2_tilde_acceleration, r2_tilde_joints
-from handvar.hand import params
 from handvar.predictors.catalogue import (
     ARG_ALIASES,
     CATALOGUE,

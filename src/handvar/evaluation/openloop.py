@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from handvar.hand import params
+from handvar import params
 from handvar.predictors import NoMotion, Predictor, one_step_predictions
 from handvar.predictors.base import as_series
 from handvar.predictors.catalogue import CATALOGUE

@@ -1,6 +1,6 @@
 """The hand model: 26 parameters, kinematics G(x) with Jacobians, sphere-mesh surface.
 
-- :mod:`~handvar.hand.params`: names, units, limits, optimiser groups and VAR blocks of
+- :mod:`~handvar.params`: names, units, limits, optimiser groups and VAR blocks of
   the 26 parameters.
 - :mod:`~handvar.hand.anthropometry`: bone lengths, joint positions and thickness from
   hand length and breadth (`HandShape`).
@@ -12,7 +12,8 @@
 
 from handvar.hand.anthropometry import BONES, JOINTS, HandProportions, HandShape
 from handvar.hand.kinematics import POSE_NAMES, HandModel, named_pose
-from handvar.hand.params import (
+from handvar.hand.surface import Primitives, ProjectedPrimitives, SurfaceSamples
+from handvar.params import (
     DIGITS,
     GROUPS,
     LOWER,
@@ -26,7 +27,6 @@ from handvar.hand.params import (
     index,
     within_limits,
 )
-from handvar.hand.surface import Primitives, ProjectedPrimitives, SurfaceSamples
 
 __all__ = [
     "BONES",

@@ -20,7 +20,7 @@ adult anthropometric surveys.
 
 Hand frame (millimetres): origin at the wrist, x towards the thumb (radial) side,
 y from the wrist towards the middle finger, z out of the palm (palmar side); a right
-hand. See :mod:`handvar.hand.params` for the signs of the joint angles.
+hand. See :mod:`handvar.params` for the signs of the joint angles.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from handvar.hand.params import DIGITS
+from handvar.params import DIGITS
 
 #: The 16 bones, in the order used by `HandModel.bone_frames` and by
 #: `SurfaceSamples.bone`: the palm, then three bones per digit, proximal first.

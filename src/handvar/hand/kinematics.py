@@ -5,7 +5,7 @@ positions in the world frame, millimetres. `HandModel.points` moves any points a
 to bones and, on request, returns their derivatives with respect to all 26 parameters
 in the same call; everything is vectorised over the five digits and over the points.
 
-Frames and conventions (see also :mod:`handvar.hand.params`):
+Frames and conventions (see also :mod:`handvar.params`):
 
 - World from hand: ``p_world = R(rx, ry, rz) p_hand + t`` with ``R = Rx(rx) Ry(ry)
   Rz(rz)`` (intrinsic x-y-z Euler angles, degrees) and ``t = (tx, ty, tz)`` the wrist
@@ -52,7 +52,7 @@ import numpy as np
 from numba import njit
 
 from handvar.hand.anthropometry import ABDUCTION_SIGN, BONES, JOINTS, HandShape, bone_index
-from handvar.hand.params import N_PARAMS, check_pose
+from handvar.params import N_PARAMS, check_pose
 
 DEG = math.pi / 180.0
 N_BONES = len(BONES)
@@ -799,7 +799,7 @@ def named_pose(name: str) -> np.ndarray:
     >>> float(x[3]), float(x[1]), float(x[14])
     (180.0, 90.0, 85.0)
     """
-    from handvar.hand.params import NAMES
+    from handvar.params import NAMES
 
     if name not in _NAMED_POSES:
         raise ValueError(f"name: expected one of {', '.join(POSE_NAMES)}; got {name!r}")

@@ -29,7 +29,7 @@ import numpy as np
 from numba import njit
 
 from handvar.hand.anthropometry import BONES, HandShape, bone_index
-from handvar.hand.params import N_PARAMS
+from handvar.params import N_PARAMS
 
 _TWO_PI = 2.0 * math.pi
 

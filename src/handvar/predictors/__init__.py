@@ -9,7 +9,7 @@
 (26,)
 """
 
-from handvar.hand.params import hand_blocks
+from handvar.params import hand_blocks
 from handvar.predictors.base import Predictor, one_step_predictions
 from handvar.predictors.kalman import KalmanCV
 from handvar.predictors.order import OrderSelection, select_order

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from handvar.hand.params import hand_blocks
+from handvar.params import hand_blocks
 from handvar.predictors import _kernels
 from handvar.predictors.base import as_vector
 from handvar.predictors.simple import Decelerating

@@ -1,7 +1,7 @@
 """Hand motion for synthetic sequences: minimum-jerk key poses and real-motion replay.
 
 Two sources of motion, both returning pose series of shape (T, 26) in the units of
-:mod:`handvar.hand.params` (millimetres, degrees) at a chosen frame rate:
+:mod:`handvar.params` (millimetres, degrees) at a chosen frame rate:
 
 - :func:`keyframe_motion` interpolates key poses with the minimum-jerk profile of
   Flash & Hogan (1985), the smooth point-to-point timing of unconstrained human arm
@@ -26,7 +26,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 from scipy.ndimage import gaussian_filter1d
 
-from handvar.hand.params import LOWER, N_PARAMS, NAMES, UPPER, clamp
+from handvar.params import LOWER, N_PARAMS, NAMES, UPPER, clamp
 
 __all__ = [
     "HTRACK_EXCERPT_FIRST_ROW",
@@ -588,7 +588,7 @@ def poses_from_keys(keys: Sequence[dict[str, float]]) -> np.ndarray:
     Parameters
     ----------
     keys : sequence of dict
-        One mapping ``name -> value`` (names from :data:`handvar.hand.params.NAMES`)
+        One mapping ``name -> value`` (names from :data:`handvar.params.NAMES`)
         per key pose.
 
     Returns

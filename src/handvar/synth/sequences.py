@@ -30,7 +30,7 @@ from collections.abc import Callable, Iterable
 import numpy as np
 
 from handvar.hand.kinematics import named_pose
-from handvar.hand.params import N_PARAMS, clamp, index
+from handvar.params import N_PARAMS, clamp, index
 from handvar.synth.motion import (
     HTRACK_EXCERPT_FIRST_ROW,
     builtin_recording,

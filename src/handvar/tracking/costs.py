@@ -58,7 +58,7 @@ import numpy as np
 from numba import njit
 
 from handvar.camera import Rig
-from handvar.hand.params import N_PARAMS, check_pose
+from handvar.params import N_PARAMS, check_pose
 
 __all__ = [
     "CostSettings",

@@ -36,7 +36,7 @@ import cv2
 import numpy as np
 
 from handvar.camera import Camera, Rig
-from handvar.hand.params import N_PARAMS, clamp
+from handvar.params import N_PARAMS, clamp
 
 __all__ = [
     "INIT_DEFAULTS",

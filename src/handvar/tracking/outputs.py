@@ -26,8 +26,8 @@ import cv2
 import numpy as np
 
 from handvar.camera import Rig
-from handvar.hand.params import NAMES
 from handvar.io import Sequence, write_atomic
+from handvar.params import NAMES
 from handvar.render import draw_overlay, side_by_side, silhouettes
 from handvar.tracking.tracker import TrackResult
 

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from handvar.hand.params import GROUPS, LOWER, N_PARAMS, UPPER
+from handvar.params import GROUPS, LOWER, N_PARAMS, UPPER
 
 __all__ = [
     "SMDResult",
@@ -117,7 +117,7 @@ class SMDSettings:
 
 
 def initial_gains(settings: SMDSettings | None = None) -> np.ndarray:
-    """The (26,) initial gains p, per parameter group (`handvar.hand.params.GROUPS`)."""
+    """The (26,) initial gains p, per parameter group (`handvar.params.GROUPS`)."""
     s = SMDSettings() if settings is None else settings
     by_group = {
         "translation": s.gain_translation,

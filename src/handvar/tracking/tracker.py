@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from handvar.camera import Rig
-from handvar.hand.params import N_PARAMS, check_pose, clamp
+from handvar.params import N_PARAMS, check_pose, clamp
 from handvar.tracking.costs import CostSettings, FrameData, SilhouetteCost
 from handvar.tracking.smd import SMDSettings, minimise
 
