@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from handvar.geometry.cone_spheres import cone_sphere_sdf
 from handvar.hand import HandModel, HandShape
 from handvar.hand.anthropometry import HandProportions
-from handvar.hand.surface import cone_sphere_sdf
 
 
 def test_default_hand_matches_the_published_ratios():

@@ -7,8 +7,7 @@ import pytest
 from scipy import stats
 
 from handvar.camera import Camera, Rig
-from handvar.hand import LOWER, UPPER, HandModel, named_pose
-from handvar.hand.surface import (
+from handvar.geometry import (
     closest_point_cone_spheres_2d,
     cone_sphere_areas,
     cone_sphere_normals,
@@ -16,6 +15,7 @@ from handvar.hand.surface import (
     intersect_cone_spheres,
     sample_cone_spheres,
 )
+from handvar.hand import LOWER, UPPER, HandModel, named_pose
 
 MODEL = HandModel()
 TAU = np.linspace(0.0, 1.0, 4001)

@@ -10,13 +10,13 @@ from click.testing import CliRunner
 from handvar import render
 from handvar.camera import Camera, Rig
 from handvar.cli import main
-from handvar.hand.kinematics import HandModel, named_pose
-from handvar.hand.surface import (
+from handvar.geometry import (
     cone_sphere_normals,
     cone_sphere_sdf,
     intersect_cone_spheres,
     sample_cone_spheres,
 )
+from handvar.hand.kinematics import HandModel, named_pose
 from handvar.params import LOWER, UPPER
 
 BARREL = np.array([-0.25, 0.08, 0.001, -0.001, -0.01])
@@ -93,7 +93,9 @@ def test_centre_mask_equals_ray_casting(dist):
     rng = np.random.default_rng(11)
     cam = Camera.look_at((-110.0, 0.0, -488.0), fx=650.0, dist=dist)
     centres, radii = random_conespheres(rng)
-    mask = render.silhouette(centres, radii, cam, coverage="centre", tol=1e-3, tol_distortion=0.2)
+    mask = render.silhouette_of_spheres(
+        centres, radii, cam, coverage="centre", tol=1e-3, tol_distortion=0.2
+    )
     box = bounding_box(mask)
     origins, dirs, shape = pixel_rays(cam, box)
     hit = np.isfinite(intersect_cone_spheres(centres, radii, origins, dirs)).reshape(shape)
@@ -127,8 +129,12 @@ def test_touch_mask_equals_supersampled_coverage(dist):
         dist=cam.dist, R=cam.R, t=cam.t, size=(cam.size[0] * s, cam.size[1] * s),
     )  # fmt: skip
     centres, radii = random_conespheres(rng)
-    touch = render.silhouette(centres, radii, cam, coverage="touch", tol=1e-3, tol_distortion=0.2)
-    sub = render.silhouette(centres, radii, fine, coverage="centre", tol=1e-3, tol_distortion=0.2)
+    touch = render.silhouette_of_spheres(
+        centres, radii, cam, coverage="touch", tol=1e-3, tol_distortion=0.2
+    )
+    sub = render.silhouette_of_spheres(
+        centres, radii, fine, coverage="centre", tol=1e-3, tol_distortion=0.2
+    )
     h, w = cam.size[1], cam.size[0]
     coarse = sub.reshape(h, s, w, s).any(axis=(1, 3))
     assert touch.sum() > 1000
@@ -167,8 +173,8 @@ def test_primitives_behind_the_camera_are_left_out():
     cam = Camera(600.0, 600.0, 319.5, 239.5)
     centres = np.array([[[0.0, 0.0, 300.0], [10.0, 0.0, 300.0]], [[0.0, 0.0, 5.0], [0, 0, 50]]])
     radii = np.array([[10.0, 10.0], [10.0, 10.0]])  # the second reaches z < 0
-    both = render.silhouette(centres, radii, cam)
-    first = render.silhouette(centres[:1], radii[:1], cam)
+    both = render.silhouette_of_spheres(centres, radii, cam)
+    first = render.silhouette_of_spheres(centres[:1], radii[:1], cam)
     np.testing.assert_array_equal(both, first)
     assert len(render.outlines(centres, radii, cam)) == 1
 
@@ -177,7 +183,7 @@ def test_outlines_enclose_the_mask():
     rng = np.random.default_rng(15)
     cam = Rig.default()[0]
     centres, radii = random_conespheres(rng, 4)
-    mask = render.silhouette(centres, radii, cam, coverage="centre")
+    mask = render.silhouette_of_spheres(centres, radii, cam, coverage="centre")
     polys = render.outlines(centres, radii, cam, coverage="centre")
     ref = np.zeros(mask.shape, np.uint8)
     for p in polys:  # OpenCV's filler includes boundary pixels: compare up to them
@@ -326,7 +332,7 @@ def test_input_errors(hand):
     with pytest.raises(ValueError, match="rig: expected cameras of one image size"):
         render.silhouettes(hand, x, mixed)
     with pytest.raises(ValueError, match=r"centres: expected an array of shape \(N, 2, 3\)"):
-        render.silhouette(np.zeros((3, 3)), np.ones((3, 2)), rig[0])
+        render.silhouette_of_spheres(np.zeros((3, 3)), np.ones((3, 2)), rig[0])
 
 
 # --- handvar show -------------------------------------------------------------------

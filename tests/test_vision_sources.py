@@ -11,7 +11,7 @@ import pytest
 
 from handvar.camera import Camera, Rig
 from handvar.hand import HandModel, named_pose
-from handvar.render import render_rgb, silhouette
+from handvar.render import render_rgb, silhouette_of_spheres
 from handvar.vision import EmptySilhouetteError
 from handvar.vision.sources import (
     OverlayWriter,
@@ -69,11 +69,11 @@ def test_scale_camera_matches_cv2_resize_of_a_rendered_silhouette():
     cam = Camera(700.0, 690.0, 330.0, 250.0, dist=[-0.1, 0.02, 0.001, -0.001, 0.0],
                  t=[0.0, -90.0, 500.0], size=(640, 480))  # fmt: skip
     centres, radii = hand.world_spheres(named_pose("spread"))
-    full = silhouette(centres, radii, cam, coverage="centre").astype(np.float32)
+    full = silhouette_of_spheres(centres, radii, cam, coverage="centre").astype(np.float32)
     small_cam = scale_camera(cam, 0.5)
     assert small_cam.size == (320, 240)
     resized = cv2.resize(full, small_cam.size, interpolation=cv2.INTER_AREA) > 0.5
-    direct = silhouette(centres, radii, small_cam, coverage="centre")
+    direct = silhouette_of_spheres(centres, radii, small_cam, coverage="centre")
     iou = (resized & direct).sum() / (resized | direct).sum()
     assert iou > 0.97
     # and the analytic pixel map u' = (u + 1/2) s - 1/2 for a 3D point
@@ -175,7 +175,7 @@ def test_to_sequence_keeps_masks_and_colour_in_rgb_order(tmp_path):
     np.testing.assert_array_equal(seq.rgb[1][0], rgb)
     _, _, masks = next(source.silhouettes(wrist=False))
     np.testing.assert_array_equal(seq.masks[0], masks)
-    truth = silhouette(*HandModel().world_spheres(pose), rig[0])
+    truth = silhouette_of_spheres(*HandModel().world_spheres(pose), rig[0])
     assert (masks[0] & truth).sum() / (masks[0] | truth).sum() > 0.85
     with pytest.raises(ValueError, match="start: expected a frame range inside the recording"):
         source.to_sequence(start=5)
@@ -229,7 +229,7 @@ def test_overlay_frame_draws_the_model_outline_where_the_model_is():
     picture = overlay_frame(black, rig, hand, pose, thickness=2)
     drawn = picture.any(axis=2)
     centres, radii = hand.world_spheres(pose)
-    model = silhouette(centres, radii, rig[0])
+    model = silhouette_of_spheres(centres, radii, rig[0])
     # every drawn pixel lies within a joint marker's radius (thickness + 2 px, plus
     # anti-aliasing) of the model's silhouette, and the outline surrounds it
     distance = cv2.distanceTransform((~model).astype(np.uint8), cv2.DIST_L2, 5)

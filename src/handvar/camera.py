@@ -1,6 +1,6 @@
 """Pinhole cameras with OpenCV lens distortion, stereo rigs and calibration files.
 
-Conventions (DESIGN.md §3), the same as OpenCV's:
+Conventions (§3), the same as OpenCV's:
 
 - lengths in millimetres, image coordinates in pixels;
 - ``x_cam = R @ x_world + t`` (``R``, ``t``: world → camera);
@@ -8,7 +8,7 @@ Conventions (DESIGN.md §3), the same as OpenCV's:
 - pixel ``(u, v)``: column ``u``, row ``v``; integer coordinates are pixel centres, so
   pixel ``mask[i, j]`` is centred on ``(u, v) = (j, i)``;
 - lens distortion: OpenCV's model with coefficients ``(k1, k2, p1, p2, k3)`` or the
-  rational ``(k1, k2, p1, p2, k3, k4, k5, k6)``.
+  rational ``(k1, k2, p1, p2, k3, k4, k5, k6)`` (:mod:`handvar.geometry.distortion`).
 
 Calibration files
 -----------------
@@ -42,9 +42,7 @@ both cameras. When a file has no size, pass ``size=`` to :meth:`Rig.load`. A
 
 from __future__ import annotations
 
-import contextlib
 import os
-import tempfile
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -53,114 +51,22 @@ from typing import Any
 import cv2
 import numpy as np
 
-__all__ = ["Camera", "Rig"]
+from handvar.atomic import write_atomic
+from handvar.geometry.distortion import (
+    distort,
+    distort_normalized,
+    distortion_coefficients,
+    padded,
+)
+from handvar.validate import as_array, as_float, as_instance
 
-
-# --- validation --------------------------------------------------------------------
-
-
-def _check_array(value, shape: tuple[int | None, ...], name: str) -> np.ndarray:
-    """Return `value` as a finite float64 array of `shape` (None: any length)."""
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(
-            f"{name}: expected a numeric array of shape {_fmt_shape(shape)}; got {value!r}"
-        ) from None
-    if arr.ndim != len(shape) or any(
-        s is not None and a != s for a, s in zip(arr.shape, shape, strict=True)
-    ):
-        raise ValueError(
-            f"{name}: expected an array of shape {_fmt_shape(shape)}; got shape {arr.shape}"
-        )
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: expected finite values; got NaN or infinity")
-    return arr
-
-
-def _fmt_shape(shape: tuple[int | None, ...]) -> str:
-    return "(" + ", ".join("N" if s is None else str(s) for s in shape) + ")"
-
-
-def _check_points(points, name: str = "points") -> np.ndarray:
-    """Return `points` as a finite float64 (N, 3) array."""
-    return _check_array(points, (None, 3), name)
-
-
-def _check_dist(dist) -> np.ndarray:
-    arr = np.asarray(dist, dtype=float).ravel() if dist is not None else np.zeros(5)
-    if arr.size == 0:
-        arr = np.zeros(5)
-    if arr.size == 4:
-        arr = np.concatenate([arr, [0.0]])
-    if arr.size not in (5, 8):
-        raise ValueError(
-            "dist: expected 4, 5 or 8 OpenCV distortion coefficients "
-            f"(k1 k2 p1 p2 [k3 [k4 k5 k6]]); got {arr.size}"
-        )
-    if arr.size == 8 and not np.any(arr[5:]):
-        arr = arr[:5]
-    if not np.all(np.isfinite(arr)):
-        raise ValueError("dist: expected finite values; got NaN or infinity")
-    return arr
+__all__ = ["Camera", "PackedRig", "Rig"]
 
 
 def _readonly(arr: np.ndarray) -> np.ndarray:
     arr = np.array(arr, dtype=float)
     arr.flags.writeable = False
     return arr
-
-
-# --- distortion (pure functions) ----------------------------------------------------
-
-
-def distort_normalized(xy: np.ndarray, dist: np.ndarray) -> np.ndarray:
-    """Apply OpenCV's lens distortion to normalised image coordinates.
-
-    Parameters
-    ----------
-    xy : (N, 2) ndarray
-        Undistorted normalised coordinates ``(X/Z, Y/Z)``.
-    dist : (5,) or (8,) ndarray
-        ``k1 k2 p1 p2 k3 [k4 k5 k6]``.
-
-    Returns
-    -------
-    (N, 2) ndarray
-        Distorted normalised coordinates (OpenCV ``projectPoints`` model).
-    """
-    return _distort(xy, dist, jacobian=False)[0]
-
-
-def _distort(xy: np.ndarray, dist: np.ndarray, *, jacobian: bool):
-    """Distorted normalised coordinates and, optionally, their (N, 2, 2) Jacobian."""
-    x, y = xy[:, 0], xy[:, 1]
-    k1, k2, p1, p2, k3 = dist[:5]
-    r2 = x * x + y * y
-    # radial factor (1 + k1 r² + k2 r⁴ + k3 r⁶) / (1 + k4 r² + k5 r⁴ + k6 r⁶)
-    num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
-    dnum = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)  # d num / d r²
-    if dist.size == 8:
-        k4, k5, k6 = dist[5:8]
-        den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))
-        dden = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2)
-        radial = num / den
-        dradial = (dnum * den - num * dden) / (den * den)
-    else:
-        radial = num
-        dradial = dnum
-    # x'' = x radial + 2 p1 x y + p2 (r² + 2x²);  y'' = y radial + p1 (r² + 2y²) + 2 p2 x y
-    xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
-    yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
-    out = np.stack([xd, yd], axis=-1)
-    if not jacobian:
-        return out, None
-    J = np.empty((xy.shape[0], 2, 2))
-    J[:, 0, 0] = radial + 2.0 * x * x * dradial + 2.0 * p1 * y + 6.0 * p2 * x
-    J[:, 0, 1] = 2.0 * x * y * dradial + 2.0 * p1 * x + 2.0 * p2 * y
-    J[:, 1, 0] = 2.0 * x * y * dradial + 2.0 * p1 * x + 2.0 * p2 * y
-    J[:, 1, 1] = radial + 2.0 * y * y * dradial + 6.0 * p1 * y + 2.0 * p2 * x
-    return out, J
 
 
 # --- Camera --------------------------------------------------------------------------
@@ -205,26 +111,19 @@ class Camera:
 
     def __post_init__(self) -> None:
         for name in ("fx", "fy", "cx", "cy"):
-            value = getattr(self, name)
-            try:
-                value = float(value)
-            except (TypeError, ValueError):
-                raise ValueError(f"{name}: expected a number; got {value!r}") from None
-            if not np.isfinite(value):
-                raise ValueError(f"{name}: expected a finite number; got {value}")
-            object.__setattr__(self, name, value)
+            object.__setattr__(self, name, as_float(getattr(self, name), name))
         if self.fx <= 0 or self.fy <= 0:
             raise ValueError(f"fx, fy: expected positive focal lengths; got {self.fx}, {self.fy}")
-        R = _check_array(self.R, (3, 3), "R")
+        R = as_array(self.R, "R", (3, 3))
         if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
             raise ValueError("R: expected a rotation matrix (orthonormal, det +1); got " + repr(R))
         object.__setattr__(self, "R", _readonly(R))
-        object.__setattr__(self, "t", _readonly(_check_array(self.t, (3,), "t").ravel()))
-        object.__setattr__(self, "dist", _readonly(_check_dist(self.dist)))
+        object.__setattr__(self, "t", _readonly(as_array(self.t, "t", (3,))))
+        object.__setattr__(self, "dist", _readonly(distortion_coefficients(self.dist)))
         try:
             w, h = (int(v) for v in self.size)
         except (TypeError, ValueError):
-            raise ValueError(f"size: expected (width, height); got {self.size!r}") from None
+            raise TypeError(f"size: expected (width, height); got {self.size!r}") from None
         if w <= 0 or h <= 0 or (w, h) != tuple(self.size):
             raise ValueError(f"size: expected positive integers (width, height); got {self.size}")
         object.__setattr__(self, "size", (w, h))
@@ -293,12 +192,12 @@ class Camera:
     # -- geometry --
     def camera_from_world(self, points) -> np.ndarray:
         """Map (N, 3) world points (mm) to (N, 3) camera coordinates (mm)."""
-        points = _check_points(points)
+        points = as_array(points, "points", (None, 3))
         return points @ self.R.T + self.t
 
     def pixels_from_normalized(self, xy: np.ndarray) -> np.ndarray:
         """Distort (N, 2) normalised coordinates and apply K: (N, 2) pixels."""
-        xy = _check_array(xy, (None, 2), "xy")
+        xy = as_array(xy, "xy", (None, 2))
         if self.has_distortion:
             xy = distort_normalized(xy, self.dist)
         return xy * (self.fx, self.fy) + (self.cx, self.cy)
@@ -344,7 +243,7 @@ class Camera:
         xy = Xc[:, :2] * inv_z[:, None]  # pinhole: (X/Z, Y/Z)
         f = np.array([self.fx, self.fy])
         if self.has_distortion:
-            xyd, Jd = _distort(xy, self.dist, jacobian=jacobian)
+            xyd, Jd = distort(xy, self.dist, jacobian=jacobian)
         else:
             xyd, Jd = xy, None
         pixels = xyd * f + (self.cx, self.cy)
@@ -378,7 +277,7 @@ class Camera:
             ``cv2.undistortPoints`` (iterative; accurate to about 1e-6 in normalised
             coordinates for calibrations with moderate distortion).
         """
-        pixels = _check_array(pixels, (None, 2), "pixels")
+        pixels = as_array(pixels, "pixels", (None, 2))
         if self.has_distortion and pixels.shape[0]:
             criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-12)
             xy = cv2.undistortPoints(
@@ -399,7 +298,7 @@ class Camera:
 
     def in_image(self, pixels) -> np.ndarray:
         """(N,) bool: pixel coordinates inside the image (pixel-centre convention)."""
-        pixels = _check_array(pixels, (None, 2), "pixels")
+        pixels = as_array(pixels, "pixels", (None, 2))
         w, h = self.size
         return (
             (pixels[:, 0] >= -0.5)
@@ -441,9 +340,9 @@ class Camera:
         dist : array_like, optional
             Distortion coefficients.
         """
-        eye = _check_array(eye, (3,), "eye")
-        target = _check_array(target, (3,), "target")
-        up = _check_array(up, (3,), "up")
+        eye = as_array(eye, "eye", (3,))
+        target = as_array(target, "target", (3,))
+        up = as_array(up, "up", (3,))
         z = target - eye
         if np.linalg.norm(z) == 0:
             raise ValueError("target: expected a point different from eye; got the same point")
@@ -483,8 +382,7 @@ class Camera:
     @classmethod
     def from_dict(cls, data: dict[str, Any], *, where: str = "camera") -> Camera:
         """Inverse of :meth:`to_dict`; errors name the missing key and `where`."""
-        if not isinstance(data, dict):
-            raise ValueError(f"{where}: expected a mapping; got {type(data).__name__}")
+        as_instance(data, dict, where, what="a mapping")
         missing = [k for k in ("fx", "fy", "cx", "cy", "R", "t", "size") if k not in data]
         if missing:
             raise ValueError(f"{where}: missing key {missing[0]!r}")
@@ -499,8 +397,8 @@ class Camera:
                 t=data["t"],
                 size=tuple(data["size"]),
             )
-        except ValueError as exc:
-            raise ValueError(f"{where}: {exc}") from None
+        except (TypeError, ValueError) as exc:
+            raise type(exc)(f"{where}: {exc}") from None
 
 
 # --- Rig -----------------------------------------------------------------------------
@@ -521,6 +419,34 @@ class RigDefaults:
     focal: float = 650.0  # pixels
     size: tuple[int, int] = (640, 480)
     names: tuple[str, str] = ("left", "right")
+
+
+@dataclass(frozen=True, eq=False)
+class PackedRig:
+    """The parameters of a rig's n cameras in arrays (`Rig.packed`).
+
+    Attributes
+    ----------
+    intrinsics : (n, 4) ndarray
+        ``fx, fy, cx, cy`` per camera, pixels.
+    dist : (n, 8) ndarray
+        Distortion coefficients padded with zeros to ``k1 k2 p1 p2 k3 k4 k5 k6``.
+    rational : (n,) bool ndarray
+        The camera uses the rational model (``k4 k5 k6``).
+    R : (n, 3, 3) ndarray
+        World → camera rotations.
+    t : (n, 3) ndarray
+        World → camera translations, mm.
+    size : (n, 2) int64 ndarray
+        Image (width, height), pixels.
+    """
+
+    intrinsics: np.ndarray
+    dist: np.ndarray
+    rational: np.ndarray
+    R: np.ndarray
+    t: np.ndarray
+    size: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -548,8 +474,7 @@ class Rig:
         if not cams:
             raise ValueError("cameras: expected at least one camera; got none")
         for i, cam in enumerate(cams):
-            if not isinstance(cam, Camera):
-                raise ValueError(f"cameras[{i}]: expected a Camera; got {type(cam).__name__}")
+            as_instance(cam, Camera, f"cameras[{i}]")
         names = tuple(str(n) for n in self.names) or tuple(f"cam{i}" for i in range(len(cams)))
         if len(names) != len(cams):
             raise ValueError(f"names: expected {len(cams)} names; got {len(names)}")
@@ -594,6 +519,21 @@ class Rig:
         )
         return cls(cams, d.names)
 
+    def packed(self) -> PackedRig:
+        """The cameras' parameters stacked in arrays, for compiled loops (`PackedRig`)."""
+        dist = np.zeros((len(self), 8))
+        rational = np.zeros(len(self), dtype=np.bool_)
+        for j, cam in enumerate(self.cameras):
+            dist[j], rational[j] = padded(cam.dist)
+        return PackedRig(
+            intrinsics=np.array([[c.fx, c.fy, c.cx, c.cy] for c in self.cameras]),
+            dist=dist,
+            rational=rational,
+            R=np.ascontiguousarray([c.R for c in self.cameras], dtype=float),
+            t=np.ascontiguousarray([c.t for c in self.cameras], dtype=float),
+            size=np.array([c.size for c in self.cameras], dtype=np.int64),
+        )
+
     # -- dictionaries --
     def to_dict(self) -> dict[str, Any]:
         """JSON-friendly description: ``{"cameras": [{"name": ..., **Camera.to_dict()}]}``."""
@@ -606,11 +546,14 @@ class Rig:
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Rig:
         """Inverse of :meth:`to_dict`; errors name the missing key."""
-        if not isinstance(data, dict) or "cameras" not in data:
+        as_instance(data, dict, "rig", what="a mapping")
+        if "cameras" not in data:
             raise ValueError("rig: missing key 'cameras'")
         entries = data["cameras"]
-        if not isinstance(entries, Sequence) or isinstance(entries, str) or not entries:
-            raise ValueError("rig: expected 'cameras' to be a non-empty list")
+        if not isinstance(entries, Sequence) or isinstance(entries, str):
+            raise TypeError(f"rig: expected 'cameras' to be a list; got {type(entries).__name__}")
+        if not entries:
+            raise ValueError("rig: expected 'cameras' to be a non-empty list; got none")
         cams, names = [], []
         for i, entry in enumerate(entries):
             cams.append(Camera.from_dict(entry, where=f"cameras[{i}]"))
@@ -622,16 +565,15 @@ class Rig:
         """Write the rig as an OpenCV ``FileStorage`` file (layout in the module docs).
 
         The format follows the extension (``.yml``, ``.yaml``, ``.xml``, ``.json``). The
-        file is written to a temporary name and renamed, so an existing file is never
-        left half-written.
+        file is written through `handvar.atomic.write_atomic`, so an existing file is
+        never left half-written.
         """
         path = Path(path)
         ext = path.suffix.lower()
         if ext not in (".yml", ".yaml", ".xml", ".json"):
             raise ValueError(f"path: expected a .yml, .yaml, .xml or .json file; got {path}")
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=ext, dir=path.parent or ".")
-        os.close(fd)
-        try:
+
+        def write(tmp: str) -> None:
             fs = cv2.FileStorage(tmp, cv2.FILE_STORAGE_WRITE)
             if not fs.isOpened():
                 raise OSError(f"{path}: cannot open for writing")
@@ -648,10 +590,8 @@ class Rig:
                 fs.endWriteStruct()
             fs.endWriteStruct()
             fs.release()
-            os.replace(tmp, path)
-        finally:
-            with contextlib.suppress(FileNotFoundError):
-                os.unlink(tmp)
+
+        write_atomic(path, write)
 
     @classmethod
     def load(cls, path: str | os.PathLike, *, size: tuple[int, int] | None = None) -> Rig:
@@ -781,8 +721,8 @@ def _camera_from_params(
             t=np.zeros(3) if T is None else np.ravel(T),
             size=size,
         )
-    except ValueError as exc:
-        raise ValueError(f"{where}: {prefix}{exc}") from None
+    except (TypeError, ValueError) as exc:
+        raise type(exc)(f"{where}: {prefix}{exc}") from None
 
 
 def _camera_from_node(reader: _NodeReader, size, where: str) -> Camera:

@@ -6,13 +6,16 @@
   hand length and breadth (`HandShape`).
 - :mod:`~handvar.hand.kinematics`: `HandModel` (forward kinematics, exact Jacobians,
   surface queries) and `named_pose`.
-- :mod:`~handvar.hand.surface`: cone-sphere geometry (areas, sampling, signed
-  distance and normals, ray intersection, projected outlines).
+- :mod:`~handvar.hand.surface`: the sphere-mesh's primitives and the pool of surface
+  samples (their geometry: :mod:`handvar.geometry`).
+- :mod:`~handvar.hand.projection`: the model's image in a camera and its closest point
+  to a pixel (eq. 1).
 """
 
+from handvar.geometry.projected import ProjectedPrimitives
 from handvar.hand.anthropometry import BONES, JOINTS, HandProportions, HandShape
 from handvar.hand.kinematics import POSE_NAMES, HandModel, named_pose
-from handvar.hand.surface import Primitives, ProjectedPrimitives, SurfaceSamples
+from handvar.hand.surface import Primitives, SurfaceSamples
 from handvar.params import (
     DIGITS,
     GROUPS,

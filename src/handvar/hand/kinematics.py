@@ -53,6 +53,7 @@ from numba import njit
 
 from handvar.hand.anthropometry import ABDUCTION_SIGN, BONES, JOINTS, HandShape, bone_index
 from handvar.params import N_PARAMS, check_pose
+from handvar.validate import as_instance, as_int
 
 DEG = math.pi / 180.0
 N_BONES = len(BONES)
@@ -269,7 +270,7 @@ class _Pose:
 
 
 def _check_bone_local(bone, local, *, values: bool = True) -> tuple[np.ndarray, np.ndarray]:
-    """`bone` as (N,) intp and `local` as (N, 3) float64 arrays, or raise ValueError.
+    """`bone` as (N,) intp and `local` as (N, 3) float64 arrays, or raise.
 
     Shapes and dtypes are always checked (a few attribute look-ups); with `values`
     also the bone range and finite coordinates (full passes over the data). The
@@ -280,7 +281,7 @@ def _check_bone_local(bone, local, *, values: bool = True) -> tuple[np.ndarray, 
     if b.ndim != 1:
         raise ValueError(f"bone: expected a (N,) array of bone indices; got shape {b.shape}")
     if b.size and b.dtype.kind not in "iu":
-        raise ValueError(f"bone: expected integer bone indices; got dtype {b.dtype}")
+        raise TypeError(f"bone: expected integer bone indices; got dtype {b.dtype}")
     loc = np.asarray(local, dtype=float)
     if loc.shape != (b.shape[0], 3):
         raise ValueError(
@@ -340,11 +341,8 @@ class HandModel:
 
         if shape is None:
             shape = HandShape.from_size()
-        if not isinstance(shape, HandShape):
-            raise ValueError(f"shape: expected a HandShape; got {type(shape).__name__}")
-        pool_size = int(pool_size)
-        if pool_size < 1000:
-            raise ValueError(f"pool_size: expected at least 1000 samples; got {pool_size}")
+        as_instance(shape, HandShape, "shape")
+        pool_size = as_int(pool_size, "pool_size", minimum=1000)
         self.shape = shape
         self.primitives = hand_primitives(shape)
         self.pool_size = pool_size
@@ -526,7 +524,7 @@ class HandModel:
         primitive : (N,) int ndarray
             Only with ``return_primitive=True``.
         """
-        from handvar.hand.surface import intersect_cone_spheres
+        from handvar.geometry.cone_spheres import intersect_cone_spheres
 
         centres, radii = self.world_spheres(x)
         return intersect_cone_spheres(
@@ -536,14 +534,14 @@ class HandModel:
     def project_primitives(self, x, camera):
         """The model's primitives as seen by a camera (circle approximation).
 
-        See :func:`handvar.hand.surface.project_cone_spheres`.
+        See :func:`handvar.hand.projection.project_cone_spheres`.
 
         Returns
         -------
         ProjectedPrimitives
             ``centres (P, 2, 2)`` pixels, ``radii (P, 2)`` pixels, ``depth (P, 2)`` mm.
         """
-        from handvar.hand.surface import project_cone_spheres
+        from handvar.hand.projection import project_cone_spheres
 
         centres, radii = self.world_spheres(x)
         return project_cone_spheres(centres, radii, camera)[0]
@@ -561,8 +559,7 @@ class HandModel:
         x : (26,) array_like
             Pose.
         camera : Camera
-            `handvar.camera.Camera` (or anything with ``fx, fy, R`` and
-            ``project_jacobian`` / ``camera_from_world``).
+            `handvar.camera.Camera`.
         pixels : (M, 2) array_like
             Pixel coordinates.
 
@@ -575,7 +572,7 @@ class HandModel:
             ``d h / d x`` (zero where the model covers the pixel), pixels per mm /
             pixels per degree.
         """
-        from handvar.hand.surface import closest_point_projected
+        from handvar.hand.projection import closest_point_projected
 
         centres, radii, J = self.world_spheres(x, jacobian=True)
         return closest_point_projected(centres, radii, J, camera, pixels)

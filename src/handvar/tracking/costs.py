@@ -1,4 +1,4 @@
-"""The tracker's cost: silhouette term C_s and filling term C_f (paper §2.1, DESIGN.md §4).
+"""The tracker's cost: silhouette term C_s and filling term C_f (paper §2.1, §4).
 
 Per frame and camera j, :func:`prepare_frame` builds once, from the observed silhouette
 S_j, a field giving for every pixel its nearest silhouette pixel (OpenCV's labelled
@@ -58,7 +58,10 @@ import numpy as np
 from numba import njit
 
 from handvar.camera import Rig
+from handvar.geometry.distortion import distort_point
+from handvar.geometry.projected import closest_point_on_union
 from handvar.params import N_PARAMS, check_pose
+from handvar.validate import as_float, as_instance, as_int
 
 __all__ = [
     "CostSettings",
@@ -111,21 +114,11 @@ class CostSettings:
 
     def __post_init__(self) -> None:
         for name in ("weight_silhouette", "weight_filling"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value >= 0):
-                raise ValueError(f"{name}: expected a finite weight >= 0; got {value!r}")
+            as_float(getattr(self, name), name, minimum=0.0)
         for name in ("n_surface", "n_pixels"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
-                raise ValueError(f"{name}: expected a positive integer; got {value!r}")
-        if not (np.isfinite(self.pixel_scale) and self.pixel_scale > 0):
-            raise ValueError(f"pixel_scale: expected a positive number; got {self.pixel_scale!r}")
-        if (
-            isinstance(self.roi_margin, bool)
-            or not isinstance(self.roi_margin, int | np.integer)
-            or self.roi_margin < 0
-        ):
-            raise ValueError(f"roi_margin: expected an integer >= 0; got {self.roi_margin!r}")
+            as_int(getattr(self, name), name, minimum=1)
+        as_float(self.pixel_scale, "pixel_scale", minimum=0.0, exclusive_minimum=True)
+        as_int(self.roi_margin, "roi_margin", minimum=0)
 
 
 # --- per-frame preprocessing --------------------------------------------------------------
@@ -251,8 +244,7 @@ def prepare_frame(masks, rig: Rig, *, margin: int = 64) -> FrameData:
         When the shape does not match the rig, or every silhouette is empty. A camera
         whose silhouette alone is empty (the hand out of its view) is skipped.
     """
-    if not isinstance(rig, Rig):
-        raise ValueError(f"rig: expected a handvar.camera.Rig; got {type(rig).__name__}")
+    as_instance(rig, Rig, "rig", what="a handvar.camera.Rig")
     m = np.asarray(masks)
     n = len(rig)
     if m.ndim != 3 or m.shape[0] != n:
@@ -406,11 +398,9 @@ class SilhouetteCost:
     """
 
     def __init__(self, hand, rig: Rig, settings: CostSettings | None = None) -> None:
-        if not isinstance(rig, Rig):
-            raise ValueError(f"rig: expected a handvar.camera.Rig; got {type(rig).__name__}")
+        as_instance(rig, Rig, "rig", what="a handvar.camera.Rig")
         settings = CostSettings() if settings is None else settings
-        if not isinstance(settings, CostSettings):
-            raise ValueError(f"settings: expected CostSettings; got {type(settings).__name__}")
+        as_instance(settings, CostSettings, "settings")
         self.hand = hand
         self.rig = rig
         self.settings = settings
@@ -421,15 +411,7 @@ class SilhouetteCost:
         n_bones = len(hand.bone_frames(np.zeros(N_PARAMS))[1])
         self._ref_bone = np.repeat(np.arange(n_bones), 4)
         self._ref_local = np.tile(_REFERENCE, (n_bones, 1))
-        n = len(rig)
-        self._cam_k = np.array([[c.fx, c.fy, c.cx, c.cy] for c in rig])
-        self._cam_dist = np.zeros((n, 8))
-        self._cam_rational = np.zeros(n, dtype=np.bool_)
-        for j, c in enumerate(rig):
-            self._cam_dist[j, : c.dist.size] = c.dist
-            self._cam_rational[j] = c.dist.size == 8
-        self._cam_R = np.ascontiguousarray([c.R for c in rig], dtype=float)
-        self._cam_t = np.ascontiguousarray([c.t for c in rig], dtype=float)
+        self._cams = rig.packed()
 
     # -- per frame --
     def prepare(self, masks) -> FrameData:
@@ -444,8 +426,7 @@ class SilhouetteCost:
         on the union's outer surface (`HandModel.surface_pool`); silhouette pixels
         uniformly, with replacement, from each camera's silhouette.
         """
-        if not isinstance(rng, np.random.Generator):
-            raise ValueError(f"rng: expected a numpy.random.Generator; got {type(rng).__name__}")
+        as_instance(rng, np.random.Generator, "rng", what="a numpy.random.Generator")
         pool = self.hand.surface_pool.exposed
         s = self.settings
         idx = rng.integers(0, pool.bone.shape[0], s.n_surface)
@@ -512,11 +493,11 @@ class SilhouetteCost:
             self._prim_bone,
             self._prim_local,
             self._prim_radii,
-            self._cam_k,
-            self._cam_dist,
-            self._cam_rational,
-            self._cam_R,
-            self._cam_t,
+            self._cams.intrinsics,
+            self._cams.dist,
+            self._cams.rational,
+            self._cams.R,
+            self._cams.t,
             frame.labels,
             frame.pixels,
             frame.roi,
@@ -548,7 +529,8 @@ class SilhouetteCost:
 def _project(k, dist, rational, R, t, p, J3, uv, J2):  # pragma: no cover - compiled
     """Pixel (u, v) of world point p and d(u, v)/dx = d(u, v)/dp · J3; returns depth z.
 
-    Pinhole with OpenCV's distortion (handvar.camera.Camera.project_jacobian).
+    Pinhole with OpenCV's distortion (as handvar.camera.Camera.project_jacobian), the
+    cameras' parameters packed by handvar.camera.Rig.packed.
     """
     X = R[0, 0] * p[0] + R[0, 1] * p[1] + R[0, 2] * p[2] + t[0]
     Y = R[1, 0] * p[0] + R[1, 1] * p[1] + R[1, 2] * p[2] + t[1]
@@ -556,28 +538,10 @@ def _project(k, dist, rational, R, t, p, J3, uv, J2):  # pragma: no cover - comp
     iz = 1.0 / Z
     x = X * iz
     y = Y * iz
-    k1, k2, p1, p2, k3 = dist[0], dist[1], dist[2], dist[3], dist[4]
-    r2 = x * x + y * y
-    num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
-    dnum = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)
-    if rational:
-        k4, k5, k6 = dist[5], dist[6], dist[7]
-        den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))
-        dden = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2)
-        radial = num / den
-        dradial = (dnum * den - num * dden) / (den * den)
-    else:
-        radial = num
-        dradial = dnum
-    xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
-    yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
+    xd, yd, a00, a01, a11 = distort_point(x, y, dist, rational)  # and d(xd, yd)/d(x, y)
+    a10 = a01
     uv[0] = k[0] * xd + k[2]
     uv[1] = k[1] * yd + k[3]
-    # d(xd, yd)/d(x, y)
-    a00 = radial + 2.0 * x * x * dradial + 2.0 * p1 * y + 6.0 * p2 * x
-    a01 = 2.0 * x * y * dradial + 2.0 * p1 * x + 2.0 * p2 * y
-    a10 = a01
-    a11 = radial + 2.0 * y * y * dradial + 6.0 * p1 * y + 2.0 * p2 * x
     # d(x, y)/d(X, Y, Z) = [[1/Z, 0, -x/Z], [0, 1/Z, -y/Z]]; then · R (world)
     P = np.empty((2, 3))
     for c in range(3):
@@ -604,130 +568,6 @@ def _attached(Q, JQ, b, loc, p, J3):  # pragma: no cover - compiled
             for k in range(3):
                 w += loc[k] * (JQ[b, k + 1, i, col] - JQ[b, 0, i, col])
             J3[i, col] = w
-
-
-@njit(cache=True)
-def _closest_on_union(s0, s1, pc, prho, visible, h, dh6):  # pragma: no cover - compiled
-    """Closest point h of a union of 2D cone-spheres to pixel (s0, s1) and dh/dθ.
-
-    The scalar form of handvar.hand.surface.closest_point_cone_spheres_2d; returns the
-    chosen primitive (−1 when none is visible) and the signed distance.
-    """
-    best = -1
-    best_d = np.inf
-    best_reg = 0
-    for q in range(pc.shape[0]):
-        if not visible[q]:
-            continue
-        d0 = pc[q, 1, 0] - pc[q, 0, 0]
-        d1 = pc[q, 1, 1] - pc[q, 0, 1]
-        r1 = prho[q, 0]
-        r2 = prho[q, 1]
-        D = np.sqrt(d0 * d0 + d1 * d1)
-        w0 = s0 - pc[q, 0, 0]
-        w1 = s1 - pc[q, 0, 1]
-        n1 = np.sqrt(w0 * w0 + w1 * w1)
-        v0 = s0 - pc[q, 1, 0]
-        v1 = s1 - pc[q, 1, 1]
-        n2 = np.sqrt(v0 * v0 + v1 * v1)
-        sd1 = n1 - r1
-        sd2 = n2 - r2
-        if D <= abs(r1 - r2) * (1.0 + 1e-12) + 1e-12:  # one circle inside the other
-            if sd1 <= sd2:
-                sd, reg = sd1, 0
-            else:
-                sd, reg = sd2, 2
-        else:
-            u0, u1 = d0 / D, d1 / D
-            sa = (r1 - r2) / D
-            ca = np.sqrt(max(1.0 - sa * sa, 0.0))
-            a = w0 * u0 + w1 * u1
-            qq = abs(w1 * u0 - w0 * u1)
-            kk = a * ca - qq * sa
-            if kk < 0.0:
-                sd, reg = sd1, 0
-            elif kk > D * ca:
-                sd, reg = sd2, 2
-            else:
-                sd, reg = a * sa + qq * ca - r1, 1
-        if sd < best_d:
-            best_d, best, best_reg = sd, q, reg
-    h[0] = s0
-    h[1] = s1
-    for i in range(2):
-        for c in range(6):
-            dh6[i, c] = 0.0
-    if best < 0 or best_d <= 0.0:
-        return best, best_d
-    q = best
-    if best_reg != 1:  # circle i: h = c_i + ρ_i ê
-        i = best_reg // 2
-        c0, c1, ri = pc[q, i, 0], pc[q, i, 1], prho[q, i]
-        w0, w1 = s0 - c0, s1 - c1
-        n = np.sqrt(w0 * w0 + w1 * w1)
-        e0, e1 = w0 / n, w1 / n
-        h[0] = c0 + ri * e0
-        h[1] = c1 + ri * e1
-        f = ri / n  # dh/dc_i = I − ρ_i (I − ê êᵀ)/|s − c_i|, dh/dρ_i = ê
-        dh6[0, 2 * i] = 1.0 - f * (1.0 - e0 * e0)
-        dh6[0, 2 * i + 1] = f * e0 * e1
-        dh6[1, 2 * i] = f * e0 * e1
-        dh6[1, 2 * i + 1] = 1.0 - f * (1.0 - e1 * e1)
-        dh6[0, 4 + i] = e0
-        dh6[1, 4 + i] = e1
-        return best, best_d
-    # lateral: h = s − δ n, n = sin α u + σ cos α J u, δ = n·(s − c1) − ρ1
-    d0 = pc[q, 1, 0] - pc[q, 0, 0]
-    d1 = pc[q, 1, 1] - pc[q, 0, 1]
-    r1, r2 = prho[q, 0], prho[q, 1]
-    D = np.sqrt(d0 * d0 + d1 * d1)
-    u0, u1 = d0 / D, d1 / D
-    ss = (r1 - r2) / D
-    cc = np.sqrt(max(1.0 - ss * ss, 0.0))
-    w0 = s0 - pc[q, 0, 0]
-    w1 = s1 - pc[q, 0, 1]
-    sg = 1.0 if (w1 * u0 - w0 * u1) >= 0.0 else -1.0
-    j0, j1 = -u1, u0  # J u
-    n0 = ss * u0 + sg * cc * j0
-    n1 = ss * u1 + sg * cc * j1
-    delta = n0 * w0 + n1 * w1 - r1
-    h[0] = s0 - delta * n0
-    h[1] = s1 - delta * n1
-    # derivatives w.r.t. θ = (c1u, c1v, c2u, c2v, ρ1, ρ2)
-    dDelta = np.zeros((2, 6))  # d(c2 − c1)/dθ
-    dDelta[0, 0] = -1.0
-    dDelta[1, 1] = -1.0
-    dDelta[0, 2] = 1.0
-    dDelta[1, 3] = 1.0
-    du = np.empty((2, 6))
-    ud = np.empty(6)
-    for c in range(6):
-        # du = (I − u uᵀ) dDelta / D
-        t0 = (1.0 - u0 * u0) * dDelta[0, c] - u0 * u1 * dDelta[1, c]
-        t1 = -u0 * u1 * dDelta[0, c] + (1.0 - u1 * u1) * dDelta[1, c]
-        du[0, c] = t0 / D
-        du[1, c] = t1 / D
-        ud[c] = u0 * dDelta[0, c] + u1 * dDelta[1, c]
-    for c in range(6):
-        ds = -ss * ud[c] / D
-        if c == 4:
-            ds += 1.0 / D
-        elif c == 5:
-            ds -= 1.0 / D
-        dc = -ss * ds / cc if cc > 0.0 else 0.0
-        jd0, jd1 = -du[1, c], du[0, c]  # J du
-        dn0 = ds * u0 + ss * du[0, c] + sg * (dc * j0 + cc * jd0)
-        dn1 = ds * u1 + ss * du[1, c] + sg * (dc * j1 + cc * jd1)
-        dd = dn0 * w0 + dn1 * w1
-        if c == 0:
-            dd -= n0
-        elif c == 1:
-            dd -= n1
-        elif c == 4:
-            dd -= 1.0
-        dh6[0, c] = -dd * n0 - delta * dn0
-        dh6[1, c] = -dd * n1 - delta * dn1
-    return best, best_d
 
 
 @njit(cache=True)
@@ -842,7 +682,7 @@ def _cost_kernel(
             row = base + 2 * N + 2 * i
             s0 = pixels[j, i, 0]
             s1 = pixels[j, i, 1]
-            q, d = _closest_on_union(s0, s1, pc, prho, visible, h, dh6)
+            q, d = closest_point_on_union(s0, s1, pc, prho, visible, h, dh6)
             if q < 0 or d <= 0.0:
                 continue  # covered by the model
             d0 = h[0] - s0

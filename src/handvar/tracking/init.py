@@ -360,10 +360,10 @@ def _triangulate(cameras: list[Camera], pixels: list[np.ndarray]) -> np.ndarray:
 
 
 def _render(hand, x: np.ndarray, views: list[_SearchView], tol: float) -> list[np.ndarray]:
-    from handvar.render import silhouette
+    from handvar.render import silhouette_of_spheres
 
     centres, radii = hand.world_spheres(x)
-    return [silhouette(centres, radii, v.camera, tol=tol) for v in views]
+    return [silhouette_of_spheres(centres, radii, v.camera, tol=tol) for v in views]
 
 
 def _place(hand, x: np.ndarray, views: list[_SearchView], placements: int, tol: float):

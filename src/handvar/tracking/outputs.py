@@ -28,7 +28,7 @@ import numpy as np
 from handvar.camera import Rig
 from handvar.io import Sequence, write_atomic
 from handvar.params import NAMES
-from handvar.render import draw_overlay, side_by_side, silhouettes
+from handvar.render import draw_overlay, side_by_side, silhouettes, write_overlay_video
 from handvar.tracking.tracker import TrackResult
 
 __all__ = [
@@ -152,19 +152,6 @@ def overlay_strip(
     return side_by_side(tiles, [f"frame {t}" for t in picks])
 
 
-def _write_video(path: Path, result: TrackResult, sequence: Sequence, hand, backgrounds) -> Path:
-    """Every tracked frame, all cameras side by side, as `path`; returns what was written."""
-    from handvar.vision.sources import OverlayWriter
-
-    with OverlayWriter(path, sequence.fps) as writer:
-        for t, images in backgrounds(list(range(result.poses.shape[0]))):
-            views = overlay_views(hand, sequence.rig, images, result.poses[t])
-            writer.write(
-                cv2.cvtColor(side_by_side(views, list(sequence.rig.names)), cv2.COLOR_RGB2BGR)
-            )
-    return writer.path_written
-
-
 def write_track_outputs(
     out_dir: str | os.PathLike,
     result: TrackResult,
@@ -246,8 +233,9 @@ def write_track_outputs(
 
     if video:
         try:
-            written["video"] = _write_video(out / "overlay.mp4", result, sequence, hand,
-                                            backgrounds)  # fmt: skip
+            written["video"] = write_overlay_video(
+                out / "overlay.mp4", hand, sequence.rig, result.poses, backgrounds, sequence.fps
+            )
         except OSError as exc:
             written["video_error"] = str(exc)
     return written

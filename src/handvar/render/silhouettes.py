@@ -1,4 +1,4 @@
-"""Silhouette and colour rendering of the sphere-mesh hand model (DESIGN.md §2, §3).
+"""Exact silhouettes of the sphere-mesh hand model (§2, §3).
 
 The hand surface is a union of cone-spheres, each the convex hull of two spheres. Under
 perspective projection segments map to segments, so the image of a cone-sphere is the
@@ -20,7 +20,7 @@ square) before scan conversion. Then every point of the model surface, projected
 rounded to the nearest pixel, lands on a set pixel, and the mask equals a dense
 projection of surface samples. ``"centre"`` gives the point-sampled mask of a
 conventional renderer (pixel centre inside the image), about half a pixel thinner
-along the outline; the colour renderer uses it.
+along the outline; the colour renderer (:mod:`handvar.render.shading`) uses it.
 
 Lens distortion: the outline is computed in undistorted normalised coordinates, its
 edges are cut into pieces shorter than ``tol_distortion`` pixels and every vertex is
@@ -31,33 +31,23 @@ model does.
 
 Primitives not entirely in front of a camera (a sphere reaching the plane z_cam = 0) are
 not drawn in that camera: their image is not bounded.
-
-Colour images are RGB, ``uint8``, shape ``(H, W, 3)``; convert with
-``cv2.cvtColor(image, cv2.COLOR_RGB2BGR)`` before ``cv2.imwrite``.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Protocol
 
-import cv2
 import numpy as np
 
-from handvar.camera import Camera, Rig, _check_array, distort_normalized
-from handvar.hand.surface import cone_sphere_normals, intersect_cone_spheres
+from handvar.camera import Camera, Rig
+from handvar.geometry.distortion import distort_normalized
 from handvar.params import check_pose
+from handvar.validate import as_array, as_instance, one_of
 
 __all__ = [
-    "SKELETON",
-    "Shading",
     "SphereMeshModel",
-    "background_image",
-    "draw_overlay",
     "outlines",
-    "render_rgb",
-    "side_by_side",
-    "silhouette",
+    "silhouette_of_spheres",
     "silhouettes",
     "sphere_ellipses",
 ]
@@ -69,22 +59,6 @@ class SphereMeshModel(Protocol):
     def world_spheres(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Centres (P, 2, 3) mm and radii (P, 2) mm of the cone-spheres at pose x."""
         ...
-
-
-# Bones of the 21-point layout (DESIGN.md §2): wrist 0; thumb 1-4; index 5-8;
-# middle 9-12; ring 13-16; little 17-20 (MCP/CMC, PIP/MCP, DIP/IP, tip).
-SKELETON: tuple[tuple[int, int], ...] = (
-    (0, 1), (1, 2), (2, 3), (3, 4),
-    (0, 5), (5, 6), (6, 7), (7, 8),
-    (0, 9), (9, 10), (10, 11), (11, 12),
-    (0, 13), (13, 14), (14, 15), (15, 16),
-    (0, 17), (17, 18), (18, 19), (19, 20),
-    (5, 9), (9, 13), (13, 17),
-)  # fmt: skip
-
-# Overlay colours (RGB) per digit: thumb, index, middle, ring, little; palm links grey.
-_DIGIT_RGB = ((230, 60, 60), (240, 170, 30), (60, 200, 60), (40, 140, 240), (190, 80, 220))
-_PALM_RGB = (200, 200, 200)
 
 
 # --- sphere images ------------------------------------------------------------------
@@ -235,8 +209,7 @@ def outlines(
 
 def _outline_vertices(centres, radii, camera: Camera, coverage: str, tol, tol_distortion):
     """Polygon vertices (V, 2) in pixels, next-vertex index (V,), polygon index (V,)."""
-    if coverage not in _COVERAGE:
-        raise ValueError(f"coverage: expected one of {', '.join(_COVERAGE)}; got {coverage!r}")
+    one_of(coverage, _COVERAGE, "coverage")
     poly, normals, _ = _hull_polygons(centres, radii, camera, tol)
     n_poly, K = poly.shape[:2]
     verts = poly.reshape(-1, 2)
@@ -331,8 +304,8 @@ def _rasterize(starts: np.ndarray, ends: np.ndarray, sign: np.ndarray, size) -> 
 
 
 def _check_spheres(centres, radii) -> tuple[np.ndarray, np.ndarray]:
-    centres = _check_array(centres, (None, 2, 3), "centres")
-    radii = _check_array(radii, (None, 2), "radii")
+    centres = as_array(centres, "centres", (None, 2, 3))
+    radii = as_array(radii, "radii", (None, 2))
     if radii.shape[0] != centres.shape[0]:
         raise ValueError(
             f"radii: expected shape ({centres.shape[0]}, 2) to match centres; got {radii.shape}"
@@ -342,7 +315,7 @@ def _check_spheres(centres, radii) -> tuple[np.ndarray, np.ndarray]:
     return centres, radii
 
 
-def silhouette(
+def silhouette_of_spheres(
     centres,
     radii,
     camera: Camera,
@@ -381,8 +354,7 @@ def silhouette(
 
 
 def _check_rig(rig: Rig) -> tuple[int, int]:
-    if not isinstance(rig, Rig):
-        raise ValueError(f"rig: expected a handvar.camera.Rig; got {type(rig).__name__}")
+    as_instance(rig, Rig, "rig", what="a handvar.camera.Rig")
     sizes = {cam.size for cam in rig}
     if len(sizes) != 1:
         raise ValueError(
@@ -401,11 +373,11 @@ def silhouettes(
     hand : HandModel
         Anything with ``world_spheres(x) -> (centres (P, 2, 3), radii (P, 2))``.
     x : (26,) array_like
-        Pose (DESIGN.md §2).
+        Pose (§2).
     rig : Rig
         Cameras, all with the same image size.
     coverage : {"touch", "centre"}, optional
-        Which pixels count as covered (see :func:`silhouette`).
+        Which pixels count as covered (see :func:`silhouette_of_spheres`).
     tol : float, optional
         Outline accuracy, pixels.
 
@@ -425,289 +397,5 @@ def silhouettes(
     centres, radii = hand.world_spheres(x)
     out = np.empty((len(rig), h, w), dtype=bool)
     for k, cam in enumerate(rig):
-        out[k] = silhouette(centres, radii, cam, coverage=coverage, tol=tol)
+        out[k] = silhouette_of_spheres(centres, radii, cam, coverage=coverage, tol=tol)
     return out
-
-
-# --- colour rendering ---------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class Shading:
-    """Lambert shading of the hand and the synthetic camera noise.
-
-    The paper's set-up (§2, figure 1) lights the hand strongly from above and behind
-    one of the cameras; ``light`` is the world direction towards that light (world −y
-    is up, the cameras are on the −z side).
-    """
-
-    skin_rgb: tuple[int, int, int] = (222, 170, 140)
-    ambient: float = 0.45
-    diffuse: float = 0.6
-    light: tuple[float, float, float] = (-0.35, -0.6, -1.0)
-    noise_sigma: float = 3.0  # grey levels, added to the whole image
-
-
-_BACKGROUNDS = ("clutter", "texture", "plain")
-
-
-def _non_skin_colours(n: int, rng: np.random.Generator) -> np.ndarray:
-    """(n, 3) uint8 RGB colours well away from skin tones.
-
-    Hues are drawn from green through blue to purple (60°–300° in HSV, i.e. no reds,
-    oranges or yellows), or the colour is a near-grey; either fails both the RGB skin
-    rule of Kovač et al. (2003) and the YCrCb box of Chai & Ngan (1999).
-    """
-    hsv = np.empty((n, 1, 3), dtype=np.uint8)
-    hsv[:, 0, 0] = rng.integers(45, 150, n)  # OpenCV hue = degrees / 2
-    grey = rng.random(n) < 0.25
-    hsv[:, 0, 1] = np.where(grey, rng.integers(0, 20, n), rng.integers(80, 256, n))
-    hsv[:, 0, 2] = rng.integers(30, 256, n)
-    return cv2.cvtColor(hsv, cv2.COLOR_HSV2RGB)[:, 0]
-
-
-def background_image(
-    size: tuple[int, int], kind: str = "clutter", rng: np.random.Generator | None = None
-) -> np.ndarray:
-    """A synthetic background image without skin-coloured pixels.
-
-    Parameters
-    ----------
-    size : (int, int)
-        Image (width, height).
-    kind : {"clutter", "texture", "plain"}
-        ``clutter``: random filled rectangles, ellipses, polygons and thick lines in
-        non-skin colours; ``texture``: smooth multi-scale noise blending non-skin
-        colours; ``plain``: one non-skin colour.
-    rng : numpy.random.Generator, optional
-        Source of randomness (``default_rng(0)`` when omitted).
-
-    Returns
-    -------
-    (H, W, 3) uint8 ndarray
-        RGB image.
-    """
-    if kind not in _BACKGROUNDS:
-        raise ValueError(f"kind: expected one of {', '.join(_BACKGROUNDS)}; got {kind!r}")
-    rng = np.random.default_rng(0) if rng is None else rng
-    w, h = int(size[0]), int(size[1])
-    if kind == "plain":
-        img = np.empty((h, w, 3), dtype=np.uint8)
-        img[:] = _non_skin_colours(1, rng)[0]
-        return img
-    if kind == "texture":
-        cols = _non_skin_colours(3, rng).astype(float)
-        field = np.zeros((h, w, 2))
-        for scale in (4, 8, 16, 32):
-            small = rng.random((scale * h // w + 2, scale + 2, 2)).astype(np.float32)
-            field += cv2.resize(small, (w, h), interpolation=cv2.INTER_CUBIC) / scale
-        field -= field.min(axis=(0, 1))
-        field /= np.maximum(field.max(axis=(0, 1)), 1e-9)
-        wts = np.concatenate([field, 1.0 - field.mean(axis=2, keepdims=True)], axis=2)
-        wts /= wts.sum(axis=2, keepdims=True)
-        # blends of green–blue–purple hues and greys stay away from skin tones
-        img = wts @ cols
-        return np.clip(img, 0, 255).astype(np.uint8)
-    img = np.empty((h, w, 3), dtype=np.uint8)
-    img[:] = _non_skin_colours(1, rng)[0]
-    n_shapes = 60
-    cols = _non_skin_colours(n_shapes, rng)
-    for k in range(n_shapes):
-        col = tuple(int(c) for c in cols[k])
-        kind_k = rng.integers(4)
-        cx, cy = int(rng.integers(-w // 8, w + w // 8)), int(rng.integers(-h // 8, h + h // 8))
-        sx, sy = int(rng.integers(10, w // 4)), int(rng.integers(10, h // 4))
-        if kind_k == 0:
-            cv2.rectangle(img, (cx - sx, cy - sy), (cx + sx, cy + sy), col, -1)
-        elif kind_k == 1:
-            angle = float(rng.uniform(0, 180))
-            cv2.ellipse(img, (cx, cy), (sx, sy), angle, 0, 360, col, -1, cv2.LINE_AA)
-        elif kind_k == 2:
-            pts = np.stack([cx + rng.integers(-sx, sx, 5), cy + rng.integers(-sy, sy, 5)], -1)
-            cv2.fillPoly(img, [pts.astype(np.int32)], col, cv2.LINE_AA)
-        else:
-            thick = int(rng.integers(2, 12))
-            cv2.line(img, (cx - sx, cy - sy), (cx + sx, cy + sy), col, thick, cv2.LINE_AA)
-    return img
-
-
-def render_rgb(
-    hand: SphereMeshModel,
-    x,
-    rig: Rig,
-    *,
-    background: str = "clutter",
-    rng: np.random.Generator | None = None,
-    shading: Shading | None = None,
-) -> np.ndarray:
-    """Shaded colour rendering of the hand over a synthetic background.
-
-    Every pixel whose centre sees the model (``coverage="centre"``) is ray-cast
-    against the cone-spheres (:func:`handvar.hand.surface.intersect_cone_spheres`),
-    given the outward normal of the primitive hit
-    (:func:`handvar.hand.surface.cone_sphere_normals`) and shaded by Lambert's law
-    with a skin colour; the background (:func:`background_image`, one per camera)
-    and Gaussian sensor noise make the image a test for the real-video path (skin
-    detection, clean-up).
-
-    Parameters
-    ----------
-    hand : HandModel
-        Anything with ``world_spheres(x)``.
-    x : (26,) array_like
-        Pose.
-    rig : Rig
-        Cameras, all of one image size.
-    background : {"clutter", "texture", "plain"}, optional
-    rng : numpy.random.Generator, optional
-        Background and noise (``default_rng(0)`` when omitted).
-    shading : Shading, optional
-
-    Returns
-    -------
-    (n_cams, H, W, 3) uint8 ndarray
-        RGB images.
-    """
-    x = check_pose(x, "x")
-    if background not in _BACKGROUNDS:
-        raise ValueError(
-            f"background: expected one of {', '.join(_BACKGROUNDS)}; got {background!r}"
-        )
-    w, h = _check_rig(rig)
-    rng = np.random.default_rng(0) if rng is None else rng
-    sh = Shading() if shading is None else shading
-    centres, radii = hand.world_spheres(x)
-    light = np.asarray(sh.light, dtype=float)
-    light /= np.linalg.norm(light)
-    skin = np.asarray(sh.skin_rgb, dtype=float)
-    out = np.empty((len(rig), h, w, 3), dtype=np.uint8)
-    for k, cam in enumerate(rig):
-        img = background_image((w, h), background, rng).astype(np.float32)
-        mask = silhouette(centres, radii, cam, coverage="centre")  # point sampling
-        rows, cols = np.nonzero(mask)
-        if rows.size:
-            origins, dirs = cam.rays(np.stack([cols, rows], -1).astype(float))
-            depth, prim = intersect_cone_spheres(
-                centres, radii, origins, dirs, return_primitive=True
-            )
-            hit = prim >= 0
-            # pixel centres on the outline that graze the surface: face the camera
-            normals = -dirs
-            points = origins[hit] + depth[hit, None] * dirs[hit]
-            normals[hit] = cone_sphere_normals(centres, radii, points, prim[hit])
-            lambert = np.maximum(normals @ light, 0.0)  # Lambert: max(0, n·l)
-            img[rows, cols] = skin * (sh.ambient + sh.diffuse * lambert)[:, None]
-        img += np.float32(sh.noise_sigma) * rng.standard_normal(img.shape, dtype=np.float32)
-        np.clip(np.rint(img, out=img), 0, 255, out=img)
-        out[k] = img
-    return out
-
-
-# --- overlays -----------------------------------------------------------------------
-
-
-def draw_overlay(
-    image: np.ndarray,
-    camera: Camera,
-    joints,
-    mask: np.ndarray | None = None,
-    *,
-    thickness: int = 2,
-) -> np.ndarray:
-    """Draw the 21 joints and the bones (and optionally a mask outline) on an image.
-
-    Parameters
-    ----------
-    image : (H, W, 3) uint8 or (H, W) bool/uint8 ndarray
-        RGB image, or a mask / grey image (drawn as grey).
-    camera : Camera
-        Camera of the image.
-    joints : (21, 3) array_like
-        Joint positions, mm (world).
-    mask : (H, W) bool ndarray, optional
-        A silhouette whose outline is drawn in yellow (e.g. the model's).
-    thickness : int, optional
-        Line thickness, pixels.
-
-    Returns
-    -------
-    (H, W, 3) uint8 ndarray
-        A new RGB image; digits are coloured thumb red, index orange, middle green,
-        ring blue, little purple.
-    """
-    img = np.asarray(image)
-    if img.ndim == 2:
-        grey = (img.astype(np.uint8) * 160) if img.dtype == bool else img.astype(np.uint8)
-        img = np.repeat(grey[:, :, None], 3, axis=2)
-    elif img.ndim == 3 and img.shape[2] == 3:
-        img = img.astype(np.uint8).copy()
-    else:
-        raise ValueError(f"image: expected (H, W) or (H, W, 3); got shape {img.shape}")
-    if (img.shape[1], img.shape[0]) != camera.size:
-        raise ValueError(
-            f"image: expected size {camera.size} (width, height) of the camera; "
-            f"got {(img.shape[1], img.shape[0])}"
-        )
-    joints = _check_array(joints, (21, 3), "joints")
-    img = np.ascontiguousarray(img)
-    if mask is not None:
-        mask = np.asarray(mask)
-        if mask.shape != img.shape[:2]:
-            raise ValueError(f"mask: expected shape {img.shape[:2]}; got {mask.shape}")
-        contours, _ = cv2.findContours(
-            mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE
-        )
-        cv2.drawContours(img, contours, -1, (255, 230, 0), 1, cv2.LINE_AA)
-    shift = 4
-    px = camera.project(joints)
-    finite = np.all(np.isfinite(px), axis=1) & (np.abs(px) < 1e5).all(axis=1)
-    pts = np.rint(np.where(finite[:, None], px, 0.0) * (1 << shift)).astype(np.int64)
-    for i, j in SKELETON:
-        if not (finite[i] and finite[j]):
-            continue
-        colour = _PALM_RGB if (i != 0 and j - i != 1) else _DIGIT_RGB[(max(i, j) - 1) // 4]
-        cv2.line(img, tuple(pts[i]), tuple(pts[j]), colour, thickness, cv2.LINE_AA, shift)
-    for i in range(21):
-        if finite[i]:
-            colour = (255, 255, 255) if i == 0 else _DIGIT_RGB[(i - 1) // 4]
-            cv2.circle(img, tuple(pts[i]), (thickness + 2) << shift, colour, -1, cv2.LINE_AA, shift)
-    return img
-
-
-def side_by_side(images, titles=None, *, gap: int = 4, bar: int = 28) -> np.ndarray:
-    """Put RGB images of one height next to each other, each under a title bar.
-
-    Parameters
-    ----------
-    images : sequence of (H, W, 3) uint8 ndarray
-    titles : sequence of str, optional
-        One title per image (ASCII), drawn in white on the dark bar above it.
-    gap : int, optional
-        Dark gap between images, pixels.
-    bar : int, optional
-        Height of the title bar, pixels (0 for none).
-
-    Returns
-    -------
-    (H + bar, sum(W) + gap · (n − 1), 3) uint8 ndarray
-    """
-    images = [np.asarray(im) for im in images]
-    if not images or any(im.ndim != 3 or im.shape[2] != 3 for im in images):
-        raise ValueError("images: expected one or more (H, W, 3) images")
-    h = images[0].shape[0]
-    if any(im.shape[0] != h for im in images):
-        raise ValueError(f"images: expected one height; got {[im.shape[0] for im in images]}")
-    titles = [""] * len(images) if titles is None else list(titles)
-    if len(titles) != len(images):
-        raise ValueError(f"titles: expected {len(images)} titles; got {len(titles)}")
-    panels = []
-    for k, (im, title) in enumerate(zip(images, titles, strict=True)):
-        panel = np.full((h + bar, im.shape[1], 3), 24, dtype=np.uint8)
-        panel[bar:] = im
-        if bar and title:
-            cv2.putText(panel, title, (8, bar - 9), cv2.FONT_HERSHEY_SIMPLEX, 0.55,
-                        (255, 255, 255), 1, cv2.LINE_AA)  # fmt: skip
-        panels.append(panel)
-        if gap and k < len(images) - 1:
-            panels.append(np.full((h + bar, gap, 3), 24, dtype=np.uint8))
-    return np.concatenate(panels, axis=1)

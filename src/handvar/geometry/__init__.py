@@ -1,0 +1,39 @@
+"""Geometry below the hand model: lens distortion and cone-spheres in 3D and in the image.
+
+A leaf package (§12): it imports nothing from handvar but `handvar.validate`.
+
+- :mod:`~handvar.geometry.distortion`: OpenCV's lens distortion and its Jacobian, with
+  the compiled scalar form the tracking cost calls.
+- :mod:`~handvar.geometry.cone_spheres`: cone-spheres in 3D (areas, area-uniform
+  sampling, signed distance, normals, ray intersection).
+- :mod:`~handvar.geometry.projected`: cone-spheres in the image plane (outline circles,
+  the closest point of a union of them and its derivatives).
+"""
+
+from handvar.geometry.cone_spheres import (
+    cone_sphere_areas,
+    cone_sphere_normals,
+    cone_sphere_sdf,
+    intersect_cone_spheres,
+    sample_cone_spheres,
+)
+from handvar.geometry.distortion import distort, distort_normalized, distortion_coefficients
+from handvar.geometry.projected import (
+    ProjectedPrimitives,
+    closest_point_cone_spheres_2d,
+    outline_circles,
+)
+
+__all__ = [
+    "ProjectedPrimitives",
+    "closest_point_cone_spheres_2d",
+    "cone_sphere_areas",
+    "cone_sphere_normals",
+    "cone_sphere_sdf",
+    "distort",
+    "distort_normalized",
+    "distortion_coefficients",
+    "intersect_cone_spheres",
+    "outline_circles",
+    "sample_cone_spheres",
+]
