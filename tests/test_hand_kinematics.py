@@ -296,7 +296,7 @@ def test_bad_points_raise(model, jacobian):
     for b in ([0, 3, 16, 7], [0, -1, 15, 7]):
         with pytest.raises(ValueError, match=r"bone: expected indices in 0\.\.15; got values"):
             model.points(x, b, local, jacobian=jacobian)
-    with pytest.raises(ValueError, match="bone: expected integer bone indices"):
+    with pytest.raises(TypeError, match="bone: expected integer bone indices"):
         model.points(x, bone + 0.5, local, jacobian=jacobian)
     with pytest.raises(ValueError, match=r"bone: expected a \(N,\) array"):
         model.points(x, bone[None], local, jacobian=jacobian)
@@ -316,7 +316,7 @@ def test_bad_points_raise(model, jacobian):
 def test_bad_model_input_raises():
     with pytest.raises(ValueError, match="name"):
         named_pose("wave")
-    with pytest.raises(ValueError, match="shape"):
+    with pytest.raises(TypeError, match="shape"):
         HandModel(shape="large")
 
 

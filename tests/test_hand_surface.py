@@ -425,20 +425,20 @@ def test_bad_surface_input_raises():
         MODEL.closest_projected_point(x, cam, np.zeros((4, 3)))
     with pytest.raises(ValueError, match="pixels"):
         MODEL.closest_projected_point(x, cam, [[np.nan, 1.0]])
-    with pytest.raises(ValueError, match="camera"):
+    with pytest.raises(TypeError, match="camera"):
         MODEL.closest_projected_point(x, "left", np.zeros((4, 2)))
-    with pytest.raises(ValueError, match="camera"):
+    with pytest.raises(TypeError, match="camera"):
         MODEL.project_primitives(x, None)
     with pytest.raises(ValueError, match="n"):
         MODEL.sample_surface(-1, rng)
-    with pytest.raises(ValueError, match="rng"):
+    with pytest.raises(TypeError, match="rng"):
         MODEL.sample_surface(10, 42)
     centres, radii = MODEL.world_spheres(x)
     with pytest.raises(ValueError, match=r"points: expected shape \(N, 3\)"):
         cone_sphere_normals(centres, radii, np.zeros((2, 2)), [0, 0])
     with pytest.raises(ValueError, match="primitive: expected shape"):
         cone_sphere_normals(centres, radii, np.zeros((2, 3)), [0])
-    with pytest.raises(ValueError, match="primitive: expected integer"):
+    with pytest.raises(TypeError, match="primitive: expected integer"):
         cone_sphere_normals(centres, radii, np.zeros((2, 3)), [0.0, 1.0])
     with pytest.raises(ValueError, match=r"primitive: expected indices in -1\.\.19"):
         cone_sphere_normals(centres, radii, np.zeros((2, 3)), [0, 20])

@@ -18,6 +18,7 @@ from handvar.geometry import (
 )
 from handvar.hand.kinematics import HandModel, named_pose
 from handvar.params import LOWER, UPPER
+from handvar.render.overlay import _DIGIT_RGB
 
 BARREL = np.array([-0.25, 0.08, 0.001, -0.001, -0.01])
 
@@ -307,7 +308,7 @@ def test_draw_overlay_marks_projected_joints(hand):
     px = np.rint(cam.project(joints)).astype(int)
     for k in (4, 8, 12, 16, 20):  # fingertips: the digit's colour, drawn on top
         colour = out[px[k, 1], px[k, 0]]
-        assert np.abs(colour.astype(int) - render._DIGIT_RGB[(k - 1) // 4]).max() <= 2
+        assert np.abs(colour.astype(int) - _DIGIT_RGB[(k - 1) // 4]).max() <= 2
     mask = render.silhouettes(hand, x, Rig((cam,)))[0]
     with_outline = render.draw_overlay(mask, cam, joints, mask=mask)
     assert with_outline.shape == (480, 640, 3)
