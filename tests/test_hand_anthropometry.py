@@ -65,12 +65,13 @@ def test_custom_proportions():
 
 
 @pytest.mark.parametrize(
-    ("kwargs", "name"),
-    [({"length": -1.0}, "length"), ({"length": np.nan}, "length"), ({"length": "big"}, "length"),
-     ({"breadth": 0.0}, "breadth"), ({"breadth": np.inf}, "breadth")],
+    ("kwargs", "name", "error"),
+    [({"length": -1.0}, "length", ValueError), ({"length": np.nan}, "length", ValueError),
+     ({"length": "big"}, "length", TypeError), ({"breadth": 0.0}, "breadth", ValueError),
+     ({"breadth": np.inf}, "breadth", ValueError)],
 )  # fmt: skip
-def test_bad_size_raises(kwargs, name):
-    with pytest.raises(ValueError, match=f"{name}: expected a positive hand {name} in mm; got"):
+def test_bad_size_raises(kwargs, name, error):
+    with pytest.raises(error, match=f"{name}: expected a positive hand {name} in mm; got"):
         HandShape.from_size(**kwargs)
 
 

@@ -38,6 +38,9 @@ sequence ``image_size``/``imageSize`` (width, height); the stereo layout has one
 both cameras. When a file has no size, pass ``size=`` to :meth:`Rig.load`. A
 ``camera_matrix`` may be spelled ``K`` and ``dist_coeffs`` ``D`` or
 ``distortion_coefficients`` everywhere; ``T`` may be ``t``.
+
+One concept in one module, the calibrated camera: its model, the rig of several and
+their calibration files. The distortion's formula lives in `handvar.geometry.distortion`.
 """
 
 from __future__ import annotations

@@ -343,30 +343,24 @@ def closest_point_on_union(s0, s1, pc, prho, visible, h, dh6):  # pragma: no cov
     h[0] = s0 - delta * n0
     h[1] = s1 - delta * n1
     # derivatives w.r.t. θ = (c1u, c1v, c2u, c2v, ρ1, ρ2)
-    dDelta = np.zeros((2, 6))  # d(c2 − c1)/dθ
-    dDelta[0, 0] = -1.0
-    dDelta[1, 1] = -1.0
-    dDelta[0, 2] = 1.0
-    dDelta[1, 3] = 1.0
-    du = np.empty((2, 6))
-    ud = np.empty(6)
     for c in range(6):
-        # du = (I − u uᵀ) dDelta / D
-        t0 = (1.0 - u0 * u0) * dDelta[0, c] - u0 * u1 * dDelta[1, c]
-        t1 = -u0 * u1 * dDelta[0, c] + (1.0 - u1 * u1) * dDelta[1, c]
-        du[0, c] = t0 / D
-        du[1, c] = t1 / D
-        ud[c] = u0 * dDelta[0, c] + u1 * dDelta[1, c]
-    for c in range(6):
-        ds = -ss * ud[c] / D
+        e0 = -1.0 if c == 0 else (1.0 if c == 2 else 0.0)  # d(c2 − c1)/dθ_c
+        e1 = -1.0 if c == 1 else (1.0 if c == 3 else 0.0)
+        # du = (I − u uᵀ) d(c2 − c1) / D
+        t0 = (1.0 - u0 * u0) * e0 - u0 * u1 * e1
+        t1 = -u0 * u1 * e0 + (1.0 - u1 * u1) * e1
+        du0 = t0 / D
+        du1 = t1 / D
+        ud = u0 * e0 + u1 * e1
+        ds = -ss * ud / D
         if c == 4:
             ds += 1.0 / D
         elif c == 5:
             ds -= 1.0 / D
         dc = -ss * ds / cc if cc > 0.0 else 0.0
-        jd0, jd1 = -du[1, c], du[0, c]  # J du
-        dn0 = ds * u0 + ss * du[0, c] + sg * (dc * j0 + cc * jd0)
-        dn1 = ds * u1 + ss * du[1, c] + sg * (dc * j1 + cc * jd1)
+        jd0, jd1 = -du1, du0  # J du
+        dn0 = ds * u0 + ss * du0 + sg * (dc * j0 + cc * jd0)
+        dn1 = ds * u1 + ss * du1 + sg * (dc * j1 + cc * jd1)
         dd = dn0 * w0 + dn1 * w1
         if c == 0:
             dd -= n0

@@ -26,11 +26,13 @@ hand. See :mod:`handvar.params` for the signs of the joint angles.
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from handvar.params import DIGITS
+from handvar.validate import as_array, as_instance
 
 #: The 16 bones, in the order used by `HandModel.bone_frames` and by
 #: `SurfaceSamples.bone`: the palm, then three bones per digit, proximal first.
@@ -167,22 +169,16 @@ def _readonly(a) -> np.ndarray:
 
 
 def _check(value, shape: tuple[int, ...], name: str, *, positive: bool = False) -> np.ndarray:
-    arr = np.asarray(value, dtype=float)
-    if arr.shape != shape:
-        raise ValueError(f"{name}: expected shape {shape}; got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: expected finite values; got NaN or infinity")
+    arr = as_array(value, name, shape)
     if positive and not np.all(arr > 0):
         raise ValueError(f"{name}: expected positive values; got minimum {arr.min()}")
     return _readonly(arr)
 
 
 def _positive_mm(value, name: str) -> float:
-    """`value` as a float, or ValueError naming `name` unless a positive number (mm)."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        number = math.nan
+    """`value` as a float, or raise naming `name` unless a positive number (mm)."""
+    want = f"a positive hand {name} in mm"
+    number = float(as_instance(value, numbers.Real, name, what=want))
     if not (math.isfinite(number) and number > 0):
         raise ValueError(f"{name}: expected a positive hand {name} in mm; got {value!r}")
     return number

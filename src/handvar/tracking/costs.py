@@ -47,6 +47,12 @@ bone: a bone moves rigidly, so the position and the Jacobian of any point attach
 it are affine in the point's bone coordinates and follow from those four exactly.
 :func:`cost_reference` computes the same cost with the public numpy routines of
 :mod:`handvar.hand` and :mod:`handvar.camera`; the tests check that both agree.
+
+One concept in one module (the cost, its per-frame data and its compiled kernel), hence
+its length. The kernel's geometry is not written here: it calls the one compiled form of
+the lens distortion (`handvar.geometry.distortion.distort_point`) and of the closest
+point of the model's image (`handvar.geometry.projected.closest_point_on_union`), and
+reads the cameras only through `handvar.camera.Rig.packed`.
 """
 
 from __future__ import annotations
