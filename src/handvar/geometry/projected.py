@@ -28,6 +28,7 @@ __all__ = [
     "closest_point_cone_spheres_2d",
     "closest_point_on_union",
     "outline_circles",
+    "union_axes",
 ]
 
 
@@ -233,7 +234,7 @@ def closest_point_cone_spheres_2d(centres, radii, pixels, *, valid=None, compile
 
 
 @njit(cache=True)
-def closest_point_on_union(s0, s1, pc, prho, visible, h, dh6):  # pragma: no cover - compiled
+def closest_point_on_union(s0, s1, pc, prho, axes, visible, h, dh6):  # pragma: no cover
     """Closest point h of a union of 2D cone-spheres to pixel (s0, s1) and dh/dθ (numba).
 
     The one implementation of `closest_point_cone_spheres_2d` (see its Notes), one pixel
@@ -247,6 +248,8 @@ def closest_point_on_union(s0, s1, pc, prho, visible, h, dh6):  # pragma: no cov
         Circle centres, pixels.
     prho : (P, 2) ndarray
         Circle radii, pixels.
+    axes : (P, 6) ndarray
+        `union_axes` of `pc`, `prho`.
     visible : (P,) bool ndarray
         Primitives to consider.
     h : (2,) ndarray
@@ -268,35 +271,30 @@ def closest_point_on_union(s0, s1, pc, prho, visible, h, dh6):  # pragma: no cov
     for q in range(pc.shape[0]):
         if not visible[q]:
             continue
-        d0 = pc[q, 1, 0] - pc[q, 0, 0]
-        d1 = pc[q, 1, 1] - pc[q, 0, 1]
         r1 = prho[q, 0]
         r2 = prho[q, 1]
-        D = np.sqrt(d0 * d0 + d1 * d1)
         w0 = s0 - pc[q, 0, 0]
         w1 = s1 - pc[q, 0, 1]
-        n1 = np.sqrt(w0 * w0 + w1 * w1)
-        v0 = s0 - pc[q, 1, 0]
-        v1 = s1 - pc[q, 1, 1]
-        n2 = np.sqrt(v0 * v0 + v1 * v1)
-        sd1 = n1 - r1
-        sd2 = n2 - r2
-        if D <= abs(r1 - r2) * (1.0 + 1e-12) + 1e-12:  # one circle inside the other
+        if axes[q, 5] != 0.0:  # one circle inside the other
+            v0 = s0 - pc[q, 1, 0]
+            v1 = s1 - pc[q, 1, 1]
+            sd1 = np.sqrt(w0 * w0 + w1 * w1) - r1
+            sd2 = np.sqrt(v0 * v0 + v1 * v1) - r2
             if sd1 <= sd2:
                 sd, reg = sd1, 0
             else:
                 sd, reg = sd2, 2
         else:
-            u0, u1 = d0 / D, d1 / D
-            sa = (r1 - r2) / D
-            ca = np.sqrt(max(1.0 - sa * sa, 0.0))
+            D, u0, u1, sa, ca = axes[q, 0], axes[q, 1], axes[q, 2], axes[q, 3], axes[q, 4]
             a = w0 * u0 + w1 * u1
             qq = abs(w1 * u0 - w0 * u1)
             kk = a * ca - qq * sa
             if kk < 0.0:
-                sd, reg = sd1, 0
+                sd, reg = np.sqrt(w0 * w0 + w1 * w1) - r1, 0
             elif kk > D * ca:
-                sd, reg = sd2, 2
+                v0 = s0 - pc[q, 1, 0]
+                v1 = s1 - pc[q, 1, 1]
+                sd, reg = np.sqrt(v0 * v0 + v1 * v1) - r2, 2
             else:
                 sd, reg = a * sa + qq * ca - r1, 1
         if sd < best_d:
@@ -326,13 +324,8 @@ def closest_point_on_union(s0, s1, pc, prho, visible, h, dh6):  # pragma: no cov
         dh6[1, 4 + i] = e1
         return best, best_d
     # lateral: h = s − δ n, n = sin α u + σ cos α J u, δ = n·(s − c1) − ρ1
-    d0 = pc[q, 1, 0] - pc[q, 0, 0]
-    d1 = pc[q, 1, 1] - pc[q, 0, 1]
-    r1, r2 = prho[q, 0], prho[q, 1]
-    D = np.sqrt(d0 * d0 + d1 * d1)
-    u0, u1 = d0 / D, d1 / D
-    ss = (r1 - r2) / D
-    cc = np.sqrt(max(1.0 - ss * ss, 0.0))
+    r1 = prho[q, 0]
+    D, u0, u1, ss, cc = axes[q, 0], axes[q, 1], axes[q, 2], axes[q, 3], axes[q, 4]
     w0 = s0 - pc[q, 0, 0]
     w1 = s1 - pc[q, 0, 1]
     sg = 1.0 if (w1 * u0 - w0 * u1) >= 0.0 else -1.0
@@ -374,12 +367,42 @@ def closest_point_on_union(s0, s1, pc, prho, visible, h, dh6):  # pragma: no cov
 
 
 @njit(cache=True)
+def union_axes(pc, prho, visible, axes):  # pragma: no cover - compiled
+    """Per visible 2D cone-sphere, into `axes` (P, 6): D, u (2), sin α, cos α, degenerate.
+
+    D is the distance of the circle centres, u the unit axis, ``sin α = (ρ1 − ρ2)/D``;
+    degenerate (1.0) marks one circle inside the other (then only D is set).
+    """
+    for q in range(pc.shape[0]):
+        if not visible[q]:
+            continue
+        d0 = pc[q, 1, 0] - pc[q, 0, 0]
+        d1 = pc[q, 1, 1] - pc[q, 0, 1]
+        r1 = prho[q, 0]
+        r2 = prho[q, 1]
+        D = np.sqrt(d0 * d0 + d1 * d1)
+        axes[q, 0] = D
+        if D <= abs(r1 - r2) * (1.0 + 1e-12) + 1e-12:
+            axes[q, 5] = 1.0
+            continue
+        axes[q, 5] = 0.0
+        axes[q, 1] = d0 / D
+        axes[q, 2] = d1 / D
+        sa = (r1 - r2) / D
+        axes[q, 3] = sa
+        axes[q, 4] = np.sqrt(max(1.0 - sa * sa, 0.0))
+
+
+@njit(cache=True)
 def _closest_all(centres, radii, valid, pixels, h, dh, prim, dist):  # pragma: no cover
     """`closest_point_on_union` for every pixel, into h (M, 2), dh (M, 2, 6), prim, dist."""
     hi = np.empty(2)
     dhi = np.empty((2, 6))
+    axes = np.zeros((centres.shape[0], 6))
+    union_axes(centres, radii, valid, axes)
     for i in range(pixels.shape[0]):
-        q, d = closest_point_on_union(pixels[i, 0], pixels[i, 1], centres, radii, valid, hi, dhi)
+        s0, s1 = pixels[i, 0], pixels[i, 1]
+        q, d = closest_point_on_union(s0, s1, centres, radii, axes, valid, hi, dhi)
         prim[i] = q
         dist[i] = d
         h[i, 0] = hi[0]

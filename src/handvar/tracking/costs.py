@@ -65,7 +65,7 @@ from numba import njit
 
 from handvar.camera import Rig
 from handvar.geometry.distortion import distort_point
-from handvar.geometry.projected import closest_point_on_union
+from handvar.geometry.projected import closest_point_on_union, union_axes
 from handvar.params import N_PARAMS, check_pose
 from handvar.validate import as_float, as_instance, as_int
 
@@ -609,6 +609,7 @@ def _cost_kernel(
     pc = np.empty((P, 2, 2))
     prho = np.empty((P, 2))
     visible = np.empty(P, dtype=np.bool_)
+    axes = np.zeros((P, 6))
     dth = np.empty((P, 6, n_par))
     h = np.empty(2)
     dh6 = np.empty((2, 6))
@@ -684,11 +685,12 @@ def _cost_kernel(
                     dz += R[2, 2] * cJ[q, e, 2, col]
                     dth[q, 4 + e, col] = -rho * z / zz * dz if vis else 0.0
             visible[q] = vis
+        union_axes(pc, prho, visible, axes)
         for i in range(M):
             row = base + 2 * N + 2 * i
             s0 = pixels[j, i, 0]
             s1 = pixels[j, i, 1]
-            q, d = closest_point_on_union(s0, s1, pc, prho, visible, h, dh6)
+            q, d = closest_point_on_union(s0, s1, pc, prho, axes, visible, h, dh6)
             if q < 0 or d <= 0.0:
                 continue  # covered by the model
             d0 = h[0] - s0
