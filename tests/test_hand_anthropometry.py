@@ -93,5 +93,5 @@ def test_bad_shape_arrays_raise():
         HandShape(**{**fields, "palm_radii": s.palm_radii[:2]})
     with pytest.raises(ValueError, match="radii"):  # tip spheres longer than the bones
         HandShape(**{**fields, "radii": s.radii * 4})
-    with pytest.raises(ValueError, match="breadth: expected a positive hand breadth in mm"):
+    with pytest.raises(TypeError, match="breadth: expected a positive hand breadth in mm"):
         HandShape(**{**fields, "breadth": None})
