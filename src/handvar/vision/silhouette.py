@@ -318,6 +318,51 @@ class WristCut:
 
 def find_wrist(
     mask: np.ndarray,
+    keypoints=None,
+    **kwargs: float | tuple[float, float],
+) -> WristCut | None:
+    """Locate the wrist of a hand-and-forearm silhouette, or None if no forearm shows.
+
+    Three routes (`handvar.vision.wrist`, §14.1):
+
+    1. With `keypoints` (this frame's (21, 2|3) keypoints in the mask's pixels, wrist
+       and middle MCP present): the line through the detected wrist perpendicular to
+       the wrist → middle-MCP direction, a little towards the forearm
+       (`handvar.vision.wrist.wrist_from_keypoints`).
+    2. A silhouette that leaves the image: the forearm is followed from the border
+       inwards until its width changes (`handvar.vision.wrist.forearm_wrist`).
+    3. Otherwise the palm-centre heuristic (`_palm_wrist`; its settings are `**kwargs`,
+       see `WristDefaults`).
+
+    Parameters
+    ----------
+    mask : (H, W) array_like
+        Silhouette (one component is expected; the largest is used).
+    keypoints : (21, 2|3) array_like, optional
+        The frame's keypoints, pixels of the mask; NaN where missing.
+    **kwargs
+        Settings of the palm-centre heuristic (`WristDefaults`).
+
+    Returns
+    -------
+    WristCut or None
+    """
+    from handvar.vision.wrist import forearm_wrist, wrist_from_keypoints
+
+    m = _as_mask(mask)
+    if not m.any():
+        raise ValueError("mask: expected a non-empty silhouette, got an empty mask")
+    if keypoints is not None:
+        cut = wrist_from_keypoints(keypoints, m.shape)
+        if cut is not None:
+            return cut
+    if m[0].any() or m[-1].any() or m[:, 0].any() or m[:, -1].any():
+        return forearm_wrist(m)
+    return _palm_wrist(m, **kwargs)
+
+
+def _palm_wrist(
+    mask: np.ndarray,
     *,
     forearm_thickness: float = WRIST_DEFAULTS.forearm_thickness,
     forearm_start: float = WRIST_DEFAULTS.forearm_start,
@@ -325,7 +370,7 @@ def find_wrist(
     search: tuple[float, float] = WRIST_DEFAULTS.search,
     tolerance: float = WRIST_DEFAULTS.tolerance,
 ) -> WristCut | None:
-    """Locate the wrist of a hand-and-forearm silhouette, or None if no forearm shows.
+    """The palm-centre wrist heuristic (`find_wrist`'s route 3).
 
     Heuristic (all lengths in units of the palm radius R):
 
