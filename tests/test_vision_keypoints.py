@@ -28,9 +28,7 @@ SHIPPED = EXAMPLES / "dex-human-hand-video-keypoints.npy"
 
 def random_keypoints(seed: int, T: int = 6, conf: bool = True) -> np.ndarray:
     rng = np.random.default_rng(seed)
-    a = np.concatenate(
-        [rng.uniform(0, 1280, (T, 21, 1)), rng.uniform(0, 720, (T, 21, 1))], axis=2
-    )
+    a = np.concatenate([rng.uniform(0, 1280, (T, 21, 1)), rng.uniform(0, 720, (T, 21, 1))], axis=2)
     if conf:
         a = np.concatenate([a, rng.uniform(0.1, 1.0, (T, 21, 1))], axis=2)
     a[2] = np.nan  # a whole frame missing
@@ -70,7 +68,9 @@ def test_csv_42_columns_with_and_without_header(tmp_path):
     plain = tmp_path / "plain.csv"
     plain.write_text("\n".join(lines) + "\n")
     header = tmp_path / "header.csv"
-    header.write_text(",".join(f"{c}{k}" for k in range(21) for c in "xy") + "\n" + plain.read_text())
+    header.write_text(
+        ",".join(f"{c}{k}" for k in range(21) for c in "xy") + "\n" + plain.read_text()
+    )
     for path in (plain, header):
         kp = read_keypoints(path)
         np.testing.assert_array_equal(kp.xy, Keypoints2D.from_array(a).xy)
@@ -166,9 +166,7 @@ def test_scaling_matches_the_scaled_camera(factor):
     world = np.column_stack([rng.uniform(-100, 100, (21, 2)), rng.uniform(400, 600, 21)])
     kp = Keypoints2D.from_array(cam.project(world)[None])
     small = scale_camera(cam, factor)
-    np.testing.assert_allclose(
-        kp.scaled(factor, cam.size).xy[0], small.project(world), atol=1e-9
-    )
+    np.testing.assert_allclose(kp.scaled(factor, cam.size).xy[0], small.project(world), atol=1e-9)
 
 
 def test_frame_keypoints_check():

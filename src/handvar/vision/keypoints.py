@@ -132,9 +132,7 @@ class Keypoints2D:
             If its shape is wrong, a coordinate is infinite or a confidence lies
             outside [0, 1].
         """
-        a = as_array(
-            array, name, finite=False, what="keypoints of shape (T, 21, 2) or (T, 21, 3)"
-        )
+        a = as_array(array, name, finite=False, what="keypoints of shape (T, 21, 2) or (T, 21, 3)")
         if a.ndim != 3 or a.shape[1] != N_KEYPOINTS or a.shape[2] not in (2, 3):
             raise ValueError(
                 f"{name}: expected keypoints of shape (T, 21, 2) or (T, 21, 3) "
@@ -284,9 +282,7 @@ def _read_csv(path: Path) -> np.ndarray:
             values.append([_float_cell(c) for c in row])
         except ValueError:
             bad = next(c for c in row if not _is_number(c))
-            raise ValueError(
-                f"{name}: expected numbers; got {bad!r} in data row {i}"
-            ) from None
+            raise ValueError(f"{name}: expected numbers; got {bad!r} in data row {i}") from None
     a = np.asarray(values)
     return a.reshape(len(rows), N_KEYPOINTS, -1)
 
@@ -343,7 +339,9 @@ def check_output_suffix(path: str | os.PathLike) -> Path:
     """Check that `path` names a keypoint file `write_keypoints` can write."""
     path = Path(path)
     if path.suffix.lower() not in (".npy", ".csv"):
-        raise ValueError(f"{path}: expected a file name ending in .npy or .csv; got {path.suffix!r}")
+        raise ValueError(
+            f"{path}: expected a file name ending in .npy or .csv; got {path.suffix!r}"
+        )
     return path
 
 

@@ -163,7 +163,8 @@ def _cross_section(m: np.ndarray, centre: np.ndarray, normal: np.ndarray, half: 
     """Width and midpoint of the mask's run through `centre` along `normal`.
 
     Samples at 1-px steps over ±`half`; the run is the one containing the sample
-    nearest `centre` that lies inside.  Returns (0, centre) when none does.
+    nearest `centre` that lies inside.  Returns (0, centre) when none does, and a NaN
+    width when the run is cut short by the image's edge.
     """
     h, w = m.shape
     u = np.arange(-half, half + 1, dtype=float)
@@ -183,7 +184,10 @@ def _cross_section(m: np.ndarray, centre: np.ndarray, normal: np.ndarray, half: 
     b = i0
     while b < len(u) - 1 and inside[b + 1]:
         b += 1
-    # a run cut short by the image edge continues beyond it: count it to the edge only
+    # a run that ends at the image's edge is cut short: its width is not the band's
+    clipped = (a > 0 and not ok[a - 1]) or (b < len(u) - 1 and not ok[b + 1])
+    if clipped:
+        return np.nan, centre + 0.5 * (u[a] + u[b]) * normal
     return float(b - a + 1), centre + 0.5 * (u[a] + u[b]) * normal
 
 
@@ -221,7 +225,10 @@ def forearm_wrist(
     centres, widths = [centre], [width0]
     change_at: tuple[int, float] | None = None  # (index, forearm width) of a change
     for _ in range(int(np.hypot(h, w))):
-        recent = float(np.median(widths[-50:]))
+        if np.isnan(widths[-50:]).all():
+            recent = float(np.hypot(h, w)) / 20.0  # only clipped sections so far
+        else:
+            recent = float(np.nanmedian(widths[-50:]))
         lag = max(5, int(settings.reference * recent))
         gap = int(settings.persist * recent)
         win = max(3, int(settings.direction_window * recent))
@@ -235,12 +242,12 @@ def forearm_wrist(
         if width == 0:
             break  # the band ended without a change: no hand found at its end
         i = len(widths)
+        past = np.asarray(widths[max(0, i - gap - lag) : max(1, i - gap)])
         if change_at is None:  # the forearm's width before the last `gap` sections
-            past = widths[max(0, i - gap - lag) : max(1, i - gap)]
-            ref = float(np.median(past))
+            ref = float(np.nanmedian(past)) if not np.isnan(past).all() else np.nan
         else:
             ref = change_at[1]
-        if i > settings.min_forearm * widths[0]:
+        if not np.isnan(width) and not np.isnan(ref) and i > settings.min_forearm * recent:
             rel = (width - ref) / ref
             off = rel > settings.tolerance or rel < -settings.narrowing
             if off and change_at is None:
@@ -250,7 +257,10 @@ def forearm_wrist(
             if change_at is not None and i - change_at[0] >= settings.persist * ref:
                 k, ref = change_at
                 # the onset: back to the last section within `onset` of the tolerance
-                while k > 1 and abs(widths[k - 1] - ref) > settings.onset * settings.tolerance * ref:
+                while (
+                    k > 1
+                    and not abs(widths[k - 1] - ref) <= settings.onset * settings.tolerance * ref
+                ):
                     k -= 1
                 wrist = centres[k - 1]
                 d = centres[max(0, k - 1 - win)] - wrist
@@ -260,7 +270,7 @@ def forearm_wrist(
                     palm_radius=0.5 * ref,
                     direction=axis,
                     wrist=np.asarray(wrist, dtype=float),
-                    width=float(widths[k - 1]),
+                    width=float(widths[k - 1]) if not np.isnan(widths[k - 1]) else ref,
                 )
         centres.append(centre)
         widths.append(width)
