@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from handvar.vision.keypoints import read_keypoints
 from handvar.vision import (
     EmptySilhouetteError,
     HistogramSkinModel,
@@ -21,6 +20,7 @@ from handvar.vision import (
     silhouettes_from_frames,
     silhouettes_from_videos,
 )
+from handvar.vision.keypoints import read_keypoints
 
 VIDEO = Path(__file__).resolve().parents[1] / "examples" / "data" / "dex-human-hand-video.mp4"
 

@@ -268,9 +268,9 @@ def fit_keypoints(
             x0[:6] = p
             x0 = np.clip(clamp(x0), lo + margin, hi - margin)
             sol = least_squares(
-                lambda x: _residuals(x, hand, rig, frames, x0, settings.prior)[0],
+                lambda x, x0=x0: _residuals(x, hand, rig, frames, x0, settings.prior)[0],
                 x0,
-                jac=lambda x: _residuals(x, hand, rig, frames, x0, settings.prior)[1],
+                jac=lambda x, x0=x0: _residuals(x, hand, rig, frames, x0, settings.prior)[1],
                 bounds=(lo, hi),
                 method="trf",
                 x_scale="jac",

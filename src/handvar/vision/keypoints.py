@@ -19,9 +19,9 @@ Conventions
 Files
 -----
 - ``.npy``: a float array of shape (T, 21, 2) or (T, 21, 3) (x, y[, confidence]).
-- ``.csv``: one row per frame (blank lines are skipped), 42 columns ``x0, y0, x1, y1, …, x20, y20`` or 63
-  columns ``x0, y0, c0, x1, y1, c1, …``; an optional header row (any first row with a
-  cell that is not a number); empty cells and ``nan`` are missing.  `write_keypoints`
+- ``.csv``: one row per frame (blank lines are skipped), 42 columns
+  ``x0, y0, x1, y1, …, x20, y20`` or 63 columns ``x0, y0, c0, x1, y1, c1, …``; an
+  optional header row (any first row with a cell that is not a number); empty cells and ``nan`` are missing.  `write_keypoints`
   writes 63 columns with the header ``x0,y0,c0,…``.
 
 Examples
@@ -61,16 +61,19 @@ __all__ = [
 ]
 
 #: The 21 points, in the order of `G(x)` (and of MediaPipe Hands).
-KEYPOINT_NAMES: tuple[str, ...] = ("wrist",) + tuple(
-    f"{digit}_{joint}"
-    for digit, joints in (
-        ("thumb", ("cmc", "mcp", "ip", "tip")),
-        ("index", ("mcp", "pip", "dip", "tip")),
-        ("middle", ("mcp", "pip", "dip", "tip")),
-        ("ring", ("mcp", "pip", "dip", "tip")),
-        ("little", ("mcp", "pip", "dip", "tip")),
-    )
-    for joint in joints
+KEYPOINT_NAMES: tuple[str, ...] = (
+    "wrist",
+    *(
+        f"{digit}_{joint}"
+        for digit, joints in (
+            ("thumb", ("cmc", "mcp", "ip", "tip")),
+            ("index", ("mcp", "pip", "dip", "tip")),
+            ("middle", ("mcp", "pip", "dip", "tip")),
+            ("ring", ("mcp", "pip", "dip", "tip")),
+            ("little", ("mcp", "pip", "dip", "tip")),
+        )
+        for joint in joints
+    ),
 )
 N_KEYPOINTS = len(KEYPOINT_NAMES)
 #: Indices of the four finger MCPs (index, middle, ring, little).

@@ -217,7 +217,7 @@ def forearm_wrist(
     entry = _border_entry(m)
     if entry is None:
         return None
-    point, direction, run = entry
+    point, direction, _ = entry
     h, w = m.shape
     half = int(max(h, w))
     normal = np.array([-direction[1], direction[0]])
