@@ -2,7 +2,8 @@
 
 For a few frames of ``examples/data/dex-human-hand-video.mp4`` (open hand, the fist,
 edge-on), `handvar.tracking.init.initial_pose` from the silhouette alone and with the
-shipped MediaPipe keypoints (``dex-human-hand-video-keypoints.npy``).  Prints the
+shipped MediaPipe keypoints (``dex-human-hand-video-keypoints.npy``; the forearm then
+cut at the detected wrist, else by the forearm heuristic).  Prints the
 silhouette IoU, the mean distance of the 21 projected joints to the keypoints (pixels
 and hand sizes: the keypoints' wrist → middle-MCP distance) and the seconds taken.
 
@@ -21,6 +22,7 @@ from handvar.hand import HandModel
 from handvar.tracking.init import initial_pose
 from handvar.tracking.keypoint_fit import keypoint_error
 from handvar.vision.keypoints import read_keypoints
+from handvar.vision.silhouette import cut_wrist
 from handvar.vision.sources import open_source
 
 DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
@@ -41,12 +43,14 @@ def main() -> None:
     print(f"example video at scale {args.scale}: initial pose without / with keypoints")
     print(f"{'frame':>5} {'method':>10} {'IoU':>6} {'kp err px':>10} {'hand sizes':>10} {'s':>6}")
     for t in args.frames:
-        _, _, masks = next(source.silhouettes(t, t + 1))
+        _, _, masks = next(source.silhouettes(t, t + 1, wrist=False))
         k = kp.frame(t)
         size = float(np.linalg.norm(k[9, :2] - k[0, :2]))
         for label, kps in (("silhouette", None), ("keypoints", [k])):
             t0 = time.perf_counter()
-            res = initial_pose(masks, source.rig, hand, keypoints=kps,
+            # as `handvar init`: the wrist cut at the detected wrist with keypoints
+            cut = np.stack([cut_wrist(m, None if kps is None else kps[0]) for m in masks])
+            res = initial_pose(cut, source.rig, hand, keypoints=kps,
                                rng=np.random.default_rng(0))  # fmt: skip
             dt = time.perf_counter() - t0
             err = keypoint_error(res.pose, hand, source.rig, [k])

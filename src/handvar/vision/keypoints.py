@@ -21,8 +21,9 @@ Files
 - ``.npy``: a float array of shape (T, 21, 2) or (T, 21, 3) (x, y[, confidence]).
 - ``.csv``: one row per frame (blank lines are skipped), 42 columns
   ``x0, y0, x1, y1, …, x20, y20`` or 63 columns ``x0, y0, c0, x1, y1, c1, …``; an
-  optional header row (any first row with a cell that is not a number); empty cells and ``nan`` are missing.  `write_keypoints`
-  writes 63 columns with the header ``x0,y0,c0,…``.
+  optional header row (any first row with a cell that is not a number); empty cells
+  and ``nan`` are missing.  `write_keypoints` writes 63 columns with the header
+  ``x0,y0,c0,…``.
 
 Examples
 --------

@@ -110,7 +110,7 @@ def wrist_from_keypoints(
     >>> k[0], k[9] = (50.0, 80.0), (50.0, 40.0)    # fingers up, forearm down
     >>> cut = wrist_from_keypoints(k, (100, 100))
     >>> cut.wrist.tolist(), cut.direction.tolist()
-    [[50.0, 84.0], [0.0, 1.0]]
+    ([50.0, 84.0], [0.0, 1.0])
     """
     k = as_frame_keypoints(keypoints)
     offset = as_float(offset, "offset")
