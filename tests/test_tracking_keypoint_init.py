@@ -93,7 +93,7 @@ def test_stereo_fit_and_missing_points():
     k[0][5] = np.nan
     k[1][0] = np.nan
     assert fit_keypoints(k, RIG, HAND) is None
-    with pytest.raises(ValueError, match="one .* per camera, 2 in all; got 1"):
+    with pytest.raises(ValueError, match=r"one .* per camera, 2 in all; got 1"):
         fit_keypoints(k[:1], RIG, HAND)
 
 
