@@ -584,9 +584,23 @@ def _sequence_frame_masks(path: str, frame: int):
               help="Pose file to write (26 numbers, for track --init).")  # fmt: skip
 @click.option("--overlay", type=click.Path(dir_okay=False), default=None,
               help="Also write a PNG of the fitted model over the frame.")  # fmt: skip
+@click.option("--keypoints", "keypoint_files", multiple=True, type=click.Path(dir_okay=False),
+              help="2D keypoints (.npy or .csv, see `handvar keypoints`), one file per "
+              "source in order: the pose and the wrist cut come from them.")  # fmt: skip
 @_one_line_errors
 def init_command(
-    sources, calib, fov, scale, frame, wrist, threshold, hand_length, seed, out, overlay
+    sources,
+    calib,
+    fov,
+    scale,
+    frame,
+    wrist,
+    threshold,
+    hand_length,
+    seed,
+    out,
+    overlay,
+    keypoint_files,
 ) -> None:
     """Find the hand's pose in one frame of SOURCES and write it as a pose file.
 
@@ -594,7 +608,11 @@ def init_command(
     video may go without calibration: its depth is then only as good as --fov and
     --hand-length), or one sequence directory. The search tries named hand shapes over
     a grid of palm orientations, places each by the silhouette's centroid and size,
-    scores it by silhouette IoU and refines the best with the tracker.
+    scores it by silhouette IoU and refines the best with the tracker. With --keypoints
+    (pixels of the full-resolution frames) the palm's orientation, the side of the hand
+    facing the camera and its position come from the keypoints instead, and the
+    forearm is cut at the detected wrist; the search is the fallback for a frame
+    without them.
     """
     import os
 
@@ -606,9 +624,16 @@ def init_command(
     from handvar.io import write_atomic
     from handvar.tracking.init import initial_pose
 
-    rig, images, masks = _frame_silhouettes(sources, calib, fov, scale, frame, wrist, threshold)
+    kps = _frame_keypoints(keypoint_files, sources, frame, scale)
+    cut_here = wrist and kps is None
+    rig, images, masks = _frame_silhouettes(sources, calib, fov, scale, frame, cut_here, threshold)
+    if kps is not None:
+        from handvar.vision.silhouette import cut_wrist
+
+        if wrist:
+            masks = np.stack([cut_wrist(m, k) for m, k in zip(masks, kps, strict=True)])
     hand = HandModel(HandShape.from_size(hand_length))
-    result = initial_pose(masks, rig, hand, rng=np.random.default_rng(seed))
+    result = initial_pose(masks, rig, hand, keypoints=kps, rng=np.random.default_rng(seed))
     line = " ".join(f"{v:.6f}" for v in result.pose) + "\n"
 
     def write_text(path):
@@ -631,5 +656,82 @@ def init_command(
     where = os.path.basename(sources[0].rstrip(os.sep)) + ("" if len(sources) == 1 else ", ...")
     click.echo(
         f"{where} frame {frame}: IoU {result.iou:.3f} (shape {result.shape}, "
-        f"{result.n_candidates} candidates) -> {out}" + (f", {overlay}" if overlay else "")
+        f"{result.n_candidates} candidates"
+        + (f", keypoint error {result.keypoint_error:.1f} px" if kps is not None else "")
+        + f") -> {out}"
+        + (f", {overlay}" if overlay else "")
+    )
+
+
+def _frame_keypoints(files, sources, frame, scale):
+    """Per-camera (21, 3) keypoints of frame `frame` in the pixels of the scaled frames."""
+    if not files:
+        return None
+    from handvar.vision.keypoints import read_keypoints
+
+    if len(files) != len(sources):
+        raise ValueError(
+            f"--keypoints: expected one file per source ({len(sources)}); got {len(files)}"
+        )
+    out = []
+    for path in files:
+        kp = read_keypoints(path)
+        if frame >= kp.n_frames:
+            raise ValueError(
+                f"{path}: expected keypoints of frame {frame}; got {kp.n_frames} frames"
+            )
+        out.append(kp.scaled(scale).frame(frame) if scale != 1.0 else kp.frame(frame))
+    return out
+
+
+# --- keypoints: 2D hand keypoints of a video by MediaPipe Hands (optional extra) ---------
+
+
+@main.command("keypoints")
+@click.argument("video", type=click.Path())
+@click.option("--out", type=click.Path(dir_okay=False), required=True,
+              help="Keypoint file to write: .npy (T, 21, 3) or .csv (63 columns).")  # fmt: skip
+@click.option("--hand", type=click.Choice(["right", "left"]), default="right",
+              show_default=True, help="Which hand to keep.")  # fmt: skip
+@click.option("--mirrored", is_flag=True,
+              help="The video is mirrored (a selfie camera).")  # fmt: skip
+@click.option("--frames", "n_frames", type=click.IntRange(min=1), default=None,
+              help="Only the first K frames.")  # fmt: skip
+@_one_line_errors
+def keypoints_command(video, out, hand, mirrored, n_frames) -> None:
+    """Detect the 21 hand keypoints in every frame of VIDEO with MediaPipe Hands.
+
+    VIDEO is a video file or a folder of images. OUT holds, per frame, x and y in
+    pixels of the full-resolution frame and a confidence in [0, 1] (NaN and 0 where no
+    hand was found), in the order of the model's joints G(x); `handvar init
+    --keypoints OUT` reads it. Needs the optional extra: pip install 'handvar[mediapipe]'.
+    """
+    import numpy as np
+
+    try:
+        from handvar.vision.mediapipe import MissingExtraError, detect_video
+    except ImportError as exc:  # pragma: no cover - the module itself needs only cv2
+        raise ValueError(str(exc)) from None
+    from handvar.vision.keypoints import check_output_suffix, write_keypoints
+
+    check_output_suffix(out)  # fail before detecting, not after
+    try:
+        from tqdm import tqdm
+
+        def progress(it):
+            return tqdm(it, total=n_frames, desc="keypoints", unit="frame", leave=False)
+    except ImportError:  # pragma: no cover - tqdm is a core dependency
+        progress = None
+    try:
+        array = detect_video(
+            video, hand=hand, mirrored=mirrored, frames=n_frames, progress=progress
+        )
+    except MissingExtraError as exc:
+        raise ValueError(str(exc)) from None
+    write_keypoints(out, array)
+    found = int(np.count_nonzero(array[:, 0, 2] > 0))
+    sure = int(np.count_nonzero(array[:, 0, 2] >= 0.5))
+    click.echo(
+        f"{video}: {hand} hand in {found} of {len(array)} frames "
+        f"({sure} with confidence >= 0.5) -> {out}"
     )

@@ -21,6 +21,15 @@ the first frame's silhouettes:
    with the tracker (`handvar.tracking.tracker.Tracker`, no motion model) at full
    resolution, and the one with the highest IoU is returned.
 
+With 2D keypoints (``keypoints``, §14.1) the palm's orientation, the side of the hand
+that faces the camera, the position and the depth come from them instead
+(`handvar.tracking.keypoint_fit.fit_keypoints`: a PnP fit of the palm, then least
+squares of all 21 projected joints); steps 1–3 are skipped, and the search runs only
+when no camera shows the wrist and the four MCPs.  Step 4 then refines the keypoint fit
+too, and the refined pose is kept only if its keypoint error stays within
+`InitSettings.keypoint_slack` pixels of the fit's (the silhouette cannot see inside
+itself and may pull the model down a forearm).
+
 Monocular silhouettes are ambiguous: a hand farther away and larger looks the same, and
 finger flexion towards or away from the camera changes the silhouette little.  The
 search returns the best-fitting candidate; the depth of a monocular fit rests on the
@@ -85,6 +94,9 @@ class InitSettings:
     refine_passes : int
         Tracker passes over the first frame per refined candidate (each up to the
         optimiser's `SMDSettings.max_iterations` iterations); 0 skips the refinement.
+    keypoint_slack : float
+        With keypoints: the silhouette refinement is kept only if it raises the mean
+        keypoint error by at most this many pixels (of the masks' resolution).
     """
 
     shapes: tuple[str, ...] = ("open", "spread", "fist", "point", "pinch", "thumb_across")
@@ -98,6 +110,7 @@ class InitSettings:
     keep: int = 5
     distinct: float = 25.0
     refine_passes: int = 10
+    keypoint_slack: float = 2.0
 
     def __post_init__(self) -> None:
         from handvar.hand.kinematics import POSE_NAMES
@@ -118,6 +131,10 @@ class InitSettings:
             raise ValueError(f"distinct: expected an angle in [0, 180]; got {self.distinct!r}")
         if not (np.isfinite(self.search_tol) and self.search_tol > 0):
             raise ValueError(f"search_tol: expected a positive number; got {self.search_tol!r}")
+        if not (np.isfinite(self.keypoint_slack) and self.keypoint_slack >= 0):
+            raise ValueError(
+                f"keypoint_slack: expected a number >= 0 (pixels); got {self.keypoint_slack!r}"
+            )
 
 
 INIT_DEFAULTS = InitSettings()
@@ -134,11 +151,16 @@ class InitResult:
     iou : float
         Mean IoU over cameras of its silhouette with the observed one, full resolution.
     search_iou : float
-        The same for the best candidate of the coarse search, at search resolution.
+        The same for the best candidate of the coarse search, at search resolution
+        (with keypoints: the keypoint fit's, at full resolution).
     shape : str
-        Named hand shape of the candidate the pose was refined from.
+        Named hand shape of the candidate the pose was refined from; ``"keypoints"``
+        when it came from keypoints.
     n_candidates : int
-        Candidates scored by the search.
+        Candidates scored by the search (least-squares runs with keypoints).
+    keypoint_error : float
+        Mean distance of the projected joints to the keypoints, pixels; NaN without
+        keypoints.
     """
 
     pose: np.ndarray
@@ -146,6 +168,7 @@ class InitResult:
     search_iou: float
     shape: str
     n_candidates: int
+    keypoint_error: float = math.nan
 
 
 # --- rotations -------------------------------------------------------------------------
@@ -437,6 +460,7 @@ def initial_pose(
     rig: Rig,
     hand=None,
     *,
+    keypoints=None,
     settings: InitSettings = INIT_DEFAULTS,
     rng: np.random.Generator | None = None,
     tracker_settings=None,
@@ -452,6 +476,11 @@ def initial_pose(
         The cameras; the orientation grid is relative to the first.
     hand : HandModel, optional
         The hand model (default 185 mm hand).
+    keypoints : sequence of (21, 2|3) array_like or None, keyword-only, optional
+        The frame's 2D keypoints per camera (None for a camera without), in the pixels
+        of the masks, confidence in the third column, NaN where missing (module notes;
+        `handvar.vision.keypoints`).  The silhouette search is the fallback when no
+        camera shows the wrist and the four MCPs.
     settings : InitSettings, keyword-only
         Search grid and effort.
     rng : numpy.random.Generator, keyword-only, optional
@@ -491,6 +520,10 @@ def initial_pose(
     if not isinstance(rng, np.random.Generator):
         raise ValueError(f"rng: expected a numpy.random.Generator; got {type(rng).__name__}")
 
+    if keypoints is not None:
+        result = _keypoint_pose(m, rig, hand, keypoints, settings, rng, tracker_settings)
+        if result is not None:
+            return result
     views = [_search_view(m[j], cam, settings.search_size) for j, cam in enumerate(rig)]
     rotations = candidate_rotations(rig.cameras[0], settings)
     poses, scores, shapes = [], [], []
@@ -529,4 +562,36 @@ def initial_pose(
         search_iou=float(scores_arr[order[0]]),
         shape=shape,
         n_candidates=len(poses),
+    )
+
+
+def _keypoint_pose(m, rig, hand, keypoints, settings, rng, tracker_settings):
+    """The pose from keypoints, refined on the silhouettes (module notes); None if none."""
+    from handvar.predictors import NoMotion
+    from handvar.render import silhouettes
+    from handvar.tracking.keypoint_fit import fit_keypoints, keypoint_error
+    from handvar.tracking.tracker import Tracker
+
+    fit = fit_keypoints(keypoints, rig, hand)
+    if fit is None:
+        return None
+    pose, error = fit.pose, fit.error
+    iou = silhouette_iou(silhouettes(hand, pose, rig), m)
+    fit_iou = iou
+    if settings.refine_passes:
+        tracker = Tracker(rig, hand, NoMotion(), rng, tracker_settings)
+        tracker.reset(pose)
+        for _ in range(settings.refine_passes):
+            refined = tracker.step(m).pose
+        refined_error = keypoint_error(refined, hand, rig, keypoints)
+        refined_iou = silhouette_iou(silhouettes(hand, refined, rig), m)
+        if refined_error <= error + settings.keypoint_slack and refined_iou > iou:
+            pose, error, iou = refined, refined_error, refined_iou
+    return InitResult(
+        pose=np.asarray(pose, dtype=float).reshape(N_PARAMS),
+        iou=float(iou),
+        search_iou=float(fit_iou),
+        shape="keypoints",
+        n_candidates=fit.n_candidates,
+        keypoint_error=float(error),
     )

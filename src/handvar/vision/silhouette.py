@@ -8,7 +8,8 @@ turns it into one clean silhouette per camera:
 1. `clean_mask`: morphological opening (removes speckle) and closing (bridges thin
    gaps), the largest connected component(s), small components dropped, holes filled.
 2. `cut_wrist` (optional): removes a visible forearm so that it does not pull the hand
-   model out of the image (see `find_wrist` for the heuristic).
+   model out of the image (at the detected wrist with keypoints, else where the
+   forearm's width changes; see `find_wrist` and `handvar.vision.wrist`).
 3. `silhouettes_from_frames`: both steps for the frames of any number of cameras;
    an empty silhouette raises `EmptySilhouetteError` naming the camera and frame.
 
@@ -318,6 +319,51 @@ class WristCut:
 
 def find_wrist(
     mask: np.ndarray,
+    keypoints=None,
+    **kwargs: float | tuple[float, float],
+) -> WristCut | None:
+    """Locate the wrist of a hand-and-forearm silhouette, or None if no forearm shows.
+
+    Three routes (`handvar.vision.wrist`, §14.1):
+
+    1. With `keypoints` (this frame's (21, 2|3) keypoints in the mask's pixels, wrist
+       and middle MCP present): the line through the detected wrist perpendicular to
+       the wrist → middle-MCP direction, a little towards the forearm
+       (`handvar.vision.wrist.wrist_from_keypoints`).
+    2. A silhouette that leaves the image: the forearm is followed from the border
+       inwards until its width changes (`handvar.vision.wrist.forearm_wrist`).
+    3. Otherwise the palm-centre heuristic (`_palm_wrist`; its settings are `**kwargs`,
+       see `WristDefaults`).
+
+    Parameters
+    ----------
+    mask : (H, W) array_like
+        Silhouette (one component is expected; the largest is used).
+    keypoints : (21, 2|3) array_like, optional
+        The frame's keypoints, pixels of the mask; NaN where missing.
+    **kwargs
+        Settings of the palm-centre heuristic (`WristDefaults`).
+
+    Returns
+    -------
+    WristCut or None
+    """
+    from handvar.vision.wrist import forearm_wrist, wrist_from_keypoints
+
+    m = _as_mask(mask)
+    if not m.any():
+        raise ValueError("mask: expected a non-empty silhouette, got an empty mask")
+    if keypoints is not None:
+        cut = wrist_from_keypoints(keypoints, m.shape)
+        if cut is not None:
+            return cut
+    if m[0].any() or m[-1].any() or m[:, 0].any() or m[:, -1].any():
+        return forearm_wrist(m)
+    return _palm_wrist(m, **kwargs)
+
+
+def _palm_wrist(
+    mask: np.ndarray,
     *,
     forearm_thickness: float = WRIST_DEFAULTS.forearm_thickness,
     forearm_start: float = WRIST_DEFAULTS.forearm_start,
@@ -325,7 +371,7 @@ def find_wrist(
     search: tuple[float, float] = WRIST_DEFAULTS.search,
     tolerance: float = WRIST_DEFAULTS.tolerance,
 ) -> WristCut | None:
-    """Locate the wrist of a hand-and-forearm silhouette, or None if no forearm shows.
+    """The palm-centre wrist heuristic (`find_wrist`'s route 3).
 
     Heuristic (all lengths in units of the palm radius R):
 
@@ -435,19 +481,23 @@ def find_wrist(
     )
 
 
-def cut_wrist(mask: np.ndarray, **kwargs: float | tuple[float, float]) -> np.ndarray:
+def cut_wrist(
+    mask: np.ndarray, keypoints=None, **kwargs: float | tuple[float, float]
+) -> np.ndarray:
     """Remove a visible forearm from a silhouette by cutting at the wrist.
 
-    The wrist is found by `find_wrist` (palm centre from the distance transform,
-    forearm direction from the thick parts away from the palm, narrowest cross-section
-    along the forearm axis).  Everything beyond the cut line is removed and the
-    component containing the palm centre is kept.  A silhouette without a visible
-    forearm is returned unchanged.
+    The wrist is found by `find_wrist` (at the detected wrist when `keypoints` are
+    given; else where the forearm's width changes, or by the palm-centre heuristic for
+    a silhouette inside the image).  Everything beyond the cut line is removed and the
+    largest remaining component is kept.  A silhouette without a visible forearm is
+    returned unchanged.
 
     Parameters
     ----------
     mask : (H, W) array_like
         Silhouette; non-zero is inside.
+    keypoints : (21, 2|3) array_like, optional
+        The frame's keypoints in the mask's pixels (`handvar.vision.keypoints`).
     **kwargs
         Passed to `find_wrist` (see `WristDefaults`).
 
@@ -457,7 +507,7 @@ def cut_wrist(mask: np.ndarray, **kwargs: float | tuple[float, float]) -> np.nda
         The silhouette without the forearm.
     """
     m = _as_mask(mask).astype(bool)
-    cut = find_wrist(m, **kwargs)
+    cut = find_wrist(m, keypoints, **kwargs)
     if cut is None:
         return m
     # Remove the silhouette pixels beyond the cut line (only those are visited).
@@ -465,9 +515,11 @@ def cut_wrist(mask: np.ndarray, **kwargs: float | tuple[float, float]) -> np.nda
     beyond = (xs - cut.wrist[0]) * cut.direction[0] + (ys - cut.wrist[1]) * cut.direction[1] > 0
     hand = m.astype(np.uint8)
     hand[ys[beyond], xs[beyond]] = 0
-    _, labels = cv2.connectedComponents(hand, connectivity=8)
-    cx, cy = (int(v) for v in np.rint(cut.palm_centre))
-    return labels == labels[cy, cx]
+    n, labels = cv2.connectedComponents(hand, connectivity=8)
+    if n <= 1:
+        return m  # the cut would leave nothing: keep the silhouette
+    areas = np.bincount(labels.ravel(), minlength=n)[1:]
+    return labels == 1 + int(np.argmax(areas))
 
 
 # --- distance field --------------------------------------------------------------------
@@ -515,6 +567,7 @@ def silhouettes_from_frames(
     wrist: bool = False,
     frame: int | None = None,
     cameras: Sequence[str] | None = None,
+    keypoints: Sequence[np.ndarray | None] | None = None,
 ) -> list[np.ndarray]:
     """Hand silhouettes of one time step seen by any number of cameras.
 
@@ -540,6 +593,9 @@ def silhouettes_from_frames(
         Frame index, used in error messages.
     cameras : sequence of str, optional
         Camera names, used in error messages (default: their indices).
+    keypoints : sequence of (21, 2|3) array_like or None, optional
+        Per camera, the frame's keypoints in its pixels: the wrist cut is made at the
+        detected wrist (`find_wrist`).
 
     Returns
     -------
@@ -576,7 +632,7 @@ def silhouettes_from_frames(
             raise ValueError(f"frames ({where}): {exc}") from exc
         sil = clean_mask(raw, **opts)
         if wrist and sil.any():
-            sil = cut_wrist(sil)
+            sil = cut_wrist(sil, None if keypoints is None else keypoints[j])
         if not sil.any():
             raise EmptySilhouetteError(
                 f"{where}: empty silhouette (expected skin-coloured pixels; "

@@ -1,0 +1,387 @@
+"""2D hand keypoints per camera: the 21 points of `G(x)` seen in the images (§14.1).
+
+A keypoint detector (e.g. MediaPipe Hands, `handvar.vision.mediapipe`) gives, per frame,
+the image positions of the 21 points of the hand model's `G(x)`, in its order
+(`KEYPOINT_NAMES`, the order of MediaPipe Hands and of the common 21-keypoint layout):
+0 wrist; thumb CMC, MCP, IP, tip; then index, middle, ring and little finger MCP, PIP,
+DIP, tip.  Silhouettes cannot see what lies inside them (a fist, a hand edge-on, the
+wrist on a forearm); keypoints can.
+
+Conventions
+-----------
+- Pixels ``(x, y)`` = (column, row) of the **full-resolution** frame, pixel centres at
+  integers (as `handvar.camera.Camera` projects).  `Keypoints2D.scaled` maps them into
+  frames resized by ``--scale``.
+- A confidence in [0, 1] per point (1 when the file has none).
+- Missing: a whole frame or single points are NaN in the file.  In a `Keypoints2D` a
+  missing point has ``xy = NaN`` and ``confidence = 0``.
+
+Files
+-----
+- ``.npy``: a float array of shape (T, 21, 2) or (T, 21, 3) (x, y[, confidence]).
+- ``.csv``: one row per frame (blank lines are skipped), 42 columns
+  ``x0, y0, x1, y1, …, x20, y20`` or 63 columns ``x0, y0, c0, x1, y1, c1, …``; an
+  optional header row (any first row with a cell that is not a number); empty cells
+  and ``nan`` are missing.  `write_keypoints` writes 63 columns with the header
+  ``x0,y0,c0,…``.
+
+Examples
+--------
+>>> import numpy as np
+>>> kp = Keypoints2D.from_array(np.zeros((4, 21, 2)))
+>>> kp.n_frames, kp.confidence[0, 0]
+(4, np.float64(1.0))
+>>> kp.every(2).present.any(axis=1).tolist()
+[True, False, True, False]
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from handvar.atomic import write_atomic
+from handvar.validate import as_array, as_float, as_int
+
+__all__ = [
+    "KEYPOINT_NAMES",
+    "MCP",
+    "N_KEYPOINTS",
+    "PALM",
+    "Keypoints2D",
+    "as_frame_keypoints",
+    "check_output_suffix",
+    "read_keypoints",
+    "write_keypoints",
+]
+
+#: The 21 points, in the order of `G(x)` (and of MediaPipe Hands).
+KEYPOINT_NAMES: tuple[str, ...] = (
+    "wrist",
+    *(
+        f"{digit}_{joint}"
+        for digit, joints in (
+            ("thumb", ("cmc", "mcp", "ip", "tip")),
+            ("index", ("mcp", "pip", "dip", "tip")),
+            ("middle", ("mcp", "pip", "dip", "tip")),
+            ("ring", ("mcp", "pip", "dip", "tip")),
+            ("little", ("mcp", "pip", "dip", "tip")),
+        )
+        for joint in joints
+    ),
+)
+N_KEYPOINTS = len(KEYPOINT_NAMES)
+#: Indices of the four finger MCPs (index, middle, ring, little).
+MCP: tuple[int, ...] = (5, 9, 13, 17)
+#: The palm: the wrist and the four finger MCPs (rigid in the hand model).
+PALM: tuple[int, ...] = (0, *MCP)
+
+
+@dataclass(frozen=True, eq=False)
+class Keypoints2D:
+    """Keypoints of one camera over T frames.
+
+    Attributes
+    ----------
+    xy : (T, 21, 2) ndarray
+        Pixels (x, y) in the frame the keypoints belong to; NaN where missing.
+    confidence : (T, 21) ndarray
+        In [0, 1]; 0 where missing.
+    name : str
+        Where the keypoints came from (a file name), used in messages.
+    """
+
+    xy: np.ndarray
+    confidence: np.ndarray
+    name: str = "keypoints"
+
+    def __post_init__(self) -> None:
+        xy = np.array(self.xy, dtype=float)
+        c = np.array(self.confidence, dtype=float)
+        if xy.ndim != 3 or xy.shape[1:] != (N_KEYPOINTS, 2) or c.shape != xy.shape[:2]:
+            raise ValueError(
+                f"{self.name}: expected xy (T, 21, 2) and confidence (T, 21); "
+                f"got {xy.shape} and {c.shape}"
+            )
+        missing = np.isnan(xy).any(axis=2) | np.isnan(c) | (c == 0)
+        xy[missing] = np.nan
+        c[missing] = 0.0
+        xy.flags.writeable = False
+        c.flags.writeable = False
+        object.__setattr__(self, "xy", xy)
+        object.__setattr__(self, "confidence", c)
+
+    @classmethod
+    def from_array(cls, array, *, name: str = "keypoints") -> Keypoints2D:
+        """Check a (T, 21, 2) or (T, 21, 3) array (x, y[, confidence]) and wrap it.
+
+        Parameters
+        ----------
+        array : (T, 21, 2) or (T, 21, 3) array_like
+            Pixels and optional confidence; NaN for missing points or frames.
+        name : str, keyword-only
+            Named in error messages (the file).
+
+        Raises
+        ------
+        TypeError
+            If `array` is not numeric.
+        ValueError
+            If its shape is wrong, a coordinate is infinite or a confidence lies
+            outside [0, 1].
+        """
+        a = as_array(array, name, finite=False, what="keypoints of shape (T, 21, 2) or (T, 21, 3)")
+        if a.ndim != 3 or a.shape[1] != N_KEYPOINTS or a.shape[2] not in (2, 3):
+            raise ValueError(
+                f"{name}: expected keypoints of shape (T, 21, 2) or (T, 21, 3) "
+                f"(frames, points, x y [confidence]); got shape {a.shape}"
+            )
+        if a.shape[0] == 0:
+            raise ValueError(f"{name}: expected at least one frame; got 0")
+        if np.isinf(a).any():
+            t, k = np.argwhere(np.isinf(a))[0][:2]
+            raise ValueError(
+                f"{name}: expected finite values or NaN; got infinity at frame {t}, point {k}"
+            )
+        if a.shape[2] == 3:
+            c = a[..., 2]
+            bad = ~np.isnan(c) & ((c < 0) | (c > 1))
+            if bad.any():
+                t, k = np.argwhere(bad)[0]
+                raise ValueError(
+                    f"{name}: expected confidences in [0, 1]; got {float(c[t, k])!r} "
+                    f"at frame {t}, point {k}"
+                )
+            conf = np.where(np.isnan(c), 0.0, c)
+        else:
+            conf = np.ones(a.shape[:2])
+        return cls(a[..., :2], conf, name)
+
+    @property
+    def n_frames(self) -> int:
+        """Number of frames T."""
+        return self.xy.shape[0]
+
+    def __len__(self) -> int:
+        return self.n_frames
+
+    @property
+    def present(self) -> np.ndarray:
+        """(T, 21) bool: the points that were detected."""
+        return self.confidence > 0
+
+    def frame(self, t: int) -> np.ndarray:
+        """(21, 3) array of frame `t`: x, y, confidence (NaN, NaN, 0 where missing)."""
+        t = as_int(t, "frame", minimum=0, maximum=self.n_frames - 1)
+        return np.concatenate([self.xy[t], self.confidence[t, :, None]], axis=1)
+
+    def to_array(self) -> np.ndarray:
+        """(T, 21, 3) float64: x, y, confidence — the layout `from_array` reads."""
+        return np.concatenate([self.xy, self.confidence[..., None]], axis=2)
+
+    def scaled(self, factor: float, size: tuple[int, int] | None = None) -> Keypoints2D:
+        """The keypoints in frames resized by `factor` (``--scale``).
+
+        The pixel grid is that of `handvar.vision.sources.scale_camera`: a pixel centre
+        ``u`` maps to ``(u + ½)·s − ½``, with ``s = round(W·factor) / W`` per axis when
+        the full-resolution frame size ``(W, H)`` is given, else ``s = factor``.
+
+        Examples
+        --------
+        >>> kp = Keypoints2D.from_array(np.full((1, 21, 2), 99.5))
+        >>> float(kp.scaled(0.5).xy[0, 0, 0])
+        49.5
+        """
+        factor = as_float(factor, "factor", minimum=0.0, exclusive_minimum=True)
+        if size is None:
+            s = np.array([factor, factor])
+        else:
+            w, h = (as_int(v, "size", minimum=1) for v in size)
+            s = np.array([max(1, round(w * factor)) / w, max(1, round(h * factor)) / h])
+        return Keypoints2D((self.xy + 0.5) * s - 0.5, self.confidence, self.name)
+
+    def every(self, k: int, *, offset: int = 0) -> Keypoints2D:
+        """Keep every `k`-th frame (``t ≡ offset mod k``); the others become missing.
+
+        A detector run at a fraction of the tracker's frame rate: at 6 fps beside a
+        30 fps tracker, ``every(5)``.
+        """
+        k = as_int(k, "k", minimum=1)
+        offset = as_int(offset, "offset", minimum=0)
+        keep = (np.arange(self.n_frames) - offset) % k == 0
+        conf = np.where(keep[:, None], self.confidence, 0.0)
+        return Keypoints2D(self.xy, conf, self.name)
+
+
+def as_frame_keypoints(value, name: str = "keypoints") -> np.ndarray:
+    """Check one frame's keypoints of one camera: (21, 3) x, y, confidence.
+
+    Parameters
+    ----------
+    value : (21, 2) or (21, 3) array_like
+        Pixels and optional confidence; NaN for missing points.
+    name : str
+        Named in error messages.
+
+    Returns
+    -------
+    (21, 3) ndarray
+        x, y, confidence (NaN, NaN, 0 where missing).
+    """
+    a = as_array(value, name, finite=False, what="keypoints of shape (21, 2) or (21, 3)")
+    if a.ndim != 2 or a.shape[0] != N_KEYPOINTS or a.shape[1] not in (2, 3):
+        raise ValueError(
+            f"{name}: expected keypoints of shape (21, 2) or (21, 3); got shape {a.shape}"
+        )
+    return Keypoints2D.from_array(a[None], name=name).frame(0)
+
+
+# --- files -----------------------------------------------------------------------------
+
+
+def _float_cell(cell: str) -> float:
+    cell = cell.strip()
+    return math.nan if cell == "" else float(cell)
+
+
+def _is_number(cell: str) -> bool:
+    try:
+        _float_cell(cell)
+    except ValueError:
+        return False
+    return True
+
+
+def _read_csv(path: Path) -> np.ndarray:
+    name = str(path)
+    with open(path, newline="", encoding="utf-8") as fh:
+        # blank lines are skipped; a row of empty cells is a frame without keypoints
+        rows = [row for row in csv.reader(fh) if len(row) > 1 or (row and row[0].strip())]
+    if rows:
+        try:
+            [_float_cell(c) for c in rows[0]]
+        except ValueError:
+            rows = rows[1:]  # a header
+    if not rows:
+        raise ValueError(f"{name}: expected one row of keypoints per frame; got no rows")
+    values = []
+    for i, row in enumerate(rows):
+        if len(row) not in (2 * N_KEYPOINTS, 3 * N_KEYPOINTS):
+            raise ValueError(
+                f"{name}: expected 42 columns (x, y per point) or 63 (x, y, confidence) "
+                f"per row; got {len(row)} in data row {i}"
+            )
+        if len(row) != len(rows[0]):
+            raise ValueError(
+                f"{name}: expected {len(rows[0])} columns in every row (as in the first); "
+                f"got {len(row)} in data row {i}"
+            )
+        try:
+            values.append([_float_cell(c) for c in row])
+        except ValueError:
+            bad = next(c for c in row if not _is_number(c))
+            raise ValueError(f"{name}: expected numbers; got {bad!r} in data row {i}") from None
+    a = np.asarray(values)
+    return a.reshape(len(rows), N_KEYPOINTS, -1)
+
+
+def read_keypoints(path: str | os.PathLike) -> Keypoints2D:
+    """Read one camera's keypoints from a ``.npy`` or ``.csv`` file (module notes).
+
+    Parameters
+    ----------
+    path : path-like
+
+    Returns
+    -------
+    Keypoints2D
+        Named after the file.
+
+    Raises
+    ------
+    ValueError
+        If the file is missing, unreadable, of another format or holds anything but
+        (T, 21, 2|3) keypoints; the message names the file.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> kp = Keypoints2D.from_array(np.arange(2 * 21 * 3).reshape(2, 21, 3) / 200)
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     write_keypoints(f"{d}/kp.csv", kp)
+    ...     back = read_keypoints(f"{d}/kp.csv")
+    >>> bool(np.array_equal(back.to_array(), kp.to_array()))
+    True
+    """
+    path = Path(path)
+    name = str(path)
+    if not path.is_file():
+        raise ValueError(f"{name}: expected a keypoint file (.npy or .csv); got no such file")
+    suffix = path.suffix.lower()
+    if suffix == ".npy":
+        try:
+            array = np.load(path, allow_pickle=False)
+        except (ValueError, OSError, EOFError) as exc:
+            raise ValueError(f"{name}: expected a NumPy .npy array; got {exc}") from None
+    elif suffix == ".csv":
+        try:
+            array = _read_csv(path)
+        except UnicodeDecodeError:
+            raise ValueError(f"{name}: expected a text CSV file; got binary data") from None
+    else:
+        raise ValueError(f"{name}: expected a .npy or .csv keypoint file; got {suffix!r}")
+    return Keypoints2D.from_array(array, name=name)
+
+
+def check_output_suffix(path: str | os.PathLike) -> Path:
+    """Check that `path` names a keypoint file `write_keypoints` can write."""
+    path = Path(path)
+    if path.suffix.lower() not in (".npy", ".csv"):
+        raise ValueError(
+            f"{path}: expected a file name ending in .npy or .csv; got {path.suffix!r}"
+        )
+    return path
+
+
+def write_keypoints(path: str | os.PathLike, keypoints: Keypoints2D | np.ndarray) -> None:
+    """Write keypoints as ``.npy`` (T, 21, 3) or ``.csv`` (63 columns with a header).
+
+    The file is written atomically (`handvar.atomic.write_atomic`).
+
+    Parameters
+    ----------
+    path : path-like
+        Ending in ``.npy`` or ``.csv``.
+    keypoints : Keypoints2D or (T, 21, 2|3) array_like
+    """
+    path = Path(path)
+    if not isinstance(keypoints, Keypoints2D):
+        keypoints = Keypoints2D.from_array(keypoints, name="keypoints")
+    array = keypoints.to_array()
+    suffix = path.suffix.lower()
+    if suffix == ".npy":
+
+        def write(tmp: str) -> None:
+            with open(tmp, "wb") as fh:
+                np.save(fh, array)
+
+    elif suffix == ".csv":
+        buf = io.StringIO()
+        writer = csv.writer(buf, lineterminator="\n")
+        writer.writerow([f"{c}{k}" for k in range(N_KEYPOINTS) for c in "xyc"])
+        for row in array.reshape(len(array), -1):
+            writer.writerow(["nan" if np.isnan(v) else repr(float(v)) for v in row])
+
+        def write(tmp: str) -> None:
+            with open(tmp, "w", encoding="utf-8") as fh:
+                fh.write(buf.getvalue())
+
+    else:
+        check_output_suffix(path)
+    write_atomic(path, write)

@@ -1,0 +1,191 @@
+"""2D hand keypoints from MediaPipe Hands 0.10.21, an optional extra (§14.1).
+
+MediaPipe Hands (the legacy ``mediapipe.solutions.hands`` API; the wheel ships its
+palm-detection and landmark models, Apache-2.0, and runs offline) finds hands in colour
+frames and gives 21 landmarks per hand in the order of `G(x)`
+(`handvar.vision.keypoints.KEYPOINT_NAMES`) with a handedness label and score.
+
+This module is imported only when asked for (``handvar keypoints`` or explicitly):
+neither ``import handvar`` nor ``import handvar.vision`` loads it.  It needs nothing but
+``mediapipe``, NumPy and OpenCV, installed with ``pip install 'handvar[mediapipe]'``
+(that pin brings NumPy < 2, opencv-contrib-python and jax, so it is never a core
+dependency).
+
+Choices
+-------
+- Video mode (``static_image_mode=False``): the landmark model tracks the hand from the
+  previous frame and the palm detector runs only when it is lost.
+- Handedness: MediaPipe labels hands as if the image were mirrored (a selfie camera).
+  For an ordinary camera (``mirrored=False``, the default) its "Left" is the right hand.
+- The asked-for hand: of the hands found in a frame (up to two), the one most probably
+  of the asked side — probability ``score`` if its label is that side, ``1 − score``
+  otherwise.  Its 21 points get that probability as their confidence (the legacy API
+  has no per-point visibility), so a hand of doubtful side is kept but down-weighted.
+  A frame without a hand is NaN with confidence 0.
+- Pixels: a landmark's normalised ``(x, y)`` times the frame's width and height is a
+  position measured from the image's corner; minus ½ it is in handvar's convention
+  (pixel centres at integers).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Iterable, Iterator
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+__all__ = ["MEDIAPIPE_VERSION", "MissingExtraError", "detect_keypoints", "detect_video"]
+
+#: The MediaPipe release the adapter was written and checked against.
+MEDIAPIPE_VERSION = "0.10.21"
+_IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
+
+
+class MissingExtraError(ImportError):
+    """MediaPipe is not installed (the ``mediapipe`` extra)."""
+
+
+def _hands_module():
+    try:
+        import mediapipe as mp
+    except ImportError:
+        raise MissingExtraError(
+            "keypoints: expected MediaPipe Hands (the optional extra: "
+            "pip install 'handvar[mediapipe]', which pins numpy < 2); got no mediapipe module"
+        ) from None
+    return mp.solutions.hands
+
+
+def detect_keypoints(
+    frames: Iterable[np.ndarray],
+    *,
+    hand: str = "right",
+    mirrored: bool = False,
+    model_complexity: int = 1,
+    min_detection_confidence: float = 0.5,
+    min_tracking_confidence: float = 0.5,
+) -> np.ndarray:
+    """Run MediaPipe Hands on consecutive BGR frames and keep one hand per frame.
+
+    Parameters
+    ----------
+    frames : iterable of (H, W, 3) uint8 ndarray
+        BGR colour frames in order (one video).
+    hand : {"right", "left"}, keyword-only
+        Which hand to keep (module notes).
+    mirrored : bool, keyword-only
+        True for a mirrored (selfie) video, where MediaPipe's labels are literal.
+    model_complexity : {0, 1}, keyword-only
+        MediaPipe's landmark model (1: the full one).
+    min_detection_confidence, min_tracking_confidence : float, keyword-only
+        MediaPipe's thresholds.
+
+    Returns
+    -------
+    (T, 21, 3) float64 ndarray
+        x, y (pixels of the frame, centres at integers) and the confidence that the
+        points belong to the asked hand; NaN and 0 where no hand was found.
+    """
+    if hand not in ("right", "left"):
+        raise ValueError(f"hand: expected one of right, left; got {hand!r}")
+    solution = _hands_module()
+    # MediaPipe's label of the asked hand.
+    want = hand.capitalize() if mirrored else {"right": "Left", "left": "Right"}[hand]
+    out: list[np.ndarray] = []
+    with solution.Hands(
+        static_image_mode=False,
+        max_num_hands=2,
+        model_complexity=model_complexity,
+        min_detection_confidence=min_detection_confidence,
+        min_tracking_confidence=min_tracking_confidence,
+    ) as detector:
+        for t, image in enumerate(frames):
+            image = np.asarray(image)
+            if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:
+                raise ValueError(
+                    f"frames: expected (H, W, 3) uint8 BGR images; got {image.shape} "
+                    f"{image.dtype} at frame {t}"
+                )
+            h, w = image.shape[:2]
+            result = detector.process(cv2.cvtColor(image, cv2.COLOR_BGR2RGB))
+            row = np.full((21, 3), np.nan)
+            row[:, 2] = 0.0
+            best = -1.0
+            for landmarks, side in zip(
+                result.multi_hand_landmarks or (), result.multi_handedness or (), strict=True
+            ):
+                label = side.classification[0]
+                p = label.score if label.label == want else 1.0 - label.score
+                if p > best:
+                    best = p
+                    pts = np.array([(lm.x, lm.y) for lm in landmarks.landmark])
+                    row[:, 0] = pts[:, 0] * w - 0.5
+                    row[:, 1] = pts[:, 1] * h - 0.5
+                    row[:, 2] = p
+            out.append(row)
+    if not out:
+        raise ValueError("frames: expected at least one frame; got none")
+    return np.stack(out)
+
+
+def _read_frames(path: Path, stop: int | None) -> Iterator[np.ndarray]:
+    if path.is_dir():
+        files = sorted(p for p in path.iterdir() if p.suffix.lower() in _IMAGE_SUFFIXES)
+        if not files:
+            raise ValueError(f"{path}: expected a video file or a folder of images; got none")
+        for p in files[:stop]:
+            image = cv2.imread(str(p), cv2.IMREAD_COLOR)
+            if image is None:
+                raise ValueError(f"{p}: expected a readable image; got an unreadable file")
+            yield image
+        return
+    cap = cv2.VideoCapture(str(path))
+    try:
+        if not path.is_file() or not cap.isOpened():
+            raise ValueError(f"{path}: expected a readable video file or image folder")
+        index = 0
+        while stop is None or index < stop:
+            ok, image = cap.read()
+            if not ok:
+                return
+            yield image
+            index += 1
+    finally:
+        cap.release()
+
+
+def detect_video(
+    path: str | os.PathLike,
+    *,
+    hand: str = "right",
+    frames: int | None = None,
+    progress: Callable[[Iterable], Iterable] | None = None,
+    **kwargs,
+) -> np.ndarray:
+    """`detect_keypoints` on a video file or a folder of images (sorted by name).
+
+    Parameters
+    ----------
+    path : path-like
+    hand : {"right", "left"}, keyword-only
+    frames : int, optional, keyword-only
+        Only the first `frames` frames.
+    progress : callable, optional, keyword-only
+        Wraps the frame iterator (e.g. ``tqdm``).
+    **kwargs
+        Passed to `detect_keypoints`.
+
+    Returns
+    -------
+    (T, 21, 3) float64 ndarray
+        As `detect_keypoints`, in the pixels of the full-resolution frames.
+    """
+    _hands_module()  # fail before reading anything
+    if frames is not None and (isinstance(frames, bool) or int(frames) < 1):
+        raise ValueError(f"frames: expected an integer >= 1; got {frames!r}")
+    it: Iterable[np.ndarray] = _read_frames(Path(path), frames)
+    if progress is not None:
+        it = progress(it)
+    return detect_keypoints(it, hand=hand, **kwargs)

@@ -1,0 +1,137 @@
+"""The keypoint fit of G(x) and the keypoint-aware initial pose (§14.1)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from handvar.camera import Rig
+from handvar.cli import main
+from handvar.hand import HandModel, named_pose
+from handvar.hand.kinematics import world_from_hand_rotation
+from handvar.render import silhouettes
+from handvar.tracking.init import InitSettings, initial_pose
+from handvar.tracking.keypoint_fit import fit_keypoints, keypoint_error, palm_candidates
+
+DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
+HAND = HandModel()
+RIG = Rig.default()
+MONO = Rig((RIG.cameras[0],), (RIG.names[0],))
+
+
+def angle_between(a, b) -> float:
+    Ra, Rb = world_from_hand_rotation(a)[0], world_from_hand_rotation(b)[0]
+    return float(np.degrees(np.arccos(np.clip((np.trace(Ra.T @ Rb) - 1) / 2, -1, 1))))
+
+
+def noisy_keypoints(x, rig, seed, sigma=3.0):
+    rng = np.random.default_rng(seed)
+    return [cam.project(HAND.joints(x)) + rng.normal(0, sigma, (21, 2)) for cam in rig]
+
+
+def test_palm_candidates_contain_the_true_palm_pose():
+    x = named_pose("spread")
+    x[3:6] = (170.0, 20.0, -15.0)
+    k = MONO.cameras[0].project(HAND.joints(x))
+    cands = palm_candidates(k, MONO.cameras[0], HAND)
+    assert len(cands) == 4  # the two planar solutions, each with the other side
+    best = min(cands, key=lambda p: angle_between(p[3:6], x[3:6]))
+    assert angle_between(best[3:6], x[3:6]) < 1e-3
+    np.testing.assert_allclose(best[:3], x[:3], atol=1e-3)
+
+
+# (pose name, palm orientation): palm towards the camera (rx = 180°) and the back of the
+# hand towards it (turned 180° about the hand's long axis), tilted and rolled.
+CASES = [
+    ("spread", (180.0, 0.0, 0.0)),
+    ("spread", (180.0, 180.0, 0.0)),
+    ("fist", (160.0, 20.0, 25.0)),
+    ("fist", (200.0, 160.0, -20.0)),
+    ("point", (200.0, 30.0, -40.0)),
+]
+
+
+@pytest.mark.parametrize(("name", "rotation"), CASES)
+def test_monocular_fit_recovers_the_pose_from_noisy_keypoints(name, rotation):
+    """3 px noise, one camera: orientation within 15°, joints within 20 mm on average."""
+    x = named_pose(name)
+    x[3:6] = rotation
+    fit = fit_keypoints(noisy_keypoints(x, MONO, seed=1), MONO, HAND)
+    assert fit.error < 5.0  # pixels: about the noise
+    assert angle_between(fit.pose[3:6], x[3:6]) < 15.0
+    err = np.linalg.norm(HAND.joints(fit.pose) - HAND.joints(x), axis=1).mean()
+    assert err < 20.0  # mm
+    # the side of the hand that faces the camera is the true one: the palm normal (hand
+    # z) points the same way along the view as the truth's
+    view = MONO.cameras[0].R[2]
+    nz_fit = world_from_hand_rotation(fit.pose[3:6])[0][:, 2] @ view
+    nz_true = world_from_hand_rotation(x[3:6])[0][:, 2] @ view
+    assert np.sign(nz_fit) == np.sign(nz_true)
+
+
+def test_the_two_sides_of_the_hand_are_told_apart():
+    """Palm and back towards the camera: each fit is near its truth, far from the other."""
+    palm, back = named_pose("spread"), named_pose("spread")
+    back[3:6] = (180.0, 180.0, 0.0)
+    for x, other in ((palm, back), (back, palm)):
+        fit = fit_keypoints(noisy_keypoints(x, MONO, seed=2), MONO, HAND)
+        assert angle_between(fit.pose[3:6], x[3:6]) < 15.0
+        assert angle_between(fit.pose[3:6], other[3:6]) > 150.0
+
+
+def test_stereo_fit_and_missing_points():
+    x = named_pose("pinch")
+    k = noisy_keypoints(x, RIG, seed=3)
+    k[1][[3, 4, 8]] = np.nan  # occluded in the second camera
+    fit = fit_keypoints(k, RIG, HAND)
+    assert np.linalg.norm(HAND.joints(fit.pose) - HAND.joints(x), axis=1).mean() < 10.0
+    assert fit.error == pytest.approx(keypoint_error(fit.pose, HAND, RIG, k))
+    # no camera shows the whole palm: no fit
+    k[0][5] = np.nan
+    k[1][0] = np.nan
+    assert fit_keypoints(k, RIG, HAND) is None
+    with pytest.raises(ValueError, match=r"one .* per camera, 2 in all; got 1"):
+        fit_keypoints(k[:1], RIG, HAND)
+
+
+QUICK = InitSettings(
+    shapes=("open",), roll=(0.0,), pitch=(0.0,), yaw=(0.0,), back=False, refine_passes=2
+)
+
+
+def test_initial_pose_uses_keypoints_and_falls_back_without_them():
+    x = named_pose("fist")
+    x[3:6] = (170.0, 150.0, 10.0)  # back of the hand towards the camera
+    masks = silhouettes(HAND, x, MONO)
+    k = noisy_keypoints(x, MONO, seed=4)
+    res = initial_pose(masks, MONO, HAND, keypoints=k, settings=QUICK)
+    assert res.shape == "keypoints"
+    assert res.keypoint_error < 6.0
+    assert angle_between(res.pose[3:6], x[3:6]) < 15.0
+    assert res.iou > 0.6
+    k[0][0] = np.nan  # no wrist: the silhouette search
+    res = initial_pose(masks, MONO, HAND, keypoints=k, settings=QUICK)
+    assert res.shape == "open" and np.isnan(res.keypoint_error)
+
+
+def test_init_command_with_keypoints(tmp_path):
+    video = DATA / "dex-human-hand-video.mp4"
+    kp = DATA / "dex-human-hand-video-keypoints.npy"
+    out = tmp_path / "pose.txt"
+    res = CliRunner().invoke(
+        main,
+        ["init", str(video), "--scale", "0.5", "--frame", "262", "--keypoints", str(kp),
+         "--out", str(out)],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    assert "shape keypoints" in res.output
+    error = float(res.output.split("keypoint error ")[1].split(" px")[0])
+    assert error < 6.0  # pixels at half resolution; the hand is about 35 px to the MCP
+    assert np.loadtxt(out).shape == (26,)
+    bad = CliRunner().invoke(
+        main, ["init", str(video), "--keypoints", str(kp), "--keypoints", str(kp)]
+    )
+    assert bad.exit_code == 2 and "expected one file per source (1); got 2" in bad.output

@@ -1,0 +1,228 @@
+"""Keypoint files, their checks, scaling and subsampling; the MediaPipe adapter and CLI."""
+
+from __future__ import annotations
+
+import importlib.util
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from handvar.cli import main
+from handvar.vision.keypoints import (
+    KEYPOINT_NAMES,
+    Keypoints2D,
+    as_frame_keypoints,
+    read_keypoints,
+    write_keypoints,
+)
+from handvar.vision.sources import scale_camera
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "data"
+VIDEO = EXAMPLES / "dex-human-hand-video.mp4"
+SHIPPED = EXAMPLES / "dex-human-hand-video-keypoints.npy"
+
+
+def random_keypoints(seed: int, T: int = 6, conf: bool = True) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    a = np.concatenate([rng.uniform(0, 1280, (T, 21, 1)), rng.uniform(0, 720, (T, 21, 1))], axis=2)
+    if conf:
+        a = np.concatenate([a, rng.uniform(0.1, 1.0, (T, 21, 1))], axis=2)
+    a[2] = np.nan  # a whole frame missing
+    a[4, 7, :2] = np.nan  # one point missing
+    return a
+
+
+def test_names_follow_the_model_joints():
+    from handvar.hand.anthropometry import JOINTS
+
+    assert len(KEYPOINT_NAMES) == 21 == len(JOINTS)
+    assert KEYPOINT_NAMES[0] == "wrist"
+    assert KEYPOINT_NAMES[1:5] == ("thumb_cmc", "thumb_mcp", "thumb_ip", "thumb_tip")
+    assert KEYPOINT_NAMES[9] == "middle_mcp" and KEYPOINT_NAMES[20] == "little_tip"
+
+
+@pytest.mark.parametrize("suffix", [".npy", ".csv"])
+@pytest.mark.parametrize("conf", [True, False])
+def test_round_trip(tmp_path, suffix, conf):
+    a = random_keypoints(1, conf=conf)
+    path = tmp_path / f"kp{suffix}"
+    write_keypoints(path, a)
+    back = read_keypoints(path)
+    assert back.name == str(path)
+    assert back.n_frames == 6
+    np.testing.assert_array_equal(back.xy, Keypoints2D.from_array(a).xy)
+    expected_conf = a[..., 2] if conf else np.ones((6, 21))
+    present = ~np.isnan(a[..., 0])
+    np.testing.assert_array_equal(back.confidence, np.where(present, expected_conf, 0.0))
+    assert not back.present[2].any() and not back.present[4, 7] and back.present[4, 8]
+
+
+def test_csv_42_columns_with_and_without_header(tmp_path):
+    a = random_keypoints(2, conf=False)
+    rows = a.reshape(6, 42)
+    lines = [",".join("" if np.isnan(v) else repr(float(v)) for v in row) for row in rows]
+    plain = tmp_path / "plain.csv"
+    plain.write_text("\n".join(lines) + "\n")
+    header = tmp_path / "header.csv"
+    header.write_text(
+        ",".join(f"{c}{k}" for k in range(21) for c in "xy") + "\n" + plain.read_text()
+    )
+    for path in (plain, header):
+        kp = read_keypoints(path)
+        np.testing.assert_array_equal(kp.xy, Keypoints2D.from_array(a).xy)
+        assert kp.n_frames == 6
+
+
+@pytest.mark.parametrize(
+    ("array", "match"),
+    [
+        (np.zeros((5, 20, 2)), r"shape \(T, 21, 2\) or \(T, 21, 3\).*got shape \(5, 20, 2\)"),
+        (np.zeros((5, 21, 4)), r"got shape \(5, 21, 4\)"),
+        (np.zeros((21, 2)), r"got shape \(21, 2\)"),
+        (np.zeros((0, 21, 3)), "at least one frame"),
+    ],
+)
+def test_bad_shapes_name_the_file(tmp_path, array, match):
+    path = tmp_path / "bad.npy"
+    np.save(path, array)
+    with pytest.raises(ValueError, match=match) as info:
+        read_keypoints(path)
+    assert str(path) in str(info.value)
+
+
+def test_confidence_outside_unit_interval(tmp_path):
+    a = random_keypoints(3)
+    a[1, 3, 2] = 1.5
+    path = tmp_path / "conf.npy"
+    np.save(path, a)
+    with pytest.raises(ValueError, match=r"conf\.npy: expected confidences in \[0, 1\]; got 1\.5"):
+        read_keypoints(path)
+    a[1, 3, 2] = -0.1
+    with pytest.raises(ValueError, match="frame 1, point 3"):
+        Keypoints2D.from_array(a)
+
+
+def test_infinity_and_wrong_types(tmp_path):
+    a = random_keypoints(4)
+    a[0, 0, 0] = np.inf
+    with pytest.raises(ValueError, match="infinity at frame 0, point 0"):
+        Keypoints2D.from_array(a)
+    with pytest.raises(TypeError, match="keypoints: expected"):
+        Keypoints2D.from_array("not keypoints")
+
+
+def test_csv_wrong_column_count_names_the_file(tmp_path):
+    path = tmp_path / "cols.csv"
+    path.write_text("\n".join([",".join(["1"] * 42), ",".join(["1"] * 41)]) + "\n")
+    with pytest.raises(ValueError, match=r"cols\.csv: expected 42 columns.*got 41 in data row 1"):
+        read_keypoints(path)
+    path.write_text("\n".join([",".join(["1"] * 42), ",".join(["1"] * 63)]) + "\n")
+    with pytest.raises(ValueError, match=r"expected 42 columns in every row.*got 63"):
+        read_keypoints(path)
+    path.write_text(",".join(["1"] * 41 + ["x"]) + "\n" + ",".join(["1"] * 41 + ["zz"]) + "\n")
+    with pytest.raises(ValueError, match=r"cols\.csv: expected numbers; got 'zz' in data row 0"):
+        read_keypoints(path)
+
+
+def test_missing_file_and_wrong_suffix(tmp_path):
+    with pytest.raises(ValueError, match=r"nothere\.npy: expected a keypoint file"):
+        read_keypoints(tmp_path / "nothere.npy")
+    (tmp_path / "kp.txt").write_text("1 2\n")
+    with pytest.raises(ValueError, match=r"kp\.txt: expected a \.npy or \.csv"):
+        read_keypoints(tmp_path / "kp.txt")
+    with pytest.raises(ValueError, match=r"out\.json: expected a file name ending"):
+        write_keypoints(tmp_path / "out.json", random_keypoints(0))
+    (tmp_path / "junk.npy").write_bytes(b"not an array")
+    with pytest.raises(ValueError, match=r"junk\.npy: expected a NumPy \.npy array"):
+        read_keypoints(tmp_path / "junk.npy")
+
+
+def test_every_keeps_every_kth_frame():
+    a = random_keypoints(5, T=12)
+    kp = Keypoints2D.from_array(a)
+    sub = kp.every(5)
+    kept = np.arange(12) % 5 == 0
+    assert np.array_equal(sub.present.any(axis=1), kept & kp.present.any(axis=1))
+    np.testing.assert_array_equal(sub.xy[kept], kp.xy[kept])
+    assert np.isnan(sub.xy[~kept]).all() and (sub.confidence[~kept] == 0).all()
+    shifted = kp.every(4, offset=1)
+    assert shifted.present.any(axis=1).nonzero()[0].tolist() == [1, 5, 9]
+    assert np.array_equal(kp.every(1).to_array(), kp.to_array(), equal_nan=True)
+    with pytest.raises(ValueError, match="k: expected an integer >= 1; got 0"):
+        kp.every(0)
+
+
+@pytest.mark.parametrize("factor", [0.5, 0.37, 1.0, 2.0])
+def test_scaling_matches_the_scaled_camera(factor):
+    """A point projected by a camera lands where the scaled camera projects it."""
+    from handvar.vision.sources import assumed_camera
+
+    cam = assumed_camera((1280, 720))
+    rng = np.random.default_rng(6)
+    world = np.column_stack([rng.uniform(-100, 100, (21, 2)), rng.uniform(400, 600, 21)])
+    kp = Keypoints2D.from_array(cam.project(world)[None])
+    small = scale_camera(cam, factor)
+    np.testing.assert_allclose(kp.scaled(factor, cam.size).xy[0], small.project(world), atol=1e-9)
+
+
+def test_frame_keypoints_check():
+    a = as_frame_keypoints(np.zeros((21, 2)))
+    assert a.shape == (21, 3) and (a[:, 2] == 1).all()
+    with pytest.raises(ValueError, match=r"cam0: expected keypoints of shape \(21, 2\)"):
+        as_frame_keypoints(np.zeros((20, 2)), "cam0")
+
+
+def test_mediapipe_is_not_imported_by_the_package():
+    code = (
+        "import sys, handvar, handvar.vision, handvar.vision.keypoints, handvar.cli; "
+        "print(any(m.startswith(('mediapipe', 'handvar.vision.mediapipe')) for m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
+
+
+@pytest.mark.skipif(
+    importlib.util.find_spec("mediapipe") is not None, reason="MediaPipe is installed"
+)
+def test_keypoints_command_without_the_extra(tmp_path):
+    res = CliRunner().invoke(main, ["keypoints", str(VIDEO), "--out", str(tmp_path / "k.npy")])
+    assert res.exit_code == 2
+    lines = res.output.strip().splitlines()
+    assert len(lines) == 1 and "pip install 'handvar[mediapipe]'" in lines[0], res.output
+    assert not (tmp_path / "k.npy").exists()
+
+
+def test_shipped_keypoints():
+    """The shipped detections: the right hand found in every frame of the video."""
+    kp = read_keypoints(SHIPPED)
+    assert kp.n_frames == 621
+    assert kp.present.all()
+    # every point inside the 1280×720 frame
+    assert (kp.xy[..., 0] > -1).all() and (kp.xy[..., 0] < 1280).all()
+    assert (kp.xy[..., 1] > -1).all() and (kp.xy[..., 1] < 720).all()
+
+
+@pytest.mark.slow
+def test_mediapipe_on_the_video_matches_the_shipped_keypoints(tmp_path):
+    pytest.importorskip("mediapipe")
+    out = tmp_path / "k.csv"
+    res = CliRunner().invoke(
+        main, ["keypoints", str(VIDEO), "--out", str(out), "--frames", "30", "--hand", "right"]
+    )
+    assert res.exit_code == 0, res.output
+    assert "right hand in 30 of 30 frames" in res.output
+    got = read_keypoints(out)
+    shipped = read_keypoints(SHIPPED)
+    np.testing.assert_allclose(got.xy, shipped.xy[:30], atol=0.5)
+    # the left hand is not in the video: the same points, at the complementary confidence
+    left = CliRunner().invoke(
+        main, ["keypoints", str(VIDEO), "--out", str(out), "--frames", "3", "--hand", "left"]
+    )
+    assert left.exit_code == 0, left.output
+    np.testing.assert_allclose(
+        read_keypoints(out).confidence, 1.0 - shipped.confidence[:3], atol=1e-6
+    )
