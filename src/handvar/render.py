@@ -420,6 +420,10 @@ def silhouettes(
     >>> masks.shape, masks.dtype
     ((2, 480, 640), dtype('bool'))
     """
+    if getattr(hand, "surface", "spheres") == "mesh":  # the skinned mesh (DESIGN.md §15)
+        from handvar.render_mesh import mesh_silhouettes
+
+        return mesh_silhouettes(hand, x, rig, coverage=coverage)
     x = check_pose(x, "x")
     w, h = _check_rig(rig)
     centres, radii = hand.world_spheres(x)
@@ -568,6 +572,10 @@ def render_rgb(
     (n_cams, H, W, 3) uint8 ndarray
         RGB images.
     """
+    if getattr(hand, "surface", "spheres") == "mesh":  # the skinned mesh (DESIGN.md §15)
+        from handvar.render_mesh import render_mesh_rgb
+
+        return render_mesh_rgb(hand, x, rig, background=background, rng=rng, shading=shading)
     x = check_pose(x, "x")
     if background not in _BACKGROUNDS:
         raise ValueError(
