@@ -501,7 +501,7 @@ class MeshSurface:
         """
         from handvar.hand.raster import rasterize_triangles
 
-        uv, z = self._project(x, camera)
+        uv, _ = self._project(x, camera)
         return rasterize_triangles(uv, self.triangles, camera.size, coverage=coverage)
 
     def depth_buffer(self, x, camera):
@@ -520,7 +520,7 @@ class MeshSurface:
         A sample is visible when it projects into the image, in front of the camera,
         and its depth is at most `tolerance` mm behind the depth buffer's at its pixel.
         """
-        tri, zbuf = self.depth_buffer(x, camera)
+        _, zbuf = self.depth_buffer(x, camera)
         p = self.points(x, samples)
         z = camera.camera_from_world(p)[:, 2]
         uv = camera.project(p)

@@ -118,10 +118,10 @@ def _raster_kernel(uv, z, tri, touch, with_depth, mask, tri_id, zbuf):  # pragma
         g0 = pad * (abs(n0u) + abs(n0v))
         g1 = pad * (abs(n1u) + abs(n1v))
         g2 = pad * (abs(n2u) + abs(n2v))
-        umin = max(int(math.ceil(min(ax, bx, cx) - pad)), 0)
-        umax = min(int(math.floor(max(ax, bx, cx) + pad)), w - 1)
-        vmin = max(int(math.ceil(min(ay, by, cy) - pad)), 0)
-        vmax = min(int(math.floor(max(ay, by, cy) + pad)), h - 1)
+        umin = max(math.ceil(min(ax, bx, cx) - pad), 0)
+        umax = min(math.floor(max(ax, bx, cx) + pad), w - 1)
+        vmin = max(math.ceil(min(ay, by, cy) - pad), 0)
+        vmax = min(math.floor(max(ay, by, cy) + pad), h - 1)
         for i in range(vmin, vmax + 1):
             for j in range(umin, umax + 1):
                 e0 = n0u * j + n0v * i + k0
