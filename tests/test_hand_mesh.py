@@ -233,3 +233,28 @@ def test_bad_arguments(hand):
     with pytest.raises(ValueError, match="coverage: expected one of"):
         rasterize_triangles(np.zeros((3, 2)), [[0, 1, 2]], (4, 4), coverage="edge")
     assert isinstance(hand.mesh.skinned.vertices, MeshSamples)
+
+
+def test_cli_synth_and_show_with_the_mesh(tmp_path):
+    """`synth --model mesh` writes masks equal to the mesh's silhouettes of the true
+    poses; `show --model mesh` writes a PNG."""
+    from click.testing import CliRunner
+
+    from handvar.cli import main
+    from handvar.io import read_sequence
+
+    runner = CliRunner()
+    out = tmp_path / "seq"
+    res = runner.invoke(main, ["synth", "benchmark", str(out), "--model", "mesh",
+                               "--frames", "2"])  # fmt: skip
+    assert res.exit_code == 0, res.output
+    seq = read_sequence(out)
+    assert seq.provenance["model"] == "mesh"
+    hand = HandModel(surface="mesh")
+    expect = silhouettes(hand, seq.truth.poses[1], seq.rig)
+    assert np.array_equal(np.asarray(seq.masks[1]), expect)
+    assert not np.array_equal(expect, silhouettes(HandModel(), seq.truth.poses[1], seq.rig))
+    png = tmp_path / "fist.png"
+    res = runner.invoke(main, ["show", "fist", "--model", "mesh", "--out", str(png)])
+    assert res.exit_code == 0, res.output
+    assert cv2.imread(str(png)).shape[0] > 400
