@@ -8,6 +8,8 @@
   surface queries) and `named_pose`.
 - :mod:`~handvar.hand.surface`: cone-sphere geometry (areas, sampling, signed
   distance and normals, ray intersection, projected outlines).
+- :mod:`~handvar.hand.mesh`: the skinned mesh hand (``HandModel(surface="mesh")``),
+  and :mod:`~handvar.hand.raster`, the scan conversion of its triangles.
 """
 
 from handvar.hand.anthropometry import BONES, JOINTS, HandProportions, HandShape
