@@ -439,7 +439,7 @@ def _recording_options(func):
 @click.option("--hand-length", type=click.FloatRange(min=50.0, max=400.0), default=185.0,
               show_default=True, help="Hand length of the model, mm (as for `init`).")  # fmt: skip
 @click.option("--model", type=click.Choice(("spheres", "mesh")), default="spheres",
-              show_default=True, help="Surface of the overlays (cost: spheres).")  # fmt: skip
+              show_default=True, help="Surface of the tracked hand model.")  # fmt: skip
 @_recording_options
 @_one_line_errors
 def track_command(
