@@ -13,8 +13,8 @@ only the model's surface is the mesh:
   coverage; outside it, the nearest projected vertex with its Jacobian).
 
 Vectorised numpy over the samples (the compiled kernel of `costs` works on
-bone-attached points and cone-spheres); about ten times slower per iteration than the
-sphere-mesh's, dominated by the two silhouettes of C_f.
+bone-attached points and cone-spheres); about twenty times slower per iteration than the
+sphere-mesh's (``python benchmarks/mesh.py``), dominated by the two silhouettes of C_f.
 """
 
 from __future__ import annotations
