@@ -22,7 +22,7 @@ vertex's weights are renormalised to sum to 1.
 Units and frame of the output: millimetres, in the mesh's own frame (+y up). The rest
 joints are the rig's own joint definitions evaluated on this mesh (centres of the joint
 cubes, helper geometry of the OBJ); the rig's ``default_position`` values (metres, z-up,
-``mesh_dm = 10 · (x, z, −y)``) belong to another body shape and lie 3–5 cm off this
+``mesh_dm = 10 · (x, z, −y)``) belong to another body shape and lie 51–61 mm off this
 mesh's hand, so they are not used.
 """
 
@@ -75,7 +75,7 @@ def joint_position(end: dict, verts: np.ndarray, groups: dict[str, np.ndarray]) 
 
     ``CUBE``: the centre of the named joint cube, a helper group of the base mesh;
     ``MEAN``: the mean of the listed vertices. The rig's ``default_position`` is not
-    used: it belongs to another body shape and lies 3–5 cm off this mesh's hand.
+    used: it belongs to another body shape and lies 51–61 mm off this mesh's hand.
     """
     if end["strategy"] == "CUBE":
         return verts[np.unique(groups[end["cube_name"]])].mean(axis=0)
@@ -144,6 +144,13 @@ def extract(folder: Path) -> dict[str, np.ndarray]:
     used = np.zeros(int(keep.sum()), dtype=bool)
     used[tris.ravel()] = True
     remap = np.cumsum(used) - 1
+    # how far the rig's default positions (metres, z-up) lie from the joints used
+    default = [rig["wrist.R"]["head"]["default_position"]] + [
+        rig[f"{d}-{lv}.R"]["head"]["default_position"] for d in _DIGIT_RIG for lv in (1, 2, 3)
+    ]
+    default = 1000.0 * np.array([[p[0], p[2], -p[1]] for p in default])
+    off = np.linalg.norm(default - np.delete(joints, [4, 8, 12, 16, 20], axis=0), axis=1)
+    print(f"rig default positions off the joint cubes by {off.min():.0f}..{off.max():.0f} mm")
     return {
         "vertices": verts[keep][used],
         "triangles": remap[tris].astype(np.int32),
