@@ -22,8 +22,8 @@ vertex's weights are renormalised to sum to 1.
 Units and frame of the output: millimetres, in the mesh's own frame (+y up). The rest
 joints are the rig's own joint definitions evaluated on this mesh (centres of the joint
 cubes, helper geometry of the OBJ); the rig's ``default_position`` values (metres, z-up,
-``mesh_dm = 10 · (x, z, −y)``) belong to another body shape and lie 51–61 mm off this
-mesh's hand, so they are not used.
+``mesh_dm = 10 · (x, z, −y)``) do not match this mesh: they lie 51–61 mm off its
+hand, so they are not used.
 """
 
 from __future__ import annotations
@@ -75,7 +75,7 @@ def joint_position(end: dict, verts: np.ndarray, groups: dict[str, np.ndarray]) 
 
     ``CUBE``: the centre of the named joint cube, a helper group of the base mesh;
     ``MEAN``: the mean of the listed vertices. The rig's ``default_position`` is not
-    used: it belongs to another body shape and lies 51–61 mm off this mesh's hand.
+    used: it does not match this mesh (it lies 51–61 mm off its hand).
     """
     if end["strategy"] == "CUBE":
         return verts[np.unique(groups[end["cube_name"]])].mean(axis=0)
