@@ -50,6 +50,8 @@ def main() -> None:
     show_default=True,
     help="Seed of the motion (and of the colour frames).",
 )
+@click.option("--model", type=click.Choice(("spheres", "mesh")), default="spheres",
+              show_default=True, help="Hand surface: sphere-mesh or skinned mesh.")  # fmt: skip
 @click.option("--rgb", is_flag=True, help="Also render shaded colour frames.")
 @click.option(
     "--frames",
@@ -59,7 +61,9 @@ def main() -> None:
     help="Keep only the first N frames (a quick preview).",
 )
 @_one_line_errors
-def synth_command(name: str, out: str, seed: int, rgb: bool, n_frames: int | None) -> None:
+def synth_command(
+    name: str, out: str, model: str, seed: int, rgb: bool, n_frames: int | None
+) -> None:
     """Render the synthetic sequence NAME (benchmark, flexion, flip) into directory OUT.
 
     OUT receives sequence.json, per-camera PNG masks (and colour frames with --rgb)
@@ -68,6 +72,7 @@ def synth_command(name: str, out: str, seed: int, rgb: bool, n_frames: int | Non
     """
     from tqdm import tqdm
 
+    from handvar.hand.kinematics import HandModel
     from handvar.io import check_output_dir, write_sequence
     from handvar.synth.sequences import make_sequence
 
@@ -77,6 +82,7 @@ def synth_command(name: str, out: str, seed: int, rgb: bool, n_frames: int | Non
         seed=seed,
         rgb=rgb,
         n_frames=n_frames,
+        hand=HandModel(surface=model),
         progress=lambda it: tqdm(it, desc=f"rendering {name}", unit="frame", leave=False),
     )
     path = write_sequence(
@@ -150,9 +156,16 @@ def load_pose(spec: str):
     default=None,
     help="POSE is a sequence directory: draw the true pose of frame K over its masks.",
 )
+@click.option("--model", type=click.Choice(("spheres", "mesh")), default="spheres",
+              show_default=True, help="Hand surface: sphere-mesh or skinned mesh.")  # fmt: skip
 @_one_line_errors
 def show_command(
-    pose: str, out: str | None, hand_length: float, shaded: bool, frame: int | None
+    pose: str,
+    out: str | None,
+    hand_length: float,
+    shaded: bool,
+    frame: int | None,
+    model: str,
 ) -> None:
     """Draw POSE (a named pose or a file of 26 numbers) in both default cameras.
 
@@ -171,7 +184,7 @@ def show_command(
     from handvar.render import draw_overlay, render_rgb, side_by_side, silhouettes
 
     x = load_pose(pose) if frame is None else None
-    hand = HandModel(HandShape.from_size(hand_length))
+    hand = HandModel(HandShape.from_size(hand_length), surface=model)
     rig = Rig.default()
     if frame is not None:  # a frame of a sequence: its true pose, its rig, its masks
         x, rig, masks = _sequence_frame(pose, frame)
@@ -425,10 +438,12 @@ def _recording_options(func):
               help="Also write overlay.mp4.")  # fmt: skip
 @click.option("--hand-length", type=click.FloatRange(min=50.0, max=400.0), default=185.0,
               show_default=True, help="Hand length of the model, mm (as for `init`).")  # fmt: skip
+@click.option("--model", type=click.Choice(("spheres", "mesh")), default="spheres",
+              show_default=True, help="Surface of the tracked hand model.")  # fmt: skip
 @_recording_options
 @_one_line_errors
 def track_command(
-    seq, predictor, init, seed, n_frames, out, video, hand_length, calib, fov, scale
+    seq, predictor, init, seed, n_frames, out, video, hand_length, model, calib, fov, scale
 ) -> None:
     """Track the hand through the sequence SEQ (a sequence directory or a synthetic name).
 
@@ -475,7 +490,7 @@ def track_command(
             f"{seq}: the sequence has no ground truth; give the first pose with --init"
         )
     os.makedirs(out, exist_ok=True)
-    hand = HandModel(HandShape.from_size(hand_length))
+    hand = HandModel(HandShape.from_size(hand_length), surface=model)
     tracker = Tracker(sequence.rig, hand, make_predictor(predictor), np.random.default_rng(seed))
     result = tracker.track(
         sequence, x0, frames=n_frames,

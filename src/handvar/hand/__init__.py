@@ -10,6 +10,8 @@
   samples (their geometry: :mod:`handvar.geometry`).
 - :mod:`~handvar.hand.projection`: the model's image in a camera and its closest point
   to a pixel (eq. 1).
+- :mod:`~handvar.hand.mesh`: the skinned mesh hand (``HandModel(surface="mesh")``),
+  and :mod:`~handvar.hand.raster`, the scan conversion of its triangles.
 """
 
 from handvar.geometry.projected import ProjectedPrimitives

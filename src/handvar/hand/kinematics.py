@@ -310,6 +310,11 @@ class HandModel:
     compiled : bool, optional
         Compute the kinematics with compiled loops (numba, default) or with the
         vectorised numpy reference; both agree to rounding.
+    surface : {"spheres", "mesh"}, optional
+        The surface that renders the hand: the sphere-mesh (default) or the skinned
+        mesh (`mesh`, :mod:`handvar.hand.mesh`, §15). Both are driven by the
+        same bone frames, so G(x) is the same; the sphere-mesh stays available either
+        way (`world_spheres`).
 
     Attributes
     ----------
@@ -335,7 +340,12 @@ class HandModel:
     n_params = N_PARAMS
 
     def __init__(
-        self, shape: HandShape | None = None, *, pool_size: int = 100_000, compiled: bool = True
+        self,
+        shape: HandShape | None = None,
+        *,
+        pool_size: int = 100_000,
+        compiled: bool = True,
+        surface: str = "spheres",
     ) -> None:
         from handvar.hand.surface import hand_primitives
 
@@ -353,6 +363,7 @@ class HandModel:
         self._cache: tuple[bytes, _Pose] | None = None
         self._pool = None
         self._lock = threading.Lock()
+        self._init_surface(surface)
 
     # -- forward kinematics ---------------------------------------------------------
     def _pose(self, x) -> _Pose:
@@ -576,6 +587,28 @@ class HandModel:
 
         centres, radii, J = self.world_spheres(x, jacobian=True)
         return closest_point_projected(centres, radii, J, camera, pixels)
+
+    # -- the skinned mesh (§15) -----------------------------------------------
+    def _init_surface(self, surface: str) -> None:
+        if surface not in SURFACES:
+            raise ValueError(f"surface: expected one of {', '.join(SURFACES)}; got {surface!r}")
+        self.surface = surface
+        self._mesh = None
+
+    @property
+    def mesh(self):
+        """The skinned mesh registered to this model's shape (`MeshSurface`, built once)."""
+        if self._mesh is None:
+            from handvar.hand.mesh import MeshSurface
+
+            with self._lock:
+                if self._mesh is None:
+                    self._mesh = MeshSurface(self)
+        return self._mesh
+
+
+#: Surfaces a `HandModel` renders with.
+SURFACES: tuple[str, ...] = ("spheres", "mesh")
 
 
 def _points_jacobian(pose: _Pose, bone: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -812,6 +845,7 @@ __all__ = [
     "BONES",
     "JOINTS",
     "POSE_NAMES",
+    "SURFACES",
     "HandModel",
     "named_pose",
     "world_from_hand_rotation",

@@ -155,6 +155,10 @@ def render_rgb(
     (n_cams, H, W, 3) uint8 ndarray
         RGB images.
     """
+    if getattr(hand, "surface", "spheres") == "mesh":  # the skinned mesh (§15)
+        from handvar.render.mesh import render_mesh_rgb
+
+        return render_mesh_rgb(hand, x, rig, background=background, rng=rng, shading=shading)
     x = check_pose(x, "x")
     one_of(background, _BACKGROUNDS, "background")
     w, h = _check_rig(rig)

@@ -392,6 +392,10 @@ def silhouettes(
     >>> masks.shape, masks.dtype
     ((2, 480, 640), dtype('bool'))
     """
+    if getattr(hand, "surface", "spheres") == "mesh":  # the skinned mesh (§15)
+        from handvar.render.mesh import mesh_silhouettes
+
+        return mesh_silhouettes(hand, x, rig, coverage=coverage)
     x = check_pose(x, "x")
     w, h = _check_rig(rig)
     centres, radii = hand.world_spheres(x)

@@ -474,6 +474,7 @@ def make_sequence(
     rgb: bool = False,
     n_frames: int | None = None,
     progress: Callable[[Iterable[int]], Iterable[int]] | None = None,
+    hand=None,
 ):
     """Generate and render a named synthetic sequence.
 
@@ -488,6 +489,9 @@ def make_sequence(
         Keep only the first `n_frames` frames (a quick preview); all by default.
     progress : callable, keyword-only, optional
         Wraps the frame iterator (for instance ``tqdm.tqdm``).
+    hand : handvar.hand.kinematics.HandModel, keyword-only, optional
+        The hand that renders the frames (default 185 mm sphere-mesh); a
+        ``HandModel(surface="mesh")`` renders the skinned mesh.
 
     Returns
     -------
@@ -507,6 +511,8 @@ def make_sequence(
         "frames_of_full_sequence": n_generated,
         "rgb": bool(rgb),
     }
+    if hand is not None:
+        provenance["model"] = getattr(hand, "surface", "spheres")
     if name == "benchmark":
         provenance["motion_source"] = (
             "finger articulation replayed from rows "
@@ -521,4 +527,5 @@ def make_sequence(
         seed=seed,
         progress=progress,
         provenance=provenance,
+        hand=hand,
     )

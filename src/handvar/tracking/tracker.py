@@ -164,7 +164,12 @@ class Tracker:
         self.predictor = predictor
         self.rng = rng
         self.settings = settings
-        self.cost = SilhouetteCost(hand, rig, settings.cost)
+        if hand.surface == "mesh":  # the skinned mesh (§15)
+            from handvar.tracking.mesh_cost import MeshSilhouetteCost
+
+            self.cost = MeshSilhouetteCost(hand, rig, settings.cost)
+        else:
+            self.cost = SilhouetteCost(hand, rig, settings.cost)
         self._x0: np.ndarray | None = None
         self._n = 0
 
