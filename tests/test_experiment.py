@@ -11,18 +11,16 @@ import numpy as np
 import pytest
 
 from handvar import params
-from handvar.evaluation.experiment import (
+from handvar.evaluation.config import (
     EXTRA_PREDICTORS,
     PAPER_PREDICTORS,
     ExperimentConfig,
     PredictorSpec,
-    open_store,
-    read_config,
-    run_experiment,
-    run_trial,
-    store_sequence,
     tracker_settings,
 )
+from handvar.evaluation.experiment import run_experiment
+from handvar.evaluation.store import open_store, read_config, store_sequence
+from handvar.evaluation.trials import run_trial
 from handvar.evaluation.metrics import mean_joint_error, r2_tilde_acceleration, r2_tilde_joints
 from handvar.predictors import RVAR, VAR, Decelerating, one_step_predictions
 

@@ -11,7 +11,9 @@ import numpy as np
 import pytest
 import zarr
 
-from handvar.evaluation.experiment import ExperimentConfig, open_store, run_experiment
+from handvar.evaluation.config import ExperimentConfig
+from handvar.evaluation.experiment import run_experiment
+from handvar.evaluation.store import open_store
 from handvar.evaluation.report import (
     error_peaks,
     evaluate_claims,

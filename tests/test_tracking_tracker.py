@@ -45,7 +45,7 @@ def test_tracks_sixty_frames_without_prediction_reproducibly(first60):
         tracker = Tracker(seq.rig, HandModel(), NoMotion(), np.random.default_rng(7))
         runs.append(tracker.track(seq, seq.truth.poses[0]))
     a, b = runs
-    err = a.mean_joint_error(seq.truth.joints)
+    err = mean_joint_error(seq.truth.joints, a.joints)
     assert err.mean() < 10.0
     assert np.array_equal(a.poses, b.poses)  # bitwise
     assert np.array_equal(a.costs, b.costs, equal_nan=True)

@@ -312,12 +312,9 @@ def experiment_command(store, scheduler, workers, assignments, sweeps, quick, ex
     """
     import os
 
-    from handvar.evaluation.experiment import (
-        ExperimentConfig,
-        read_config,
-        run_experiment,
-        summary_text,
-    )
+    from handvar.evaluation.config import ExperimentConfig
+    from handvar.evaluation.experiment import run_experiment, summary_text
+    from handvar.evaluation.store import read_config
 
     if os.path.exists(store) and not (assignments or sweeps or quick or extras):
         config = read_config(store)
@@ -496,7 +493,9 @@ def track_command(
         + (f" (with {written['video'].name})" if "video" in written else "")
     )
     if sequence.truth is not None:
-        err = result.mean_joint_error(sequence.truth.joints[:T])
+        from handvar.evaluation.metrics import mean_joint_error
+
+        err = mean_joint_error(sequence.truth.joints[:T], result.joints)
         click.echo(f"mean joint error: {err.mean():.2f} mm (max {err.max():.2f} mm)")
 
 

@@ -1,4 +1,4 @@
-"""The tracker: per frame predict → optimise → update (paper §2 and §4, DESIGN.md §1).
+"""The tracker: per frame predict → optimise → update (paper §2 and §4, §1).
 
 For every frame the motion predictor proposes the starting pose x̂ (the first frame
 starts at the given x0), stochastic meta-descent minimises 1.7 C_s + 0.4 C_f from x̂
@@ -34,7 +34,10 @@ from handvar.params import N_PARAMS, check_pose, clamp
 from handvar.tracking.costs import CostSettings, FrameData, SilhouetteCost
 from handvar.tracking.smd import SMDSettings, minimise
 
-__all__ = ["FrameResult", "TrackResult", "Tracker", "TrackerSettings"]
+__all__ = ["TIMING_PARTS", "FrameResult", "TrackResult", "Tracker", "TrackerSettings"]
+
+#: The parts of a frame's wall time, in the order of ``FrameResult.seconds``.
+TIMING_PARTS = ("preprocessing", "optimisation", "prediction")
 
 
 @dataclass(frozen=True)
@@ -104,18 +107,10 @@ class TrackResult:
     iterations: np.ndarray
     seconds: np.ndarray
 
-    TIMING_PARTS = ("preprocessing", "optimisation", "prediction")
-
     @property
     def final_costs(self) -> np.ndarray:
         """(T,) cost at the last iteration of every frame."""
         return self.costs[np.arange(self.costs.shape[0]), self.iterations - 1]
-
-    def mean_joint_error(self, truth_joints) -> np.ndarray:
-        """(T,) mean Euclidean joint error per frame against true joints (T, 21, 3), mm."""
-        from handvar.evaluation.metrics import mean_joint_error
-
-        return mean_joint_error(truth_joints, self.joints)
 
 
 class Tracker:
