@@ -19,9 +19,9 @@ from handvar.evaluation.config import (
     tracker_settings,
 )
 from handvar.evaluation.experiment import run_experiment
+from handvar.evaluation.metrics import mean_joint_error, r2_tilde_acceleration, r2_tilde_joints
 from handvar.evaluation.store import open_store, read_config, store_sequence
 from handvar.evaluation.trials import run_trial
-from handvar.evaluation.metrics import mean_joint_error, r2_tilde_acceleration, r2_tilde_joints
 from handvar.predictors import RVAR, VAR, Decelerating, one_step_predictions
 
 # The paper's five predictors with the tracker, reduced: 2 trials of 40 frames.
