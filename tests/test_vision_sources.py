@@ -19,7 +19,6 @@ from handvar.vision.sources import (
     open_frames,
     open_source,
     overlay_frame,
-    scale_camera,
 )
 
 
@@ -70,7 +69,7 @@ def test_scale_camera_matches_cv2_resize_of_a_rendered_silhouette():
                  t=[0.0, -90.0, 500.0], size=(640, 480))  # fmt: skip
     centres, radii = hand.world_spheres(named_pose("spread"))
     full = silhouette(centres, radii, cam, coverage="centre").astype(np.float32)
-    small_cam = scale_camera(cam, 0.5)
+    small_cam = cam.scaled(0.5)
     assert small_cam.size == (320, 240)
     resized = cv2.resize(full, small_cam.size, interpolation=cv2.INTER_AREA) > 0.5
     direct = silhouette(centres, radii, small_cam, coverage="centre")
@@ -154,7 +153,7 @@ def test_calibration_that_does_not_fit(tmp_path):
         open_source([folder, folder], calib, fov=50.0)
     source = open_source([folder, folder], calib, scale=0.5)
     assert source.calibrated and source.rig.names == ("left", "right")
-    assert source.rig["left"].allclose(scale_camera(Rig.default()["left"], 0.5))
+    assert source.rig["left"].allclose(Rig.default()["left"].scaled(0.5))
 
 
 def test_empty_silhouette_names_the_file_and_frame(tmp_path):

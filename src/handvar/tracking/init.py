@@ -309,13 +309,11 @@ def _moments(mask: np.ndarray) -> tuple[float, np.ndarray]:
 
 
 def _search_view(mask: np.ndarray, camera: Camera, size: int) -> _SearchView:
-    from handvar.vision.sources import scale_camera
-
     rows = np.flatnonzero(mask.any(axis=1))
     cols = np.flatnonzero(mask.any(axis=0))
     extent = max(rows[-1] - rows[0] + 1, cols[-1] - cols[0] + 1)
     factor = min(1.0, size / extent)
-    cam = scale_camera(camera, factor)
+    cam = camera.scaled(factor)
     small = mask
     if cam.size != camera.size:
         small = cv2.resize(mask.astype(np.float32), cam.size, interpolation=cv2.INTER_AREA) > 0.5
