@@ -361,7 +361,6 @@ def report_command(store, out):
 # --- track: fit the hand model to every frame of a sequence ----------------------------
 
 
-
 def make_predictor(name: str):
     """The predictor called `name` on the command line, with the paper's settings.
 
@@ -591,9 +590,9 @@ def init_command(
     import cv2
     import numpy as np
 
+    from handvar.atomic import write_atomic
     from handvar.hand.anthropometry import HandShape
     from handvar.hand.kinematics import HandModel
-    from handvar.atomic import write_atomic
     from handvar.tracking.init import initial_pose
 
     rig, images, masks = _frame_silhouettes(sources, calib, fov, scale, frame, wrist, threshold)

@@ -731,4 +731,3 @@ def resolve_sequence(
     raise ValueError(
         f"{argument}: expected a sequence directory or one of {', '.join(names)}; got {spec!r}"
     )
-
