@@ -8,7 +8,7 @@ import pytest
 from scipy import stats
 
 from handvar.vision.skin import (
-    SKIN_DEFAULTS,
+    SKIN_SETTINGS,
     GaussianMixture,
     HistogramSkinModel,
     SkinModel,
@@ -222,7 +222,7 @@ def test_mask_threshold_and_order(model):
         np.testing.assert_array_equal(
             model.mask(img, threshold=theta), llr >= np.float32(np.log(theta))
         )
-    np.testing.assert_array_equal(model.mask(img), llr >= np.log(SKIN_DEFAULTS.threshold))
+    np.testing.assert_array_equal(model.mask(img), llr >= np.log(SKIN_SETTINGS.threshold))
     np.testing.assert_array_equal(model.mask(img), model.mask(img[..., ::-1].copy(), order="rgb"))
 
 

@@ -1,4 +1,4 @@
-"""The paper's three synthetic sequences, with ground truth (DESIGN.md §8).
+"""The paper's three synthetic sequences, with ground truth (§8).
 
 - :func:`benchmark` — the 175-frame, 25 fps stereo test sequence of the paper's §4:
   finger articulation replayed from a real recording (htrack ``fingerfist``, see

@@ -39,7 +39,7 @@ from handvar.camera import Camera, Rig
 from handvar.params import N_PARAMS, clamp
 
 __all__ = [
-    "INIT_DEFAULTS",
+    "INIT_SETTINGS",
     "InitResult",
     "InitSettings",
     "candidate_rotations",
@@ -120,7 +120,7 @@ class InitSettings:
             raise ValueError(f"search_tol: expected a positive number; got {self.search_tol!r}")
 
 
-INIT_DEFAULTS = InitSettings()
+INIT_SETTINGS = InitSettings()
 
 
 @dataclass(frozen=True, eq=False)
@@ -197,7 +197,7 @@ def _axis_rotation(axis: int, deg: np.ndarray) -> np.ndarray:
     return out
 
 
-def candidate_rotations(camera: Camera, settings: InitSettings = INIT_DEFAULTS) -> np.ndarray:
+def candidate_rotations(camera: Camera, settings: InitSettings = INIT_SETTINGS) -> np.ndarray:
     """The palm orientations of the search grid, as Euler angles in the world frame.
 
     In the camera's frame (x image right, y image down, z along the view), the base
@@ -435,7 +435,7 @@ def initial_pose(
     rig: Rig,
     hand=None,
     *,
-    settings: InitSettings = INIT_DEFAULTS,
+    settings: InitSettings = INIT_SETTINGS,
     rng: np.random.Generator | None = None,
     tracker_settings=None,
 ) -> InitResult:

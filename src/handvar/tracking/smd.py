@@ -1,4 +1,4 @@
-"""Stochastic meta-descent (SMD), the tracker's optimiser (paper §4, DESIGN.md §5).
+"""Stochastic meta-descent (SMD), the tracker's optimiser (paper §4, §5).
 
 SMD (Schraudolph 1999; Bray et al. 2007 for articulated tracking) is gradient descent
 with one gain per parameter, adapted online from the correlation of successive

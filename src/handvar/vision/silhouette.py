@@ -13,7 +13,7 @@ turns it into one clean silhouette per camera:
    an empty silhouette raises `EmptySilhouetteError` naming the camera and frame.
 
 `nearest_silhouette_pixel` gives, for every pixel, the nearest silhouette pixel — the
-``s*`` of the silhouette cost ``C_s`` (DESIGN.md §4).
+``s*`` of the silhouette cost ``C_s`` (§4).
 
 Masks are ``(H, W)`` arrays; anything non-zero is inside.  Pixel coordinates are
 ``(x, y)`` = (column, row), in pixels.
@@ -34,12 +34,12 @@ from scipy import ndimage
 from handvar.vision.skin import SkinModel, _TableClassifier
 
 __all__ = [
-    "CLEANUP_DEFAULTS",
-    "WRIST_DEFAULTS",
-    "CleanupDefaults",
+    "CLEANUP_SETTINGS",
+    "WRIST_SETTINGS",
+    "CleanupSettings",
     "EmptySilhouetteError",
     "WristCut",
-    "WristDefaults",
+    "WristSettings",
     "clean_mask",
     "cut_wrist",
     "find_wrist",
@@ -50,8 +50,8 @@ __all__ = [
 
 
 @dataclass(frozen=True)
-class CleanupDefaults:
-    """Named defaults of `clean_mask` (paper section 6: skin mask to hand silhouette).
+class CleanupSettings:
+    """Named settings of `clean_mask` (paper section 6: skin mask to hand silhouette).
 
     The paper gives no clean-up parameters; these were chosen on the real example
     video (1280×720, hand about 250 px across) and scale with image size only mildly.
@@ -82,12 +82,12 @@ class CleanupDefaults:
     max_hole_area: int | None = None
 
 
-CLEANUP_DEFAULTS = CleanupDefaults()
+CLEANUP_SETTINGS = CleanupSettings()
 
 
 @dataclass(frozen=True)
-class WristDefaults:
-    """Named defaults of the wrist heuristic (`find_wrist`, `cut_wrist`).
+class WristSettings:
+    """Named settings of the wrist heuristic (`find_wrist`, `cut_wrist`).
 
     Lengths are in units of the palm radius ``R`` (the largest inscribed circle of the
     silhouette, i.e. the maximum of its distance transform).
@@ -118,7 +118,7 @@ class WristDefaults:
     tolerance: float = 0.05
 
 
-WRIST_DEFAULTS = WristDefaults()
+WRIST_SETTINGS = WristSettings()
 
 
 class EmptySilhouetteError(ValueError):
@@ -169,12 +169,12 @@ def _disk(radius: int) -> np.ndarray:
 def clean_mask(
     mask: np.ndarray,
     *,
-    open_radius: int = CLEANUP_DEFAULTS.open_radius,
-    close_radius: int = CLEANUP_DEFAULTS.close_radius,
-    keep: Literal["largest"] | int = CLEANUP_DEFAULTS.keep,
-    fill_holes: bool = CLEANUP_DEFAULTS.fill_holes,
-    min_area: int = CLEANUP_DEFAULTS.min_area,
-    max_hole_area: int | None = CLEANUP_DEFAULTS.max_hole_area,
+    open_radius: int = CLEANUP_SETTINGS.open_radius,
+    close_radius: int = CLEANUP_SETTINGS.close_radius,
+    keep: Literal["largest"] | int = CLEANUP_SETTINGS.keep,
+    fill_holes: bool = CLEANUP_SETTINGS.fill_holes,
+    min_area: int = CLEANUP_SETTINGS.min_area,
+    max_hole_area: int | None = CLEANUP_SETTINGS.max_hole_area,
 ) -> np.ndarray:
     """Clean a raw skin mask into a silhouette.
 
@@ -319,11 +319,11 @@ class WristCut:
 def find_wrist(
     mask: np.ndarray,
     *,
-    forearm_thickness: float = WRIST_DEFAULTS.forearm_thickness,
-    forearm_start: float = WRIST_DEFAULTS.forearm_start,
-    min_forearm_area: float = WRIST_DEFAULTS.min_forearm_area,
-    search: tuple[float, float] = WRIST_DEFAULTS.search,
-    tolerance: float = WRIST_DEFAULTS.tolerance,
+    forearm_thickness: float = WRIST_SETTINGS.forearm_thickness,
+    forearm_start: float = WRIST_SETTINGS.forearm_start,
+    min_forearm_area: float = WRIST_SETTINGS.min_forearm_area,
+    search: tuple[float, float] = WRIST_SETTINGS.search,
+    tolerance: float = WRIST_SETTINGS.tolerance,
 ) -> WristCut | None:
     """Locate the wrist of a hand-and-forearm silhouette, or None if no forearm shows.
 
@@ -353,7 +353,7 @@ def find_wrist(
     mask : (H, W) array_like
         Silhouette (one component is expected; the largest is used).
     forearm_thickness, forearm_start, min_forearm_area, search, tolerance
-        See `WristDefaults`.
+        See `WristSettings`.
 
     Returns
     -------
@@ -449,7 +449,7 @@ def cut_wrist(mask: np.ndarray, **kwargs: float | tuple[float, float]) -> np.nda
     mask : (H, W) array_like
         Silhouette; non-zero is inside.
     **kwargs
-        Passed to `find_wrist` (see `WristDefaults`).
+        Passed to `find_wrist` (see `WristSettings`).
 
     Returns
     -------
@@ -533,7 +533,7 @@ def silhouettes_from_frames(
     order : {"bgr", "rgb"}
         Channel order of the frames.
     cleanup : dict, optional
-        Keyword arguments of `clean_mask` overriding `CLEANUP_DEFAULTS`.
+        Keyword arguments of `clean_mask` overriding `CLEANUP_SETTINGS`.
     wrist : bool
         Cut a visible forearm off at the wrist (`cut_wrist`).
     frame : int, optional

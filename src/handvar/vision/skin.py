@@ -39,7 +39,6 @@ import csv
 import functools
 import io
 import os
-import tempfile
 from collections.abc import Iterable
 from dataclasses import dataclass
 from importlib import resources
@@ -48,12 +47,14 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
+from handvar.atomic import write_atomic
+
 __all__ = [
-    "SKIN_DEFAULTS",
+    "SKIN_SETTINGS",
     "GaussianMixture",
     "HistogramSkinModel",
-    "SkinDefaults",
     "SkinModel",
+    "SkinSettings",
     "bin_centres",
     "colour_indices",
     "jones_rehg_mixtures",
@@ -63,8 +64,8 @@ __all__ = [
 
 
 @dataclass(frozen=True)
-class SkinDefaults:
-    """Named defaults of the skin classifier (paper section 6; Jones & Rehg 2002).
+class SkinSettings:
+    """Named settings of the skin classifier (paper section 6; Jones & Rehg 2002).
 
     Attributes
     ----------
@@ -100,7 +101,7 @@ class SkinDefaults:
     prior: float = 0.5
 
 
-SKIN_DEFAULTS = SkinDefaults()
+SKIN_SETTINGS = SkinSettings()
 
 _ORDERS = ("bgr", "rgb")
 
@@ -404,7 +405,7 @@ class _TableClassifier:
             Colour image, BGR (OpenCV's order) unless ``order="rgb"``.
         threshold : float, optional
             The ratio threshold Θ > 0 (not its log); default
-            ``SKIN_DEFAULTS.threshold`` (see `SkinDefaults`).
+            ``SKIN_SETTINGS.threshold`` (see `SkinSettings`).
         order : {"bgr", "rgb"}
             Channel order of ``image``.
 
@@ -413,7 +414,7 @@ class _TableClassifier:
         (H, W) bool ndarray
             True where the pixel is classified as skin.
         """
-        theta = SKIN_DEFAULTS.threshold if threshold is None else threshold
+        theta = SKIN_SETTINGS.threshold if threshold is None else threshold
         if isinstance(theta, bool) or not isinstance(theta, int | float | np.floating):
             raise ValueError(f"threshold: expected a positive number, got {theta!r}")
         theta = float(theta)
@@ -437,7 +438,7 @@ class SkinModel(_TableClassifier):
         16-component mixtures (`jones_rehg_mixtures`).
     bins : int, optional
         Levels per channel of the lookup table used for images (default
-        ``SKIN_DEFAULTS.bins`` = 64).  The table holds the exact log ratio at the bin
+        ``SKIN_SETTINGS.bins`` = 64).  The table holds the exact log ratio at the bin
         centres (`bin_centres`) and is built on first use (about 0.1 s for 64 bins),
         then cached.  With 64 bins a colour is at most 1.5 levels per channel from
         its bin centre; the tabulated log ratio is within 0.21 (median) / 1.2 (99th
@@ -462,7 +463,7 @@ class SkinModel(_TableClassifier):
         skin: GaussianMixture | None = None,
         nonskin: GaussianMixture | None = None,
         *,
-        bins: int = SKIN_DEFAULTS.bins,
+        bins: int = SKIN_SETTINGS.bins,
     ) -> None:
         if (skin is None) != (nonskin is None):
             raise ValueError("skin, nonskin: expected both mixtures or neither, got one")
@@ -498,7 +499,7 @@ class SkinModel(_TableClassifier):
         c = _as_colours(rgb)
         return self.skin.log_density(c) - self.nonskin.log_density(c)
 
-    def probability(self, rgb: np.ndarray, *, prior: float = SKIN_DEFAULTS.prior) -> np.ndarray:
+    def probability(self, rgb: np.ndarray, *, prior: float = SKIN_SETTINGS.prior) -> np.ndarray:
         """Posterior probability of skin by Bayes' rule.
 
         ``P(skin|c) = 1 / (1 + exp(−(log LR(c) + log(π / (1 − π)))))`` with prior π.
@@ -616,7 +617,7 @@ class HistogramSkinModel(_TableClassifier):
         images: Iterable[np.ndarray],
         masks: Iterable[np.ndarray],
         *,
-        bins: int = SKIN_DEFAULTS.histogram_bins,
+        bins: int = SKIN_SETTINGS.histogram_bins,
         order: str = "bgr",
     ) -> HistogramSkinModel:
         """Count skin and non-skin colours in labelled images.
@@ -672,16 +673,14 @@ class HistogramSkinModel(_TableClassifier):
             The written path.
         """
         path = Path(path)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-        try:
-            with os.fdopen(fd, "wb") as f:
+
+        def write(tmp: str) -> None:
+            with open(tmp, "wb") as f:  # a file object: np.savez adds no suffix
                 np.savez_compressed(
                     f, skin_counts=self.skin_counts, nonskin_counts=self.nonskin_counts
                 )
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+
+        write_atomic(path, write)
         return path
 
     @classmethod
