@@ -74,9 +74,9 @@ def test_bad_input_raises(first60):
     rig = Rig.default()
     with pytest.raises(ValueError, match="x0"):
         Tracker(rig).step(first60.masks[0])
-    with pytest.raises(ValueError, match="predictor"):
+    with pytest.raises(TypeError, match="predictor"):
         Tracker(rig, predictor=object())
-    with pytest.raises(ValueError, match="rng"):
+    with pytest.raises(TypeError, match="rng"):
         Tracker(rig, rng=0)
     with pytest.raises(ValueError, match="x0"):
         Tracker(rig).track(first60, np.zeros(25))

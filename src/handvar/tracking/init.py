@@ -37,6 +37,7 @@ import numpy as np
 
 from handvar.camera import Camera, Rig
 from handvar.params import N_PARAMS, clamp
+from handvar.validate import as_float, as_instance, as_int
 
 __all__ = [
     "INIT_SETTINGS",
@@ -111,13 +112,9 @@ class InitSettings:
             if values.ndim != 1 or values.size == 0 or not np.all(np.isfinite(values)):
                 raise ValueError(f"{name}: expected a non-empty tuple of angles; got {values}")
         for name, low in (("search_size", 8), ("placements", 1), ("keep", 1), ("refine_passes", 0)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < low:
-                raise ValueError(f"{name}: expected an integer >= {low}; got {value!r}")
-        if not (np.isfinite(self.distinct) and 0 <= self.distinct <= 180):
-            raise ValueError(f"distinct: expected an angle in [0, 180]; got {self.distinct!r}")
-        if not (np.isfinite(self.search_tol) and self.search_tol > 0):
-            raise ValueError(f"search_tol: expected a positive number; got {self.search_tol!r}")
+            as_int(getattr(self, name), name, minimum=low)
+        as_float(self.distinct, "distinct", minimum=0, maximum=180)
+        as_float(self.search_tol, "search_tol", minimum=0, exclusive_minimum=True)
 
 
 INIT_SETTINGS = InitSettings()
@@ -479,15 +476,12 @@ def initial_pose(
     from handvar.hand.kinematics import HandModel, named_pose
     from handvar.render import silhouettes
 
-    if not isinstance(rig, Rig):
-        raise ValueError(f"rig: expected a handvar.camera.Rig; got {type(rig).__name__}")
-    if not isinstance(settings, InitSettings):
-        raise ValueError(f"settings: expected InitSettings; got {type(settings).__name__}")
+    as_instance(rig, Rig, "rig", what="a handvar.camera.Rig")
+    as_instance(settings, InitSettings, "settings")
     hand = HandModel() if hand is None else hand
     m = _check_masks(masks, rig)
     rng = np.random.default_rng(0) if rng is None else rng
-    if not isinstance(rng, np.random.Generator):
-        raise ValueError(f"rng: expected a numpy.random.Generator; got {type(rng).__name__}")
+    as_instance(rng, np.random.Generator, "rng", what="a numpy.random.Generator")
 
     views = [_search_view(m[j], cam, settings.search_size) for j, cam in enumerate(rig)]
     rotations = candidate_rotations(rig.cameras[0], settings)
