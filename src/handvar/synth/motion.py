@@ -27,6 +27,7 @@ from scipy.interpolate import CubicSpline
 from scipy.ndimage import gaussian_filter1d
 
 from handvar.params import LOWER, N_PARAMS, NAMES, UPPER, clamp
+from handvar.validate import as_float
 
 __all__ = [
     "HTRACK_EXCERPT_FIRST_ROW",
@@ -174,11 +175,8 @@ def _check_key_poses(key_poses) -> np.ndarray:
 
 
 def _check_fps(fps: float, name: str = "fps") -> float:
-    try:
-        value = float(fps)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a positive frame rate; got {fps!r}") from None
-    if not (np.isfinite(value) and value > 0):
+    value = as_float(fps, name)
+    if value <= 0:
         raise ValueError(f"{name}: expected a positive frame rate; got {fps!r}")
     return value
 

@@ -31,6 +31,7 @@ import cv2
 import numpy as np
 from scipy import ndimage
 
+from handvar.validate import as_int, one_of
 from handvar.vision.skin import SkinModel, _TableClassifier
 
 __all__ = [
@@ -153,12 +154,6 @@ def _as_mask(mask: np.ndarray, name: str = "mask") -> np.ndarray:
     return np.ascontiguousarray(arr != 0, dtype=np.uint8)
 
 
-def _check_radius(value: int, name: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
-        raise ValueError(f"{name}: expected an int >= 0 (pixels), got {value!r}")
-    return int(value)
-
-
 def _disk(radius: int) -> np.ndarray:
     return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
 
@@ -217,17 +212,16 @@ def clean_mask(
     (625, True, False)
     """
     m = _as_mask(mask)
-    open_radius = _check_radius(open_radius, "open_radius")
-    close_radius = _check_radius(close_radius, "close_radius")
-    min_area = _check_radius(min_area, "min_area")
-    if keep == "largest":
+    open_radius = as_int(open_radius, "open_radius", minimum=0)
+    close_radius = as_int(close_radius, "close_radius", minimum=0)
+    min_area = as_int(min_area, "min_area", minimum=0)
+    if isinstance(keep, str):
+        one_of(keep, ("largest",), "keep")
         n_keep = 1
-    elif isinstance(keep, int | np.integer) and not isinstance(keep, bool) and keep >= 1:
-        n_keep = int(keep)
     else:
-        raise ValueError(f"keep: expected 'largest' or an int >= 1, got {keep!r}")
+        n_keep = as_int(keep, "keep", minimum=1)
     if max_hole_area is not None:
-        max_hole_area = _check_radius(max_hole_area, "max_hole_area")
+        max_hole_area = as_int(max_hole_area, "max_hole_area", minimum=0)
 
     if open_radius:
         m = cv2.morphologyEx(m, cv2.MORPH_OPEN, _disk(open_radius))

@@ -48,6 +48,7 @@ import numpy as np
 from numba import njit
 
 from handvar.atomic import write_atomic
+from handvar.validate import as_float, as_int, one_of
 
 __all__ = [
     "SKIN_SETTINGS",
@@ -258,11 +259,9 @@ def jones_rehg_mixtures() -> tuple[GaussianMixture, GaussianMixture]:
 
 
 def _check_bins(bins: int, name: str = "bins") -> int:
-    if isinstance(bins, bool) or not isinstance(bins, int | np.integer):
-        raise ValueError(f"{name}: expected an int power of two in 2..256, got {bins!r}")
-    bins = int(bins)
-    if bins < 2 or bins > 256 or bins & (bins - 1):
-        raise ValueError(f"{name}: expected a power of two in 2..256, got {bins}")
+    bins = as_int(bins, name, minimum=2, maximum=256)
+    if bins & (bins - 1):
+        raise ValueError(f"{name}: expected a power of two in [2, 256]; got {bins}")
     return bins
 
 
@@ -285,16 +284,10 @@ def bin_centres(bins: int) -> np.ndarray:
 def _check_image(image: np.ndarray, name: str = "image") -> np.ndarray:
     if not isinstance(image, np.ndarray) or image.dtype != np.uint8:
         dtype = getattr(image, "dtype", type(image).__name__)
-        raise ValueError(f"{name}: expected a uint8 colour image, got dtype {dtype}")
+        raise ValueError(f"{name}: expected a uint8 colour image; got dtype {dtype}")
     if image.ndim != 3 or image.shape[2] != 3:
-        raise ValueError(f"{name}: expected shape (H, W, 3), got {image.shape}")
+        raise ValueError(f"{name}: expected shape (H, W, 3); got {image.shape}")
     return image
-
-
-def _check_order(order: str) -> str:
-    if order not in _ORDERS:
-        raise ValueError(f"order: expected 'bgr' or 'rgb', got {order!r}")
-    return order
 
 
 def colour_indices(image: np.ndarray, bins: int, *, order: str = "bgr") -> np.ndarray:
@@ -320,7 +313,7 @@ def colour_indices(image: np.ndarray, bins: int, *, order: str = "bgr") -> np.nd
     """
     image = _check_image(image)
     bins = _check_bins(bins)
-    order = _check_order(order)
+    order = one_of(order, _ORDERS, "order")
     k = bins.bit_length() - 1  # log2(bins)
     shift = 8 - k
     q = image >> shift if shift else image
@@ -353,7 +346,7 @@ def _gather(table: np.ndarray, image: np.ndarray, bins: int, order: str) -> np.n
     """``table.ravel().take(colour_indices(image, bins, order=order))``, compiled."""
     image = _check_image(image)
     bins = _check_bins(bins)
-    order = _check_order(order)
+    order = one_of(order, _ORDERS, "order")
     k = bins.bit_length() - 1
     r, b = (2, 0) if order == "bgr" else (0, 2)
     out = np.empty(image.shape[:2], dtype=table.dtype)
@@ -415,11 +408,7 @@ class _TableClassifier:
             True where the pixel is classified as skin.
         """
         theta = SKIN_SETTINGS.threshold if threshold is None else threshold
-        if isinstance(theta, bool) or not isinstance(theta, int | float | np.floating):
-            raise ValueError(f"threshold: expected a positive number, got {theta!r}")
-        theta = float(theta)
-        if not (theta > 0 and np.isfinite(theta)):
-            raise ValueError(f"threshold: expected a finite number > 0, got {theta}")
+        theta = as_float(theta, "threshold", minimum=0, exclusive_minimum=True)
         cache = getattr(self, "_mask_cache", None)
         if cache is None or cache[0] != theta:
             # One boolean table per threshold: the test becomes a single gather.
