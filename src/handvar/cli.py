@@ -2,6 +2,9 @@
 
 Every command turns a wrong input (a ``ValueError``, a ``TypeError`` or an unreadable
 file) into one line on standard error and a non-zero exit status, never a traceback.
+
+One concept, the command line: each command is a thin section calling the library,
+which is why the module is a little over 600 lines.
 """
 
 from __future__ import annotations

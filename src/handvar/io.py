@@ -16,6 +16,9 @@ failed write never leaves a half-written directory nor destroys the previous one
 
 What a sequence argument names -- a recording (video files or image folders), a
 sequence directory or a synthetic sequence -- is decided by :func:`resolve_sequence`.
+
+One concept, sequences on disk (the format, its reader and writer), which is why the
+module is over 600 lines.
 """
 
 from __future__ import annotations
@@ -37,7 +40,7 @@ import numpy as np
 
 from handvar.atomic import write_atomic
 from handvar.camera import Rig
-from handvar.validate import as_instance
+from handvar.validate import as_float, as_instance
 
 __all__ = [
     "FORMAT",
@@ -228,17 +231,12 @@ class Sequence:
     provenance: dict[str, Any] = dataclasses.field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        if not isinstance(self.name, str) or not self.name:
+        if not as_instance(self.name, str, "name", what="a non-empty string"):
             raise ValueError(f"name: expected a non-empty string; got {self.name!r}")
-        try:
-            fps = float(self.fps)
-        except (TypeError, ValueError):
-            raise ValueError(f"fps: expected a positive frame rate; got {self.fps!r}") from None
-        if not (math.isfinite(fps) and fps > 0):
+        if as_float(self.fps, "fps") <= 0:
             raise ValueError(f"fps: expected a positive frame rate; got {self.fps!r}")
-        self.fps = fps
-        if not isinstance(self.rig, Rig):
-            raise ValueError(f"rig: expected a handvar.camera.Rig; got {type(self.rig).__name__}")
+        self.fps = float(self.fps)
+        as_instance(self.rig, Rig, "rig", what="a handvar.camera.Rig")
         if not isinstance(self.masks, FrameStack):
             masks = np.asarray(self.masks)
             if masks.dtype != bool:
@@ -270,15 +268,13 @@ class Sequence:
                     f"got shape {tuple(self.rgb.shape)}"
                 )
         if self.truth is not None:
-            if not isinstance(self.truth, Truth):
-                raise ValueError(f"truth: expected a Truth; got {type(self.truth).__name__}")
+            as_instance(self.truth, Truth, "truth")
             if self.truth.poses.shape[0] != shape[0]:
                 raise ValueError(
                     f"truth: expected {shape[0]} frames to match the masks; "
                     f"got {self.truth.poses.shape[0]}"
                 )
-        if not isinstance(self.provenance, dict):
-            raise ValueError(f"provenance: expected a dict; got {type(self.provenance).__name__}")
+        as_instance(self.provenance, dict, "provenance")
         try:
             json.dumps(self.provenance)
         except (TypeError, ValueError) as exc:
@@ -381,12 +377,13 @@ def write_sequence(
     Raises
     ------
     ValueError
-        If `seq` is not a Sequence or `path` holds something other than a sequence.
+        If `path` holds something other than a sequence.
+    TypeError
+        If `seq` is not a Sequence.
     OSError
         If a file cannot be written.
     """
-    if not isinstance(seq, Sequence):
-        raise ValueError(f"seq: expected a handvar.io.Sequence; got {type(seq).__name__}")
+    as_instance(seq, Sequence, "seq", what="a handvar.io.Sequence")
     target = check_output_dir(path)
     parent = target.parent
     parent.mkdir(parents=True, exist_ok=True)

@@ -17,6 +17,9 @@ turns it into one clean silhouette per camera:
 
 Masks are ``(H, W)`` arrays; anything non-zero is inside.  Pixel coordinates are
 ``(x, y)`` = (column, row), in pixels.
+
+One concept, a silhouette from a skin mask, which is why the module is a little
+over 600 lines.
 """
 
 from __future__ import annotations

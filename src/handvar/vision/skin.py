@@ -31,6 +31,8 @@ these figures; ``bins=256`` is exact (table build about 8 s).
 Images are OpenCV's BGR ``uint8`` by default; pass ``order="rgb"`` for RGB images.
 Colour triplets given to the density methods (`SkinModel.log_likelihood_ratio`,
 `SkinModel.probability`) are always in RGB order, in grey levels 0–255.
+
+One concept, the skin colour classifier, which is why the module is over 600 lines.
 """
 
 from __future__ import annotations
