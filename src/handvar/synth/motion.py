@@ -27,7 +27,7 @@ from scipy.interpolate import CubicSpline
 from scipy.ndimage import gaussian_filter1d
 
 from handvar.params import LOWER, N_PARAMS, NAMES, UPPER, clamp
-from handvar.validate import as_float
+from handvar.validate import as_array, as_float
 
 __all__ = [
     "HTRACK_EXCERPT_FIRST_ROW",
@@ -338,15 +338,6 @@ class HtrackMapping:
     )
 
 
-def _check_table(array, name: str) -> np.ndarray:
-    arr = np.asarray(array, dtype=float)
-    if arr.ndim != 2 or arr.shape[1] != N_PARAMS:
-        raise ValueError(f"{name}: expected an array of shape (N, 26); got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: expected finite values; got NaN or infinity")
-    return arr
-
-
 def htrack_to_handvar(array, mapping: HtrackMapping = HtrackMapping()) -> np.ndarray:
     """Convert htrack poses (radians, htrack order and signs) to our 26 parameters.
 
@@ -374,7 +365,7 @@ def htrack_to_handvar(array, mapping: HtrackMapping = HtrackMapping()) -> np.nda
     >>> float(htrack_to_handvar(row)[0, 15])   # ours: index_pip, minus its rest
     46.0
     """
-    src = _check_table(array, "array")
+    src = as_array(array, "array", (None, N_PARAMS))
     out = np.empty_like(src)
     out[:, 0:3] = mapping.translation_scale * src[:, 0:3]
     out[:, 3:6] = np.degrees(src[:, 3:6])
@@ -560,7 +551,7 @@ def replay(
     if isinstance(recording, str | os.PathLike):
         table = load_htrack(recording)
     else:
-        table = _check_table(recording, "recording")
+        table = as_array(recording, "recording", (None, N_PARAMS))
     n = table.shape[0]
     stop = n if stop is None else stop
     if not (0 <= start < stop <= n) or stop - start < 2:
