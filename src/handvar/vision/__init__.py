@@ -2,7 +2,9 @@
 
 `skin` classifies pixels by colour (the Jones–Rehg skin / non-skin mixtures, or a
 histogram trained on labelled images); `silhouette` cleans the resulting masks, cuts a
-visible forearm at the wrist and handles any number of cameras.
+visible forearm at the wrist and handles any number of cameras; `frames` reads one
+camera's video file or image folder, and `sources` puts the cameras of a recording
+together with their rig.
 """
 
 from handvar.vision.silhouette import (
