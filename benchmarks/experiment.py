@@ -20,12 +20,10 @@ import time
 
 import numpy as np
 
-from handvar.evaluation.experiment import (
-    ExperimentConfig,
-    open_store,
-    run_experiment,
-    run_trial,
-)
+from handvar.evaluation.config import ExperimentConfig
+from handvar.evaluation.experiment import run_experiment
+from handvar.evaluation.store import open_store
+from handvar.evaluation.trials import run_trial
 from handvar.synth.sequences import make_sequence
 
 

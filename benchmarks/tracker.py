@@ -16,10 +16,12 @@ import time
 
 import numpy as np
 
-from handvar.cli import make_predictor
+from handvar.evaluation.metrics import mean_joint_error
 from handvar.hand import HandModel
+from handvar.predictors.catalogue import make_predictor
 from handvar.synth.sequences import make_sequence
 from handvar.tracking import Tracker
+from handvar.tracking.tracker import TIMING_PARTS
 
 
 def main() -> None:
@@ -49,11 +51,11 @@ def main() -> None:
     med = np.median(result.seconds, axis=0) * 1e3
     per_frame = np.median(result.seconds.sum(axis=1)) * 1e3
     per_iter = np.median(result.seconds[:, 1] / result.iterations) * 1e6
-    err = result.mean_joint_error(seq.truth.joints)
+    err = mean_joint_error(seq.truth.joints, result.joints)
     print(f"benchmark sequence, {T} frames, predictor {args.predictor}, seed {args.seed}")
     print(f"  frames/s (wall, whole run)       {T / wall:8.1f}")
     print(f"  median ms/frame                  {per_frame:8.2f}")
-    for name, ms in zip(result.TIMING_PARTS, med, strict=True):
+    for name, ms in zip(TIMING_PARTS, med, strict=True):
         print(f"    {name:<30s} {ms:8.3f}")
     print(f"  median µs per SMD iteration      {per_iter:8.1f}")
     print(f"  mean iterations/frame            {result.iterations.mean():8.1f}")

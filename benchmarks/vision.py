@@ -2,7 +2,7 @@
 
 Prints medians (milliseconds) over repeated runs on frames of the example video
 (``examples/data/dex-human-hand-video.mp4``); falls back to random frames if it cannot
-be read.  Target (DESIGN.md §10 and the vision part): skin mask of a 1280×720 frame
+be read.  Target (§10 and the vision part): skin mask of a 1280×720 frame
 ≤ 10 ms; the one-off table build is printed separately.
 
 Run: ``.venv/bin/python benchmarks/vision.py``

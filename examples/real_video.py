@@ -40,9 +40,10 @@ from handvar.hand import HandModel
 from handvar.params import NAMES
 from handvar.predictors import RVAR
 from handvar.render import silhouettes
+from handvar.render.overlay import OverlayWriter, overlay_frame
 from handvar.tracking.init import initial_pose, silhouette_iou
 from handvar.tracking.tracker import Tracker
-from handvar.vision.sources import OverlayWriter, open_source, overlay_frame
+from handvar.vision.sources import open_source
 
 ROOT = Path(__file__).resolve().parent.parent
 VIDEO = ROOT / "examples" / "data" / "dex-human-hand-video.mp4"

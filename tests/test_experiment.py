@@ -11,19 +11,17 @@ import numpy as np
 import pytest
 
 from handvar import params
-from handvar.evaluation.experiment import (
+from handvar.evaluation.config import (
     EXTRA_PREDICTORS,
     PAPER_PREDICTORS,
     ExperimentConfig,
     PredictorSpec,
-    open_store,
-    read_config,
-    run_experiment,
-    run_trial,
-    store_sequence,
     tracker_settings,
 )
+from handvar.evaluation.experiment import run_experiment
 from handvar.evaluation.metrics import mean_joint_error, r2_tilde_acceleration, r2_tilde_joints
+from handvar.evaluation.store import open_store, read_config, store_sequence
+from handvar.evaluation.trials import FrameCache, TrialRunner, run_trial
 from handvar.predictors import RVAR, VAR, Decelerating, one_step_predictions
 
 # The paper's five predictors with the tracker, reduced: 2 trials of 40 frames.
@@ -174,6 +172,35 @@ def test_tracker_trial_is_the_tracker_with_the_trials_seed():
         SHORT.with_overrides(["tracker.speed=3"])
     with pytest.raises(ValueError, match="max_iterations"):
         SHORT.with_overrides(["tracker.max_iterations=0"])
+
+
+def test_frame_cache_prepares_once_per_sequence_and_gives_the_same_trial():
+    import pickle
+
+    from handvar.synth.sequences import make_sequence
+
+    cfg = dataclasses.replace(SHORT, frames=6).with_overrides(["tracker.max_iterations=8"])
+    seq = make_sequence("benchmark", n_frames=6)
+    runner = TrialRunner(seq)
+    first = runner.run(cfg, "rvar", 1)
+    held = runner.cache._held[2]
+    assert len(runner.cache) == 6
+    again = runner.run(cfg, "none", 0)
+    assert runner.cache._held[2] is held  # the same prepared frames, not prepared again
+    # a trial with shared frames is the trial without them, bit for bit
+    np.testing.assert_array_equal(first.poses, run_trial(cfg, "rvar", 1, seq).poses)
+    np.testing.assert_array_equal(again.poses, run_trial(cfg, "none", 0, seq).poses)
+    # another sequence object replaces the held one; a pickled cache travels empty
+    runner.cache.frames(_tracker(seq), make_sequence("benchmark", n_frames=6), "k")
+    assert runner.cache._held[2] is not held
+    assert len(pickle.loads(pickle.dumps(runner.cache))) == 0
+    assert isinstance(pickle.loads(pickle.dumps(runner)).cache, FrameCache)
+
+
+def _tracker(seq):
+    from handvar.tracking import Tracker
+
+    return Tracker(seq.rig)
 
 
 def _joints(x):

@@ -278,5 +278,5 @@ def test_sequence_rejects_inconsistent_arrays():
         Truth(np.zeros((3, 26)), np.zeros((3, 20, 3)))
     with pytest.raises(ValueError, match="provenance: expected JSON-friendly values"):
         Sequence("x", 25.0, _rig(), masks, provenance={"rng": rng})
-    with pytest.raises(ValueError, match=r"seq: expected a handvar\.io\.Sequence"):
+    with pytest.raises(TypeError, match=r"seq: expected a handvar\.io\.Sequence"):
         write_sequence(masks, "/nonexistent")

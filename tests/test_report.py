@@ -11,18 +11,19 @@ import numpy as np
 import pytest
 import zarr
 
-from handvar.evaluation.experiment import ExperimentConfig, open_store, run_experiment
-from handvar.evaluation.report import (
-    error_peaks,
-    evaluate_claims,
-    load_results,
+from handvar.evaluation.claims import evaluate_claims
+from handvar.evaluation.config import ExperimentConfig
+from handvar.evaluation.experiment import run_experiment
+from handvar.evaluation.figures import (
     mean_error_figure,
     overlay_figure,
     r2_boxplot,
     sweep_figure,
     sweeps,
-    write_report,
 )
+from handvar.evaluation.report import write_report
+from handvar.evaluation.results import error_peaks, load_results
+from handvar.evaluation.store import open_store
 
 # Open-loop trials: cheap and real (the predictors on noisy truth), all seven predictors.
 CONFIG = (

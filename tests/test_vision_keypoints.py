@@ -19,7 +19,6 @@ from handvar.vision.keypoints import (
     read_keypoints,
     write_keypoints,
 )
-from handvar.vision.sources import scale_camera
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "data"
 VIDEO = EXAMPLES / "dex-human-hand-video.mp4"
@@ -165,7 +164,7 @@ def test_scaling_matches_the_scaled_camera(factor):
     rng = np.random.default_rng(6)
     world = np.column_stack([rng.uniform(-100, 100, (21, 2)), rng.uniform(400, 600, 21)])
     kp = Keypoints2D.from_array(cam.project(world)[None])
-    small = scale_camera(cam, factor)
+    small = cam.scaled(factor)
     np.testing.assert_allclose(kp.scaled(factor, cam.size).xy[0], small.project(world), atol=1e-9)
 
 

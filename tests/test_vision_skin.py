@@ -8,7 +8,7 @@ import pytest
 from scipy import stats
 
 from handvar.vision.skin import (
-    SKIN_DEFAULTS,
+    SKIN_SETTINGS,
     GaussianMixture,
     HistogramSkinModel,
     SkinModel,
@@ -175,8 +175,11 @@ def test_bin_centres():
     np.testing.assert_array_equal(bin_centres(64)[:3], [1.5, 5.5, 9.5])
     np.testing.assert_array_equal(bin_centres(256), np.arange(256))
     assert bin_centres(2).tolist() == [63.5, 191.5]
-    for bad in (0, 3, 512, 64.0, True):
+    for bad in (0, 3, 512):
         with pytest.raises(ValueError, match="bins"):
+            bin_centres(bad)
+    for bad in (64.0, True):
+        with pytest.raises(TypeError, match="bins"):
             bin_centres(bad)
 
 
@@ -222,23 +225,23 @@ def test_mask_threshold_and_order(model):
         np.testing.assert_array_equal(
             model.mask(img, threshold=theta), llr >= np.float32(np.log(theta))
         )
-    np.testing.assert_array_equal(model.mask(img), llr >= np.log(SKIN_DEFAULTS.threshold))
+    np.testing.assert_array_equal(model.mask(img), llr >= np.log(SKIN_SETTINGS.threshold))
     np.testing.assert_array_equal(model.mask(img), model.mask(img[..., ::-1].copy(), order="rgb"))
 
 
 @pytest.mark.parametrize(
-    ("kwargs", "match"),
+    ("kwargs", "match", "error"),
     [
-        ({"image": np.zeros((4, 4, 3), np.float32)}, "image: expected a uint8"),
-        ({"image": np.zeros((4, 4), np.uint8)}, r"image: expected shape \(H, W, 3\)"),
-        ({"image": np.zeros((4, 4, 3), np.uint8), "order": "hsv"}, "order"),
-        ({"image": np.zeros((4, 4, 3), np.uint8), "threshold": 0.0}, "threshold"),
-        ({"image": np.zeros((4, 4, 3), np.uint8), "threshold": "1"}, "threshold"),
+        ({"image": np.zeros((4, 4, 3), np.float32)}, "image: expected a uint8", ValueError),
+        ({"image": np.zeros((4, 4), np.uint8)}, r"image: expected shape \(H, W, 3\)", ValueError),
+        ({"image": np.zeros((4, 4, 3), np.uint8), "order": "hsv"}, "order", ValueError),
+        ({"image": np.zeros((4, 4, 3), np.uint8), "threshold": 0.0}, "threshold", ValueError),
+        ({"image": np.zeros((4, 4, 3), np.uint8), "threshold": "1"}, "threshold", TypeError),
     ],
 )
-def test_mask_rejects_bad_input(model, kwargs, match):
+def test_mask_rejects_bad_input(model, kwargs, match, error):
     image = kwargs.pop("image")
-    with pytest.raises(ValueError, match=match):
+    with pytest.raises(error, match=match):
         model.mask(image, **kwargs)
 
 

@@ -12,15 +12,9 @@ import pytest
 from handvar.camera import Camera, Rig
 from handvar.hand import HandModel, named_pose
 from handvar.render import render_rgb, silhouette_of_spheres
+from handvar.render.overlay import OverlayWriter, overlay_frame
 from handvar.vision import EmptySilhouetteError
-from handvar.vision.sources import (
-    OverlayWriter,
-    assumed_camera,
-    open_frames,
-    open_source,
-    overlay_frame,
-    scale_camera,
-)
+from handvar.vision.sources import assumed_camera, open_frames, open_source
 
 
 def random_frames(n: int, size=(96, 64), seed: int = 0) -> list[np.ndarray]:
@@ -70,7 +64,7 @@ def test_scale_camera_matches_cv2_resize_of_a_rendered_silhouette():
                  t=[0.0, -90.0, 500.0], size=(640, 480))  # fmt: skip
     centres, radii = hand.world_spheres(named_pose("spread"))
     full = silhouette_of_spheres(centres, radii, cam, coverage="centre").astype(np.float32)
-    small_cam = scale_camera(cam, 0.5)
+    small_cam = cam.scaled(0.5)
     assert small_cam.size == (320, 240)
     resized = cv2.resize(full, small_cam.size, interpolation=cv2.INTER_AREA) > 0.5
     direct = silhouette_of_spheres(centres, radii, small_cam, coverage="centre")
@@ -154,7 +148,7 @@ def test_calibration_that_does_not_fit(tmp_path):
         open_source([folder, folder], calib, fov=50.0)
     source = open_source([folder, folder], calib, scale=0.5)
     assert source.calibrated and source.rig.names == ("left", "right")
-    assert source.rig["left"].allclose(scale_camera(Rig.default()["left"], 0.5))
+    assert source.rig["left"].allclose(Rig.default()["left"].scaled(0.5))
 
 
 def test_empty_silhouette_names_the_file_and_frame(tmp_path):

@@ -403,12 +403,97 @@ class Camera:
         except (TypeError, ValueError) as exc:
             raise type(exc)(f"{where}: {exc}") from None
 
+    def scaled(self, factor: float) -> Camera:
+        """The same camera for images resized by `factor` (``cv2.resize``'s pixel grid).
+
+        A pixel centre ``u`` of the original image maps to ``(u + ½)·s − ½`` in the resized
+        one, with ``s`` the exact ratio of the integer sizes per axis (``round(W·factor) /
+        W``), so ``fx' = s fx`` and ``cx' = (cx + ½) s − ½``.  Distortion acts on
+        normalised coordinates and is unchanged, as are R and t.
+
+        Parameters
+        ----------
+        factor : float
+            Resize factor, > 0.
+
+        Returns
+        -------
+        Camera
+            With image size ``(round(W·factor), round(H·factor))``.
+
+        Examples
+        --------
+        >>> Camera(500.0, 500.0, 319.5, 239.5, size=(640, 480)).scaled(0.5).cx
+        159.5
+        """
+        from handvar.validate import as_float
+
+        factor = as_float(factor, "factor", minimum=0.0, exclusive_minimum=True)
+        w, h = self.size
+        w2, h2 = max(1, round(w * factor)), max(1, round(h * factor))
+        sx, sy = w2 / w, h2 / h
+        return Camera(
+            self.fx * sx,
+            self.fy * sy,
+            (self.cx + 0.5) * sx - 0.5,
+            (self.cy + 0.5) * sy - 0.5,
+            dist=self.dist,
+            R=self.R,
+            t=self.t,
+            size=(w2, h2),
+        )
+
+    @classmethod
+    def assumed(cls, size: tuple[int, int], *, fov: float) -> Camera:
+        """A camera for uncalibrated monocular video, from an assumed field of view.
+
+        The camera sits at the world origin looking along world +z (``R = I``, ``t = 0``),
+        image x to the right and y down; square pixels, no distortion, principal point at
+        the image centre, and the focal length that gives the horizontal field of view
+        `fov`: ``fx = fy = (W / 2) / tan(fov / 2)``.
+
+        Depth is only as good as this guess: the tracker places a hand of the model's size
+        at the distance where its image has the observed size, so a focal length off by
+        k % puts the hand k % too near or too far (its image position and shape are
+        unaffected).
+
+        Parameters
+        ----------
+        size : (int, int)
+            Image (width, height), pixels.
+        fov : float, keyword-only
+            Horizontal field of view, degrees, in (0, 180).
+
+        Returns
+        -------
+        Camera
+
+        Examples
+        --------
+        >>> cam = Camera.assumed((1280, 720), fov=60.0)
+        >>> round(cam.fx, 1), cam.cx, cam.cy
+        (1108.5, 639.5, 359.5)
+        """
+        import math
+
+        from handvar.validate import as_float, as_instance, as_int
+
+        as_instance(size, (tuple, list, np.ndarray), "size", what="(width, height) in pixels")
+        if len(size) != 2:
+            raise ValueError(f"size: expected (width, height) in pixels; got {size!r}")
+        w, h = (as_int(v, "size", minimum=1) for v in size)
+        fov = as_float(fov, "fov", minimum=0.0, maximum=180.0)
+        if fov in (0.0, 180.0):
+            raise ValueError(f"fov: expected a field of view in (0, 180) degrees; got {fov}")
+        f = 0.5 * w / math.tan(math.radians(0.5 * fov))
+        return cls(f, f, (w - 1) / 2.0, (h - 1) / 2.0, size=(w, h))
+
 
 # --- Rig -----------------------------------------------------------------------------
 
 
 @dataclass(frozen=True)
-class RigDefaults:
+class RigSettings:
     """The convergent stereo pair of the paper (§2, figure 1).
 
     Two 640×480 cameras on the world −z side, ``distance`` from the world origin,
@@ -511,9 +596,9 @@ class Rig:
         )
 
     @classmethod
-    def default(cls, defaults: RigDefaults | None = None) -> Rig:
-        """The paper's convergent stereo pair (see :class:`RigDefaults`)."""
-        d = RigDefaults() if defaults is None else defaults
+    def default(cls, defaults: RigSettings | None = None) -> Rig:
+        """The paper's convergent stereo pair (see :class:`RigSettings`)."""
+        d = RigSettings() if defaults is None else defaults
         half = d.baseline / 2.0
         z = -np.sqrt(d.distance**2 - half**2)
         cams = tuple(
@@ -640,6 +725,10 @@ class Rig:
             )
         finally:
             fs.release()
+
+    def scaled(self, factor: float) -> Rig:
+        """Every camera through :meth:`Camera.scaled` (same names)."""
+        return Rig(tuple(c.scaled(factor) for c in self), self.names)
 
 
 class _NodeReader:

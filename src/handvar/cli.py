@@ -1,7 +1,10 @@
 """The `handvar` command.
 
-Every command turns a wrong input (a ``ValueError`` or an unreadable file) into one
-line on standard error and a non-zero exit status, never a traceback.
+Every command turns a wrong input (a ``ValueError``, a ``TypeError`` or an unreadable
+file) into one line on standard error and a non-zero exit status, never a traceback.
+
+One concept, the command line: each command is a thin section calling the library,
+which is why the module is a little over 600 lines.
 """
 
 from __future__ import annotations
@@ -11,15 +14,17 @@ import sys
 
 import click
 
+from handvar.predictors.catalogue import CATALOGUE
+
 
 def _one_line_errors(func):
-    """Report ValueError / OSError as one line and exit with status 2."""
+    """Report ValueError / TypeError / OSError as one line and exit with status 2."""
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
         try:
             return func(*args, **kwargs)
-        except (ValueError, OSError) as exc:
+        except (ValueError, TypeError, OSError) as exc:
             msg = " ".join(str(exc).split())
             click.echo(f"handvar: error: {msg}", err=True)
             sys.exit(2)
@@ -173,11 +178,11 @@ def show_command(
     rendering) with the 21 joints and the bones drawn on it.
     """
     import os
-    import tempfile
 
     import cv2
     import numpy as np
 
+    from handvar.atomic import write_atomic
     from handvar.camera import Rig
     from handvar.hand.anthropometry import HandShape
     from handvar.hand.kinematics import HandModel
@@ -201,16 +206,12 @@ def show_command(
     titles = [f"{label} - {name} camera" for name in rig.names]
     image = side_by_side(views, titles)
     out = out or f"{label}.png"
-    folder = os.path.dirname(os.path.abspath(out))
-    fd, tmp = tempfile.mkstemp(prefix=".show-", suffix=".png", dir=folder)
-    os.close(fd)
-    try:
+
+    def write_png(tmp: str) -> None:
         if not cv2.imwrite(tmp, cv2.cvtColor(image, cv2.COLOR_RGB2BGR)):
             raise OSError(f"{out}: cannot write the PNG")
-        os.replace(tmp, out)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+
+    write_atomic(out, write_png)
     click.echo(f"{label}: {len(rig)} views -> {out}")
 
 
@@ -325,12 +326,9 @@ def experiment_command(store, scheduler, workers, assignments, sweeps, quick, ex
     """
     import os
 
-    from handvar.evaluation.experiment import (
-        ExperimentConfig,
-        read_config,
-        run_experiment,
-        summary_text,
-    )
+    from handvar.evaluation.config import ExperimentConfig
+    from handvar.evaluation.experiment import run_experiment, summary_text
+    from handvar.evaluation.store import read_config
 
     if os.path.exists(store) and not (assignments or sweeps or quick or extras):
         config = read_config(store)
@@ -378,19 +376,27 @@ def report_command(store, out):
 
 # --- track: fit the hand model to every frame of a sequence ----------------------------
 
-_TRACK_PREDICTORS = ("none", "decel", "fullvar", "svar", "rvar", "rvar-rel", "kalman")
-
 
 def make_predictor(name: str):
-    """The predictor called `name` on the command line, with the paper's settings."""
+    """The predictor called `name` on the command line, with the paper's settings.
+
+    Any name the catalogue knows (`handvar.predictors.catalogue.make_predictor`).
+    """
     from handvar.predictors.catalogue import make_predictor as build
 
     try:
         return build(name)
-    except ValueError:
-        raise ValueError(
-            f"--predictor: expected one of {', '.join(_TRACK_PREDICTORS)}; got {name!r}"
-        ) from None
+    except ValueError as exc:
+        raise ValueError(f"--{exc}") from None
+
+
+def _check_predictor(ctx, param, value: str) -> str:
+    """Click callback: `value` must name a predictor of the catalogue."""
+    try:
+        make_predictor(value)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc).split(": ", 1)[1]) from None
+    return value
 
 
 def _recording_options(func):
@@ -420,8 +426,9 @@ def _recording_options(func):
 @main.command("track")
 @click.argument("seq")
 @click.option(
-    "--predictor", type=click.Choice(_TRACK_PREDICTORS), default="rvar", show_default=True,
-    help="Motion predictor giving each frame's starting pose.",
+    "--predictor", default="rvar", show_default=True, callback=_check_predictor,
+    help="Motion predictor giving each frame's starting pose: "
+    f"{', '.join(CATALOGUE)}, or a short name (decel, svar, ...).",
 )  # fmt: skip
 @click.option(
     "--init", "init", default=None,
@@ -464,23 +471,21 @@ def track_command(
 
     from handvar.hand.anthropometry import HandShape
     from handvar.hand.kinematics import HandModel
-    from handvar.io import read_sequence
+    from handvar.io import read_sequence, resolve_sequence
     from handvar.synth.sequences import SEQUENCE_NAMES, make_sequence
     from handvar.tracking import Tracker
     from handvar.tracking.outputs import recording_backgrounds, write_track_outputs
 
+    spec = resolve_sequence(seq, names=SEQUENCE_NAMES, argument="SEQ")
     source = None  # a real recording: its colour frames go under the overlays
-    if _is_recording(seq):  # video files / image folders: see the init section below
-        source, sequence = _recording_sequence(seq, calib, fov, scale, n_frames)
+    if spec.kind == "recording":  # video files / image folders: see the init section below
+        source, sequence = _recording_sequence(spec.paths, calib, fov, scale, n_frames)
     elif calib is not None or fov is not None:
         raise ValueError("--calib, --fov: expected only with a video or an image folder")
-    elif os.path.isdir(seq):
-        sequence = read_sequence(seq, lazy=True)
-    elif seq in SEQUENCE_NAMES:
-        sequence = make_sequence(seq, n_frames=n_frames)
+    elif spec.kind == "directory":
+        sequence = read_sequence(spec.paths[0], lazy=True)
     else:
-        names = ", ".join(SEQUENCE_NAMES)
-        raise ValueError(f"SEQ: expected a sequence directory or one of {names}; got {seq!r}")
+        sequence = make_sequence(spec.name, n_frames=n_frames)
     if init is not None:
         x0 = load_pose(init)
     elif sequence.truth is not None:
@@ -511,7 +516,9 @@ def track_command(
         + (f" (with {written['video'].name})" if "video" in written else "")
     )
     if sequence.truth is not None:
-        err = result.mean_joint_error(sequence.truth.joints[:T])
+        from handvar.evaluation.metrics import mean_joint_error
+
+        err = mean_joint_error(sequence.truth.joints[:T], result.joints)
         click.echo(f"mean joint error: {err.mean():.2f} mm (max {err.max():.2f} mm)")
 
 
@@ -542,26 +549,11 @@ def _frame_silhouettes(sources, calib, fov, scale, frame, wrist, threshold):
     )
 
 
-def _is_recording(spec: str) -> bool:
-    """True when `spec` names video files or image folders (comma-separated), not a sequence."""
-    import os
-
-    from handvar.vision.sources import IMAGE_SUFFIXES
-
-    if "," in spec or os.path.isfile(spec):
-        return True
-    return (
-        os.path.isdir(spec)
-        and not os.path.exists(os.path.join(spec, "sequence.json"))
-        and any(os.path.splitext(f)[1].lower() in IMAGE_SUFFIXES for f in os.listdir(spec))
-    )
-
-
-def _recording_sequence(spec: str, calib, fov, scale, n_frames):
+def _recording_sequence(paths, calib, fov, scale, n_frames):
     """`handvar track` on a recording: the source and its skin-colour silhouettes."""
     from tqdm import tqdm
 
-    source = _open_recordings(spec.split(","), calib, fov, scale)
+    source = _open_recordings(paths, calib, fov, scale)
     total = source.n_frames if n_frames is None else min(n_frames, source.n_frames)
     return source, source.to_sequence(
         stop=n_frames,
@@ -634,9 +626,9 @@ def init_command(
     import cv2
     import numpy as np
 
+    from handvar.atomic import write_atomic
     from handvar.hand.anthropometry import HandShape
     from handvar.hand.kinematics import HandModel
-    from handvar.io import write_atomic
     from handvar.tracking.init import initial_pose
 
     kps = _frame_keypoints(keypoint_files, sources, frame, scale)
@@ -657,7 +649,7 @@ def init_command(
 
     write_atomic(out, write_text)
     if overlay is not None:
-        from handvar.vision.sources import overlay_frame
+        from handvar.render.overlay import overlay_frame
 
         if images is None:  # a sequence directory: draw over its masks
             images = [np.repeat((np.asarray(m, np.uint8) * 160)[:, :, None], 3, 2) for m in masks]

@@ -1,6 +1,6 @@
 """Sequences on disk: silhouette masks, optional colour frames, the rig and ground truth.
 
-A sequence directory (DESIGN.md §8) holds::
+A sequence directory (§8) holds::
 
     sequence.json          name, fps, frame count, the cameras (intrinsics, distortion,
                            extrinsics, image size, as Rig.to_dict()), provenance
@@ -13,6 +13,12 @@ Camera ``j`` of the rig has the folder ``cam{j}``. :func:`write_sequence` builds
 directory under a temporary name beside the target and renames it into place, so a
 failed write never leaves a half-written directory nor destroys the previous one.
 :func:`read_sequence` checks every file before returning and names the file at fault.
+
+What a sequence argument names -- a recording (video files or image folders), a
+sequence directory or a synthetic sequence -- is decided by :func:`resolve_sequence`.
+
+One concept, sequences on disk (the format, its reader and writer), which is why the
+module is over 600 lines.
 """
 
 from __future__ import annotations
@@ -34,18 +40,25 @@ import numpy as np
 
 from handvar.atomic import write_atomic
 from handvar.camera import Rig
+from handvar.validate import as_float, as_instance
 
 __all__ = [
     "FORMAT",
+    "IMAGE_SUFFIXES",
     "FrameStack",
     "Sequence",
     "SequenceError",
+    "SequenceSpec",
     "Truth",
     "check_output_dir",
     "read_sequence",
+    "resolve_sequence",
     "write_atomic",
     "write_sequence",
 ]
+
+#: File name endings of the images an image folder may hold (case-insensitive).
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".ppm", ".pgm")
 
 FORMAT = "handvar-sequence"
 FORMAT_VERSION = 1
@@ -218,17 +231,12 @@ class Sequence:
     provenance: dict[str, Any] = dataclasses.field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        if not isinstance(self.name, str) or not self.name:
+        if not as_instance(self.name, str, "name", what="a non-empty string"):
             raise ValueError(f"name: expected a non-empty string; got {self.name!r}")
-        try:
-            fps = float(self.fps)
-        except (TypeError, ValueError):
-            raise ValueError(f"fps: expected a positive frame rate; got {self.fps!r}") from None
-        if not (math.isfinite(fps) and fps > 0):
+        if as_float(self.fps, "fps") <= 0:
             raise ValueError(f"fps: expected a positive frame rate; got {self.fps!r}")
-        self.fps = fps
-        if not isinstance(self.rig, Rig):
-            raise ValueError(f"rig: expected a handvar.camera.Rig; got {type(self.rig).__name__}")
+        self.fps = float(self.fps)
+        as_instance(self.rig, Rig, "rig", what="a handvar.camera.Rig")
         if not isinstance(self.masks, FrameStack):
             masks = np.asarray(self.masks)
             if masks.dtype != bool:
@@ -260,15 +268,13 @@ class Sequence:
                     f"got shape {tuple(self.rgb.shape)}"
                 )
         if self.truth is not None:
-            if not isinstance(self.truth, Truth):
-                raise ValueError(f"truth: expected a Truth; got {type(self.truth).__name__}")
+            as_instance(self.truth, Truth, "truth")
             if self.truth.poses.shape[0] != shape[0]:
                 raise ValueError(
                     f"truth: expected {shape[0]} frames to match the masks; "
                     f"got {self.truth.poses.shape[0]}"
                 )
-        if not isinstance(self.provenance, dict):
-            raise ValueError(f"provenance: expected a dict; got {type(self.provenance).__name__}")
+        as_instance(self.provenance, dict, "provenance")
         try:
             json.dumps(self.provenance)
         except (TypeError, ValueError) as exc:
@@ -371,12 +377,13 @@ def write_sequence(
     Raises
     ------
     ValueError
-        If `seq` is not a Sequence or `path` holds something other than a sequence.
+        If `path` holds something other than a sequence.
+    TypeError
+        If `seq` is not a Sequence.
     OSError
         If a file cannot be written.
     """
-    if not isinstance(seq, Sequence):
-        raise ValueError(f"seq: expected a handvar.io.Sequence; got {type(seq).__name__}")
+    as_instance(seq, Sequence, "seq", what="a handvar.io.Sequence")
     target = check_output_dir(path)
     parent = target.parent
     parent.mkdir(parents=True, exist_ok=True)
@@ -644,3 +651,80 @@ def read_sequence(path: str | os.PathLike, *, lazy: bool = False) -> Sequence:
         )
     except ValueError as exc:
         raise SequenceError(f"{json_path}: {exc}") from None
+
+
+# --- what a sequence argument names -----------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class SequenceSpec:
+    """What a sequence argument names (:func:`resolve_sequence`).
+
+    Attributes
+    ----------
+    kind : {"recording", "directory", "synthetic"}
+        Real recordings (one video file or image folder per camera), a sequence
+        directory (:func:`read_sequence`), or a synthetic sequence by name.
+    paths : tuple of str
+        The recordings, one per camera; the directory; empty for a synthetic name.
+    name : str
+        The synthetic sequence's name; empty otherwise.
+    """
+
+    kind: str
+    paths: tuple[str, ...] = ()
+    name: str = ""
+
+
+def _is_image_folder(path: str) -> bool:
+    return any(os.path.splitext(f)[1].lower() in IMAGE_SUFFIXES for f in os.listdir(path))
+
+
+def resolve_sequence(
+    spec: str, *, names: Iterable[str] = (), argument: str = "sequence"
+) -> SequenceSpec:
+    """Decide what `spec` names: recordings, a sequence directory or a synthetic name.
+
+    In this order: several paths separated by commas, a file, or a folder of images
+    without ``sequence.json`` are recordings; any other folder is a sequence directory;
+    one of `names` is a synthetic sequence.  Nothing is opened or read beyond a folder
+    listing.
+
+    Parameters
+    ----------
+    spec : str
+        The argument as given (``handvar track SEQ``).
+    names : iterable of str, keyword-only
+        The synthetic sequences' names (``handvar.synth.SEQUENCE_NAMES``).
+    argument : str, keyword-only
+        The argument's name in the message of the error.
+
+    Returns
+    -------
+    SequenceSpec
+
+    Raises
+    ------
+    ValueError
+        If `spec` is none of these.
+
+    Examples
+    --------
+    >>> resolve_sequence("benchmark", names=("benchmark", "flip"))
+    SequenceSpec(kind='synthetic', paths=(), name='benchmark')
+    >>> resolve_sequence("left.mp4,right.mp4").paths
+    ('left.mp4', 'right.mp4')
+    """
+    spec = as_instance(spec, str, argument)
+    names = tuple(names)
+    if "," in spec or os.path.isfile(spec):
+        return SequenceSpec("recording", tuple(spec.split(",")))
+    if os.path.isdir(spec):
+        if not os.path.exists(os.path.join(spec, _JSON)) and _is_image_folder(spec):
+            return SequenceSpec("recording", (spec,))
+        return SequenceSpec("directory", (spec,))
+    if spec in names:
+        return SequenceSpec("synthetic", name=spec)
+    raise ValueError(
+        f"{argument}: expected a sequence directory or one of {', '.join(names)}; got {spec!r}"
+    )

@@ -12,13 +12,14 @@ from handvar.evaluation.metrics import (
 )
 
 _LAZY = {
-    "ExperimentConfig": "experiment",
-    "PredictorSpec": "experiment",
+    "ExperimentConfig": "config",
+    "PredictorSpec": "config",
+    "run_trial": "trials",
     "run_experiment": "experiment",
-    "open_store": "experiment",
-    "read_config": "experiment",
+    "open_store": "store",
+    "read_config": "store",
     "write_report": "report",
-    "evaluate_claims": "report",
+    "evaluate_claims": "claims",
 }
 
 __all__ = ["mean_joint_error", "r2_tilde", "r2_tilde_acceleration", "r2_tilde_joints", *_LAZY]

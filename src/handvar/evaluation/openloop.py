@@ -21,8 +21,8 @@ from handvar.predictors.base import as_series
 from handvar.predictors.catalogue import CATALOGUE
 
 __all__ = [
-    "GROUPS",
-    "KEYPOINT_GROUPS",
+    "KEYPOINT_TABLE_ROWS",
+    "TABLE_ROWS",
     "OpenLoopRow",
     "default_predictors",
     "evaluate_open_loop",
@@ -32,9 +32,9 @@ __all__ = [
     "write_csv",
 ]
 
-# Parameter groups of the table: (name, unit, indices).
-Groups = tuple[tuple[str, str, np.ndarray], ...]
-GROUPS: Groups = (
+# Rows of the table, parameter groups: (name, unit, indices).
+TableRows = tuple[tuple[str, str, np.ndarray], ...]
+TABLE_ROWS: TableRows = (
     ("palm translation", "mm", np.arange(0, 3)),
     ("palm rotation", "deg", np.arange(3, 6)),
     ("abduction", "deg", np.arange(6, 11)),
@@ -48,7 +48,7 @@ GROUPS: Groups = (
 
 # The 21 keypoints (the order of G(x)) flattened to 63 columns x, y, z: the wrist and
 # each digit's four points.
-KEYPOINT_GROUPS: Groups = (
+KEYPOINT_TABLE_ROWS: TableRows = (
     ("wrist", "mm", np.arange(0, 3)),
     *((digit, "mm", np.arange(3 + 12 * k, 15 + 12 * k)) for k, digit in enumerate(params.DIGITS)),
     ("all digits", "mm", np.arange(3, 63)),
@@ -139,8 +139,8 @@ def evaluate_open_loop(
     """
     X = as_series(X)
     layouts = {
-        "handvar": (params.N_PARAMS, GROUPS, None),
-        "keypoints": (63, KEYPOINT_GROUPS, keypoint_blocks()),
+        "handvar": (params.N_PARAMS, TABLE_ROWS, None),
+        "keypoints": (63, KEYPOINT_TABLE_ROWS, keypoint_blocks()),
     }
     if layout not in layouts:
         raise ValueError(f"layout: expected one of {', '.join(layouts)}; got {layout!r}")

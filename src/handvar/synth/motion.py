@@ -27,6 +27,7 @@ from scipy.interpolate import CubicSpline
 from scipy.ndimage import gaussian_filter1d
 
 from handvar.params import LOWER, N_PARAMS, NAMES, UPPER, clamp
+from handvar.validate import as_array, as_float
 
 __all__ = [
     "HTRACK_EXCERPT_FIRST_ROW",
@@ -174,11 +175,8 @@ def _check_key_poses(key_poses) -> np.ndarray:
 
 
 def _check_fps(fps: float, name: str = "fps") -> float:
-    try:
-        value = float(fps)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a positive frame rate; got {fps!r}") from None
-    if not (np.isfinite(value) and value > 0):
+    value = as_float(fps, name)
+    if value <= 0:
         raise ValueError(f"{name}: expected a positive frame rate; got {fps!r}")
     return value
 
@@ -340,15 +338,6 @@ class HtrackMapping:
     )
 
 
-def _check_table(array, name: str) -> np.ndarray:
-    arr = np.asarray(array, dtype=float)
-    if arr.ndim != 2 or arr.shape[1] != N_PARAMS:
-        raise ValueError(f"{name}: expected an array of shape (N, 26); got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: expected finite values; got NaN or infinity")
-    return arr
-
-
 def htrack_to_handvar(array, mapping: HtrackMapping = HtrackMapping()) -> np.ndarray:
     """Convert htrack poses (radians, htrack order and signs) to our 26 parameters.
 
@@ -364,7 +353,7 @@ def htrack_to_handvar(array, mapping: HtrackMapping = HtrackMapping()) -> np.nda
     Returns
     -------
     poses : (N, 26) ndarray
-        Our layout (DESIGN.md §2): translation (mm), rotation (degrees), the five
+        Our layout (§2): translation (mm), rotation (degrees), the five
         abductions (degrees), then the fifteen flexions (degrees). Not clamped to
         the joint limits; :func:`replay` does that.
 
@@ -376,7 +365,7 @@ def htrack_to_handvar(array, mapping: HtrackMapping = HtrackMapping()) -> np.nda
     >>> float(htrack_to_handvar(row)[0, 15])   # ours: index_pip, minus its rest
     46.0
     """
-    src = _check_table(array, "array")
+    src = as_array(array, "array", (None, N_PARAMS))
     out = np.empty_like(src)
     out[:, 0:3] = mapping.translation_scale * src[:, 0:3]
     out[:, 3:6] = np.degrees(src[:, 3:6])
@@ -562,7 +551,7 @@ def replay(
     if isinstance(recording, str | os.PathLike):
         table = load_htrack(recording)
     else:
-        table = _check_table(recording, "recording")
+        table = as_array(recording, "recording", (None, N_PARAMS))
     n = table.shape[0]
     stop = n if stop is None else stop
     if not (0 <= start < stop <= n) or stop - start < 2:

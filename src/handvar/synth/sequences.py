@@ -1,4 +1,4 @@
-"""The paper's three synthetic sequences, with ground truth (DESIGN.md §8).
+"""The paper's three synthetic sequences, with ground truth (§8).
 
 - :func:`benchmark` — the 175-frame, 25 fps stereo test sequence of the paper's §4:
   finger articulation replayed from a real recording (htrack ``fingerfist``, see
@@ -37,6 +37,7 @@ from handvar.synth.motion import (
     minimum_jerk_path,
     replay,
 )
+from handvar.validate import as_int
 
 __all__ = [
     "SEQUENCE_NAMES",
@@ -150,7 +151,7 @@ def _palm_drift(poses, t, rng, rotation, translation: float, periods) -> None:
 
 
 def _check_seed(seed) -> int:
-    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+    if as_int(seed, "seed") < 0:
         raise ValueError(f"seed: expected a non-negative integer; got {seed!r}")
     return int(seed)
 
@@ -502,9 +503,9 @@ def make_sequence(
     poses = sequence_poses(name, seed)
     n_generated = int(poses.shape[0])
     if n_frames is not None:
-        if isinstance(n_frames, bool) or not isinstance(n_frames, int) or n_frames < 1:
+        if as_int(n_frames, "n_frames") < 1:
             raise ValueError(f"n_frames: expected a positive integer; got {n_frames!r}")
-        poses = poses[:n_frames]
+        poses = poses[: int(n_frames)]
     provenance = {
         "generator": f"handvar.synth.sequences.{name}",
         "seed": seed,

@@ -46,9 +46,10 @@ import numpy as np
 
 from handvar.camera import Camera, Rig
 from handvar.params import N_PARAMS, clamp
+from handvar.validate import as_float, as_instance, as_int
 
 __all__ = [
-    "INIT_DEFAULTS",
+    "INIT_SETTINGS",
     "InitResult",
     "InitSettings",
     "candidate_rotations",
@@ -124,20 +125,13 @@ class InitSettings:
             if values.ndim != 1 or values.size == 0 or not np.all(np.isfinite(values)):
                 raise ValueError(f"{name}: expected a non-empty tuple of angles; got {values}")
         for name, low in (("search_size", 8), ("placements", 1), ("keep", 1), ("refine_passes", 0)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < low:
-                raise ValueError(f"{name}: expected an integer >= {low}; got {value!r}")
-        if not (np.isfinite(self.distinct) and 0 <= self.distinct <= 180):
-            raise ValueError(f"distinct: expected an angle in [0, 180]; got {self.distinct!r}")
-        if not (np.isfinite(self.search_tol) and self.search_tol > 0):
-            raise ValueError(f"search_tol: expected a positive number; got {self.search_tol!r}")
-        if not (np.isfinite(self.keypoint_slack) and self.keypoint_slack >= 0):
-            raise ValueError(
-                f"keypoint_slack: expected a number >= 0 (pixels); got {self.keypoint_slack!r}"
-            )
+            as_int(getattr(self, name), name, minimum=low)
+        as_float(self.distinct, "distinct", minimum=0, maximum=180)
+        as_float(self.search_tol, "search_tol", minimum=0, exclusive_minimum=True)
+        as_float(self.keypoint_slack, "keypoint_slack", minimum=0)
 
 
-INIT_DEFAULTS = InitSettings()
+INIT_SETTINGS = InitSettings()
 
 
 @dataclass(frozen=True, eq=False)
@@ -220,7 +214,7 @@ def _axis_rotation(axis: int, deg: np.ndarray) -> np.ndarray:
     return out
 
 
-def candidate_rotations(camera: Camera, settings: InitSettings = INIT_DEFAULTS) -> np.ndarray:
+def candidate_rotations(camera: Camera, settings: InitSettings = INIT_SETTINGS) -> np.ndarray:
     """The palm orientations of the search grid, as Euler angles in the world frame.
 
     In the camera's frame (x image right, y image down, z along the view), the base
@@ -332,13 +326,11 @@ def _moments(mask: np.ndarray) -> tuple[float, np.ndarray]:
 
 
 def _search_view(mask: np.ndarray, camera: Camera, size: int) -> _SearchView:
-    from handvar.vision.sources import scale_camera
-
     rows = np.flatnonzero(mask.any(axis=1))
     cols = np.flatnonzero(mask.any(axis=0))
     extent = max(rows[-1] - rows[0] + 1, cols[-1] - cols[0] + 1)
     factor = min(1.0, size / extent)
-    cam = scale_camera(camera, factor)
+    cam = camera.scaled(factor)
     small = mask
     if cam.size != camera.size:
         small = cv2.resize(mask.astype(np.float32), cam.size, interpolation=cv2.INTER_AREA) > 0.5
@@ -461,7 +453,7 @@ def initial_pose(
     hand=None,
     *,
     keypoints=None,
-    settings: InitSettings = INIT_DEFAULTS,
+    settings: InitSettings = INIT_SETTINGS,
     rng: np.random.Generator | None = None,
     tracker_settings=None,
 ) -> InitResult:
@@ -510,15 +502,12 @@ def initial_pose(
     from handvar.hand.kinematics import HandModel, named_pose
     from handvar.render import silhouettes
 
-    if not isinstance(rig, Rig):
-        raise ValueError(f"rig: expected a handvar.camera.Rig; got {type(rig).__name__}")
-    if not isinstance(settings, InitSettings):
-        raise ValueError(f"settings: expected InitSettings; got {type(settings).__name__}")
+    as_instance(rig, Rig, "rig", what="a handvar.camera.Rig")
+    as_instance(settings, InitSettings, "settings")
     hand = HandModel() if hand is None else hand
     m = _check_masks(masks, rig)
     rng = np.random.default_rng(0) if rng is None else rng
-    if not isinstance(rng, np.random.Generator):
-        raise ValueError(f"rng: expected a numpy.random.Generator; got {type(rng).__name__}")
+    as_instance(rng, np.random.Generator, "rng", what="a numpy.random.Generator")
 
     if keypoints is not None:
         result = _keypoint_pose(m, rig, hand, keypoints, settings, rng, tracker_settings)

@@ -25,15 +25,13 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from handvar.camera import Rig
 from handvar.io import Sequence, write_atomic
 from handvar.params import NAMES
-from handvar.render import draw_overlay, side_by_side, silhouettes, write_overlay_video
+from handvar.render import overlay_views, side_by_side, write_overlay_video
 from handvar.tracking.tracker import TrackResult
 
 __all__ = [
     "overlay_strip",
-    "overlay_views",
     "recording_backgrounds",
     "sequence_backgrounds",
     "write_track_outputs",
@@ -44,32 +42,6 @@ _STRIP_FRAMES = 6  # frames in overlay.png, at most
 _STRIP_SHRINK = 2  # overlay.png tiles are 1/_STRIP_SHRINK of the camera's size
 
 Backgrounds = Callable[[list[int]], Iterable[tuple[int, list[np.ndarray] | np.ndarray]]]
-
-
-def overlay_views(hand, rig: Rig, backgrounds, pose) -> list[np.ndarray]:
-    """RGB views of one frame: the model's outline and joints at `pose` over `backgrounds`.
-
-    Parameters
-    ----------
-    hand : HandModel
-    rig : Rig
-        The cameras of the frame.
-    backgrounds : (n_cams, H, W) bool array_like or sequence of (H, W, 3) uint8 ndarray
-        The observed masks, or one RGB image per camera.
-    pose : (26,) array_like
-        Pose, mm and degrees.
-
-    Returns
-    -------
-    list of (H, W, 3) uint8 ndarray
-        One RGB view per camera (`handvar.render.draw_overlay`).
-    """
-    model = silhouettes(hand, pose, rig)
-    joints = hand.joints(pose)
-    return [
-        draw_overlay(b, cam, joints, mask=m)
-        for b, cam, m in zip(backgrounds, rig, model, strict=True)
-    ]
 
 
 def sequence_backgrounds(sequence: Sequence) -> Backgrounds:

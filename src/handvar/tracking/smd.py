@@ -1,4 +1,4 @@
-"""Stochastic meta-descent (SMD), the tracker's optimiser (paper §4, DESIGN.md §5).
+"""Stochastic meta-descent (SMD), the tracker's optimiser (paper §4, §5).
 
 SMD (Schraudolph 1999; Bray et al. 2007 for articulated tracking) is gradient descent
 with one gain per parameter, adapted online from the correlation of successive
@@ -39,6 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from handvar.params import GROUPS, LOWER, N_PARAMS, UPPER
+from handvar.validate import as_float, as_instance, as_int
 
 __all__ = [
     "SMDResult",
@@ -95,25 +96,15 @@ class SMDSettings:
     damping: float = 0.01
 
     def __post_init__(self) -> None:
-        for name in ("meta_gain", "horizon", "threshold"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value >= 0):
-                raise ValueError(f"{name}: expected a finite number >= 0; got {value!r}")
-        if self.horizon > 1:
-            raise ValueError(f"horizon: expected a number in [0, 1]; got {self.horizon!r}")
-        for name in ("gain_translation", "gain_rotation", "gain_finger"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value > 0):
-                raise ValueError(f"{name}: expected a positive gain; got {value!r}")
-        it = self.max_iterations
-        if isinstance(it, bool) or not isinstance(it, int | np.integer) or it < 1:
-            raise ValueError(f"max_iterations: expected a positive integer; got {it!r}")
-        if not (np.isfinite(self.damping) and self.damping > 0):
-            raise ValueError(f"damping: expected a positive number; got {self.damping!r}")
-        if not 0 < self.min_factor <= 1:
-            raise ValueError(f"min_factor: expected a number in (0, 1]; got {self.min_factor!r}")
-        if not (np.isfinite(self.max_factor) and self.max_factor >= 1):
-            raise ValueError(f"max_factor: expected a number >= 1; got {self.max_factor!r}")
+        # checked, not converted: the settings keep the values (and repr) they were given
+        for name in ("meta_gain", "threshold"):
+            as_float(getattr(self, name), name, minimum=0)
+        as_float(self.horizon, "horizon", minimum=0, maximum=1)
+        for name in ("gain_translation", "gain_rotation", "gain_finger", "damping"):
+            as_float(getattr(self, name), name, minimum=0, exclusive_minimum=True)
+        as_int(self.max_iterations, "max_iterations", minimum=1)
+        as_float(self.min_factor, "min_factor", minimum=0, maximum=1, exclusive_minimum=True)
+        as_float(self.max_factor, "max_factor", minimum=1)
 
 
 def initial_gains(settings: SMDSettings | None = None) -> np.ndarray:
@@ -264,9 +255,7 @@ def minimise(
     -------
     SMDResult
     """
-    s = SMDSettings() if settings is None else settings
-    if not isinstance(s, SMDSettings):
-        raise ValueError(f"settings: expected SMDSettings; got {type(s).__name__}")
+    s = SMDSettings() if settings is None else as_instance(settings, SMDSettings, "settings")
     x = np.array(x0, dtype=float)
     if x.ndim != 1 or not np.all(np.isfinite(x)):
         raise ValueError(f"x0: expected a finite (d,) vector; got shape {x.shape}")

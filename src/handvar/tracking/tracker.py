@@ -1,4 +1,4 @@
-"""The tracker: per frame predict → optimise → update (paper §2 and §4, DESIGN.md §1).
+"""The tracker: per frame predict → optimise → update (paper §2 and §4, §1).
 
 For every frame the motion predictor proposes the starting pose x̂ (the first frame
 starts at the given x0), stochastic meta-descent minimises 1.7 C_s + 0.4 C_f from x̂
@@ -33,8 +33,12 @@ from handvar.camera import Rig
 from handvar.params import N_PARAMS, check_pose, clamp
 from handvar.tracking.costs import CostSettings, FrameData, SilhouetteCost
 from handvar.tracking.smd import SMDSettings, minimise
+from handvar.validate import as_instance, as_int
 
-__all__ = ["FrameResult", "TrackResult", "Tracker", "TrackerSettings"]
+__all__ = ["TIMING_PARTS", "FrameResult", "TrackResult", "Tracker", "TrackerSettings"]
+
+#: The parts of a frame's wall time, in the order of ``FrameResult.seconds``.
+TIMING_PARTS = ("preprocessing", "optimisation", "prediction")
 
 
 @dataclass(frozen=True)
@@ -45,10 +49,8 @@ class TrackerSettings:
     smd: SMDSettings = field(default_factory=SMDSettings)
 
     def __post_init__(self) -> None:
-        if not isinstance(self.cost, CostSettings):
-            raise ValueError(f"cost: expected CostSettings; got {type(self.cost).__name__}")
-        if not isinstance(self.smd, SMDSettings):
-            raise ValueError(f"smd: expected SMDSettings; got {type(self.smd).__name__}")
+        as_instance(self.cost, CostSettings, "cost")
+        as_instance(self.smd, SMDSettings, "smd")
 
 
 @dataclass(frozen=True, eq=False)
@@ -104,18 +106,10 @@ class TrackResult:
     iterations: np.ndarray
     seconds: np.ndarray
 
-    TIMING_PARTS = ("preprocessing", "optimisation", "prediction")
-
     @property
     def final_costs(self) -> np.ndarray:
         """(T,) cost at the last iteration of every frame."""
         return self.costs[np.arange(self.costs.shape[0]), self.iterations - 1]
-
-    def mean_joint_error(self, truth_joints) -> np.ndarray:
-        """(T,) mean Euclidean joint error per frame against true joints (T, 21, 3), mm."""
-        from handvar.evaluation.metrics import mean_joint_error
-
-        return mean_joint_error(truth_joints, self.joints)
 
 
 class Tracker:
@@ -141,24 +135,19 @@ class Tracker:
         from handvar.hand.kinematics import HandModel
         from handvar.predictors import NoMotion
 
-        if not isinstance(rig, Rig):
-            raise ValueError(f"rig: expected a handvar.camera.Rig; got {type(rig).__name__}")
-        hand = HandModel() if hand is None else hand
-        if not isinstance(hand, HandModel):
-            raise ValueError(f"hand: expected a HandModel; got {type(hand).__name__}")
+        as_instance(rig, Rig, "rig", what="a handvar.camera.Rig")
+        hand = HandModel() if hand is None else as_instance(hand, HandModel, "hand")
         predictor = NoMotion() if predictor is None else predictor
         for name in ("update", "predict", "reset"):
             if not callable(getattr(predictor, name, None)):
-                raise ValueError(
+                raise TypeError(
                     f"predictor: expected an object with update, predict and reset; "
-                    f"{type(predictor).__name__} has no {name}()"
+                    f"got {type(predictor).__name__}, which has no {name}()"
                 )
         rng = np.random.default_rng(0) if rng is None else rng
-        if not isinstance(rng, np.random.Generator):
-            raise ValueError(f"rng: expected a numpy.random.Generator; got {type(rng).__name__}")
+        as_instance(rng, np.random.Generator, "rng", what="a numpy.random.Generator")
         settings = TrackerSettings() if settings is None else settings
-        if not isinstance(settings, TrackerSettings):
-            raise ValueError(f"settings: expected TrackerSettings; got {type(settings).__name__}")
+        as_instance(settings, TrackerSettings, "settings")
         self.rig = rig
         self.hand = hand
         self.predictor = predictor
@@ -270,10 +259,7 @@ class Tracker:
         """
         from handvar.io import Sequence
 
-        if not isinstance(sequence, Sequence):
-            raise ValueError(
-                f"sequence: expected a handvar.io.Sequence; got {type(sequence).__name__}"
-            )
+        as_instance(sequence, Sequence, "sequence", what="a handvar.io.Sequence")
         if len(sequence.rig) != len(self.rig):
             raise ValueError(
                 f"sequence: expected {len(self.rig)} cameras like the tracker's rig; "
@@ -281,9 +267,7 @@ class Tracker:
             )
         n = sequence.n_frames
         if frames is not None:
-            if isinstance(frames, bool) or not isinstance(frames, int | np.integer) or frames < 1:
-                raise ValueError(f"frames: expected a positive integer; got {frames!r}")
-            n = min(n, int(frames))
+            n = min(n, as_int(frames, "frames", minimum=1))
         self.reset(x0)
         max_it = self.settings.smd.max_iterations
         poses = np.empty((n, N_PARAMS))

@@ -2,16 +2,18 @@
 
 `skin` classifies pixels by colour (the Jones–Rehg skin / non-skin mixtures, or a
 histogram trained on labelled images); `silhouette` cleans the resulting masks, cuts a
-visible forearm at the wrist and handles any number of cameras.
+visible forearm at the wrist and handles any number of cameras; `frames` reads one
+camera's video file or image folder, and `sources` puts the cameras of a recording
+together with their rig.
 """
 
 from handvar.vision.silhouette import (
-    CLEANUP_DEFAULTS,
-    WRIST_DEFAULTS,
-    CleanupDefaults,
+    CLEANUP_SETTINGS,
+    WRIST_SETTINGS,
+    CleanupSettings,
     EmptySilhouetteError,
     WristCut,
-    WristDefaults,
+    WristSettings,
     clean_mask,
     cut_wrist,
     find_wrist,
@@ -20,26 +22,26 @@ from handvar.vision.silhouette import (
     silhouettes_from_videos,
 )
 from handvar.vision.skin import (
-    SKIN_DEFAULTS,
+    SKIN_SETTINGS,
     GaussianMixture,
     HistogramSkinModel,
-    SkinDefaults,
     SkinModel,
+    SkinSettings,
     jones_rehg_mixtures,
 )
 
 __all__ = [
-    "CLEANUP_DEFAULTS",
-    "SKIN_DEFAULTS",
-    "WRIST_DEFAULTS",
-    "CleanupDefaults",
+    "CLEANUP_SETTINGS",
+    "SKIN_SETTINGS",
+    "WRIST_SETTINGS",
+    "CleanupSettings",
     "EmptySilhouetteError",
     "GaussianMixture",
     "HistogramSkinModel",
-    "SkinDefaults",
     "SkinModel",
+    "SkinSettings",
     "WristCut",
-    "WristDefaults",
+    "WristSettings",
     "clean_mask",
     "cut_wrist",
     "find_wrist",

@@ -188,7 +188,7 @@ class Keypoints2D:
     def scaled(self, factor: float, size: tuple[int, int] | None = None) -> Keypoints2D:
         """The keypoints in frames resized by `factor` (``--scale``).
 
-        The pixel grid is that of `handvar.vision.sources.scale_camera`: a pixel centre
+        The pixel grid is that of `handvar.camera.Camera.scaled`: a pixel centre
         ``u`` maps to ``(u + ½)·s − ½``, with ``s = round(W·factor) / W`` per axis when
         the full-resolution frame size ``(W, H)`` is given, else ``s = factor``.
 

@@ -14,10 +14,13 @@ turns it into one clean silhouette per camera:
    an empty silhouette raises `EmptySilhouetteError` naming the camera and frame.
 
 `nearest_silhouette_pixel` gives, for every pixel, the nearest silhouette pixel — the
-``s*`` of the silhouette cost ``C_s`` (DESIGN.md §4).
+``s*`` of the silhouette cost ``C_s`` (§4).
 
 Masks are ``(H, W)`` arrays; anything non-zero is inside.  Pixel coordinates are
 ``(x, y)`` = (column, row), in pixels.
+
+One concept, a silhouette from a skin mask, which is why the module is a little
+over 600 lines.
 """
 
 from __future__ import annotations
@@ -32,15 +35,16 @@ import cv2
 import numpy as np
 from scipy import ndimage
 
+from handvar.validate import as_int, one_of
 from handvar.vision.skin import SkinModel, _TableClassifier
 
 __all__ = [
-    "CLEANUP_DEFAULTS",
-    "WRIST_DEFAULTS",
-    "CleanupDefaults",
+    "CLEANUP_SETTINGS",
+    "WRIST_SETTINGS",
+    "CleanupSettings",
     "EmptySilhouetteError",
     "WristCut",
-    "WristDefaults",
+    "WristSettings",
     "clean_mask",
     "cut_wrist",
     "find_wrist",
@@ -51,8 +55,8 @@ __all__ = [
 
 
 @dataclass(frozen=True)
-class CleanupDefaults:
-    """Named defaults of `clean_mask` (paper section 6: skin mask to hand silhouette).
+class CleanupSettings:
+    """Named settings of `clean_mask` (paper section 6: skin mask to hand silhouette).
 
     The paper gives no clean-up parameters; these were chosen on the real example
     video (1280×720, hand about 250 px across) and scale with image size only mildly.
@@ -83,12 +87,12 @@ class CleanupDefaults:
     max_hole_area: int | None = None
 
 
-CLEANUP_DEFAULTS = CleanupDefaults()
+CLEANUP_SETTINGS = CleanupSettings()
 
 
 @dataclass(frozen=True)
-class WristDefaults:
-    """Named defaults of the wrist heuristic (`find_wrist`, `cut_wrist`).
+class WristSettings:
+    """Named settings of the wrist heuristic (`find_wrist`, `cut_wrist`).
 
     Lengths are in units of the palm radius ``R`` (the largest inscribed circle of the
     silhouette, i.e. the maximum of its distance transform).
@@ -119,7 +123,7 @@ class WristDefaults:
     tolerance: float = 0.05
 
 
-WRIST_DEFAULTS = WristDefaults()
+WRIST_SETTINGS = WristSettings()
 
 
 class EmptySilhouetteError(ValueError):
@@ -154,12 +158,6 @@ def _as_mask(mask: np.ndarray, name: str = "mask") -> np.ndarray:
     return np.ascontiguousarray(arr != 0, dtype=np.uint8)
 
 
-def _check_radius(value: int, name: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
-        raise ValueError(f"{name}: expected an int >= 0 (pixels), got {value!r}")
-    return int(value)
-
-
 def _disk(radius: int) -> np.ndarray:
     return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
 
@@ -170,12 +168,12 @@ def _disk(radius: int) -> np.ndarray:
 def clean_mask(
     mask: np.ndarray,
     *,
-    open_radius: int = CLEANUP_DEFAULTS.open_radius,
-    close_radius: int = CLEANUP_DEFAULTS.close_radius,
-    keep: Literal["largest"] | int = CLEANUP_DEFAULTS.keep,
-    fill_holes: bool = CLEANUP_DEFAULTS.fill_holes,
-    min_area: int = CLEANUP_DEFAULTS.min_area,
-    max_hole_area: int | None = CLEANUP_DEFAULTS.max_hole_area,
+    open_radius: int = CLEANUP_SETTINGS.open_radius,
+    close_radius: int = CLEANUP_SETTINGS.close_radius,
+    keep: Literal["largest"] | int = CLEANUP_SETTINGS.keep,
+    fill_holes: bool = CLEANUP_SETTINGS.fill_holes,
+    min_area: int = CLEANUP_SETTINGS.min_area,
+    max_hole_area: int | None = CLEANUP_SETTINGS.max_hole_area,
 ) -> np.ndarray:
     """Clean a raw skin mask into a silhouette.
 
@@ -218,17 +216,16 @@ def clean_mask(
     (625, True, False)
     """
     m = _as_mask(mask)
-    open_radius = _check_radius(open_radius, "open_radius")
-    close_radius = _check_radius(close_radius, "close_radius")
-    min_area = _check_radius(min_area, "min_area")
-    if keep == "largest":
+    open_radius = as_int(open_radius, "open_radius", minimum=0)
+    close_radius = as_int(close_radius, "close_radius", minimum=0)
+    min_area = as_int(min_area, "min_area", minimum=0)
+    if isinstance(keep, str):
+        one_of(keep, ("largest",), "keep")
         n_keep = 1
-    elif isinstance(keep, int | np.integer) and not isinstance(keep, bool) and keep >= 1:
-        n_keep = int(keep)
     else:
-        raise ValueError(f"keep: expected 'largest' or an int >= 1, got {keep!r}")
+        n_keep = as_int(keep, "keep", minimum=1)
     if max_hole_area is not None:
-        max_hole_area = _check_radius(max_hole_area, "max_hole_area")
+        max_hole_area = as_int(max_hole_area, "max_hole_area", minimum=0)
 
     if open_radius:
         m = cv2.morphologyEx(m, cv2.MORPH_OPEN, _disk(open_radius))
@@ -333,7 +330,7 @@ def find_wrist(
     2. A silhouette that leaves the image: the forearm is followed from the border
        inwards until its width changes (`handvar.vision.wrist.forearm_wrist`).
     3. Otherwise the palm-centre heuristic (`_palm_wrist`; its settings are `**kwargs`,
-       see `WristDefaults`).
+       see `WristSettings`).
 
     Parameters
     ----------
@@ -342,7 +339,7 @@ def find_wrist(
     keypoints : (21, 2|3) array_like, optional
         The frame's keypoints, pixels of the mask; NaN where missing.
     **kwargs
-        Settings of the palm-centre heuristic (`WristDefaults`).
+        Settings of the palm-centre heuristic (`WristSettings`).
 
     Returns
     -------
@@ -365,11 +362,11 @@ def find_wrist(
 def _palm_wrist(
     mask: np.ndarray,
     *,
-    forearm_thickness: float = WRIST_DEFAULTS.forearm_thickness,
-    forearm_start: float = WRIST_DEFAULTS.forearm_start,
-    min_forearm_area: float = WRIST_DEFAULTS.min_forearm_area,
-    search: tuple[float, float] = WRIST_DEFAULTS.search,
-    tolerance: float = WRIST_DEFAULTS.tolerance,
+    forearm_thickness: float = WRIST_SETTINGS.forearm_thickness,
+    forearm_start: float = WRIST_SETTINGS.forearm_start,
+    min_forearm_area: float = WRIST_SETTINGS.min_forearm_area,
+    search: tuple[float, float] = WRIST_SETTINGS.search,
+    tolerance: float = WRIST_SETTINGS.tolerance,
 ) -> WristCut | None:
     """The palm-centre wrist heuristic (`find_wrist`'s route 3).
 
@@ -399,7 +396,7 @@ def _palm_wrist(
     mask : (H, W) array_like
         Silhouette (one component is expected; the largest is used).
     forearm_thickness, forearm_start, min_forearm_area, search, tolerance
-        See `WristDefaults`.
+        See `WristSettings`.
 
     Returns
     -------
@@ -499,7 +496,7 @@ def cut_wrist(
     keypoints : (21, 2|3) array_like, optional
         The frame's keypoints in the mask's pixels (`handvar.vision.keypoints`).
     **kwargs
-        Passed to `find_wrist` (see `WristDefaults`).
+        Passed to `find_wrist` (see `WristSettings`).
 
     Returns
     -------
@@ -586,7 +583,7 @@ def silhouettes_from_frames(
     order : {"bgr", "rgb"}
         Channel order of the frames.
     cleanup : dict, optional
-        Keyword arguments of `clean_mask` overriding `CLEANUP_DEFAULTS`.
+        Keyword arguments of `clean_mask` overriding `CLEANUP_SETTINGS`.
     wrist : bool
         Cut a visible forearm off at the wrist (`cut_wrist`).
     frame : int, optional

@@ -31,6 +31,8 @@ these figures; ``bins=256`` is exact (table build about 8 s).
 Images are OpenCV's BGR ``uint8`` by default; pass ``order="rgb"`` for RGB images.
 Colour triplets given to the density methods (`SkinModel.log_likelihood_ratio`,
 `SkinModel.probability`) are always in RGB order, in grey levels 0–255.
+
+One concept, the skin colour classifier, which is why the module is over 600 lines.
 """
 
 from __future__ import annotations
@@ -39,7 +41,6 @@ import csv
 import functools
 import io
 import os
-import tempfile
 from collections.abc import Iterable
 from dataclasses import dataclass
 from importlib import resources
@@ -48,12 +49,15 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
+from handvar.atomic import write_atomic
+from handvar.validate import as_float, as_int, one_of
+
 __all__ = [
-    "SKIN_DEFAULTS",
+    "SKIN_SETTINGS",
     "GaussianMixture",
     "HistogramSkinModel",
-    "SkinDefaults",
     "SkinModel",
+    "SkinSettings",
     "bin_centres",
     "colour_indices",
     "jones_rehg_mixtures",
@@ -63,8 +67,8 @@ __all__ = [
 
 
 @dataclass(frozen=True)
-class SkinDefaults:
-    """Named defaults of the skin classifier (paper section 6; Jones & Rehg 2002).
+class SkinSettings:
+    """Named settings of the skin classifier (paper section 6; Jones & Rehg 2002).
 
     Attributes
     ----------
@@ -100,7 +104,7 @@ class SkinDefaults:
     prior: float = 0.5
 
 
-SKIN_DEFAULTS = SkinDefaults()
+SKIN_SETTINGS = SkinSettings()
 
 _ORDERS = ("bgr", "rgb")
 
@@ -257,11 +261,9 @@ def jones_rehg_mixtures() -> tuple[GaussianMixture, GaussianMixture]:
 
 
 def _check_bins(bins: int, name: str = "bins") -> int:
-    if isinstance(bins, bool) or not isinstance(bins, int | np.integer):
-        raise ValueError(f"{name}: expected an int power of two in 2..256, got {bins!r}")
-    bins = int(bins)
-    if bins < 2 or bins > 256 or bins & (bins - 1):
-        raise ValueError(f"{name}: expected a power of two in 2..256, got {bins}")
+    bins = as_int(bins, name, minimum=2, maximum=256)
+    if bins & (bins - 1):
+        raise ValueError(f"{name}: expected a power of two in [2, 256]; got {bins}")
     return bins
 
 
@@ -284,16 +286,10 @@ def bin_centres(bins: int) -> np.ndarray:
 def _check_image(image: np.ndarray, name: str = "image") -> np.ndarray:
     if not isinstance(image, np.ndarray) or image.dtype != np.uint8:
         dtype = getattr(image, "dtype", type(image).__name__)
-        raise ValueError(f"{name}: expected a uint8 colour image, got dtype {dtype}")
+        raise ValueError(f"{name}: expected a uint8 colour image; got dtype {dtype}")
     if image.ndim != 3 or image.shape[2] != 3:
-        raise ValueError(f"{name}: expected shape (H, W, 3), got {image.shape}")
+        raise ValueError(f"{name}: expected shape (H, W, 3); got {image.shape}")
     return image
-
-
-def _check_order(order: str) -> str:
-    if order not in _ORDERS:
-        raise ValueError(f"order: expected 'bgr' or 'rgb', got {order!r}")
-    return order
 
 
 def colour_indices(image: np.ndarray, bins: int, *, order: str = "bgr") -> np.ndarray:
@@ -319,7 +315,7 @@ def colour_indices(image: np.ndarray, bins: int, *, order: str = "bgr") -> np.nd
     """
     image = _check_image(image)
     bins = _check_bins(bins)
-    order = _check_order(order)
+    order = one_of(order, _ORDERS, "order")
     k = bins.bit_length() - 1  # log2(bins)
     shift = 8 - k
     q = image >> shift if shift else image
@@ -352,7 +348,7 @@ def _gather(table: np.ndarray, image: np.ndarray, bins: int, order: str) -> np.n
     """``table.ravel().take(colour_indices(image, bins, order=order))``, compiled."""
     image = _check_image(image)
     bins = _check_bins(bins)
-    order = _check_order(order)
+    order = one_of(order, _ORDERS, "order")
     k = bins.bit_length() - 1
     r, b = (2, 0) if order == "bgr" else (0, 2)
     out = np.empty(image.shape[:2], dtype=table.dtype)
@@ -404,7 +400,7 @@ class _TableClassifier:
             Colour image, BGR (OpenCV's order) unless ``order="rgb"``.
         threshold : float, optional
             The ratio threshold Θ > 0 (not its log); default
-            ``SKIN_DEFAULTS.threshold`` (see `SkinDefaults`).
+            ``SKIN_SETTINGS.threshold`` (see `SkinSettings`).
         order : {"bgr", "rgb"}
             Channel order of ``image``.
 
@@ -413,12 +409,8 @@ class _TableClassifier:
         (H, W) bool ndarray
             True where the pixel is classified as skin.
         """
-        theta = SKIN_DEFAULTS.threshold if threshold is None else threshold
-        if isinstance(theta, bool) or not isinstance(theta, int | float | np.floating):
-            raise ValueError(f"threshold: expected a positive number, got {theta!r}")
-        theta = float(theta)
-        if not (theta > 0 and np.isfinite(theta)):
-            raise ValueError(f"threshold: expected a finite number > 0, got {theta}")
+        theta = SKIN_SETTINGS.threshold if threshold is None else threshold
+        theta = as_float(theta, "threshold", minimum=0, exclusive_minimum=True)
         cache = getattr(self, "_mask_cache", None)
         if cache is None or cache[0] != theta:
             # One boolean table per threshold: the test becomes a single gather.
@@ -437,7 +429,7 @@ class SkinModel(_TableClassifier):
         16-component mixtures (`jones_rehg_mixtures`).
     bins : int, optional
         Levels per channel of the lookup table used for images (default
-        ``SKIN_DEFAULTS.bins`` = 64).  The table holds the exact log ratio at the bin
+        ``SKIN_SETTINGS.bins`` = 64).  The table holds the exact log ratio at the bin
         centres (`bin_centres`) and is built on first use (about 0.1 s for 64 bins),
         then cached.  With 64 bins a colour is at most 1.5 levels per channel from
         its bin centre; the tabulated log ratio is within 0.21 (median) / 1.2 (99th
@@ -462,7 +454,7 @@ class SkinModel(_TableClassifier):
         skin: GaussianMixture | None = None,
         nonskin: GaussianMixture | None = None,
         *,
-        bins: int = SKIN_DEFAULTS.bins,
+        bins: int = SKIN_SETTINGS.bins,
     ) -> None:
         if (skin is None) != (nonskin is None):
             raise ValueError("skin, nonskin: expected both mixtures or neither, got one")
@@ -498,7 +490,7 @@ class SkinModel(_TableClassifier):
         c = _as_colours(rgb)
         return self.skin.log_density(c) - self.nonskin.log_density(c)
 
-    def probability(self, rgb: np.ndarray, *, prior: float = SKIN_DEFAULTS.prior) -> np.ndarray:
+    def probability(self, rgb: np.ndarray, *, prior: float = SKIN_SETTINGS.prior) -> np.ndarray:
         """Posterior probability of skin by Bayes' rule.
 
         ``P(skin|c) = 1 / (1 + exp(−(log LR(c) + log(π / (1 − π)))))`` with prior π.
@@ -616,7 +608,7 @@ class HistogramSkinModel(_TableClassifier):
         images: Iterable[np.ndarray],
         masks: Iterable[np.ndarray],
         *,
-        bins: int = SKIN_DEFAULTS.histogram_bins,
+        bins: int = SKIN_SETTINGS.histogram_bins,
         order: str = "bgr",
     ) -> HistogramSkinModel:
         """Count skin and non-skin colours in labelled images.
@@ -672,16 +664,14 @@ class HistogramSkinModel(_TableClassifier):
             The written path.
         """
         path = Path(path)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-        try:
-            with os.fdopen(fd, "wb") as f:
+
+        def write(tmp: str) -> None:
+            with open(tmp, "wb") as f:  # a file object: np.savez adds no suffix
                 np.savez_compressed(
                     f, skin_counts=self.skin_counts, nonskin_counts=self.nonskin_counts
                 )
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+
+        write_atomic(path, write)
         return path
 
     @classmethod
