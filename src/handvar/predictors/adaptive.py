@@ -40,7 +40,7 @@ from handvar.predictors.base import as_vector
 from handvar.predictors.one_euro import one_euro_alpha
 from handvar.validate import as_float, as_int
 
-__all__ = ["EXPERTS", "AdaptiveBank"]
+__all__ = ["EXPERTS", "AdaptiveBank", "hand_groups"]
 
 # The experts, in the order of the weights.
 EXPERTS: tuple[str, ...] = (
@@ -65,6 +65,17 @@ _KALMAN_SLOT = np.array([5, 7, 8])
 _P11_0 = 1e4  # KalmanCV's initial velocity variance
 _PRIOR = np.zeros(_M)
 _PRIOR[2] = 1.0  # decelerating ρ = 0.4, the paper's choice (§4), until errors are known
+
+
+def hand_groups() -> list[list[int]]:
+    """The groups of the 26 hand parameters that share weights.
+
+    Palm translation, palm rotation, the five abductions, and each digit's three
+    flexions: the parameter groups of the open-loop table, whose members move alike
+    (coarser than eq. 25's blocks, so each group's weights rest on more errors).
+    """
+    return [[0, 1, 2], [3, 4, 5], list(range(6, 11)),
+            *[list(range(11 + 3 * k, 14 + 3 * k)) for k in range(5)]]  # fmt: skip
 
 
 # Rows of the state array S (R, d).
