@@ -95,9 +95,7 @@ class OfflineVAR:
         Ys = [Y for Y in Ys if len(Y) > 0]
         blocks = [list(range(d))] if self.blocks is None else self.blocks
         if sorted(i for b in blocks for i in b) != list(range(d)):
-            raise ValueError(
-                f"blocks: expected a partition of 0..{d - 1}; got {self.blocks!r}"
-            )
+            raise ValueError(f"blocks: expected a partition of 0..{d - 1}; got {self.blocks!r}")
         p = self.order
         if p is None:
             longest = max(Ys, key=len) if Ys else np.zeros((0, d))
@@ -123,7 +121,9 @@ class OfflineVAR:
                 if len(Yb) <= p:
                     continue
                 targets.append(Yb[p:])
-                regressors.append(np.hstack([Yb[p - lag : len(Yb) - lag] for lag in range(1, p + 1)]))
+                regressors.append(
+                    np.hstack([Yb[p - lag : len(Yb) - lag] for lag in range(1, p + 1)])
+                )
             if not targets:
                 raise ValueError(f"X: expected more than {p + 2} frames per take; got fewer")
             Yt, Wt = np.vstack(targets), np.vstack(regressors)  # rows are equations
