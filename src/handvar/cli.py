@@ -271,7 +271,7 @@ def predict_command(
         write_league_csv,
         write_league_figure,
     )
-    from handvar.predictors.catalogue import CATALOGUE, _SHORT
+    from handvar.predictors.catalogue import _SHORT, CATALOGUE
 
     for option, path in (("--csv", csv_out), ("--figure", figure_out)):
         if path is None:

@@ -438,8 +438,8 @@ def _all_group(rec: Recording, rows: list[OpenLoopRow], preds) -> list[OpenLoopR
     for name, P in preds.items():
         err = (Z - P)[ok]
         r2 = 1.0 - np.sum(err**2) / den if den > 0 else float("nan")
-        extra.append(OpenLoopRow("all", "", name, float(np.sqrt(np.mean(err**2))),
-                                 float(np.mean(np.abs(err))), float(r2), int(ok.sum())))  # fmt: skip
+        rmse, mae = float(np.sqrt(np.mean(err**2))), float(np.mean(np.abs(err)))
+        extra.append(OpenLoopRow("all", "", name, rmse, mae, float(r2), int(ok.sum())))
     return [*rows, *extra]
 
 

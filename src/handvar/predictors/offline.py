@@ -15,6 +15,7 @@ trend="n")`` returns.
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 
 import numpy as np
@@ -91,7 +92,7 @@ class OfflineVAR:
         X = as_series(X, "X")
         T, d = X.shape
         cuts = sorted({0, *(int(r) for r in resets), T})
-        Ys = [second_differences(X[a:b]) for a, b in zip(cuts[:-1], cuts[1:], strict=True)]
+        Ys = [second_differences(X[a:b]) for a, b in itertools.pairwise(cuts)]
         Ys = [Y for Y in Ys if len(Y) > 0]
         blocks = [list(range(d))] if self.blocks is None else self.blocks
         if sorted(i for b in blocks for i in b) != list(range(d)):
