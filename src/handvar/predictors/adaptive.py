@@ -315,7 +315,7 @@ class AdaptiveBank:
     >>> bank = AdaptiveBank()
     >>> for t in range(200):
     ...     bank.update([2.0 * t])          # constant velocity
-    >>> round(float(bank.predict()[0]), 6)
+    >>> round(float(bank.predict()[0]), 3)
     400.0
     """
 
