@@ -86,9 +86,8 @@ _AR0 = _OE0 + 2  # Σ v v₋₁, Σ v₋₁², Σ y y₋₁, Σ y₋₁², y_T
 _P0 = _AR0 + 5  # the experts' predictions, M rows
 _OUT = _P0 + _M  # the combined prediction
 _ROWS = _OUT + 1
-# cfg: λ, λ_AR, α_d of One Euro, f_cmin, β, rate, ridge, pool, n₀, sweeps.
-_CFG = ("lam", "lam_ar", "oe_alpha_d", "oe_min_cutoff", "oe_beta", "rate", "ridge", "pool",
-        "prior_frames", "sweeps")  # fmt: skip
+# cfg (the kernel's parameters): λ, λ_AR, α(f_d) of One Euro, f_cmin, β, rate, ridge,
+# pool, n₀, sweeps.
 
 
 @njit(cache=True)
@@ -301,6 +300,10 @@ class AdaptiveBank:
         n₀: after n frames the weights used are (1 − s) w_g + s w₀ with
         s = max(0, 1 − n / n₀) and w₀ all on decelerating ρ = 0.4, so that the first
         frames, whose errors say little, follow the paper's choice.
+    pool : float, default 1000
+        Pseudo-observations (coordinate-frames) of the pooled error matrix of all
+        groups added to each group's own: a group's weights lean on the others'
+        evidence while its own is short.
 
     Notes
     -----
@@ -329,7 +332,7 @@ class AdaptiveBank:
         sweeps: int = 3,
         ridge: float = 1e-6,
         prior_frames: float = 30.0,
-        pool: float = 100.0,
+        pool: float = 1000.0,
     ) -> None:
         self.memory = as_float(memory, "memory", minimum=1.0, exclusive_minimum=True)
         self.ar_memory = as_float(ar_memory, "ar_memory", minimum=1.0, exclusive_minimum=True)
