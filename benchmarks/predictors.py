@@ -104,5 +104,29 @@ def main() -> None:
             print(f"online {kind} VAR is {ratio:.1f}x faster than lstsq refit at N = {m}")
 
 
+def bank_speeds(frames: int) -> None:
+    """The adaptive bank and One Euro (design §16): µs per frame at d = 26 and d = 63."""
+    from handvar.evaluation.openloop import keypoint_blocks
+    from handvar.predictors import AdaptiveBank, OneEuro, hand_groups
+
+    X26 = motion(frames + 200)
+    X63 = np.tile(X26[:, :21], 3)  # 63 columns of real motion
+    points21 = [[3 * k, 3 * k + 1, 3 * k + 2] for k in range(21)]
+    cases = [
+        ("adaptive bank, hand groups", 26, AdaptiveBank(hand_groups()), X26),
+        ("adaptive bank, every column", 26, AdaptiveBank(), X26),
+        ("adaptive bank, 6 digit groups", 63, AdaptiveBank(keypoint_blocks()), X63),
+        ("adaptive bank, 21 points", 63, AdaptiveBank(points21), X63),
+        ("One Euro", 26, OneEuro(), X26),
+    ]
+    print(f"\nmedian µs per frame (update + predict), {frames} timed frames")
+    print(f"{'predictor':<32}{'d':>4}{'µs':>8}")
+    for name, d, predictor, X in cases:
+        print(f"{name:<32}{d:>4}{per_frame_us(predictor, X, 200):>8.1f}")
+
+
 if __name__ == "__main__":
     main()
+    extra = argparse.ArgumentParser(add_help=False)
+    extra.add_argument("--frames", type=int, default=2000)
+    bank_speeds(extra.parse_known_args()[0].frames)

@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from click.testing import CliRunner
 
 from handvar.cli import main, make_predictor
-from handvar.evaluation.openloop import evaluate_open_loop, read_pose_series
+from handvar.evaluation.openloop import BASELINES, evaluate_open_loop, read_pose_series
 from handvar.predictors import NoMotion, one_step_predictions
 from tests.conftest import EXAMPLES
 
@@ -91,3 +92,60 @@ def test_keypoints_need_63_columns(tmp_path):
     result = CliRunner().invoke(main, ["predict", str(bad), "--layout", "keypoints"])
     assert result.exit_code == 2
     assert "63 columns" in result.output
+
+
+# --- the league table -------------------------------------------------------------
+@pytest.mark.slow
+def test_predict_league_on_several_recordings_writes_csv_and_figure(tmp_path):
+    csv, png = tmp_path / "league.csv", tmp_path / "league.png"
+    result = CliRunner().invoke(
+        main,
+        [
+            "predict", str(EXAMPLES / "dex-human-hand-landmarks.npy") + ":0:300",
+            str(EXAMPLES / "dex-human-hand-landmarks.npy") + ":300:621",
+            "--layout", "keypoints", "--predictor", "bank", "--noise",
+            "--train", str(EXAMPLES / "dex-human-hand-landmarks.npy") + ":0:300",
+            "--csv", str(csv), "--figure", str(png),
+        ],
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert "RMSE / best baseline" in result.output
+    rows = np.genfromtxt(csv, delimiter=",", names=True, dtype=None, encoding="utf-8")
+    assert len(set(rows["recording"])) == 2 * 5  # each recording and 4 noisy variants
+    allrows = rows[rows["group"] == "all"]
+    # The best baseline's ratio is exactly 1 on every recording.
+    base = allrows[np.isin(allrows["predictor"], list(BASELINES))]
+    for rec in set(allrows["recording"]):
+        assert base["ratio_to_best_baseline"][base["recording"] == rec].min() == 1.0
+    assert {"adaptive bank", "offline VAR", "One Euro"} <= set(allrows["predictor"])
+    assert png.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_predict_points_and_columns_layouts(tmp_path):
+    D = np.load(EXAMPLES / "dex-human-hand-landmarks.npy")[:200]
+    f = tmp_path / "fourteen.npy"
+    np.save(f, D[:, :14])
+    result = CliRunner().invoke(main, ["predict", str(f), "--layout", "points"])
+    assert result.exit_code == 0, result.output
+    assert "point 13" in result.output and "all points" in result.output
+    g = tmp_path / "cols.csv"
+    np.savetxt(g, D[:, 0, :], delimiter=",")
+    result = CliRunner().invoke(main, ["predict", str(g), "--layout", "columns"])
+    assert result.exit_code == 0, result.output
+    assert "column 2" in result.output
+
+
+def test_predict_bad_paths_fail_before_computing(tmp_path):
+    rec = str(EXAMPLES / "dex-human-hand-landmarks.npy")
+    for option in ("--csv", "--figure"):
+        result = CliRunner().invoke(
+            main, ["predict", rec, "--layout", "keypoints", option, str(tmp_path / "no/x")]
+        )
+        assert result.exit_code == 2
+        assert f"{option}: expected a writable file path" in result.output
+    result = CliRunner().invoke(main, ["predict", rec + ":5:2", "--layout", "keypoints"])
+    assert result.exit_code == 2 and "FILE: expected rows" in result.output
+    result = CliRunner().invoke(main, ["predict", rec, "--predictor", "nope"])
+    assert result.exit_code == 2 and "--predictor: expected one of" in result.output
+    result = CliRunner().invoke(main, ["predict", rec, "--layout", "points", "--train", "x:a:b"])
+    assert result.exit_code == 2 and "--train: expected FILE" in result.output

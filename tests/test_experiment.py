@@ -89,7 +89,7 @@ def test_overrides_and_sweep():
     assert swept.spec("RVAR (gamma=0.5)").build().cutoff == 8
     sub = ExperimentConfig().with_overrides(["predictors=none,rvar,kalman"])
     assert sub.labels == ["no motion", "RVAR", "Kalman CV"]
-    assert ExperimentConfig().with_overrides(["extras=true"]).labels[-2:] == [
+    assert ExperimentConfig().with_overrides(["extras=true"]).labels[-len(EXTRA_PREDICTORS) :] == [
         s.label for s in EXTRA_PREDICTORS
     ]
 

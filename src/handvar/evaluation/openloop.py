@@ -5,6 +5,11 @@ scored per parameter group: RMSE, mean absolute error and R̃² against no motio
 1 − Σ(x − x̂)² / Σ(x − x_{t−1})², pooled over the group's parameters.  In one-step
 open loop the residual x_t − x̂_t equals the acceleration-domain residual
 y_t − ŷ_t, so this R̃² is eq. 18 with the recording standing in for the truth.
+
+The league table (design §16) runs every predictor on several recordings and on
+noisy copies of them (scored against the clean next frame), ranks the predictors
+per recording and divides each RMSE by the best simple baseline's.  One concept —
+scoring predictors on recorded motion — hence one module.
 """
 
 from __future__ import annotations
@@ -21,15 +26,26 @@ from handvar.predictors.base import as_series
 from handvar.predictors.catalogue import CATALOGUE
 
 __all__ = [
+    "BASELINES",
     "KEYPOINT_TABLE_ROWS",
+    "LAYOUTS",
     "TABLE_ROWS",
+    "LeagueRow",
     "OpenLoopRow",
+    "Recording",
     "default_predictors",
     "evaluate_open_loop",
+    "format_league",
     "format_table",
     "keypoint_blocks",
+    "layout_structure",
+    "league_predictors",
+    "league_table",
+    "noise_variants",
     "read_pose_series",
     "write_csv",
+    "write_league_csv",
+    "write_league_figure",
 ]
 
 # Rows of the table, parameter groups: (name, unit, indices).
@@ -59,6 +75,46 @@ def keypoint_blocks() -> list[list[int]]:
     """Eq. 25's assumption for 3D keypoints: the wrist alone, each digit's 12 coordinates
     together (digits move independently, the joints of one digit together)."""
     return [list(range(0, 3)), *[list(range(3 + 12 * k, 15 + 12 * k)) for k in range(5)]]
+
+
+LAYOUTS = ("handvar", "keypoints", "points", "columns")
+
+
+def layout_structure(layout: str, width: int) -> tuple[TableRows, list[list[int]] | None]:
+    """The groups of the table and the predictors' blocks for a column layout.
+
+    Parameters
+    ----------
+    layout : {"handvar", "keypoints", "points", "columns"}
+        26 hand parameters (groups of the table, blocks of eq. 25); 21 keypoints × 3
+        (wrist and digits); any K points × 3 (one group and block per point, plus all
+        points); any columns (one group and block per column, plus all columns).
+    width : int
+        The number of columns of the series.
+
+    Returns
+    -------
+    groups : tuple of (name, unit, indices)
+    blocks : list of lists of int, or None for the hand's eq. 25
+    """
+    if layout == "handvar":
+        if width != params.N_PARAMS:
+            raise ValueError(f"X: expected {params.N_PARAMS} columns (layout handvar); got {width}")
+        return TABLE_ROWS, None
+    if layout == "keypoints":
+        if width != 63:
+            raise ValueError(f"X: expected 63 columns (layout keypoints); got {width}")
+        return KEYPOINT_TABLE_ROWS, keypoint_blocks()
+    if layout == "points":
+        if width % 3:
+            raise ValueError(f"X: expected K x 3 columns (layout points); got {width}")
+        blocks = [[3 * k, 3 * k + 1, 3 * k + 2] for k in range(width // 3)]
+        groups = tuple((f"point {k}", "", np.array(b)) for k, b in enumerate(blocks))
+        return (*groups, ("all points", "", np.arange(width))), blocks
+    if layout == "columns":
+        groups = tuple((f"column {j}", "", np.array([j])) for j in range(width))
+        return (*groups, ("all columns", "", np.arange(width))), [[j] for j in range(width)]
+    raise ValueError(f"layout: expected one of {', '.join(LAYOUTS)}; got {layout!r}")
 
 
 def default_predictors(blocks=None) -> dict[str, Predictor]:
@@ -115,6 +171,7 @@ def evaluate_open_loop(
     *,
     resets=(),
     layout: str = "handvar",
+    truth=None,
 ) -> tuple[list[OpenLoopRow], dict[str, np.ndarray]]:
     """Score every predictor on a recorded series of hand poses, per parameter group.
 
@@ -129,8 +186,12 @@ def evaluate_open_loop(
     resets : iterable of int
         Rows where the recording restarts; predictors are reset there and those
         rows are not scored.
-    layout : {"handvar", "keypoints"}
-        What the columns are; decides the groups of the table.
+    layout : {"handvar", "keypoints", "points", "columns"}
+        What the columns are; decides the groups of the table
+        (:func:`layout_structure`).
+    truth : (T, d) array_like, optional
+        What the predictions are scored against (default `X` itself): the clean
+        recording when `X` is a noisy copy of it.
 
     Returns
     -------
@@ -138,27 +199,22 @@ def evaluate_open_loop(
     predictions : dict of name to (T, d) ndarray
     """
     X = as_series(X)
-    layouts = {
-        "handvar": (params.N_PARAMS, TABLE_ROWS, None),
-        "keypoints": (63, KEYPOINT_TABLE_ROWS, keypoint_blocks()),
-    }
-    if layout not in layouts:
-        raise ValueError(f"layout: expected one of {', '.join(layouts)}; got {layout!r}")
-    width, groups, blocks = layouts[layout]
-    if X.shape[1] != width:
-        raise ValueError(f"X: expected {width} columns (layout {layout}); got {X.shape[1]}")
+    groups, blocks = layout_structure(layout, X.shape[1])
+    Z = X if truth is None else as_series(truth, "truth")
+    if Z.shape != X.shape:
+        raise ValueError(f"truth: expected shape {X.shape}; got {Z.shape}")
     predictors = dict(predictors or default_predictors(blocks))
     predictors.setdefault("no motion", NoMotion())
     preds = {name: one_step_predictions(p, X, resets=resets) for name, p in predictors.items()}
     scored = np.all([np.isfinite(P).all(1) for P in preds.values()], axis=0)
     if not scored.any():
         raise ValueError(f"X: expected at least 2 frames to score; got {len(X)}")
-    base = (X - preds["no motion"])[scored]
+    base = (Z - preds["no motion"])[scored]
     rows = []
     for group, unit, idx in groups:
         den = np.sum(base[:, idx] ** 2)
         for name, P in preds.items():
-            err = (X - P)[scored][:, idx]
+            err = (Z - P)[scored][:, idx]
             r2 = 1.0 - np.sum(err**2) / den if den > 0 else float("nan")
             rows.append(
                 OpenLoopRow(
@@ -179,8 +235,8 @@ def format_table(rows: list[OpenLoopRow]) -> str:
     lines = []
     for group in dict.fromkeys(r.group for r in rows):
         sub = [r for r in rows if r.group == group]
-        unit = sub[0].unit
-        lines.append(f"{group} ({unit}), {sub[0].frames} frames")
+        unit = f" ({sub[0].unit})" if sub[0].unit else ""
+        lines.append(f"{group}{unit}, {sub[0].frames} frames")
         lines.append(f"  {'predictor':<16}{'RMSE':>10}{'MAE':>10}{'R̃² vs none':>12}")
         for r in sub:
             lines.append(f"  {r.predictor:<16}{r.rmse:>10.4f}{r.mae:>10.4f}{r.r2_tilde:>12.3f}")
@@ -190,7 +246,7 @@ def format_table(rows: list[OpenLoopRow]) -> str:
 
 def write_csv(rows: list[OpenLoopRow], path: str | os.PathLike) -> None:
     """Write the rows as CSV, atomically (a temporary file renamed into place)."""
-    from handvar.io import write_atomic
+    from handvar.atomic import write_atomic
 
     lines = ["group,unit,predictor,rmse,mae,r2_tilde,frames"]
     lines += [
@@ -198,3 +254,267 @@ def write_csv(rows: list[OpenLoopRow], path: str | os.PathLike) -> None:
         for r in rows
     ]
     write_atomic(path, lambda tmp: Path(tmp).write_text("\n".join(lines) + "\n"))
+
+
+# --- the league table: several recordings, noisy variants, ranks and ratios ----------
+
+# The simple baselines every predictor is compared with (labels of the league).
+BASELINES = (
+    "no motion",
+    "decelerating 0.2",
+    "decelerating",
+    "decelerating 0.6",
+    "Kalman CV",
+    "One Euro",
+)
+
+
+@dataclass(frozen=True)
+class Recording:
+    """One series of the league: what the predictors see and what they are scored on.
+
+    Attributes
+    ----------
+    name : str
+    X : (T, d) ndarray
+        The series the predictors are fed.
+    layout : str
+        See :func:`layout_structure`.
+    resets : tuple of int
+        Rows where a new take starts.
+    truth : (T, d) ndarray or None
+        The clean series for a noisy variant (None: `X` itself).
+    """
+
+    name: str
+    X: np.ndarray
+    layout: str
+    resets: tuple[int, ...] = ()
+    truth: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class LeagueRow:
+    """One predictor on one recording and group of the league table."""
+
+    recording: str
+    group: str
+    unit: str
+    predictor: str
+    rmse: float
+    r2_tilde: float
+    rank: int  # 1 = the lowest RMSE on this recording and group
+    ratio: float  # RMSE / the best baseline's RMSE on this recording and group
+    frames: int
+
+
+def noise_variants(
+    recording: Recording,
+    sigmas=(0.5, 1.0, 2.0),
+    *,
+    outlier_rate: float = 0.05,
+    outlier_sigma: float = 10.0,
+    seed: int = 0,
+) -> list[Recording]:
+    """Noisy copies of a clean recording, each scored against the clean series.
+
+    Gaussian noise of standard deviation σ (in the columns' units: mm, degrees) on
+    every value; and outlier frames: a fraction `outlier_rate` of the frames, drawn
+    at random, whose every value is displaced by Gaussian noise of standard deviation
+    `outlier_sigma` (a gross error of the estimator on that frame, as a tracker that
+    slips or a detector that swaps joints makes), the other frames left clean.
+
+    Parameters
+    ----------
+    recording : Recording
+        The clean recording (its `truth` must be None).
+    sigmas : sequence of float
+    outlier_rate : float
+    outlier_sigma : float
+    seed : int
+        Seed of ``numpy.random.default_rng``; every variant has its own stream.
+    """
+    if recording.truth is not None:
+        raise ValueError(f"recording: expected a clean recording; got {recording.name!r}")
+    X = recording.X
+    out = []
+    for k, sigma in enumerate(sigmas):
+        rng = np.random.default_rng([seed, k])
+        noisy = X + sigma * rng.standard_normal(X.shape)
+        out.append(Recording(f"{recording.name} +N({sigma:g})", noisy, recording.layout,
+                             recording.resets, X))  # fmt: skip
+    rng = np.random.default_rng([seed, len(sigmas)])
+    hit = rng.random(len(X)) < outlier_rate
+    noisy = X + outlier_sigma * hit[:, None] * rng.standard_normal(X.shape)
+    name = f"{recording.name} +{100 * outlier_rate:g}% outliers"
+    out.append(Recording(name, noisy, recording.layout, recording.resets, X))
+    return out
+
+
+def league_predictors(blocks=None, *, rate: float = 30.0, keys=None) -> dict[str, Predictor]:
+    """The predictors of the league: the catalogue plus decelerating at ρ = 0.2 and 0.6.
+
+    Parameters
+    ----------
+    blocks : list of lists of int, optional
+        The structured VARs' blocks and the adaptive bank's groups.
+    rate : float
+        Frames per second (One Euro and the adaptive bank's One Euro expert).
+    keys : iterable of str, optional
+        Catalogue keys to include besides the baselines (default: all).
+    """
+    from handvar.predictors import Decelerating
+
+    out: dict[str, Predictor] = {}
+    for spec in CATALOGUE.values():
+        if keys is not None and spec.key not in keys and spec.label not in BASELINES:
+            continue
+        if spec.kind in ("one_euro", "adaptive"):
+            spec = spec.with_params(rate=rate)
+        out[spec.label] = spec.build(blocks)
+    out["decelerating 0.2"] = Decelerating(0.2)
+    out["decelerating 0.6"] = Decelerating(0.6)
+    return out
+
+
+def league_table(
+    recordings: list[Recording],
+    *,
+    rate: float = 30.0,
+    keys=None,
+    extra: dict | None = None,
+) -> list[LeagueRow]:
+    """Score every predictor on every recording: RMSE, R̃², rank and ratio per group.
+
+    Parameters
+    ----------
+    recordings : list of Recording
+    rate : float
+        Frames per second of the recordings.
+    keys : iterable of str, optional
+        Catalogue keys to include besides the baselines.
+    extra : dict of name to callable, optional
+        More predictors: ``extra[name](recording)`` returns a fresh predictor for a
+        recording (the offline-trained VAR), or None to leave it out there.
+
+    Returns
+    -------
+    list of LeagueRow
+        Per recording, its groups and an ``"all"`` group of every column; the rank and
+        ratio compare the predictors on the same recording and group.
+    """
+    rows: list[LeagueRow] = []
+    for rec in recordings:
+        groups, blocks = layout_structure(rec.layout, rec.X.shape[1])
+        width = rec.X.shape[1]
+        groups = (*groups, ("all", "", np.arange(width)))
+        predictors = league_predictors(blocks, rate=rate, keys=keys)
+        for name, make in (extra or {}).items():
+            p = make(rec)
+            if p is not None:
+                predictors[name] = p
+        scored, preds = evaluate_open_loop(
+            rec.X, predictors, resets=rec.resets, layout=rec.layout, truth=rec.truth
+        )
+        by_group = _all_group(rec, scored, preds)
+        for group, unit, _idx in groups:
+            sub = [r for r in by_group if r.group == group]
+            best = min(r.rmse for r in sub if r.predictor in BASELINES)
+            order = sorted(sub, key=lambda r: r.rmse)
+            rank = {r.predictor: i + 1 for i, r in enumerate(order)}
+            for r in sub:
+                ratio = r.rmse / best if best > 0 else float("nan")
+                rows.append(LeagueRow(rec.name, group, unit, r.predictor, r.rmse, r.r2_tilde,
+                                      rank[r.predictor], ratio, r.frames))  # fmt: skip
+    return rows
+
+
+def _all_group(rec: Recording, rows: list[OpenLoopRow], preds) -> list[OpenLoopRow]:
+    """`rows` plus an "all" group over every column of the predictions `preds`."""
+    Z = rec.X if rec.truth is None else rec.truth
+    ok = np.all([np.isfinite(P).all(1) for P in preds.values()], axis=0)
+    den = np.sum((Z - preds["no motion"])[ok] ** 2)
+    extra = []
+    for name, P in preds.items():
+        err = (Z - P)[ok]
+        r2 = 1.0 - np.sum(err**2) / den if den > 0 else float("nan")
+        rmse, mae = float(np.sqrt(np.mean(err**2))), float(np.mean(np.abs(err)))
+        extra.append(OpenLoopRow("all", "", name, rmse, mae, float(r2), int(ok.sum())))
+    return [*rows, *extra]
+
+
+def format_league(rows: list[LeagueRow], *, group: str = "all") -> str:
+    """Plain-text league: per recording, every predictor's RMSE, R̃², rank and ratio.
+
+    Only the rows of `group` (default the pooled ``"all"``) are printed; the CSV
+    holds every group.  A last table gives each predictor's ratio to the best
+    baseline on every recording and its worst ratio.
+    """
+    lines = []
+    sub = [r for r in rows if r.group == group]
+    recs = list(dict.fromkeys(r.recording for r in sub))
+    for rec in recs:
+        rr = sorted((r for r in sub if r.recording == rec), key=lambda r: r.rank)
+        lines.append(f"{rec} ({group}, {rr[0].frames} frames)")
+        lines.append(f"  {'rank':<6}{'predictor':<18}{'RMSE':>10}{'R̃²':>8}{'/ best baseline':>17}")
+        for r in rr:
+            mark = "*" if r.predictor in BASELINES else " "
+            lines.append(
+                f"  {r.rank:<6}{r.predictor:<17}{mark}{r.rmse:>10.4f}{r.r2_tilde:>8.3f}"
+                f"{r.ratio:>17.3f}"
+            )
+        lines.append("")
+    names = list(dict.fromkeys(r.predictor for r in sub))
+    lines.append(f"RMSE / best baseline ({group}); * = a baseline")
+    for k, rec in enumerate(recs):
+        lines.append(f"  [{k + 1}] {rec}")
+    head = "".join(f"{f'[{k + 1}]':>8}" for k in range(len(recs)))
+    lines.append(f"  {'predictor':<18}{head}{'worst':>8}")
+    for name in names:
+        vals = [next(r.ratio for r in sub if r.recording == rec and r.predictor == name)
+                for rec in recs]  # fmt: skip
+        mark = "*" if name in BASELINES else " "
+        lines.append(f"  {name:<17}{mark}" + "".join(f"{v:>8.3f}" for v in vals)
+                     + f"{max(vals):>8.3f}")  # fmt: skip
+    return "\n".join(lines) + "\n"
+
+
+def write_league_csv(rows: list[LeagueRow], path: str | os.PathLike) -> None:
+    """Write the league as CSV (every recording, group and predictor), atomically."""
+    from handvar.atomic import write_atomic
+
+    def quote(text: str) -> str:
+        return f'"{text}"' if "," in text else text
+
+    lines = ["recording,group,unit,predictor,rmse,r2_tilde,rank,ratio_to_best_baseline,frames"]
+    lines += [
+        f"{quote(r.recording)},{r.group},{r.unit},{r.predictor},{r.rmse:.6g},"
+        f"{r.r2_tilde:.6g},{r.rank},{r.ratio:.6g},{r.frames}"
+        for r in rows
+    ]
+    write_atomic(path, lambda tmp: Path(tmp).write_text("\n".join(lines) + "\n"))
+
+
+def write_league_figure(rows: list[LeagueRow], path: str | os.PathLike, *, group: str = "all"):
+    """A PNG of every predictor's RMSE / best baseline per recording (Agg), atomically."""
+    from matplotlib.figure import Figure
+
+    from handvar.atomic import write_atomic
+
+    sub = [r for r in rows if r.group == group]
+    recs = list(dict.fromkeys(r.recording for r in sub))
+    names = list(dict.fromkeys(r.predictor for r in sub))
+    fig = Figure(figsize=(max(6.0, 1.1 * len(recs) + 3), 4.5), layout="constrained")
+    ax = fig.add_subplot()
+    width = 0.8 / len(names)
+    for i, name in enumerate(names):
+        vals = [next(r.ratio for r in sub if r.recording == rec and r.predictor == name)
+                for rec in recs]  # fmt: skip
+        ax.bar(np.arange(len(recs)) + (i - len(names) / 2 + 0.5) * width, vals, width,
+               label=name, hatch="//" if name in BASELINES else None)  # fmt: skip
+    ax.axhline(1.0, color="k", lw=0.8)
+    ax.set_xticks(np.arange(len(recs)), recs, rotation=30, ha="right", fontsize=7)
+    ax.set_ylabel("one-step RMSE / best simple baseline")
+    ax.set_ylim(0, min(2.0, 1.05 * max(r.ratio for r in sub)))
+    ax.legend(fontsize=6, ncol=2)
+    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=120))

@@ -10,23 +10,31 @@
 """
 
 from handvar.params import hand_blocks
+from handvar.predictors.adaptive import EXPERTS, AdaptiveBank, hand_groups
 from handvar.predictors.base import Predictor, one_step_predictions
 from handvar.predictors.kalman import KalmanCV
+from handvar.predictors.offline import OfflineVAR
+from handvar.predictors.one_euro import OneEuro
 from handvar.predictors.order import OrderSelection, select_order
 from handvar.predictors.rvar import RVAR, fit_trust_weights
 from handvar.predictors.simple import Decelerating, NoMotion
 from handvar.predictors.var import VAR, second_differences
 
 __all__ = [
+    "EXPERTS",
     "RVAR",
     "VAR",
+    "AdaptiveBank",
     "Decelerating",
     "KalmanCV",
     "NoMotion",
+    "OfflineVAR",
+    "OneEuro",
     "OrderSelection",
     "Predictor",
     "fit_trust_weights",
     "hand_blocks",
+    "hand_groups",
     "one_step_predictions",
     "second_differences",
     "select_order",

@@ -33,13 +33,15 @@ __all__ = [
 
 # --- predictors --------------------------------------------------------------------
 
-_KINDS = ("none", "decelerating", "var", "rvar", "kalman")
+_KINDS = ("none", "decelerating", "var", "rvar", "kalman", "one_euro", "adaptive")
 _PARAM_NAMES = {
     "none": (),
     "decelerating": ("rho",),
     "var": ("order", "memory", "structured", "max_step"),
     "rvar": ("gamma", "cutoff", "mode", "memory"),
     "kalman": ("q", "r"),
+    "one_euro": ("min_cutoff", "beta", "d_cutoff", "rate"),
+    "adaptive": ("memory", "ar_memory", "rate", "sweeps", "ridge", "prior_frames", "pool"),
 }
 # The paper's symbols and a few spellings accepted for the constructor arguments.
 ARG_ALIASES = {
@@ -71,11 +73,13 @@ class PredictorSpec:
         Short identifier used on the command line (``rvar``, ``structured_var``).
     label : str
         Name in the store and on the figures (``"RVAR"``).
-    kind : {"none", "decelerating", "var", "rvar", "kalman"}
+    kind : {"none", "decelerating", "var", "rvar", "kalman", "one_euro", "adaptive"}
         :class:`~handvar.predictors.NoMotion`, :class:`~handvar.predictors.Decelerating`,
         :class:`~handvar.predictors.VAR` (``structured=True``: the blocks of eq. 25),
-        :class:`~handvar.predictors.RVAR` (``memory``: N of its structured VAR) or
-        :class:`~handvar.predictors.KalmanCV`.
+        :class:`~handvar.predictors.RVAR` (``memory``: N of its structured VAR),
+        :class:`~handvar.predictors.KalmanCV`, :class:`~handvar.predictors.OneEuro` or
+        :class:`~handvar.predictors.AdaptiveBank` (its weight groups: the given
+        blocks, or for hand parameters :func:`~handvar.predictors.hand_groups`).
     params : tuple of (str, value) pairs
         Constructor arguments; missing ones take the predictor's defaults.
     """
@@ -120,10 +124,24 @@ class PredictorSpec:
             the one inside RVAR); default :func:`hand_blocks`, eq. 25 for the 26 hand
             parameters.  Series in another layout (3D keypoints, say) pass their own.
         """
-        from handvar.predictors import RVAR, VAR, Decelerating, KalmanCV, NoMotion, hand_blocks
+        from handvar.predictors import (
+            RVAR,
+            VAR,
+            AdaptiveBank,
+            Decelerating,
+            KalmanCV,
+            NoMotion,
+            OneEuro,
+            hand_blocks,
+            hand_groups,
+        )
 
-        blocks = hand_blocks() if blocks is None else blocks
         kw = self.kwargs
+        if self.kind == "adaptive":
+            return AdaptiveBank(hand_groups() if blocks is None else blocks, **kw)
+        if self.kind == "one_euro":
+            return OneEuro(**kw)
+        blocks = hand_blocks() if blocks is None else blocks
         if self.kind == "none":
             return NoMotion()
         if self.kind == "decelerating":
@@ -173,8 +191,9 @@ PAPER_PREDICTORS: tuple[PredictorSpec, ...] = (
     ),
     PredictorSpec("rvar", "RVAR", "rvar", (("gamma", 0.8), ("cutoff", 8))),
 )
-# Beyond the paper: the relative interpolation mentioned after eq. 27 and the
-# textbook constant-velocity Kalman filter.
+# Beyond the paper (design §16): the relative interpolation mentioned after eq. 27,
+# the textbook constant-velocity Kalman filter, the One Euro filter of keypoint
+# pipelines and the adaptive bank.
 EXTRA_PREDICTORS: tuple[PredictorSpec, ...] = (
     PredictorSpec(
         "rvar_relative",
@@ -183,6 +202,8 @@ EXTRA_PREDICTORS: tuple[PredictorSpec, ...] = (
         (("gamma", 0.8), ("cutoff", 8), ("mode", "relative")),
     ),
     PredictorSpec("kalman", "Kalman CV", "kalman"),
+    PredictorSpec("one_euro", "One Euro", "one_euro"),
+    PredictorSpec("adaptive", "adaptive bank", "adaptive"),
 )
 CATALOGUE: dict[str, PredictorSpec] = {s.key: s for s in PAPER_PREDICTORS + EXTRA_PREDICTORS}
 
@@ -192,6 +213,8 @@ _SHORT = {
     "fullvar": "full_var",
     "svar": "structured_var",
     "rvar-rel": "rvar_relative",
+    "euro": "one_euro",
+    "bank": "adaptive",
 }
 
 
@@ -202,8 +225,9 @@ def make_predictor(name: str):
     ----------
     name : str
         A key of :data:`CATALOGUE` (``"none"``, ``"decelerating"``, ``"full_var"``,
-        ``"structured_var"``, ``"rvar"``, ``"rvar_relative"``, ``"kalman"``) or a
-        short name (``decel``, ``fullvar``, ``svar``, ``rvar-rel``).
+        ``"structured_var"``, ``"rvar"``, ``"rvar_relative"``, ``"kalman"``,
+        ``"one_euro"``, ``"adaptive"``) or a short name (``decel``, ``fullvar``,
+        ``svar``, ``rvar-rel``, ``euro``, ``bank``).
     """
     key = _SHORT.get(name, name)
     if key not in CATALOGUE:

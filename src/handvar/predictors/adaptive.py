@@ -1,0 +1,422 @@
+"""The adaptive bank: a convex combination of simple predictors fitted online (design §16).
+
+A bank of M cheap one-step predictors (the experts) runs on every coordinate: no
+motion (eq. 16), decelerating (eq. 22) at ρ = 0.2, 0.4, 0.6 and constant velocity
+(ρ = 1), the constant-velocity Kalman filter at three noise ratios (the default
+one of :class:`~handvar.predictors.KalmanCV` and two smoother ones), the One Euro
+filter, and two autoregressions fitted online per coordinate (the velocity on the
+previous velocity, and the second difference of eq. 3 on the previous one).  For
+every group g of coordinates the prediction is
+
+    x̂_{T+1}(j) = Σ_i w_{g,i} x̂^i_{T+1}(j),   j ∈ g,   w_g ∈ Δ (w ≥ 0, Σ w = 1)
+
+with the weights minimising the discounted squared error the combination would have
+made on the frames seen so far,
+
+    w_g = argmin_{w ∈ Δ} wᵀ G_g w,   G_g = Σ_t λ^{T−t} Σ_{j∈g} e_t(j) e_t(j)ᵀ,
+
+e_t(j) ∈ R^M the experts' errors x_t(j) − x̂^i_t(j).  The simplex constraint makes the
+bank never much worse than its best expert (every vertex is an expert), and the
+discount λ = 1 − 1/memory lets it follow a change in how predictable the motion is.
+
+The minimum over the simplex is found through the cone: v* = argmin_{v ≥ 0}
+vᵀGv − 2·1ᵀv gives w* = v* / 1ᵀv* (writing v = s w, the inner minimum over s is
+−1 / wᵀGw).  That non-negative quadratic programme is solved by coordinate descent,
+warm-started from the previous frame's weights, a few sweeps a frame — O(M²) per
+sweep and group, so a frame costs O(d M + n_groups M²) whatever the history.
+
+One compiled call per frame (``_bank_update``) does everything: score the experts'
+last predictions, update every expert, refit the weights, combine.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numba import njit
+
+from handvar.predictors.base import as_vector
+from handvar.predictors.one_euro import one_euro_alpha
+from handvar.validate import as_float, as_int
+
+__all__ = ["EXPERTS", "AdaptiveBank", "hand_groups"]
+
+# The experts, in the order of the weights.
+EXPERTS: tuple[str, ...] = (
+    "no motion",
+    "decelerating 0.2",
+    "decelerating 0.4",
+    "decelerating 0.6",
+    "constant velocity",
+    "Kalman CV",
+    "One Euro",
+    "Kalman CV q/r=1e-2",
+    "Kalman CV q/r=1e-4",
+    "AR velocity",
+    "AR acceleration",
+)
+_M = len(EXPERTS)
+_RHOS = np.array([0.2, 0.4, 0.6, 1.0])  # experts 1..4
+# Kalman experts 5, 7, 8: (q, r), as KalmanCV's arguments.
+_KALMAN_Q = np.array([1.0, 1e-2, 1e-4])
+_KALMAN_R = np.array([1.0, 1.0, 1.0])
+_KALMAN_SLOT = np.array([5, 7, 8])
+_P11_0 = 1e4  # KalmanCV's initial velocity variance
+_PRIOR = np.zeros(_M)
+_PRIOR[2] = 1.0  # decelerating ρ = 0.4, the paper's choice (§4), until errors are known
+
+
+def hand_groups() -> list[list[int]]:
+    """The groups of the 26 hand parameters that share weights.
+
+    Palm translation, palm rotation, the five abductions, and each digit's three
+    flexions: the parameter groups of the open-loop table, whose members move alike
+    (coarser than eq. 25's blocks, so each group's weights rest on more errors).
+    """
+    return [[0, 1, 2], [3, 4, 5], list(range(6, 11)),
+            *[list(range(11 + 3 * k, 14 + 3 * k)) for k in range(5)]]  # fmt: skip
+
+
+# Rows of the state array S (R, d).
+_X0 = 0  # x_T, x_{T-1}, x_{T-2}
+_KAL0 = 3  # per Kalman expert k: m0, m1, P00, P01, P11 at rows _KAL0 + 5k ...
+_OE0 = _KAL0 + 5 * len(_KALMAN_Q)  # One Euro: x̂, dx̂
+_AR0 = _OE0 + 2  # Σ v v₋₁, Σ v₋₁², Σ y y₋₁, Σ y₋₁², y_T
+_P0 = _AR0 + 5  # the experts' predictions, M rows
+_OUT = _P0 + _M  # the combined prediction
+_ROWS = _OUT + 1
+# cfg (the kernel's parameters): λ, λ_AR, α(f_d) of One Euro, f_cmin, β, rate, ridge,
+# pool, n₀, sweeps.
+
+
+@njit(cache=True)
+def _bank_update(x, S, G, N, W, index, sizes, cfg, aux):  # pragma: no cover - compiled
+    """One frame: score the experts, update them, refit the weights, combine.
+
+    `aux` holds [frames seen, increment scale c]; G and N are stored multiplied by c
+    (c = λ^−t grows instead of G shrinking, and is folded back when large).
+    Returns False, changing nothing, if `x` is not finite.
+    """
+    d = x.shape[0]
+    M = _M
+    ng = sizes.shape[0]
+    for j in range(d):
+        if not np.isfinite(x[j]):
+            return False
+    lam, lam_ar, oe_a_d, oe_min, oe_beta, rate, ridge, pool, n0 = cfg[:9]
+    sweeps = int(cfg[9])
+    n = int(aux[0])
+    # 1. Score the experts' predictions of this frame: G_g = λ G_g + Σ_j e eᵀ.
+    if n >= 1:
+        c = aux[1] / lam
+        if c > 1e100:  # fold the scale back into G and N
+            for g in range(ng):
+                N[g] /= c
+                for a in range(M):
+                    for b in range(M):
+                        G[g, a, b] /= c
+            c = 1.0
+        aux[1] = c
+        e = np.empty(M)
+        for g in range(ng):
+            for jj in range(sizes[g]):
+                j = index[g, jj]
+                for a in range(M):
+                    e[a] = x[j] - S[_P0 + a, j]
+                for a in range(M):
+                    ea = c * e[a]
+                    for b in range(a, M):
+                        G[g, a, b] += ea * e[b]
+            N[g] += c * sizes[g]
+    # 2. Update every expert and make its prediction of the next frame.
+    for j in range(d):
+        z = x[j]
+        S[_X0 + 2, j] = S[_X0 + 1, j]
+        S[_X0 + 1, j] = S[_X0, j]
+        S[_X0, j] = z
+        # Kalman CV (as KalmanCV): time update, then measurement update.
+        for k in range(_KALMAN_Q.shape[0]):
+            r0 = _KAL0 + 5 * k
+            if n == 0:
+                S[r0, j] = z
+                S[r0 + 1, j] = 0.0
+                S[r0 + 2, j] = _KALMAN_R[k]
+                S[r0 + 3, j] = 0.0
+                S[r0 + 4, j] = _P11_0
+            else:
+                q = _KALMAN_Q[k]
+                m0 = S[r0, j] + S[r0 + 1, j]  # m = F m
+                m1 = S[r0 + 1, j]
+                p00 = S[r0 + 2, j]
+                p01 = S[r0 + 3, j]
+                p11 = S[r0 + 4, j]
+                p00, p01, p11 = p00 + 2 * p01 + p11 + q / 3, p01 + p11 + q / 2, p11 + q  # FPF'+Q
+                s = p00 + _KALMAN_R[k]
+                k0 = p00 / s
+                k1 = p01 / s
+                inn = z - m0
+                S[r0, j] = m0 + k0 * inn
+                S[r0 + 1, j] = m1 + k1 * inn
+                S[r0 + 2, j] = (1 - k0) * p00
+                S[r0 + 3, j] = (1 - k0) * p01
+                S[r0 + 4, j] = p11 - k1 * p01
+            S[_P0 + _KALMAN_SLOT[k], j] = S[r0, j] + S[r0 + 1, j]  # H F m
+        # One Euro: x̂, dx̂.
+        if n == 0:
+            S[_OE0, j] = z
+            S[_OE0 + 1, j] = 0.0
+        else:
+            dx = (z - S[_OE0, j]) * rate
+            S[_OE0 + 1, j] += oe_a_d * (dx - S[_OE0 + 1, j])
+            tau = 1.0 / (2.0 * np.pi * (oe_min + oe_beta * abs(S[_OE0 + 1, j])))
+            S[_OE0, j] += (z - S[_OE0, j]) / (1.0 + tau * rate)
+        S[_P0 + 6, j] = S[_OE0, j]
+        # No motion (eq. 16), decelerating (eq. 22) and constant velocity.
+        v = z - S[_X0 + 1, j] if n >= 1 else 0.0
+        S[_P0, j] = z
+        for r in range(_RHOS.shape[0]):
+            S[_P0 + 1 + r, j] = z + _RHOS[r] * v
+        # AR(1) on velocities: v̂ = b v_T, b by discounted least squares.
+        if n >= 2:
+            v1 = S[_X0 + 1, j] - S[_X0 + 2, j]
+            S[_AR0, j] = lam_ar * S[_AR0, j] + v * v1
+            S[_AR0 + 1, j] = lam_ar * S[_AR0 + 1, j] + v1 * v1
+        b = S[_AR0, j] / (1.001 * S[_AR0 + 1, j] + 1e-300)
+        b = min(max(b, -1.0), 1.0)
+        S[_P0 + 9, j] = z + b * v
+        # AR(1) on second differences (eq. 3): ŷ = a y_T, x̂ = x_T + v_T + ŷ (eq. 5).
+        y = 0.0
+        if n >= 2:
+            y = z - 2.0 * S[_X0 + 1, j] + S[_X0 + 2, j]
+            if n >= 3:
+                S[_AR0 + 2, j] = lam_ar * S[_AR0 + 2, j] + y * S[_AR0 + 4, j]
+                S[_AR0 + 3, j] = lam_ar * S[_AR0 + 3, j] + S[_AR0 + 4, j] ** 2
+            S[_AR0 + 4, j] = y
+        a = S[_AR0 + 2, j] / (1.001 * S[_AR0 + 3, j] + 1e-300)
+        a = min(max(a, -1.0), 1.0)
+        S[_P0 + 10, j] = z + v + a * y
+    # 3. Refit the weights of every group and combine.  Each group's Gram matrix is
+    # normalised to mean diagonal 1 (Ĝ_g) and shrunk towards the pooled Ĝ of all
+    # groups by `pool` pseudo-observations: A_g = N_g Ĝ_g + pool Ḡ.
+    c = aux[1]
+    Gbar = np.zeros((M, M))
+    total_n = 0.0
+    scale = np.zeros(ng)
+    for g in range(ng):
+        tr = 0.0
+        for a in range(M):
+            tr += G[g, a, a]
+        if tr > 0.0 and N[g] > 0.0:
+            scale[g] = M / tr
+            f = N[g] * scale[g]
+            for a in range(M):
+                for b in range(a, M):
+                    Gbar[a, b] += f * G[g, a, b]
+            total_n += N[g]
+    if total_n > 0.0:
+        for a in range(M):
+            for b in range(a, M):
+                Gbar[a, b] *= pool / total_n
+                Gbar[b, a] = Gbar[a, b]
+    A = np.empty((M, M))
+    Gv = np.empty(M)
+    v = np.empty(M)
+    shrink = max(0.0, 1.0 - n / n0) if n0 > 0.0 else 0.0
+    for g in range(ng):
+        if scale[g] > 0.0:
+            f = N[g] / c * scale[g]
+            for a in range(M):
+                for b in range(a, M):
+                    A[a, b] = f * G[g, a, b] + Gbar[a, b]
+                    A[b, a] = A[a, b]
+            tr = 0.0
+            for a in range(M):
+                tr += A[a, a]
+            delta = ridge * tr / M + 1e-300
+            # Warm start: v = w / (wᵀ A w), the best scaling of last frame's w.
+            q = 0.0
+            for a in range(M):
+                s = delta * W[g, a]
+                for b in range(M):
+                    s += A[a, b] * W[g, b]
+                Gv[a] = s
+                q += W[g, a] * s
+            if q > 0.0:
+                for a in range(M):
+                    v[a] = W[g, a] / q
+                    Gv[a] /= q
+                # Coordinate descent on vᵀ(A + δI)v − 2·1ᵀv over v ≥ 0.
+                for _ in range(sweeps):
+                    for a in range(M):
+                        new = v[a] + (1.0 - Gv[a]) / (A[a, a] + delta)
+                        if new < 0.0:
+                            new = 0.0
+                        step = new - v[a]
+                        if step != 0.0:
+                            v[a] = new
+                            for b in range(M):
+                                Gv[b] += step * A[b, a]
+                            Gv[a] += step * delta
+                total = 0.0
+                for a in range(M):
+                    total += v[a]
+                if total > 0.0:
+                    for a in range(M):
+                        W[g, a] = v[a] / total
+        # Shrink towards the prior weights while few frames have been seen.
+        for jj in range(sizes[g]):
+            j = index[g, jj]
+            s = 0.0
+            for a in range(M):
+                s += ((1.0 - shrink) * W[g, a] + shrink * _PRIOR[a]) * S[_P0 + a, j]
+            S[_OUT, j] = s
+    aux[0] = n + 1
+    return True
+
+
+class AdaptiveBank:
+    """Online convex combination of simple predictors, one set of weights per group.
+
+    Parameters
+    ----------
+    blocks : sequence of sequences of int, optional
+        The groups of coordinates that share weights (a partition of 0..d−1); default
+        every coordinate alone.  For hand parameters :func:`hand_blocks` (eq. 25),
+        for keypoints one block per digit.
+    memory : float, default 400
+        The weights' horizon in frames: the squared errors are discounted by
+        λ = 1 − 1/memory a frame.
+    ar_memory : float, default 50
+        The horizon of the two autoregressive experts (λ_AR = 1 − 1/ar_memory).
+    rate : float, default 30
+        Frames per second, for the One Euro expert (its published parameters:
+        f_cmin = 1 Hz, β = 0, f_d = 1 Hz).
+    sweeps : int, default 3
+        Coordinate-descent sweeps of the weights per frame.
+    ridge : float, default 1e-6
+        δ / (tr G / M): a vanishing ridge that keeps the weights unique.
+    prior_frames : float, default 30
+        n₀: after n frames the weights used are (1 − s) w_g + s w₀ with
+        s = max(0, 1 − n / n₀) and w₀ all on decelerating ρ = 0.4, so that the first
+        frames, whose errors say little, follow the paper's choice.
+    pool : float, default 1000
+        Pseudo-observations (coordinate-frames) of the pooled error matrix of all
+        groups added to each group's own: a group's weights lean on the others'
+        evidence while its own is short.
+
+    Notes
+    -----
+    The weights start uniform; with one frame seen every expert predicts that frame.
+    Every expert is offset-equivariant, and the weights depend only on errors, so
+    x + c ↦ x̂ + c.  :attr:`weights` gives the current weights, (n_groups, M), in
+    the order of :data:`EXPERTS`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> bank = AdaptiveBank()
+    >>> for t in range(200):
+    ...     bank.update([2.0 * t])          # constant velocity
+    >>> round(float(bank.predict()[0]), 3)
+    400.0
+    """
+
+    def __init__(
+        self,
+        blocks: Sequence[Sequence[int]] | None = None,
+        *,
+        memory: float = 400.0,
+        ar_memory: float = 50.0,
+        rate: float = 30.0,
+        sweeps: int = 3,
+        ridge: float = 1e-6,
+        prior_frames: float = 30.0,
+        pool: float = 1000.0,
+    ) -> None:
+        self.memory = as_float(memory, "memory", minimum=1.0, exclusive_minimum=True)
+        self.ar_memory = as_float(ar_memory, "ar_memory", minimum=1.0, exclusive_minimum=True)
+        self.rate = as_float(rate, "rate", minimum=0.0, exclusive_minimum=True)
+        self.sweeps = as_int(sweeps, "sweeps", minimum=1)
+        self.ridge = as_float(ridge, "ridge", minimum=0.0)
+        self.prior_frames = as_float(prior_frames, "prior_frames", minimum=0.0)
+        self.pool = as_float(pool, "pool", minimum=0.0)
+        self.blocks = None if blocks is None else [[int(i) for i in b] for b in blocks]
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every frame (weights included); the next update starts a new series."""
+        self._d: int | None = None
+
+    def _allocate(self, d: int) -> None:
+        blocks = [[i] for i in range(d)] if self.blocks is None else self.blocks
+        flat = sorted(i for b in blocks for i in b)
+        if flat != list(range(d)) or any(len(b) == 0 for b in blocks):
+            raise ValueError(
+                f"blocks: expected a partition of the indices 0..{d - 1} (each exactly "
+                f"once); got {self.blocks!r}"
+            )
+        ng, kmax = len(blocks), max(len(b) for b in blocks)
+        self._index = np.zeros((ng, kmax), dtype=np.intp)
+        for g, b in enumerate(blocks):
+            self._index[g, : len(b)] = b
+        self._sizes = np.array([len(b) for b in blocks], dtype=np.intp)
+        self._S = np.zeros((_ROWS, d))
+        self._G = np.zeros((ng, _M, _M))
+        self._N = np.zeros(ng)
+        self._W = np.zeros((ng, _M))
+        self._aux = np.zeros(2)
+        self._cfg = np.array([
+            1.0 - 1.0 / self.memory, 1.0 - 1.0 / self.ar_memory, one_euro_alpha(1.0, self.rate),
+            1.0, 0.0, self.rate, self.ridge, self.pool, self.prior_frames, self.sweeps,
+        ])  # fmt: skip
+        self._d = d
+        self._clear()
+
+    def _clear(self) -> None:
+        self._S[...] = 0.0
+        self._G[...] = 0.0
+        self._N[...] = 0.0
+        self._W[...] = 1.0 / _M
+        self._aux[:] = (0.0, 1.0)
+
+    def update(self, x) -> None:
+        """Take the estimate `x` (d,) of the newest frame; refit the weights."""
+        if self._d is None:
+            x = as_vector(x, "x")
+            self._allocate(x.size)
+        else:
+            x = np.asarray(x, dtype=float)
+            if x.shape != (self._d,):
+                as_vector(x, "x", self._d)  # raises, naming the shape
+        if not _bank_update(
+            x, self._S, self._G, self._N, self._W, self._index, self._sizes, self._cfg, self._aux
+        ):
+            raise ValueError("x: expected finite values; got NaN or infinity")
+
+    def predict(self) -> np.ndarray:
+        """The weighted prediction (d,) of the next frame."""
+        if self._d is None or self._aux[0] == 0:
+            raise RuntimeError("predict() needs at least one update()")
+        return self._S[_OUT].copy()
+
+    @property
+    def weights(self) -> np.ndarray:
+        """The current weights, (n_groups, M), rows on the simplex, columns :data:`EXPERTS`."""
+        if self._d is None:
+            raise RuntimeError("weights needs at least one update()")
+        return self._W.copy()
+
+    @property
+    def expert_predictions(self) -> np.ndarray:
+        """Every expert's prediction of the next frame, (M, d)."""
+        if self._d is None or self._aux[0] == 0:
+            raise RuntimeError("expert_predictions needs at least one update()")
+        return self._S[_P0 : _P0 + _M].copy()
+
+    def __repr__(self) -> str:
+        blocks = "None" if self.blocks is None else f"<{len(self.blocks)} blocks>"
+        return (
+            f"AdaptiveBank(blocks={blocks}, memory={self.memory}, ar_memory={self.ar_memory}, "
+            f"rate={self.rate})"
+        )

@@ -1,0 +1,260 @@
+"""The adaptive bank, the One Euro filter and the offline-trained VAR (design §16)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from handvar.evaluation.openloop import (
+    BASELINES,
+    Recording,
+    keypoint_blocks,
+    league_predictors,
+    noise_variants,
+)
+from handvar.predictors import (
+    EXPERTS,
+    AdaptiveBank,
+    Decelerating,
+    KalmanCV,
+    NoMotion,
+    OfflineVAR,
+    OneEuro,
+    hand_groups,
+    one_step_predictions,
+    second_differences,
+)
+from tests.conftest import EXAMPLES
+
+
+# --- One Euro: against a literal transcription of the CHI 2012 algorithm -------------
+def _one_euro_reference(xs, rate, min_cutoff, beta, d_cutoff):
+    """The paper's pseudo-code, one scalar at a time, written as plainly as possible."""
+
+    def alpha(rate, cutoff):
+        te = 1.0 / rate
+        tau = 1.0 / (2 * math.pi * cutoff)
+        return 1.0 / (1.0 + tau / te)
+
+    out, x_prev, dx_prev = [], None, None
+    for x in xs:
+        if x_prev is None:
+            dx_hat, x_hat = 0.0, x
+        else:
+            dx = (x - x_prev) * rate
+            dx_hat = alpha(rate, d_cutoff) * dx + (1 - alpha(rate, d_cutoff)) * dx_prev
+            cutoff = min_cutoff + beta * abs(dx_hat)
+            x_hat = alpha(rate, cutoff) * x + (1 - alpha(rate, cutoff)) * x_prev
+        x_prev, dx_prev = x_hat, dx_hat
+        out.append(x_hat)
+    return np.array(out)
+
+
+@pytest.mark.parametrize("beta", [0.0, 0.05])
+def test_one_euro_equals_the_papers_algorithm(beta):
+    rng = np.random.default_rng(3)
+    X = np.cumsum(rng.standard_normal((300, 4)), axis=0)
+    f = OneEuro(min_cutoff=0.7, beta=beta, d_cutoff=1.3, rate=60.0)
+    ours = []
+    for x in X:
+        f.update(x)
+        ours.append(f.predict())
+    ref = np.stack([_one_euro_reference(X[:, j], 60.0, 0.7, beta, 1.3) for j in range(4)], 1)
+    np.testing.assert_allclose(np.array(ours), ref, rtol=0, atol=1e-12)
+
+
+def test_one_euro_rejects_bad_arguments():
+    with pytest.raises(ValueError, match="min_cutoff"):
+        OneEuro(min_cutoff=0.0)
+    with pytest.raises(TypeError, match="rate"):
+        OneEuro(rate="30")
+
+
+# --- the bank: its experts are the predictors they claim to be ------------------------
+def test_bank_experts_equal_the_standalone_predictors():
+    rng = np.random.default_rng(4)
+    X = np.cumsum(np.cumsum(rng.standard_normal((120, 5)), 0), 0)
+    bank = AdaptiveBank(rate=30.0)
+    standalone = {
+        "no motion": NoMotion(),
+        "decelerating 0.2": Decelerating(0.2),
+        "decelerating 0.4": Decelerating(0.4),
+        "decelerating 0.6": Decelerating(0.6),
+        "constant velocity": Decelerating(1.0),
+        "Kalman CV": KalmanCV(),
+        "One Euro": OneEuro(rate=30.0),
+        "Kalman CV q/r=1e-2": KalmanCV(q=1e-2, r=1.0),
+        "Kalman CV q/r=1e-4": KalmanCV(q=1e-4, r=1.0),
+    }
+    for x in X:
+        bank.update(x)
+        for p in standalone.values():
+            p.update(x)
+        P = bank.expert_predictions
+        for name, p in standalone.items():
+            np.testing.assert_allclose(P[EXPERTS.index(name)], p.predict(), rtol=1e-12, atol=1e-9)
+
+
+def test_bank_weights_solve_the_simplex_least_squares():
+    # After a long stationary series, the weights of one group minimise wᵀ G w on the
+    # simplex for the discounted error Gram G: checked with scipy's SLSQP.
+    from scipy.optimize import minimize
+
+    rng = np.random.default_rng(5)
+    X = np.cumsum(rng.standard_normal((800, 3)), 0) + 0.3 * rng.standard_normal((800, 3))
+    bank = AdaptiveBank([[0, 1, 2]], memory=1e9, sweeps=50, pool=0.0, ridge=0.0)
+    errors = []
+    for t, x in enumerate(X):
+        if t:
+            errors.append(x[:, None] - bank.expert_predictions.T)  # (3, M)
+        bank.update(x)
+    E = np.concatenate(errors)
+    G = E.T @ E / len(E)
+    M = len(EXPERTS)
+    res = minimize(lambda w: w @ G @ w, np.full(M, 1 / M), jac=lambda w: 2 * G @ w,
+                   bounds=[(0, 1)] * M, constraints={"type": "eq", "fun": lambda w: w.sum() - 1},
+                   method="SLSQP", options={"ftol": 1e-14, "maxiter": 500})  # fmt: skip
+    w = bank.weights[0]
+    assert w.min() >= 0 and abs(w.sum() - 1) < 1e-12
+    assert w @ G @ w <= res.fun * (1 + 1e-6)
+
+
+def test_bank_is_offset_equivariant():
+    rng = np.random.default_rng(6)
+    X = np.cumsum(rng.standard_normal((200, 6)), 0)
+    c = rng.uniform(-50, 50, 6)
+    a = one_step_predictions(AdaptiveBank([[0, 1, 2], [3, 4, 5]]), X)
+    b = one_step_predictions(AdaptiveBank([[0, 1, 2], [3, 4, 5]]), X + c)
+    np.testing.assert_allclose(b[1:], a[1:] + c, rtol=0, atol=1e-9)
+
+
+def test_bank_rejects_bad_input_and_resets():
+    bank = AdaptiveBank()
+    with pytest.raises(RuntimeError):
+        bank.predict()
+    bank.update([1.0, 2.0])
+    with pytest.raises(ValueError, match="x: expected"):
+        bank.update([1.0, 2.0, 3.0])
+    with pytest.raises(ValueError, match="finite"):
+        bank.update([1.0, np.nan])
+    bank.reset()
+    bank.update([5.0, 6.0, 7.0])  # a new series may have another size
+    np.testing.assert_array_equal(bank.predict(), [5.0, 6.0, 7.0])
+    with pytest.raises(ValueError, match="blocks"):
+        AdaptiveBank([[0], [0, 1]]).update([1.0, 2.0])
+    with pytest.raises(ValueError, match="memory"):
+        AdaptiveBank(memory=0.5)
+
+
+# --- the acceptance rule: never worse than the best simple baseline -----------------
+def _baseline_rmse(X, truth, resets=(), blocks=None):
+    preds = league_predictors(blocks, keys=())
+    out = {}
+    for name in BASELINES:
+        P = one_step_predictions(preds[name], X, resets=resets)
+        ok = np.isfinite(P).all(1)
+        out[name] = float(np.sqrt(np.mean((truth - P)[ok] ** 2)))
+    return out
+
+
+def _bank_rmse(X, truth, resets=(), blocks=None):
+    P = one_step_predictions(AdaptiveBank(blocks), X, resets=resets)
+    ok = np.isfinite(P).all(1)
+    return float(np.sqrt(np.mean((truth - P)[ok] ** 2)))
+
+
+def _shipped_recordings():
+    from handvar.synth.motion import htrack_to_handvar
+
+    H = htrack_to_handvar(np.loadtxt(EXAMPLES / "htrack-fingerfist.txt"))
+    D = 1000.0 * np.load(EXAMPLES / "dex-human-hand-landmarks.npy").reshape(621, -1)
+    clean = [
+        (Recording("htrack 0-3999", H[:4000], "handvar"), hand_groups()),
+        (Recording("htrack 4000-5999", H[4000:], "handvar"), hand_groups()),
+        (Recording("dex", D, "keypoints"), keypoint_blocks()),
+    ]
+    out = []
+    for rec, blocks in clean:
+        out += [(r, blocks) for r in [rec, *noise_variants(rec)]]
+    return out
+
+
+@pytest.mark.slow
+def test_bank_never_loses_to_the_best_baseline_on_the_shipped_recordings():
+    ratios = {}
+    for rec, blocks in _shipped_recordings():
+        truth = rec.X if rec.truth is None else rec.truth
+        best = min(_baseline_rmse(rec.X, truth, blocks=blocks).values())
+        ratios[rec.name] = _bank_rmse(rec.X, truth, blocks=blocks) / best
+    assert len(ratios) == 15
+    assert max(ratios.values()) <= 1.01, ratios
+    assert sum(r < 1.0 for r in ratios.values()) >= len(ratios) / 2, ratios
+
+
+def _families():
+    rng = np.random.default_rng(7)
+    T = 1500
+    return {
+        # white-noise velocity (a random walk): no motion is the best baseline
+        "random walk": np.cumsum(rng.standard_normal((T, 6)), 0),
+        # a smooth random walk in velocity: a constant-velocity model is best
+        "smooth velocity": np.cumsum(np.cumsum(0.1 * rng.standard_normal((T, 6)), 0), 0),
+        "sinusoid": 10 * np.sin(2 * np.pi * np.arange(T)[:, None] / 60 + rng.uniform(0, 6, 6))
+        + 0.2 * rng.standard_normal((T, 6)),
+        "white noise": rng.standard_normal((T, 6)),
+    }
+
+
+@pytest.mark.parametrize("family", ["random walk", "smooth velocity", "sinusoid", "white noise"])
+def test_bank_never_loses_on_synthetic_families(family):
+    X = _families()[family]
+    base = _baseline_rmse(X, X)
+    if family == "random walk":
+        assert min(base, key=base.get) == "no motion"
+    if family == "smooth velocity":
+        assert min(base, key=base.get) in ("Kalman CV", "decelerating 0.6")
+    assert _bank_rmse(X, X) <= 1.01 * min(base.values()), base
+
+
+@pytest.mark.parametrize("keep", [14, 16])
+def test_bank_never_loses_on_points_layouts_from_dex(keep):
+    D = 1000.0 * np.load(EXAMPLES / "dex-human-hand-landmarks.npy")
+    drop = {14: [3, 7, 11, 15, 19, 20, 18], 16: [7, 11, 15, 19, 20]}[keep]
+    X = np.delete(D, drop, axis=1).reshape(len(D), -1)
+    assert X.shape[1] == 3 * keep
+    blocks = [[3 * k, 3 * k + 1, 3 * k + 2] for k in range(keep)]
+    base = _baseline_rmse(X, X, blocks=blocks)
+    assert _bank_rmse(X, X, blocks=blocks) <= 1.01 * min(base.values()), base
+
+
+# --- the offline VAR --------------------------------------------------------------
+def test_offline_var_equals_statsmodels_without_ridge():
+    from statsmodels.tsa.api import VAR as SmVAR
+
+    from handvar.synth.motion import htrack_to_handvar
+
+    H = htrack_to_handvar(np.loadtxt(EXAMPLES / "htrack-fingerfist.txt", max_rows=1500))
+    X = H[:, [3, 4, 5, 14, 15, 16]]
+    for order in (1, 3):
+        ours = OfflineVAR(order=order, ridge=0.0).fit(X)
+        ref = SmVAR(second_differences(X)).fit(order, trend="n")
+        np.testing.assert_allclose(ours.coefs, ref.coefs, rtol=1e-8, atol=1e-10)
+    chosen = OfflineVAR(ridge=0.0, max_order=4).fit(X)
+    sel = SmVAR(second_differences(X)).select_order(4, trend="n")
+    assert chosen.order_ == sel.selected_orders["bic"]
+
+
+def test_offline_var_predicts_like_eq_5():
+    rng = np.random.default_rng(8)
+    X = np.cumsum(np.cumsum(rng.standard_normal((300, 3)), 0), 0)
+    var = OfflineVAR(order=2, ridge=0.1).fit(X)
+    A = var.coefs
+    for x in X[:10]:
+        var.update(x)
+    y = second_differences(X[:10])
+    expect = X[9] + (X[9] - X[8]) + A[0] @ y[-1] + A[1] @ y[-2]
+    np.testing.assert_allclose(var.predict(), expect, rtol=1e-12)
+    with pytest.raises(RuntimeError, match="fit"):
+        OfflineVAR().update(X[0])
