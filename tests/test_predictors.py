@@ -91,10 +91,10 @@ def test_structured_var_blocks_equal_separate_least_squares(fingerfist):
 
 
 def test_blocks_must_partition_the_parameters():
-    with pytest.raises(ValueError, match="^blocks: expected disjoint"):
+    with pytest.raises(ValueError, match=r"^blocks: expected disjoint"):
         VAR(blocks=[[0, 1], [1, 2]])  # at construction
     var = VAR(blocks=[[0, 1], [3]])
-    with pytest.raises(ValueError, match="^blocks: expected a partition"):
+    with pytest.raises(ValueError, match=r"^blocks: expected a partition"):
         var.update(np.zeros(3))  # once the dimension is known
 
 
