@@ -19,12 +19,12 @@ from handvar.predictors import (
     Decelerating,
     KalmanCV,
     NoMotion,
+    _kernels,
     fit_trust_weights,
     hand_blocks,
     one_step_predictions,
     second_differences,
 )
-from handvar.predictors import _kernels
 
 EPS = np.finfo(float).eps
 FEW = settings(max_examples=50, deadline=None)
@@ -92,7 +92,7 @@ def lstsq_window(X, order, memory, blocks):
             continue
         rows = range(len(y) - n_eq, len(y))
         W = np.array([np.concatenate([y[t - lag][b] for lag in range(1, order + 1)]) for t in rows])
-        coef, _, rank, sv = np.linalg.lstsq(W, y[len(y) - n_eq :][:, b], rcond=None)
+        coef, _, _, sv = np.linalg.lstsq(W, y[len(y) - n_eq :][:, b], rcond=None)
         kept = sv[sv > EPS * max(W.shape) * sv[0]] if sv[0] > 0 else [1.0]
         conds.append(kept[0] / kept[-1])
         for lag in range(order):
@@ -139,8 +139,8 @@ def test_online_var_is_the_minimum_norm_lstsq_fit_of_its_window(case):
         ref, cond = lstsq_window(X[: t + 1], order, memory, blocks)
         # Both are backward-stable solutions: they agree to the conditioning of the
         # window times the rounding, relative to the coefficients' size.
-        tol = 1e-10 + 1e-13 * cond * (1.0 + np.abs(ref).max())
-        np.testing.assert_allclose(var.coefs, ref, rtol=0, atol=tol * (1.0 + np.abs(ref).max()))
+        tol = (1e-10 + 1e-13 * cond) * (1.0 + np.abs(ref).max())
+        np.testing.assert_allclose(var.coefs, ref, rtol=0, atol=tol)
 
 
 def test_online_var_after_every_parameter_froze_is_zero():
