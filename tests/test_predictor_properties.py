@@ -27,7 +27,7 @@ from handvar.predictors import (
 )
 
 EPS = np.finfo(float).eps
-FEW = settings(max_examples=50, deadline=None)
+FEW = settings(max_examples=50, deadline=None, database=None)
 seeds = st.integers(0, 2**32 - 1)
 
 
