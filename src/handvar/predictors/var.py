@@ -48,7 +48,7 @@ def check_blocks(blocks) -> list[list[int]] | None:
     """
     if blocks is None:
         return None
-    as_instance(blocks, Sequence, "blocks", what="a sequence of sequences of int")
+    as_instance(blocks, Sequence | np.ndarray, "blocks", what="a sequence of sequences of int")
     out, seen = [], set()
     for block in blocks:
         as_instance(block, Sequence | np.ndarray, "blocks", what="a sequence of sequences of int")
