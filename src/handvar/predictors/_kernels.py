@@ -195,13 +195,14 @@ def trust_weights(hist, weights, origin, alpha, beta):  # pragma: no cover
     cand_a = np.empty(9)
     cand_b = np.empty(9)
     cost = np.empty(9)
+    sws = np.sqrt(weights)
     for c in range(d):
         o = origin[c]
         s_aa = 0.0
         s_bb = 0.0
         S = 0.0
         for t in range(n):
-            sw = np.sqrt(weights[t])
+            sw = sws[t]
             xv = hist[0, t, c] - o
             av = hist[1, t, c] - o
             bv = hist[2, t, c] - o

@@ -40,7 +40,19 @@ def as_vector(x, name: str = "x", size: int | None = None) -> np.ndarray:
     TypeError if it is not numeric, ValueError if its shape differs from ``(size,)``
     (any length when `size` is None) or it holds NaN or infinity.
     """
-    return as_array(x, name, (size,), what="a vector")
+    # The per-frame fast path; handvar.validate words the error when there is one.
+    try:
+        arr = None if isinstance(x, str | bytes) else np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        arr = None
+    if (
+        arr is None
+        or arr.ndim != 1
+        or (size is not None and arr.shape[0] != size)
+        or not np.isfinite(arr).all()
+    ):
+        return as_array(x, name, (size,), what="a vector")
+    return arr
 
 
 def as_series(X, name: str = "X") -> np.ndarray:

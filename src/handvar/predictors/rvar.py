@@ -25,6 +25,13 @@ from handvar.validate import as_array, as_float, as_instance, as_int, one_of
 __all__ = ["RVAR", "fit_trust_weights"]
 
 _MODES = ("absolute", "relative")
+_RANK_TOL = 1e-13  # relative rank tolerance of the 2-column design of eq. 27
+_EPS = float(np.finfo(float).eps)
+
+
+def _tie_tolerance(best, S):
+    """How far above the minimum E* a cost still counts as a minimiser (rounding)."""
+    return 1e-12 * best + 16.0 * _EPS * np.sqrt(best * S) + (16.0 * _EPS) ** 2 * S
 
 
 def fit_trust_weights(target, a, b, weights):
@@ -127,15 +134,6 @@ def fit_trust_weights(target, a, b, weights):
     pick = np.argmin(norm, axis=0)
     cols = np.arange(d)
     return alpha[pick, cols], beta[pick, cols]
-
-
-_RANK_TOL = 1e-13  # relative rank tolerance of the 2-column design of eq. 27
-_EPS = float(np.finfo(float).eps)
-
-
-def _tie_tolerance(best, S):
-    """How far above the minimum E* a cost still counts as a minimiser (rounding)."""
-    return 1e-12 * best + 16.0 * _EPS * np.sqrt(best * S) + (16.0 * _EPS) ** 2 * S
 
 
 class RVAR:

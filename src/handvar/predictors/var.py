@@ -146,7 +146,7 @@ class VAR:
             else:
                 step = as_array(max_step, "max_step", (None,), what="a vector")
                 if np.any(step <= 0):
-                    raise ValueError(f"max_step: expected positive values; got {step.min()!r}")
+                    raise ValueError(f"max_step: expected positive values; got {float(step.min())}")
             max_step = step
         self.max_step = max_step
         self.reset()
