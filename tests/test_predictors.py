@@ -91,9 +91,11 @@ def test_structured_var_blocks_equal_separate_least_squares(fingerfist):
 
 
 def test_blocks_must_partition_the_parameters():
-    var = VAR(blocks=[[0, 1], [1, 2]])
-    with pytest.raises(ValueError, match="blocks"):
-        var.update(np.zeros(3))
+    with pytest.raises(ValueError, match=r"^blocks: expected disjoint"):
+        VAR(blocks=[[0, 1], [1, 2]])  # at construction
+    var = VAR(blocks=[[0, 1], [3]])
+    with pytest.raises(ValueError, match=r"^blocks: expected a partition"):
+        var.update(np.zeros(3))  # once the dimension is known
 
 
 def test_var_cost_does_not_keep_equations_beyond_memory(fingerfist):
@@ -126,9 +128,8 @@ def test_trust_weights_are_the_constrained_optimum(seed):
     for i in range(d):
         ours = _objective(truth[:, i], a[:, i], b[:, i], w, alpha[i : i + 1], beta[i : i + 1])
         grid = _objective(truth[:, i], a[:, i], b[:, i], w, ga, gb)
-        # The tie-breaking ridge ε(α² + β²) may cost at most 2ε of eq. 27's objective.
-        eps = 1e-8 * 0.5 * (np.sum(w * a[:, i] ** 2) + np.sum(w * b[:, i] ** 2))
-        assert ours[0] <= grid.min() + 2 * eps + 1e-12 * grid.min()
+        # Nothing is added to eq. 27: the exact minimum is at most the grid's.
+        assert ours[0] <= grid.min() * (1 + 1e-12)
 
 
 def test_rvar_weights_stay_in_the_triangle_on_real_motion(fingerfist):
@@ -163,31 +164,36 @@ def _batch_var(X, T, order, memory, blocks, max_step):
     return x[-1] + step
 
 
-def _batch_trust(target, a, b, w, ridge=1e-8):
-    """Eq. 27 (with its tie-breaking ridge) over every face of the triangle, by lstsq."""
-    eps = ridge * 0.5 * (np.sum(w * a * a) + np.sum(w * b * b)) + np.finfo(float).tiny
-    sw, re = np.sqrt(w), np.sqrt(eps)
+def _batch_trust(target, a, b, w):
+    """Eq. 27 over every face of the triangle by lstsq; ties go to the smallest norm."""
+    sw = np.sqrt(w)
 
     def cost(al, be):
-        return np.sum(w * (target - al * a - be * b) ** 2) + eps * (al * al + be * be)
+        return np.sum(w * (target - al * a - be * b) ** 2)
 
-    def solve(cols, rhs, ridge_rows, ridge_rhs):
-        Z = np.vstack([np.stack(cols, 1) * sw[:, None], ridge_rows])
-        sol, *_ = np.linalg.lstsq(Z, np.concatenate([rhs * sw, ridge_rhs]), rcond=None)
+    def solve(cols, rhs):  # minimum-norm weighted least squares
+        sol, *_ = np.linalg.lstsq(np.stack(cols, 1) * sw[:, None], rhs * sw, rcond=None)
         return sol
 
-    interior = solve((a, b), target, re * np.eye(2), np.zeros(2))
-    t_a = solve((a,), target, [[re], [0.0]], [0.0, 0.0])[0]
-    t_b = solve((b,), target, [[0.0], [re]], [0.0, 0.0])[0]
-    t_ab = solve((a - b,), target - b, [[re], [-re]], [0.0, -re])[0]  # α = t, β = 1 − t
+    interior = solve((a, b), target)
+    t_a = np.clip(solve((a,), target)[0], 0, 1)
+    t_b = np.clip(solve((b,), target)[0], 0, 1)
+    t_ab = np.clip(solve((a - b,), target - b)[0], 0, 1) if np.any(a != b) else 0.5
     candidates = [
         tuple(interior),
-        (np.clip(t_a, 0, 1), 0.0),
-        (0.0, np.clip(t_b, 0, 1)),
-        (np.clip(t_ab, 0, 1), 1 - np.clip(t_ab, 0, 1)),
+        (t_a, 0.0),
+        (0.0, t_b),
+        (t_ab, 1 - t_ab),
+        (0.5, 0.5),  # the smallest-norm point of the edge α + β = 1 when it is flat
+        (0.0, 0.0),
+        (1.0, 0.0),
+        (0.0, 1.0),
     ]
     feasible = [(al, be) for al, be in candidates if al >= 0 and be >= 0 and al + be <= 1]
-    return min(feasible, key=lambda ab: cost(*ab))
+    best = min(cost(*ab) for ab in feasible)
+    scale = np.sum(w * (np.abs(target) + np.abs(a) + np.abs(b)) ** 2)
+    ties = [ab for ab in feasible if cost(*ab) <= best * (1 + 1e-9) + 1e-24 * scale]
+    return min(ties, key=lambda ab: ab[0] ** 2 + ab[1] ** 2)
 
 
 def _batch_rvar(X, gamma=0.8, cutoff=8, mode="absolute"):
@@ -202,16 +208,14 @@ def _batch_rvar(X, gamma=0.8, cutoff=8, mode="absolute"):
         if len(ts):
             w = np.array([0.5 ** (T - t) for t in ts])  # eq. 28
             for i in range(d):
-                o = np.array([X[t - 1, i] if mode == "relative" else 0.0 for t in ts])
+                # The origin: each frame's predecessor, or the latest frame x_T.
+                o = np.array([X[t - 1, i] if mode == "relative" else X[T, i] for t in ts])
                 tgt = np.array([X[t, i] for t in ts]) - o
                 a = np.array([sv[t - 1][i] for t in ts]) - o
                 b = np.array([dec[t - 1][i] for t in ts]) - o
                 alpha[i], beta[i] = _batch_trust(tgt, a, b, w)
-        xT = X[T]
-        if mode == "relative":
-            out[T + 1] = xT + gamma * (alpha * (sv[T] - xT) + beta * (dec[T] - xT))
-        else:
-            out[T + 1] = (1 - gamma) * xT + gamma * (alpha * sv[T] + beta * dec[T])  # eq. 26
+        xT = X[T]  # eq. 26 with the origin at x_T
+        out[T + 1] = xT + gamma * (alpha * (sv[T] - xT) + beta * (dec[T] - xT))
     return out
 
 
@@ -339,7 +343,7 @@ def test_compiled_trust_weights_equal_the_numpy_reference():
     b[:, :3] = a[:, :3]  # exact ties: both predictors agree
     ref = fit_trust_weights(x, a, b, w)
     alpha, beta = np.empty(d), np.empty(d)
-    _kernels.trust_weights(np.stack([x, a, b]), w, 1e-8, alpha, beta)
+    _kernels.trust_weights(np.stack([x, a, b]), w, np.zeros(d), alpha, beta)
     np.testing.assert_allclose(alpha, ref[0], rtol=0, atol=1e-12)
     np.testing.assert_allclose(beta, ref[1], rtol=0, atol=1e-12)
 

@@ -11,6 +11,8 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from handvar.validate import as_array, as_int
+
 __all__ = ["Predictor", "as_series", "as_vector", "one_step_predictions"]
 
 
@@ -33,20 +35,30 @@ class Predictor(Protocol):
 
 
 def as_vector(x, name: str = "x", size: int | None = None) -> np.ndarray:
-    """Return `x` as a finite float64 vector, or raise ValueError naming `name`."""
-    arr = np.asarray(x, dtype=float)
-    if arr.ndim != 1 or (size is not None and arr.shape[0] != size):
-        want = f"({size},)" if size is not None else "(d,)"
-        raise ValueError(f"{name}: expected a vector of shape {want}; got shape {arr.shape}")
-    if not np.isfinite(arr).all():
-        raise ValueError(f"{name}: expected finite values; got NaN or infinity")
+    """Return `x` as a finite float64 vector, or raise naming `name`.
+
+    TypeError if it is not numeric, ValueError if its shape differs from ``(size,)``
+    (any length when `size` is None) or it holds NaN or infinity.
+    """
+    # The per-frame fast path; handvar.validate words the error when there is one.
+    try:
+        arr = None if isinstance(x, str | bytes) else np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        arr = None
+    if (
+        arr is None
+        or arr.ndim != 1
+        or (size is not None and arr.shape[0] != size)
+        or not np.isfinite(arr).all()
+    ):
+        return as_array(x, name, (size,), what="a vector")
     return arr
 
 
 def as_series(X, name: str = "X") -> np.ndarray:
-    """Return `X` as a finite float64 (T, d) array, or raise ValueError naming `name`."""
-    arr = np.asarray(X, dtype=float)
-    if arr.ndim != 2 or arr.shape[0] < 1 or arr.shape[1] < 1:
+    """Return `X` as a finite float64 (T, d) array, or raise naming `name`."""
+    arr = as_array(X, name, (None, None), finite=False, what="a series")
+    if arr.shape[0] < 1 or arr.shape[1] < 1:
         raise ValueError(f"{name}: expected a series of shape (T, d); got shape {arr.shape}")
     if not np.isfinite(arr).all():
         bad = np.argwhere(~np.isfinite(arr))[0]
@@ -83,7 +95,7 @@ def one_step_predictions(predictor: Predictor, X, *, resets=()) -> np.ndarray:
     array([0., 2.])
     """
     X = as_series(X)
-    cuts = {int(r) for r in resets}
+    cuts = {as_int(r, "resets") for r in resets}
     if any(not 0 <= r < len(X) for r in cuts):
         raise ValueError(f"resets: expected row numbers in [0, {len(X)}); got {sorted(cuts)}")
     X_hat = np.full_like(X, np.nan)

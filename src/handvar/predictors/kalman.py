@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from handvar.predictors.base import as_vector
+from handvar.validate import as_float
 
 __all__ = ["KalmanCV"]
 
@@ -27,14 +28,16 @@ class KalmanCV:
         may change between frames (degrees or millimetres).
     r : float, default 1.0
         Measurement noise variance of the tracker's estimates, units².
+
+    Notes
+    -----
+    The filter is linear and starts at the first observation with zero velocity,
+    so a constant offset of the input moves the prediction by the same constant.
     """
 
     def __init__(self, q: float = 1.0, r: float = 1.0) -> None:
-        for name, value in (("q", q), ("r", r)):
-            if not np.isfinite(value) or value <= 0:
-                raise ValueError(f"{name}: expected a positive finite number; got {value!r}")
-        self.q = float(q)
-        self.r = float(r)
+        self.q = as_float(q, "q", minimum=0.0, exclusive_minimum=True)
+        self.r = as_float(r, "r", minimum=0.0, exclusive_minimum=True)
         self.reset()
 
     def reset(self) -> None:

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from handvar.predictors.base import as_series
+from handvar.validate import as_int
 
 __all__ = ["OrderSelection", "select_order"]
 
@@ -59,9 +60,8 @@ def select_order(Y, max_order: int) -> OrderSelection:
     """
     Y = as_series(Y, "Y")
     T, d = Y.shape
-    if isinstance(max_order, bool) or not isinstance(max_order, int | np.integer):
-        raise ValueError(f"max_order: expected an integer >= 1; got {max_order!r}")
-    if max_order < 1 or T - max_order <= max_order * d:
+    max_order = as_int(max_order, "max_order", minimum=1)
+    if T - max_order <= max_order * d:
         raise ValueError(
             f"max_order: expected 1 <= max_order with more observations than "
             f"regressors (T - max_order > max_order * d = {max_order * d}); got "

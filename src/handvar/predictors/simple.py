@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from handvar.predictors.base import as_vector
+from handvar.validate import as_float
 
 __all__ = ["Decelerating", "NoMotion"]
 
@@ -42,10 +43,7 @@ class Decelerating:
     """
 
     def __init__(self, rho: float = 0.4) -> None:
-        rho = float(rho)
-        if not np.isfinite(rho) or rho < 0:
-            raise ValueError(f"rho: expected a finite number >= 0; got {rho}")
-        self.rho = rho
+        self.rho = as_float(rho, "rho", minimum=0.0)
         self.reset()
 
     def reset(self) -> None:
