@@ -39,10 +39,43 @@ def _one_line_errors(func):
     return wrapper
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+class _OneLineGroup(click.Group):
+    """A command group whose usage errors (bad options, values) are one line too (§13.4)."""
+
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, standalone_mode, **extra)
+        try:
+            return super().main(args, prog_name, complete_var, False, **extra)
+        except click.ClickException as exc:
+            msg = " ".join(exc.format_message().split())
+            click.echo(f"handvar: error: {msg}", err=True)
+            sys.exit(exc.exit_code)
+        except click.Abort:
+            click.echo("handvar: aborted", err=True)
+            sys.exit(1)
+
+
+@click.group(cls=_OneLineGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="handvar")
 def main() -> None:
     """Model-based 3D hand tracking with online, adaptive VAR motion prediction."""
+    _quiet_native_logs()
+
+
+def _quiet_native_logs() -> None:
+    """Silence OpenCV's and its FFmpeg backend's logging on standard error (§13.4).
+
+    A damaged video makes FFmpeg print lines such as ``moov atom not found`` before our
+    own one-line message; the failure is reported by us instead.  Set before OpenCV
+    loads its FFmpeg backend; a value the user set in the environment is kept.
+    """
+    import os
+
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # AV_LOG_QUIET
+    os.environ.setdefault("OPENCV_LOG_LEVEL", "SILENT")
+    if "cv2" in sys.modules:  # already loaded (an embedding program): its own setting
+        sys.modules["cv2"].setLogLevel(0)
 
 
 # --- commands ---------------------------------------------------------------------
@@ -256,6 +289,11 @@ def show_command(
     click.echo(f"{label}: {len(rig)} views -> {out}")
 
 
+#: Largest magnitude `predict` accepts in a pose series (mm, degrees): far beyond any
+#: pose, far below where squares of the values overflow in the predictors' fits.
+_MAX_SERIES_VALUE = 1e6
+
+
 # --- predict: open-loop evaluation of the predictors on a recorded pose series ------
 @main.command("predict")
 @click.argument("file", type=click.Path(dir_okay=False))
@@ -284,6 +322,8 @@ def predict_command(file, layout, stride, reset_at, csv_out) -> None:
     keypoints).  Prints, per parameter group, RMSE and mean absolute error (mm or
     degrees) and R̃² against no motion (> 0: better than no motion).
     """
+    import numpy as np
+
     from handvar.atomic import check_output_file
     from handvar.evaluation.openloop import (
         evaluate_open_loop,
@@ -301,6 +341,12 @@ def predict_command(file, layout, stride, reset_at, csv_out) -> None:
         X = htrack_to_handvar(X)
     elif layout == "keypoints":
         X = 1000.0 * X  # metres -> millimetres
+    biggest = float(np.abs(X).max()) if X.size else 0.0
+    if biggest > _MAX_SERIES_VALUE:  # finite, but beyond any pose: the arithmetic overflows
+        raise ValueError(
+            f"{file}: expected poses in mm and degrees (|value| <= {_MAX_SERIES_VALUE:g}); "
+            f"got {biggest:g}"
+        )
     if any(r >= len(X) for r in reset_at):
         raise ValueError(f"--reset-at: expected rows below {len(X)}; got {list(reset_at)}")
     # Reset rows map onto the first kept frame at or after them.
