@@ -39,6 +39,19 @@ def _one_line_errors(func):
     return wrapper
 
 
+class _FiniteRange(click.FloatRange):
+    """A float option within a range; NaN and infinities are refused (they pass
+    click's comparisons)."""
+
+    def convert(self, value, param, ctx):
+        import math
+
+        rv = super().convert(value, param, ctx)
+        if not math.isfinite(rv):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        return rv
+
+
 class _OneLineGroup(click.Group):
     """A command group whose usage errors (bad options, values) are one line too (§13.4)."""
 
@@ -74,8 +87,6 @@ def _quiet_native_logs() -> None:
 
     os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # AV_LOG_QUIET
     os.environ.setdefault("OPENCV_LOG_LEVEL", "SILENT")
-    if "cv2" in sys.modules:  # already loaded (an embedding program): its own setting
-        sys.modules["cv2"].setLogLevel(0)
 
 
 # --- commands ---------------------------------------------------------------------
@@ -213,7 +224,7 @@ def check_in_front(joints, rig, name: str) -> None:
 )
 @click.option(
     "--hand-length",
-    type=click.FloatRange(min=50.0, max=400.0),
+    type=_FiniteRange(min=50.0, max=400.0),
     default=185.0,
     show_default=True,
     help="Hand length (wrist crease to middle fingertip), mm (as for `track`).",
@@ -352,9 +363,13 @@ def predict_command(file, layout, stride, reset_at, csv_out) -> None:
     # Reset rows map onto the first kept frame at or after them.
     resets = sorted({-(-r // stride) for r in reset_at if -(-r // stride) < -(-len(X) // stride)})
     X = X[::stride]
-    rows, _ = evaluate_open_loop(
-        X, resets=resets, layout="handvar" if layout == "htrack" else layout
-    )
+    try:
+        rows, _ = evaluate_open_loop(
+            X, resets=resets, layout="handvar" if layout == "htrack" else layout
+        )
+    except ValueError as exc:  # the series' shape or values: name the file
+        msg = str(exc)
+        raise ValueError(msg if msg.startswith(file) else f"{file}: {msg}") from None
     if csv_out:
         write_csv(rows, csv_out)  # first: a failure prints nothing but its one line
     click.echo(f"{file}: {len(X)} frames, {X.shape[1]} parameters, layout {layout}")
@@ -423,7 +438,8 @@ def experiment_command(store, scheduler, workers, assignments, sweeps, quick, ex
     from handvar.evaluation.store import read_config
 
     check_output_dir(store, "--out")
-    if os.path.exists(store) and not (assignments or sweeps or quick or extras):
+    resume = os.path.exists(store)
+    if resume and not (assignments or sweeps or quick or extras):
         config = read_config(store)
     else:
         config = ExperimentConfig.quick() if quick else ExperimentConfig()
@@ -438,6 +454,11 @@ def experiment_command(store, scheduler, workers, assignments, sweeps, quick, ex
         _configure(tracker_settings, config.tracker, "--set", "tracker")
     for spec in config.predictors:
         _configure(spec.build, None, "--set", spec.key)
+    if resume and read_config(store) != config:
+        raise ValueError(
+            f"--out: {store} holds a different experiment; choose another --out or the "
+            "same settings (or none, to resume it)"
+        )
     click.echo(
         f"{len(config.predictors)} predictors x {config.trials} trials x {config.frames} "
         f"frames of {config.sequence} ({config.trial_kind}) -> {store}"
@@ -525,12 +546,12 @@ def _recording_options(func):
             "[default: for one video, an assumed camera, see --fov].",
         ),
         click.option(
-            "--fov", type=click.FloatRange(1.0, 179.0), default=None,
+            "--fov", type=_FiniteRange(1.0, 179.0), default=None,
             help="One uncalibrated video: assumed horizontal field of view, degrees "
             "[default: 60].",
         ),
         click.option(
-            "--scale", type=click.FloatRange(0.05, 4.0), default=1.0, show_default=True,
+            "--scale", type=_FiniteRange(0.05, 4.0), default=1.0, show_default=True,
             help="Recordings only: resize the frames by this factor first (0.5 is about "
             "4x faster).",
         ),
@@ -560,7 +581,7 @@ def _recording_options(func):
               help="Output directory.")  # fmt: skip
 @click.option("--video/--no-video", default=True, show_default=True,
               help="Also write overlay.mp4.")  # fmt: skip
-@click.option("--hand-length", type=click.FloatRange(min=50.0, max=400.0), default=185.0,
+@click.option("--hand-length", type=_FiniteRange(min=50.0, max=400.0), default=185.0,
               show_default=True, help="Hand length of the model, mm (as for `init`).")  # fmt: skip
 @click.option("--model", type=click.Choice(("spheres", "mesh")), default="spheres",
               show_default=True, help="Surface of the tracked hand model.")  # fmt: skip
@@ -703,9 +724,9 @@ INIT_MIN_IOU = 0.3
               help="Frame to fit.")  # fmt: skip
 @click.option("--wrist/--no-wrist", default=True, show_default=True,
               help="Cut a visible forearm off the silhouettes at the wrist.")  # fmt: skip
-@click.option("--threshold", type=click.FloatRange(min=0.0, min_open=True), default=None,
+@click.option("--threshold", type=_FiniteRange(min=0.0, min_open=True), default=None,
               help="Skin likelihood-ratio threshold [default: 0.5].")  # fmt: skip
-@click.option("--hand-length", type=click.FloatRange(min=50.0, max=400.0), default=185.0,
+@click.option("--hand-length", type=_FiniteRange(min=50.0, max=400.0), default=185.0,
               show_default=True, help="Hand length (wrist to middle fingertip), mm.")  # fmt: skip
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Seed of the refinement's random samples.")  # fmt: skip
