@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import shlex
 import subprocess
 import sys
 from pathlib import Path
@@ -51,7 +52,7 @@ def make_inputs(root: Path) -> Path:
     (root / "short.txt").write_text("1 2 3")
     pose = named_pose("open")
     (root / "good_pose.txt").write_text(" ".join(map(str, pose)))
-    (root / "nan_pose.txt").write_text(" ".join(["nan"] + list(map(str, pose[1:]))))
+    (root / "nan_pose.txt").write_text(" ".join(["nan", *map(str, pose[1:])]))
     far = pose.copy()
     far[2] = 1e12
     (root / "far_pose.txt").write_text(" ".join(map(str, far)))
@@ -127,12 +128,14 @@ class Case:
 
 
 def _c(id, args, names, **kw) -> Case:
-    return Case(id, tuple(args.split()), names, **kw)
+    return Case(id, tuple(shlex.split(args)), names, **kw)
 
 
+# fmt: off
 CASES = [
     # synth
     _c("synth-unknown-name", "synth nonesuch {r}/s1", "nonesuch"),
+    _c("synth-out-empty", "synth flip --frames 1 ''", "OUT"),
     _c("synth-out-is-file", "synth flip {r}/existing.txt", "existing.txt"),
     _c("synth-out-under-file", "synth flip {r}/existing.txt/sub", "existing.txt"),
     _c("synth-out-other-dir", "synth flip {r}/adir", "adir"),
@@ -198,42 +201,42 @@ CASES = [
     _c("init-missing-source", "init {r}/nofile.mp4 --out {r}/existing.txt", "nofile.mp4"),
     _c("init-out-dir", "init {r}/seq --out {r}/adir", "adir"),
     _c("init-overlay-no-folder",
-       "init {r}/seq --out {r}/existing.txt --overlay {r}/nodir/o.png", "--overlay"),  # fmt: skip
+       "init {r}/seq --out {r}/existing.txt --overlay {r}/nodir/o.png", "--overlay"),
     _c("init-overlay-suffix",
-       "init {r}/seq --out {r}/existing.txt --overlay {r}/o.jpg", "--overlay"),  # fmt: skip
+       "init {r}/seq --out {r}/existing.txt --overlay {r}/o.jpg", "--overlay"),
     _c("init-frame-beyond", "init {r}/seq --frame 7 --out {r}/existing.txt", "--frame"),
     _c("init-threshold-zero", "init {r}/seq --threshold 0 --out {r}/existing.txt", "--threshold"),
     _c("init-keypoints-count",
        "init {r}/seq --keypoints {r}/a.npy --keypoints {r}/b.npy --out {r}/existing.txt",
-       "--keypoints"),  # fmt: skip
+       "--keypoints"),
     _c("init-keypoints-corrupt",
-       "init {r}/seq --keypoints {r}/noise.npy --out {r}/existing.txt", "noise.npy"),  # fmt: skip
+       "init {r}/seq --keypoints {r}/noise.npy --out {r}/existing.txt", "noise.npy"),
     _c("init-blob", "init {r}/blob --out {r}/existing.txt", "IoU", slow=True),
     _c("init-calib-on-seq", "init {r}/seq --calib {r}/existing.txt --out {r}/x.txt", "--calib"),
     _c("init-random-video", "init {r}/random.mp4 --out {r}/existing.txt", "random.mp4",
-       subprocess=True),  # fmt: skip
+       subprocess=True),
     _c("track-random-video", "track {r}/random.mp4 --init open --out {r}/track_out",
-       "random.mp4", subprocess=True),  # fmt: skip
+       "random.mp4", subprocess=True),
     # experiment
     _c("experiment-set-unknown", "experiment --out {r}/e.zarr --set nothing=1", "--set"),
     _c("experiment-set-trials-zero", "experiment --out {r}/e.zarr --set trials=0", "trials"),
     _c("experiment-set-trials-text", "experiment --out {r}/e.zarr --set trials=abc", "trials"),
     _c("experiment-set-no-equals", "experiment --out {r}/e.zarr --set trials", "--set"),
     _c("experiment-set-predictors",
-       "experiment --out {r}/e.zarr --set predictors=nonesuch", "predictors"),  # fmt: skip
+       "experiment --out {r}/e.zarr --set predictors=nonesuch", "predictors"),
     _c("experiment-set-gamma", "experiment --out {r}/e.zarr --set rvar.gamma=abc", "gamma"),
     _c("experiment-set-tracker",
-       "experiment --out {r}/e.zarr --set tracker.nonesuch=1", "tracker"),  # fmt: skip
+       "experiment --out {r}/e.zarr --set tracker.nonesuch=1", "tracker"),
     _c("experiment-sweep-text", "experiment --out {r}/e.zarr --sweep rvar.gamma=abc", "--sweep"),
     _c("experiment-sweep-unknown",
-       "experiment --out {r}/e.zarr --sweep nonesuch.x=1", "--sweep"),  # fmt: skip
+       "experiment --out {r}/e.zarr --sweep nonesuch.x=1", "--sweep"),
     _c("experiment-sweep-no-arg", "experiment --out {r}/e.zarr --sweep rvar=1", "--sweep"),
     _c("experiment-sweep-empty", "experiment --out {r}/e.zarr --sweep rvar.gamma=", "--sweep"),
     _c("experiment-workers-zero", "experiment --out {r}/e.zarr --workers 0", "--workers"),
     _c("experiment-out-file", "experiment --out {r}/existing.txt", "existing.txt"),
     _c("experiment-out-other-dir", "experiment --out {r}/adir", "adir"),
     _c("experiment-other-config",
-       "experiment --out {r}/store.zarr --set trials=2", "different experiment"),  # fmt: skip
+       "experiment --out {r}/store.zarr --set trials=2", "different experiment"),
     # report
     _c("report-missing-store", "report {r}/nostore.zarr --out {r}/report_out", "nostore.zarr"),
     _c("report-not-a-store", "report {r}/adir --out {r}/report_out", "adir"),
@@ -248,6 +251,7 @@ CASES = [
     _c("keypoints-frames-zero", "keypoints {r}/random.mp4 --out {r}/k.npy --frames 0", "--frames"),
     _c("keypoints-hand", "keypoints {r}/random.mp4 --out {r}/k.npy --hand both", "--hand"),
 ]
+# fmt: on
 
 
 def snapshot(root: Path) -> dict[str, bytes | None]:
@@ -334,6 +338,7 @@ def test_bad_input_is_one_clean_line_and_loses_nothing(case, inputs):
 
 def test_the_table_covers_every_command():
     commands = {c.args[0] for c in CASES}
-    assert commands == {"synth", "show", "predict", "track", "init", "experiment", "report",
-                        "keypoints"}  # fmt: skip
+    assert commands == {
+        "synth", "show", "predict", "track", "init", "experiment", "report", "keypoints"
+    }  # fmt: skip
     assert len(CASES) >= 90

@@ -321,7 +321,9 @@ class OutputSet:
         except BaseException:
             for backup, path in backups:
                 with contextlib.suppress(OSError):
-                    os.replace(backup, path)
+                    os.replace(backup, path)  # a no-op where path is still the same file
+                with contextlib.suppress(OSError):
+                    os.unlink(backup)
             for path in done:
                 with contextlib.suppress(OSError):
                     os.unlink(path)

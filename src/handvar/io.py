@@ -348,12 +348,12 @@ def check_output_dir(path: str | os.PathLike, *, argument: str = "path") -> Path
         If `path` is empty, its folder is missing or not writable, or it exists and is
         neither an empty directory nor a sequence directory.
     """
-    _check_writable_dir(path, argument)
+    if not os.fspath(path).strip():
+        raise ValueError(f"{argument}: expected a directory name; got {os.fspath(path)!r}")
     target = Path(path)
-    if not target.parent.is_dir():
-        return target  # made by write_sequence
-    recover_directory(target)
-    remove_stale_temporaries(target)
+    if target.parent.is_dir():
+        recover_directory(target)
+        remove_stale_temporaries(target)
     if target.exists() and not (
         target.is_dir() and (not any(target.iterdir()) or _is_sequence_dir(target))
     ):
@@ -361,6 +361,7 @@ def check_output_dir(path: str | os.PathLike, *, argument: str = "path") -> Path
             f"{argument}: expected a new directory, an empty one or a sequence directory; "
             f"{target} exists and holds something else"
         )
+    _check_writable_dir(path, argument)
     return target
 
 
