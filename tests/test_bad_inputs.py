@@ -342,3 +342,25 @@ def test_the_table_covers_every_command():
         "synth", "show", "predict", "track", "init", "experiment", "report", "keypoints"
     }  # fmt: skip
     assert len(CASES) >= 90
+
+
+def test_unwritable_folder_is_refused_before_rendering(tmp_path, monkeypatch):
+    # root may write anywhere, so the folder's permission is simulated
+    from handvar import atomic
+
+    real = os.access
+    monkeypatch.setattr(
+        atomic.os, "access", lambda p, mode: False if Path(p) == tmp_path else real(p, mode)
+    )
+    for args, name in [
+        (["synth", "flip", str(tmp_path / "s")], "OUT"),
+        (["show", "open", "--out", str(tmp_path / "o.png")], "--out"),
+        (["predict", "x.txt", "--csv", str(tmp_path / "o.csv")], "--csv"),
+        (["track", "flip", "--out", str(tmp_path / "t")], "--out"),
+        (["report", "x.zarr", "--out", str(tmp_path / "r")], "--out"),
+    ]:
+        res = CliRunner().invoke(main, args)
+        assert res.exit_code == 2, res.output
+        assert res.output == f"handvar: error: {name}: expected a writable folder; cannot " \
+            f"write into {tmp_path}\n"  # fmt: skip
+    assert list(tmp_path.iterdir()) == []

@@ -264,7 +264,11 @@ class OutputSet:
             self.abort()
 
     def temporary(self, path: str | os.PathLike, *, directory: bool = False) -> str:
-        """A fresh temporary beside `path`, removed by :meth:`abort` unless placed."""
+        """A fresh temporary beside `path`, removed by :meth:`abort` unless placed.
+
+        Temporaries of `path` that a killed earlier run left are removed first.
+        """
+        remove_stale_temporaries(path)
         tmp = temporary_name(path, directory=directory)
         self._temporaries.append(tmp)
         return tmp

@@ -634,6 +634,7 @@ def track_command(
             f"{seq}: the sequence has no ground truth; give the first pose with --init"
         )
     hand = HandModel(HandShape.from_size(hand_length), surface=model)
+    check_in_front(hand.joints(x0), sequence.rig, "--init" if init is not None else seq)
     tracker = Tracker(sequence.rig, hand, make_predictor(predictor), np.random.default_rng(seed))
     result = tracker.track(
         sequence, x0, frames=n_frames,

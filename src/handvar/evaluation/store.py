@@ -45,7 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from handvar import params
-from handvar.atomic import temporary_name
+from handvar.atomic import remove_stale_temporaries, temporary_name
 from handvar.evaluation.config import ExperimentConfig
 from handvar.evaluation.metrics import mean_joint_error, r2_tilde_acceleration, r2_tilde_joints
 from handvar.evaluation.trials import TIMING_PARTS, TrialResult
@@ -330,6 +330,7 @@ def create_store(path: str | os.PathLike, config: ExperimentConfig, sequence) ->
         )
     ds, encoding = _template(config, sequence)
     path.parent.mkdir(parents=True, exist_ok=True)
+    remove_stale_temporaries(path)  # what a run killed while creating it left
     tmp = Path(temporary_name(path, directory=True))
     try:
         ds.to_zarr(tmp / "store.zarr", mode="w-", encoding=encoding, zarr_format=2)
