@@ -71,6 +71,10 @@ def make_inputs(root: Path) -> Path:
     np.savetxt(root / "series_nan.txt", series_nan)
     (root / "random.mp4").write_bytes(rng.integers(0, 256, 4000, dtype=np.uint8).tobytes())
     (root / "noise.npy").write_bytes(b"not an npy file")
+    # an MP4 header and nothing else: FFmpeg itself logs "moov atom not found"
+    (root / "header.mp4").write_bytes(
+        b"\x00\x00\x00\x18ftypmp42\x00\x00\x00\x00mp42isom" + bytes(3000)
+    )
     # a sequence of 2 frames, and damaged copies of it
     seq = make_sequence("benchmark", n_frames=2)
     write_sequence(seq, root / "seq")
@@ -217,6 +221,10 @@ CASES = [
        subprocess=True),
     _c("track-random-video", "track {r}/random.mp4 --init open --out {r}/track_out",
        "random.mp4", subprocess=True),
+    _c("init-header-only-video", "init {r}/header.mp4 --out {r}/existing.txt", "header.mp4",
+       subprocess=True),
+    _c("track-header-only-video", "track {r}/header.mp4 --init open --out {r}/track_out",
+       "header.mp4", subprocess=True),
     # experiment
     _c("experiment-set-unknown", "experiment --out {r}/e.zarr --set nothing=1", "--set"),
     _c("experiment-set-trials-zero", "experiment --out {r}/e.zarr --set trials=0", "trials"),
