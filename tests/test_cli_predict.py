@@ -137,12 +137,12 @@ def test_predict_points_and_columns_layouts(tmp_path):
 
 def test_predict_bad_paths_fail_before_computing(tmp_path):
     rec = str(EXAMPLES / "dex-human-hand-landmarks.npy")
-    for option in ("--csv", "--figure"):
+    for option, name in (("--csv", "x.csv"), ("--figure", "x.png")):
         result = CliRunner().invoke(
-            main, ["predict", rec, "--layout", "keypoints", option, str(tmp_path / "no/x")]
+            main, ["predict", rec, "--layout", "keypoints", option, str(tmp_path / "no" / name)]
         )
         assert result.exit_code == 2
-        assert f"{option}: expected a writable file path" in result.output
+        assert f"{option}: expected a path in an existing folder" in result.output
     result = CliRunner().invoke(main, ["predict", rec + ":5:2", "--layout", "keypoints"])
     assert result.exit_code == 2 and "FILE: expected rows" in result.output
     result = CliRunner().invoke(main, ["predict", rec, "--predictor", "nope"])

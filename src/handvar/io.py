@@ -10,8 +10,10 @@ A sequence directory (§8) holds::
     truth.npz              optional ground truth: poses (T, 26), joints (T, 21, 3)
 
 Camera ``j`` of the rig has the folder ``cam{j}``. :func:`write_sequence` builds the
-directory under a temporary name beside the target and renames it into place, so a
-failed write never leaves a half-written directory nor destroys the previous one.
+directory under a temporary name beside the target and swaps it into place
+(`handvar.atomic.replace_directory`, design §13.2), so a failed write never leaves a
+half-written directory nor destroys the previous one, and a swap killed half-way is
+undone by the next reader or writer.
 :func:`read_sequence` checks every file before returning and names the file at fault.
 
 What a sequence argument names -- a recording (video files or image folders), a
@@ -27,9 +29,7 @@ import dataclasses
 import json
 import math
 import os
-import shutil
 import struct
-import tempfile
 import zipfile
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -38,7 +38,13 @@ from typing import Any
 import cv2
 import numpy as np
 
-from handvar.atomic import write_atomic
+from handvar.atomic import (
+    OutputSet,
+    recover_directory,
+    remove_stale_temporaries,
+    write_atomic,
+)
+from handvar.atomic import check_output_dir as _check_writable_dir
 from handvar.camera import Rig
 from handvar.validate import as_float, as_instance
 
@@ -319,13 +325,18 @@ def _is_sequence_dir(path: Path) -> bool:
     return (path / _JSON).is_file()
 
 
-def check_output_dir(path: str | os.PathLike) -> Path:
+def check_output_dir(path: str | os.PathLike, *, argument: str = "path") -> Path:
     """Check that :func:`write_sequence` may write to `path`, before any work is done.
+
+    A directory swap that was killed half-way is first undone and temporaries a killed
+    run left beside `path` are removed (design §13.2).
 
     Parameters
     ----------
     path : path-like
         Intended sequence directory.
+    argument : str, keyword-only
+        The argument's name in the message of the error.
 
     Returns
     -------
@@ -334,16 +345,23 @@ def check_output_dir(path: str | os.PathLike) -> Path:
     Raises
     ------
     ValueError
-        If `path` exists and is neither an empty directory nor a sequence directory.
+        If `path` is empty, its folder is missing or not writable, or it exists and is
+        neither an empty directory nor a sequence directory.
     """
+    if not os.fspath(path).strip():
+        raise ValueError(f"{argument}: expected a directory name; got {os.fspath(path)!r}")
     target = Path(path)
+    if target.parent.is_dir():
+        recover_directory(target)
+        remove_stale_temporaries(target)
     if target.exists() and not (
         target.is_dir() and (not any(target.iterdir()) or _is_sequence_dir(target))
     ):
         raise ValueError(
-            f"path: expected a new directory, an empty one or a sequence directory; "
+            f"{argument}: expected a new directory, an empty one or a sequence directory; "
             f"{target} exists and holds something else"
         )
+    _check_writable_dir(path, argument)
     return target
 
 
@@ -385,15 +403,9 @@ def write_sequence(
     """
     as_instance(seq, Sequence, "seq", what="a handvar.io.Sequence")
     target = check_output_dir(path)
-    parent = target.parent
-    parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=parent))
-    try:
-        _write_contents(seq, tmp, progress)
-        _replace_dir(tmp, target)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+    target.parent.mkdir(parents=True, exist_ok=True)
+    with OutputSet() as out:
+        out.add(target, lambda tmp: _write_contents(seq, Path(tmp), progress), directory=True)
     return target
 
 
@@ -434,23 +446,6 @@ def _write_contents(seq: Sequence, out: Path, progress) -> None:
     with open(out / _JSON, "w", encoding="utf-8") as fh:
         json.dump(meta, fh, indent=2)
         fh.write("\n")
-
-
-def _replace_dir(new: Path, target: Path) -> None:
-    """Rename `new` to `target`, replacing an existing `target` only after success."""
-    backup = None
-    if target.exists():
-        backup = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".old", dir=target.parent))
-        backup.rmdir()
-        os.replace(target, backup)
-    try:
-        os.replace(new, target)
-    except BaseException:
-        if backup is not None:
-            os.replace(backup, target)
-        raise
-    if backup is not None:
-        shutil.rmtree(backup, ignore_errors=True)
 
 
 # --- reading -------------------------------------------------------------------------
@@ -590,6 +585,10 @@ def read_sequence(path: str | os.PathLike, *, lazy: bool = False) -> Sequence:
         (a ValueError) naming the file that is missing, unreadable or inconsistent.
     """
     root = Path(path)
+    try:
+        recover_directory(root)  # a swap killed half-way (design §13.2)
+    except OSError:
+        pass
     if not root.is_dir():
         raise SequenceError(f"{root}: expected a sequence directory; it does not exist")
     json_path = root / _JSON

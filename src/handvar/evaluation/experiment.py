@@ -24,7 +24,9 @@ import numpy as np
 
 from handvar.evaluation.config import ExperimentConfig, tracker_settings
 from handvar.evaluation.store import (
+    clear_done,
     create_store,
+    damaged_trials,
     open_store,
     store_sequence,
     write_scores,
@@ -53,6 +55,9 @@ class RunSummary:
         (predictor label, trial) still not done when the call ended.
     seconds : float
         Wall-clock time of the call.
+    repaired : tuple of (str, int)
+        (predictor label, trial) found damaged in the store (design §13.3), whose
+        ``done`` flag was cleared so that they ran again.
     """
 
     store: Path
@@ -61,6 +66,7 @@ class RunSummary:
     computed: int
     missing: tuple[tuple[str, int], ...]
     seconds: float
+    repaired: tuple[tuple[str, int], ...] = ()
 
     @property
     def complete(self) -> bool:
@@ -84,7 +90,12 @@ def _render(config: ExperimentConfig, progress: bool):
 
 
 def _open_or_create(path: Path, config: ExperimentConfig, progress: bool):
-    """(config, sequence, done) of the store, created if it does not exist."""
+    """(config, sequence, done, writes, damage) of the store, created if it does not exist.
+
+    An existing store is verified first (`damaged_trials`): a damaged trial's ``done``
+    flag is cleared so that it runs again.
+    """
+    P, N = len(config.predictors), config.trials
     if path.exists():
         ds = open_store(path)
         stored = ExperimentConfig.from_json(ds.attrs["config"])
@@ -93,11 +104,24 @@ def _open_or_create(path: Path, config: ExperimentConfig, progress: bool):
                 f"store: {path} holds a different experiment (config {stored.to_json()}); "
                 "choose another --out or the same settings"
             )
-        return stored, store_sequence(path), ds["done"].values.copy(), ds["writes"].values.copy()
+        sequence = store_sequence(path)
+        damage = damaged_trials(path)
+        if damage:
+            clear_done(path, damage)
+        import zarr
+
+        group = zarr.open_group(str(path), mode="r", zarr_format=2)
+        done = np.array([[bool(group["done"][p, t]) for t in range(N)] for p in range(P)])
+        writes = np.zeros((P, N), np.int16)
+        for p, t in zip(*np.nonzero(done), strict=True):
+            try:
+                writes[p, t] = group["writes"][p, t]
+            except Exception:  # an unreadable counter: counted from 0 again
+                pass
+        return stored, sequence, done, writes, damage
     sequence = _render(config, progress)
     create_store(path, config, sequence)
-    P, N = len(config.predictors), config.trials
-    return config, sequence, np.zeros((P, N), bool), np.zeros((P, N), np.int16)
+    return config, sequence, np.zeros((P, N), bool), np.zeros((P, N), np.int16), []
 
 
 def _local_client(workers: int | None):
@@ -164,7 +188,7 @@ def run_experiment(
     for spec in config.predictors:
         spec.build()
     path = Path(store)
-    config, sequence, done, writes = _open_or_create(path, config, progress)
+    config, sequence, done, writes, damage = _open_or_create(path, config, progress)
     labels = config.labels
     P, N = done.shape
     already = int(done.sum())
@@ -197,7 +221,9 @@ def run_experiment(
     for t in np.flatnonzero(unscored.any(axis=0)):
         write_scores(path, config, int(t))
     missing = tuple((labels[p], int(t)) for p, t in zip(*np.nonzero(~done), strict=True))
-    return RunSummary(path, P * N, already, computed, missing, time.perf_counter() - start)
+    repaired = tuple((d.label, d.trial) for d in damage)
+    seconds = time.perf_counter() - start
+    return RunSummary(path, P * N, already, computed, missing, seconds, repaired)
 
 
 def _run_on_worker(runner: TrialRunner, config: ExperimentConfig, key: str, trial: int):

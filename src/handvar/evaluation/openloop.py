@@ -15,6 +15,7 @@ scoring predictors on recorded motion — hence one module.
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -149,17 +150,19 @@ def read_pose_series(path: str | os.PathLike) -> np.ndarray:
     if not path.is_file():
         raise ValueError(f"{path}: expected a pose file (text, CSV or .npy); no such file")
     try:
-        if path.suffix == ".npy":
-            X = np.load(path, allow_pickle=False)
-            if X.ndim == 3:  # (T, J, 3) keypoints: one row a frame
-                X = X.reshape(len(X), -1)
-        elif path.suffix == ".csv":
-            with path.open() as f:
-                first = f.readline()
-            header = any(c.isalpha() for c in first.replace("e", "").replace("E", ""))
-            X = np.loadtxt(path, delimiter=",", skiprows=int(header), ndmin=2)
-        else:
-            X = np.loadtxt(path, ndmin=2)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # an empty file: as_series names it
+            if path.suffix == ".npy":
+                X = np.load(path, allow_pickle=False)
+                if X.ndim == 3:  # (T, J, 3) keypoints: one row a frame
+                    X = X.reshape(len(X), -1)
+            elif path.suffix == ".csv":
+                with path.open() as f:
+                    first = f.readline()
+                header = any(c.isalpha() for c in first.replace("e", "").replace("E", ""))
+                X = np.loadtxt(path, delimiter=",", skiprows=int(header), ndmin=2)
+            else:
+                X = np.loadtxt(path, ndmin=2)
     except ValueError as exc:
         raise ValueError(f"{path}: expected a table of numbers; {exc}") from None
     return as_series(X, str(path))

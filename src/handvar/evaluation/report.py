@@ -2,12 +2,16 @@
 
 :func:`write_report` draws every figure (:mod:`handvar.evaluation.figures`), tests
 every claim (:mod:`handvar.evaluation.claims`) and writes them as PNG files,
-``report.md`` and ``report.html``; every file is written atomically
-(:func:`handvar.atomic.write_atomic`).
+``report.md`` and ``report.html``.  The store is verified first
+(:func:`handvar.evaluation.store.damaged_trials`, design §13.3): a damaged trial stops
+the report before any file is written.  The files are all-or-nothing
+(:class:`handvar.atomic.OutputSet`, §13.1): written aside and renamed into place once
+every one of them is complete.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import html
 import os
@@ -16,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from handvar.atomic import write_atomic
+from handvar.atomic import OutputSet
 from handvar.evaluation.claims import Claim, evaluate_claims
 from handvar.evaluation.figures import (
     mean_error_figure,
@@ -35,6 +39,7 @@ from handvar.evaluation.results import (
     median,
     reference_curve,
 )
+from handvar.evaluation.store import damaged_trials
 
 __all__ = ["write_report"]
 
@@ -51,12 +56,23 @@ def _slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9]+", "_", text).strip("_").lower()
 
 
-def _save_figure(fig, path: Path) -> None:
-    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
+def _save_figure(outputs: OutputSet, fig, path: Path) -> None:
+    outputs.add(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
 
 
-def _save_text(path: Path, text: str) -> None:
-    write_atomic(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+def _save_text(outputs: OutputSet, path: Path, text: str) -> None:
+    outputs.add(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+
+
+def check_store(store: str | os.PathLike) -> None:
+    """Raise ValueError naming the first damaged trial of `store`, if any (§13.3)."""
+    damage = damaged_trials(store)
+    if damage:
+        more = f" and {len(damage) - 1} more" if len(damage) > 1 else ""
+        raise ValueError(
+            f"{store}: damaged {damage[0]}{more}; no report is drawn from it. "
+            f"Run `handvar experiment --out {store}` to recompute"
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -261,18 +277,28 @@ def write_report(
     Path
         The Markdown report.
     """
+    check_store(store)
     results = load_results(store)
     out = Path(out)
+    made = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     written: list[tuple[str, str]] = []  # (file, caption)
-    for figure in _figures(store, results):
-        _save_figure(figure.draw(), out / figure.name)
-        written.append((figure.name, figure.caption))
-        if progress:
-            print(out / figure.name)
-    intro = _intro(store, results)
-    claim_rows = _claim_rows(evaluate_claims(results))
-    summary = _summary_rows(results)
-    _save_text(out / "report.md", _markdown(intro, claim_rows, summary, written))
-    _save_text(out / "report.html", _html(intro, claim_rows, summary, written))
+    try:
+        with OutputSet() as outputs:
+            for figure in _figures(store, results):
+                _save_figure(outputs, figure.draw(), out / figure.name)
+                written.append((figure.name, figure.caption))
+            intro = _intro(store, results)
+            claim_rows = _claim_rows(evaluate_claims(results))
+            summary = _summary_rows(results)
+            _save_text(outputs, out / "report.md", _markdown(intro, claim_rows, summary, written))
+            _save_text(outputs, out / "report.html", _html(intro, claim_rows, summary, written))
+    except BaseException:
+        if made:
+            with contextlib.suppress(OSError):
+                out.rmdir()
+        raise
+    if progress:
+        for name, _ in written:
+            print(out / name)
     return out / "report.md"

@@ -27,10 +27,16 @@ The store is created in full before any trial runs (arrays of NaN, ``done`` Fals
 and every finished trial is written into its own chunks (:func:`write_trial`), ``done``
 last; Zarr's local store writes each chunk atomically, so the store stays readable at
 any moment and a finished trial is never lost.
+
+A store is verified where it is read (design §13.3): :func:`damaged_trials` names every
+trial marked done whose chunks are missing, unreadable, or hold NaN where a finished
+trial has numbers; the experiment clears their ``done`` flags and runs them again, the
+report refuses to draw from them.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import shutil
@@ -39,7 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from handvar import params
-from handvar.atomic import temporary_name
+from handvar.atomic import remove_stale_temporaries, temporary_name
 from handvar.evaluation.config import ExperimentConfig
 from handvar.evaluation.metrics import mean_joint_error, r2_tilde_acceleration, r2_tilde_joints
 from handvar.evaluation.trials import TIMING_PARTS, TrialResult
@@ -47,7 +53,10 @@ from handvar.evaluation.trials import TIMING_PARTS, TrialResult
 __all__ = [
     "FORMAT",
     "FORMAT_VERSION",
+    "Damage",
+    "clear_done",
     "create_store",
+    "damaged_trials",
     "open_store",
     "read_config",
     "store_sequence",
@@ -66,14 +75,132 @@ def store_sequence(store: str | os.PathLike):
 
     ds = open_store(store)
     config = ExperimentConfig.from_json(ds.attrs["config"])
+    try:
+        masks = ds["masks"].values
+        truth = Truth(ds["truth_poses"].values, ds["truth_joints"].values)
+    except Exception as exc:  # a damaged chunk: blosc, zarr and numpy raise many kinds
+        raise ValueError(
+            f"store: {store} has a damaged sequence (masks or truth: {_why(exc)}); "
+            "it cannot be resumed, remove it to start again"
+        ) from None
     return Sequence(
         name=config.sequence,
         fps=float(ds.attrs["fps"]),
         rig=Rig.from_dict(json.loads(ds.attrs["rig"])),
-        masks=ds["masks"].values,
-        truth=Truth(ds["truth_poses"].values, ds["truth_joints"].values),
+        masks=masks,
+        truth=truth,
         provenance=json.loads(ds.attrs["provenance"]),
     )
+
+
+# --- verification (design §13.3) --------------------------------------------------------
+
+# Per-trial variables; the first three hold numbers in every finished trial.
+_FINITE_VARS = ("poses", "joints", "error")
+_TRIAL_VARS = (*_FINITE_VARS, "cost", "iterations", "timings", "r2_joints", "r2_params")
+
+
+@dataclasses.dataclass(frozen=True)
+class Damage:
+    """A trial marked done (or whose flag is unreadable) that cannot be trusted.
+
+    Attributes
+    ----------
+    predictor : int
+        Index of the predictor in the store.
+    trial : int
+    label : str
+        The predictor's label.
+    reason : str
+        What is wrong (``"poses: chunk file 2.3.0.0 missing"``).
+    """
+
+    predictor: int
+    trial: int
+    label: str
+    reason: str
+
+    def __str__(self) -> str:
+        return f"trial {self.trial} of predictor {self.label!r} ({self.reason})"
+
+
+def _why(exc: BaseException) -> str:
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def _chunk_name(ndim: int, p: int, t: int) -> str:
+    return ".".join([str(p), str(t)] + ["0"] * (ndim - 2))
+
+
+def damaged_trials(store: str | os.PathLike) -> list[Damage]:
+    """Every trial whose ``done`` flag cannot be trusted, with the reason.
+
+    A trial is damaged if its ``done`` chunk cannot be read, or it is marked done and
+    one of its chunks is missing (poses, joints, error) or cannot be decoded, or its
+    poses, joints or errors are not all finite.
+
+    Parameters
+    ----------
+    store : path-like
+        An experiment store (:func:`open_store` must accept it).
+
+    Returns
+    -------
+    list of Damage
+        In (trial, predictor) order; empty for a sound store.
+    """
+    import zarr
+
+    path = Path(store)
+    ds = open_store(path)
+    labels = [str(v) for v in ds["predictor"].values]
+    group = zarr.open_group(str(path), mode="r", zarr_format=2)
+    arrays = {k: group[k] for k in ("done", *_TRIAL_VARS)}
+    P, N = arrays["done"].shape
+    damaged = []
+    for t in range(N):
+        for p in range(P):
+            reason = _trial_damage(path, arrays, p, t)
+            if reason:
+                damaged.append(Damage(p, t, labels[p], reason))
+    return damaged
+
+
+def _trial_damage(path: Path, arrays: dict, p: int, t: int) -> str:
+    """Why trial (p, t) is damaged, or "" if it is sound or simply not done."""
+    try:
+        done = bool(arrays["done"][p, t])
+    except Exception as exc:
+        return f"done: unreadable chunk ({_why(exc)})"
+    if not done:
+        return ""
+    for name in _TRIAL_VARS:
+        array = arrays[name]
+        chunk = _chunk_name(array.ndim, p, t)
+        if name in _FINITE_VARS and not (path / name / chunk).is_file():
+            return f"{name}: chunk file {chunk} missing"
+        try:
+            values = np.asarray(array[p, t])
+        except Exception as exc:
+            return f"{name}: unreadable chunk {chunk} ({_why(exc)})"
+        if name in _FINITE_VARS and not np.all(np.isfinite(values)):
+            return f"{name}: NaN or infinity in a finished trial"
+    return ""
+
+
+def clear_done(path: str | os.PathLike, damage: list[Damage]) -> None:
+    """Mark the damaged trials as not done (and their scores missing) to run them again."""
+    for d in damage:
+        flags = {
+            "done": (("predictor", "trial"), np.zeros((1, 1), dtype=bool)),
+            "r2_joints": (("predictor", "trial", "joint"), np.full((1, 1, 21), np.nan)),
+            "r2_params": (
+                ("predictor", "trial", "param"),
+                np.full((1, 1, params.N_PARAMS), np.nan),
+            ),
+        }
+        _write_region(Path(path), flags, d.predictor, d.trial)
 
 
 def open_store(store: str | os.PathLike):
@@ -203,6 +330,7 @@ def create_store(path: str | os.PathLike, config: ExperimentConfig, sequence) ->
         )
     ds, encoding = _template(config, sequence)
     path.parent.mkdir(parents=True, exist_ok=True)
+    remove_stale_temporaries(path)  # what a run killed while creating it left
     tmp = Path(temporary_name(path, directory=True))
     try:
         ds.to_zarr(tmp / "store.zarr", mode="w-", encoding=encoding, zarr_format=2)

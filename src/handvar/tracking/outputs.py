@@ -11,13 +11,17 @@
     overlay.mp4   every frame, all cameras side by side (`OverlayWriter`, which writes
                   numbered PNGs to ``overlay_frames/`` when the codec is missing)
 
-Every file is written under a temporary name and renamed into place.  The overlays are
+The files are all-or-nothing (design §13.1): each is written under a temporary name
+beside its destination, and all are renamed into place only once every one of them was
+written (`handvar.atomic.OutputSet`); a failure leaves the folder as it was.  The
+overlays are
 drawn over the sequence's masks or, for a real recording, over its colour frames
 (:func:`recording_backgrounds`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
@@ -25,7 +29,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from handvar.io import Sequence, write_atomic
+from handvar.atomic import OutputSet, user_paths
+from handvar.io import Sequence
 from handvar.params import NAMES
 from handvar.render import overlay_views, side_by_side, write_overlay_video
 from handvar.tracking.tracker import TrackResult
@@ -166,6 +171,7 @@ def write_track_outputs(
     """
     n_frames = _check_result(result, sequence)
     out = Path(out_dir)
+    made = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     if backgrounds is None:
         backgrounds = sequence_backgrounds(sequence)
@@ -178,11 +184,6 @@ def write_track_outputs(
 
     header = ",".join(NAMES)
     jheader = ",".join(f"j{j}_{c}" for j in range(_N_JOINTS) for c in "xyz")
-    write_atomic(written["poses"], lambda p: np.savetxt(
-        p, result.poses, delimiter=",", header=header, comments="", fmt="%.6f"))  # fmt: skip
-    write_atomic(written["joints"], lambda p: np.savetxt(
-        p, result.joints.reshape(n_frames, -1), delimiter=",", header=jheader, comments="",
-        fmt="%.4f"))  # fmt: skip
 
     def write_npz(path: str) -> None:
         with open(path, "wb") as fh:
@@ -192,22 +193,45 @@ def write_track_outputs(
                 predictor=predictor, seed=seed,
             )  # fmt: skip
 
-    write_atomic(written["track"], write_npz)
-
-    strip = cv2.cvtColor(overlay_strip(result, sequence, hand, backgrounds=backgrounds),
-                         cv2.COLOR_RGB2BGR)  # fmt: skip
-
     def write_png(path: str) -> None:
-        if not cv2.imwrite(path, strip):
+        strip = overlay_strip(result, sequence, hand, backgrounds=backgrounds)
+        if not cv2.imwrite(path, cv2.cvtColor(strip, cv2.COLOR_RGB2BGR)):
             raise OSError(f"{path}: cannot write the PNG")
 
-    write_atomic(written["overlay"], write_png)
-
-    if video:
-        try:
-            written["video"] = write_overlay_video(
-                out / "overlay.mp4", hand, sequence.rig, result.poses, backgrounds, sequence.fps
-            )
-        except OSError as exc:
-            written["video_error"] = str(exc)
+    try:
+        with OutputSet() as outputs:
+            outputs.add(written["poses"], lambda p: np.savetxt(
+                p, result.poses, delimiter=",", header=header, comments="",
+                fmt="%.6f"))  # fmt: skip
+            outputs.add(written["joints"], lambda p: np.savetxt(
+                p, result.joints.reshape(n_frames, -1), delimiter=",", header=jheader,
+                comments="", fmt="%.4f"))  # fmt: skip
+            outputs.add(written["track"], write_npz)
+            outputs.add(written["overlay"], write_png)
+            if video:
+                _add_video(outputs, out, hand, sequence, result, backgrounds, written)
+    except BaseException:
+        if made:
+            with contextlib.suppress(OSError):
+                out.rmdir()  # only if empty: nothing of ours is left in it
+        raise
     return written
+
+
+def _add_video(outputs: OutputSet, out: Path, hand, sequence, result, backgrounds, written):
+    """Write overlay.mp4 (or overlay_frames/) aside into `outputs`; a failure is noted."""
+    target = out / "overlay.mp4"
+    tmp = Path(outputs.temporary(target))
+    frames_tmp = tmp.with_name(tmp.stem + "_frames")  # OverlayWriter's fallback folder
+    outputs.track(frames_tmp)
+    try:
+        got = write_overlay_video(tmp, hand, sequence.rig, result.poses, backgrounds, sequence.fps)
+    except OSError as exc:
+        written["video_error"] = user_paths(str(exc))
+        return
+    if got == tmp:
+        outputs.place(tmp, target)
+        written["video"] = target
+    elif got is not None:
+        outputs.place(got, out / "overlay_frames", directory=True)
+        written["video"] = out / "overlay_frames"
