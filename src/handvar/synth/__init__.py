@@ -8,7 +8,6 @@ keypoints from its ground truth (noise and outliers, as a detector's).
 """
 
 from handvar.synth.keypoints import synthetic_keypoints
-
 from handvar.synth.motion import (
     HtrackMapping,
     builtin_recording,
