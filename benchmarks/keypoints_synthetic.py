@@ -84,7 +84,8 @@ def main() -> None:
             print(f"{label} max thumb-tip error, frames 160-175, per trial (mm): "
                   + " ".join(f"{v:.1f}" for v in thumbs))  # fmt: skip
             print(f"{label} frames lost per trial {lost}; mean IoU {np.mean(ious):.3f}; "
-                  f"iterations/frame {np.mean(its):.1f}; ms/frame {np.median(walls):.1f}")  # fmt: skip
+                  f"iterations/frame {np.mean(its):.1f}; "
+                  f"ms/frame {np.median(walls):.1f}")  # fmt: skip
 
 
 if __name__ == "__main__":
