@@ -45,6 +45,14 @@ def pct(name: str, v) -> None:
     print(f"    {name:<22s} " + " ".join(f"{p:>3d}%:{x:8.3g}" for p, x in zip(Q, q, strict=True)))
 
 
+def rates(mean_iou, kp_err) -> None:
+    iou = np.asarray(mean_iou, dtype=float)
+    ke = np.asarray(kp_err, dtype=float)
+    f = " ".join(f"<{t}: {np.mean(iou < t):.3f}" for t in (0.5, 0.7, 0.75, 0.8))
+    k = " ".join(f">{t}: {np.mean(ke > t):.3f}" for t in (0.2, 0.3, 0.5))
+    print(f"    fraction of frames with mean IoU {f}; keypoint error {k}")
+
+
 def synthetic(frames: int) -> None:
     seq = make_sequence("benchmark", n_frames=frames)
     hand = HandModel()
@@ -59,6 +67,7 @@ def synthetic(frames: int) -> None:
         pct("cost", res.cost)
         pct("keypoint error", res.keypoint_error)
         pct("joint error, mm", err)
+        rates(res.mean_iou, res.keypoint_error)
 
 
 def bad_starts() -> None:
@@ -131,6 +140,7 @@ def video(n: int) -> None:
     pct("mean IoU", a[:, 0])
     pct("cost", a[:, 1])
     pct("keypoint error", a[:, 2])
+    rates(a[:, 0], a[:, 2])
 
 
 def main() -> None:

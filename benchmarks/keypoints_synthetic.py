@@ -52,6 +52,7 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=None)
     ap.add_argument("--rigs", default="mono,stereo")
     ap.add_argument("--weight", type=float, default=None, help="w_k (default: CostSettings)")
+    ap.add_argument("--modes", default="silhouettes,keypoints")
     args = ap.parse_args()
 
     stereo = make_sequence("benchmark", n_frames=args.frames)
@@ -65,7 +66,7 @@ def main() -> None:
           f"{args.trials} trials, w_k {settings.cost.weight_keypoints}")  # fmt: skip
     for rig_name in args.rigs.split(","):
         seq = stereo if rig_name == "stereo" else mono(stereo)
-        for with_kp in (False, True):
+        for with_kp in [m == "keypoints" for m in args.modes.split(",")]:
             errs, thumbs, lost, ious, its, walls = [], [], [], [], [], []
             for trial in range(args.trials):
                 kp = None

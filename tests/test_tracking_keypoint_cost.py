@@ -108,7 +108,7 @@ def test_reprojection_error_in_hand_sizes(setup):
     kp = np.zeros((2, 21, 3))
     for j, cam in enumerate(rig):
         size = cam.fx * L / cam.camera_from_world(0.5 * (G[0] + G[9])[None])[0, 2]
-        kp[j, :, :2] = cam.project(G) + [0.6 * size, 0.8 * size]  # 1 hand size away
+        kp[j, :, :2] = cam.project(G) + np.array([0.6, 0.8]) * size  # 1 hand size away
         kp[j, :, 2] = 1.0
     kp[1, :, 2] = 0.0
     kp[1, :, :2] = np.nan

@@ -16,8 +16,8 @@ of every camera (`front_projection`), and the cost's C_z penalises joints closer
 
 Fit quality (design §13): every frame reports the silhouette IoU of the fitted model
 against the masks per camera and their mean, the final cost, the keypoint error (hand
-sizes) and whether it is *lost*: mean IoU below `TrackerSettings.lost_iou` (0.5) or
-keypoint error above `TrackerSettings.lost_keypoint_error` (0.5 hand sizes), or no
+sizes) and whether it is *lost*: mean IoU below `TrackerSettings.lost_iou` (0.75) or
+keypoint error above `TrackerSettings.lost_keypoint_error` (0.3 hand sizes), or no
 silhouette in any camera. A camera with an empty mask is left out of the fit and
 flagged (`empty`, and a `TrackingWarning` naming frame and camera); when every camera's
 mask is empty the frame is carried by the prediction.
@@ -87,9 +87,9 @@ class TrackerSettings:
     cost : CostSettings
     smd : SMDSettings
     lost_iou : float
-        A frame whose mean silhouette IoU is below this is lost, 0.5 (design §13).
+        A frame whose mean silhouette IoU is below this is lost, 0.75 (design §13).
     lost_keypoint_error : float
-        A frame whose keypoint error exceeds this (hand sizes) is lost, 0.5 (design §13).
+        A frame whose keypoint error exceeds this (hand sizes) is lost, 0.3 (design §13).
     fit_quality : bool
         Render the fitted model to measure the IoU (about 5 ms a stereo frame at
         640×480); False leaves `iou` NaN and decides `lost` on the keypoints alone.
@@ -102,8 +102,8 @@ class TrackerSettings:
 
     cost: CostSettings = field(default_factory=CostSettings)
     smd: SMDSettings = field(default_factory=SMDSettings)
-    lost_iou: float = 0.5
-    lost_keypoint_error: float = 0.5
+    lost_iou: float = 0.75
+    lost_keypoint_error: float = 0.3
     fit_quality: bool = True
     keypoint_stop: float = 0.01
 
