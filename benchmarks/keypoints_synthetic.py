@@ -52,18 +52,25 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=None)
     ap.add_argument("--rigs", default="mono,stereo")
     ap.add_argument("--weight", type=float, default=None, help="w_k (default: CostSettings)")
+    ap.add_argument("--huber", type=float, default=None, help="δ (default: CostSettings)")
+    ap.add_argument("--stop", type=float, default=None, help="keypoint_stop (TrackerSettings)")
     ap.add_argument("--modes", default="silhouettes,keypoints")
     args = ap.parse_args()
 
     stereo = make_sequence("benchmark", n_frames=args.frames)
     hand = HandModel()
     settings = TrackerSettings()
+    cost = settings.cost
     if args.weight is not None:
-        settings = TrackerSettings(
-            cost=dataclasses.replace(settings.cost, weight_keypoints=args.weight)
-        )
+        cost = dataclasses.replace(cost, weight_keypoints=args.weight)
+    if args.huber is not None:
+        cost = dataclasses.replace(cost, keypoint_huber=args.huber)
+    settings = dataclasses.replace(settings, cost=cost)
+    if args.stop is not None:
+        settings = dataclasses.replace(settings, keypoint_stop=args.stop)
     print(f"benchmark sequence, {stereo.n_frames} frames, predictor {args.predictor}, "
-          f"{args.trials} trials, w_k {settings.cost.weight_keypoints}")  # fmt: skip
+          f"{args.trials} trials, w_k {settings.cost.weight_keypoints}, "
+          f"δ {settings.cost.keypoint_huber}, keypoint_stop {settings.keypoint_stop}")  # fmt: skip
     for rig_name in args.rigs.split(","):
         seq = stereo if rig_name == "stereo" else mono(stereo)
         for with_kp in [m == "keypoints" for m in args.modes.split(",")]:
