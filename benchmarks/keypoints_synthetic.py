@@ -75,6 +75,8 @@ def main() -> None:
     ap.add_argument("--huber", type=float, default=None, help="δ (default: CostSettings)")
     ap.add_argument("--stop", type=float, default=None, help="keypoint_stop (TrackerSettings)")
     ap.add_argument("--modes", default="silhouettes,keypoints")
+    ap.add_argument("--noise", type=float, default=3.0, help="keypoint noise, px")
+    ap.add_argument("--outliers", type=float, default=0.1, help="fraction of outliers")
     args = ap.parse_args()
 
     stereo = make_sequence("benchmark", n_frames=args.frames)
@@ -99,7 +101,9 @@ def main() -> None:
             for trial in range(args.trials):
                 kp = None
                 if with_kp:
-                    kp = synthetic_keypoints(seq, 3.0, 0.1, np.random.default_rng(1000 + trial))
+                    kp = synthetic_keypoints(
+                        seq, args.noise, args.outliers, np.random.default_rng(1000 + trial)
+                    )
                 e, th, res, wall = run(seq, hand, args.predictor, trial, kp, settings)
                 errs.append(e)
                 thumbs.append(th)
