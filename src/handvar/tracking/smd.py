@@ -81,6 +81,12 @@ class SMDSettings:
         Relative floor of the diagonal curvature, ``h_i + damping · max h``: parameters
         the silhouettes hardly constrain (a hidden fingertip) get at most
         1 / damping times the step of the best constrained one.
+    keypoint_stop : float
+        The tracker's stopping test on frames with keypoints (design §14.2): stop once
+        the cost without the keypoint term is below `threshold` and the keypoint term
+        fell by less than this fraction in the last iteration, 0.01. Detector noise and
+        outliers leave the keypoint term a floor that the threshold alone would never
+        pass. Not used by `minimise` itself (the tracker passes it as ``stop=``).
     """
 
     meta_gain: float = 0.1
@@ -94,6 +100,7 @@ class SMDSettings:
     max_factor: float = 2.0
     precondition: bool = True
     damping: float = 0.01
+    keypoint_stop: float = 0.01
 
     def __post_init__(self) -> None:
         # checked, not converted: the settings keep the values (and repr) they were given
@@ -105,6 +112,7 @@ class SMDSettings:
         as_int(self.max_iterations, "max_iterations", minimum=1)
         as_float(self.min_factor, "min_factor", minimum=0, maximum=1, exclusive_minimum=True)
         as_float(self.max_factor, "max_factor", minimum=1)
+        as_float(self.keypoint_stop, "keypoint_stop", minimum=0, maximum=1)
 
 
 def initial_gains(settings: SMDSettings | None = None) -> np.ndarray:
@@ -228,6 +236,8 @@ def minimise(
     gains: np.ndarray | None = None,
     lower: np.ndarray | None = LOWER,
     upper: np.ndarray | None = UPPER,
+    project: Callable[[np.ndarray], np.ndarray] | None = None,
+    stop: Callable[[float], bool] | None = None,
 ) -> SMDResult:
     """Minimise a stochastic objective by SMD from `x0`, with v = 0 at the start.
 
@@ -250,6 +260,12 @@ def minimise(
         (for d = 26).
     lower, upper : (d,) ndarray or None, keyword-only
         Box constraints (the hand's joint limits by default).
+    project : callable, keyword-only, optional
+        ``project(x) -> x``, applied to the start and after every step before the box
+        (the tracker keeps the palm in front of the cameras, `front_projection`).
+    stop : callable, keyword-only, optional
+        ``stop(cost) -> bool`` called after every evaluation in place of the test
+        ``cost < threshold`` (the tracker's test with keypoints, design §14.2).
 
     Returns
     -------
@@ -267,6 +283,8 @@ def minimise(
         p = np.array(gains, dtype=float)
         if p.shape != x.shape or not np.all(p > 0):
             raise ValueError(f"gains: expected {x.shape} positive gains; got shape {p.shape}")
+    if project is not None:
+        x = np.asarray(project(x), dtype=float)
     if lower is not None or upper is not None:
         x = np.clip(x, lower, upper)
     v = np.zeros_like(x)
@@ -281,7 +299,7 @@ def minimise(
         g = np.asarray(g, dtype=float)
         costs[k] = cost
         k += 1
-        if cost < s.threshold:
+        if (cost < s.threshold) if stop is None else stop(cost):
             converged = True
             break
         if s.precondition:
@@ -297,5 +315,9 @@ def minimise(
             meta_gain=s.meta_gain, horizon=s.horizon,
             min_factor=s.min_factor, max_factor=s.max_factor, lower=lower, upper=upper,
         )  # fmt: skip
+        if project is not None:
+            x = np.asarray(project(x), dtype=float)
+            if lower is not None or upper is not None:
+                x = np.clip(x, lower, upper)
         p = pe / scale
     return SMDResult(x, costs[:k].copy(), k, converged, p)
