@@ -48,7 +48,7 @@ def render_mesh_rgb(hand, x, rig: Rig, *, background="clutter", rng=None, shadin
 
     Parameters as :func:`handvar.render.render_rgb`.
     """
-    from handvar.render.shading import _BACKGROUNDS, Shading, background_image
+    from handvar.render.shading import _BACKGROUNDS, Shading, shade_views
     from handvar.render.silhouettes import _check_rig
 
     x = check_pose(x, "x")
@@ -63,38 +63,28 @@ def render_mesh_rgb(hand, x, rig: Rig, *, background="clutter", rng=None, shadin
     tris = mesh.triangles
     verts = mesh.vertices(x)
     normals = vertex_normals(verts, tris)
-    light = np.asarray(sh.light, dtype=float)
-    light /= np.linalg.norm(light)
-    skin = np.asarray(sh.skin_rgb, dtype=float)
-    out = np.empty((len(rig), h, w, 3), dtype=np.uint8)
-    for k, cam in enumerate(rig):
-        img = background_image((w, h), background, rng).astype(np.float32)
+
+    def surface_normals(cam):
         tri_id, _ = mesh.depth_buffer(x, cam)
         rows, cols = np.nonzero(tri_id >= 0)
-        if rows.size:
-            t = tris[tri_id[rows, cols]]
-            uv = cam.project(verts)
-            a, b, c = uv[t[:, 0]], uv[t[:, 1]], uv[t[:, 2]]
-            p = np.stack([cols, rows], -1).astype(float)
-            # barycentric coordinates of the pixel centre in the projected triangle
-            d = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (
-                c[:, 0] - a[:, 0]
-            )
-            d = np.where(d == 0, 1.0, d)
-            lb = (
-                (p[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1])
-                - (p[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-            ) / d
-            lc = (
-                (b[:, 0] - a[:, 0]) * (p[:, 1] - a[:, 1])
-                - (b[:, 1] - a[:, 1]) * (p[:, 0] - a[:, 0])
-            ) / d
-            lam = np.clip(np.stack([1.0 - lb - lc, lb, lc], -1), 0.0, 1.0)
-            n = np.einsum("ni,nic->nc", lam, normals[t])
-            n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
-            lambert = np.maximum(n @ light, 0.0)  # Lambert: max(0, n·l)
-            img[rows, cols] = skin * (sh.ambient + sh.diffuse * lambert)[:, None]
-        img += np.float32(sh.noise_sigma) * rng.standard_normal(img.shape, dtype=np.float32)
-        np.clip(np.rint(img, out=img), 0, 255, out=img)
-        out[k] = img
-    return out
+        if not rows.size:
+            return rows, cols, np.empty((0, 3))
+        t = tris[tri_id[rows, cols]]
+        uv = cam.project(verts)
+        a, b, c = uv[t[:, 0]], uv[t[:, 1]], uv[t[:, 2]]
+        p = np.stack([cols, rows], -1).astype(float)
+        # barycentric coordinates of the pixel centre in the projected triangle
+        d = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+        d = np.where(d == 0, 1.0, d)
+        lb = (
+            (p[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (p[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+        ) / d
+        lc = (
+            (b[:, 0] - a[:, 0]) * (p[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (p[:, 0] - a[:, 0])
+        ) / d
+        lam = np.clip(np.stack([1.0 - lb - lc, lb, lc], -1), 0.0, 1.0)
+        n = np.einsum("ni,nic->nc", lam, normals[t])
+        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
+        return rows, cols, n
+
+    return shade_views(rig, (w, h), background, rng, sh, surface_normals)

@@ -165,27 +165,49 @@ def render_rgb(
     rng = np.random.default_rng(0) if rng is None else rng
     sh = Shading() if shading is None else shading
     centres, radii = hand.world_spheres(x)
-    light = np.asarray(sh.light, dtype=float)
+
+    def surface_normals(cam):
+        mask = silhouette_of_spheres(centres, radii, cam, coverage="centre")  # point sampling
+        rows, cols = np.nonzero(mask)
+        if not rows.size:
+            return rows, cols, np.empty((0, 3))
+        origins, dirs = cam.rays(np.stack([cols, rows], -1).astype(float))
+        depth, prim = intersect_cone_spheres(centres, radii, origins, dirs, return_primitive=True)
+        hit = prim >= 0
+        # pixel centres on the outline that graze the surface: face the camera
+        normals = -dirs
+        points = origins[hit] + depth[hit, None] * dirs[hit]
+        normals[hit] = cone_sphere_normals(centres, radii, points, prim[hit])
+        return rows, cols, normals
+
+    return shade_views(rig, (w, h), background, rng, sh, surface_normals)
+
+
+def shade_views(rig, size, background, rng, shading: Shading, surface_normals) -> np.ndarray:
+    """Lambert-shaded hand over a synthetic background in every camera of `rig`.
+
+    The loop both surfaces share: ``surface_normals(camera)`` returns the hand's pixels
+    ``(rows, cols)`` in that camera and the unit surface normal seen at each, (n, 3);
+    every pixel gets ``skin · (ambient + diffuse · max(0, n·l))``, then the image gets
+    the sensor noise of `shading`.
+
+    Returns
+    -------
+    (n_cams, H, W, 3) uint8 ndarray
+        RGB images.
+    """
+    w, h = size
+    light = np.asarray(shading.light, dtype=float)
     light /= np.linalg.norm(light)
-    skin = np.asarray(sh.skin_rgb, dtype=float)
+    skin = np.asarray(shading.skin_rgb, dtype=float)
     out = np.empty((len(rig), h, w, 3), dtype=np.uint8)
     for k, cam in enumerate(rig):
         img = background_image((w, h), background, rng).astype(np.float32)
-        mask = silhouette_of_spheres(centres, radii, cam, coverage="centre")  # point sampling
-        rows, cols = np.nonzero(mask)
+        rows, cols, normals = surface_normals(cam)
         if rows.size:
-            origins, dirs = cam.rays(np.stack([cols, rows], -1).astype(float))
-            depth, prim = intersect_cone_spheres(
-                centres, radii, origins, dirs, return_primitive=True
-            )
-            hit = prim >= 0
-            # pixel centres on the outline that graze the surface: face the camera
-            normals = -dirs
-            points = origins[hit] + depth[hit, None] * dirs[hit]
-            normals[hit] = cone_sphere_normals(centres, radii, points, prim[hit])
             lambert = np.maximum(normals @ light, 0.0)  # Lambert: max(0, n·l)
-            img[rows, cols] = skin * (sh.ambient + sh.diffuse * lambert)[:, None]
-        img += np.float32(sh.noise_sigma) * rng.standard_normal(img.shape, dtype=np.float32)
+            img[rows, cols] = skin * (shading.ambient + shading.diffuse * lambert)[:, None]
+        img += np.float32(shading.noise_sigma) * rng.standard_normal(img.shape, dtype=np.float32)
         np.clip(np.rint(img, out=img), 0, 255, out=img)
         out[k] = img
     return out
