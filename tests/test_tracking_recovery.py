@@ -19,7 +19,6 @@ from handvar.camera import Rig
 from handvar.cli import main
 from handvar.hand import HandModel, named_pose
 from handvar.predictors import RVAR
-from handvar.render import silhouettes
 from handvar.synth.sequences import make_sequence
 from handvar.tracking.outputs import quality_captions
 from handvar.tracking.recovery import (
