@@ -21,7 +21,14 @@ from numba import njit
 
 from handvar.validate import as_array
 
-__all__ = ["distort", "distort_normalized", "distort_point", "distortion_coefficients", "padded"]
+__all__ = [
+    "distort",
+    "distort_normalized",
+    "distort_point",
+    "distortion_coefficients",
+    "padded",
+    "project_point",
+]
 
 
 def distortion_coefficients(dist) -> np.ndarray:
@@ -172,3 +179,35 @@ def distort_point(x, y, dist, rational):  # pragma: no cover - compiled
     a01 = 2.0 * x * y * dradial + 2.0 * p1 * x + 2.0 * p2 * y
     a11 = radial + 2.0 * y * y * dradial + 6.0 * p1 * y + 2.0 * p2 * x
     return xd, yd, a00, a01, a11
+
+
+@njit(cache=True)
+def project_point(k, dist, rational, R, t, p, J3, uv, J2):  # pragma: no cover - compiled
+    """Pixel (u, v) of world point p and d(u, v)/dx = d(u, v)/dp · J3; returns depth z.
+
+    Pinhole with OpenCV's distortion (as handvar.camera.Camera.project_jacobian), one
+    camera's parameters as packed by handvar.camera.Rig.packed: k (4,) fx fy cx cy,
+    dist (8,), rational (bool), R (3, 3), t (3,). uv (2,) and J2 (2, d) are filled in
+    place; J3 (3, d) is the Jacobian of p with respect to the d parameters.
+    """
+    X = R[0, 0] * p[0] + R[0, 1] * p[1] + R[0, 2] * p[2] + t[0]
+    Y = R[1, 0] * p[0] + R[1, 1] * p[1] + R[1, 2] * p[2] + t[1]
+    Z = R[2, 0] * p[0] + R[2, 1] * p[1] + R[2, 2] * p[2] + t[2]
+    iz = 1.0 / Z
+    x = X * iz
+    y = Y * iz
+    xd, yd, a00, a01, a11 = distort_point(x, y, dist, rational)  # and d(xd, yd)/d(x, y)
+    a10 = a01
+    uv[0] = k[0] * xd + k[2]
+    uv[1] = k[1] * yd + k[3]
+    # d(x, y)/d(X, Y, Z) = [[1/Z, 0, -x/Z], [0, 1/Z, -y/Z]]; then · R (world)
+    P = np.empty((2, 3))
+    for c in range(3):
+        dx = iz * R[0, c] - x * iz * R[2, c]
+        dy = iz * R[1, c] - y * iz * R[2, c]
+        P[0, c] = k[0] * (a00 * dx + a01 * dy)
+        P[1, c] = k[1] * (a10 * dx + a11 * dy)
+    for i in range(2):
+        for col in range(J3.shape[1]):
+            J2[i, col] = P[i, 0] * J3[0, col] + P[i, 1] * J3[1, col] + P[i, 2] * J3[2, col]
+    return Z

@@ -1,6 +1,7 @@
 """Model-based tracking: the silhouette cost, stochastic meta-descent and the tracker.
 
 - :mod:`~handvar.tracking.costs`: C_s, C_f (eq. 1) and their gradients (paper §2.1).
+- :mod:`~handvar.tracking.keypoint_cost`: the keypoint term C_k and the front term C_z.
 - :mod:`~handvar.tracking.smd`: stochastic meta-descent (paper §4).
 - :mod:`~handvar.tracking.tracker`: `Tracker` (predict → optimise → update per frame).
 - :mod:`~handvar.tracking.outputs`: the files of a track (poses, joints, overlays).
@@ -17,7 +18,13 @@ from handvar.tracking.costs import (
     prepare_frame,
 )
 from handvar.tracking.smd import SMDResult, SMDSettings, initial_gains, minimise, smd_step
-from handvar.tracking.tracker import FrameResult, Tracker, TrackerSettings, TrackResult
+from handvar.tracking.tracker import (
+    FrameResult,
+    Tracker,
+    TrackerSettings,
+    TrackingWarning,
+    TrackResult,
+)
 
 __all__ = [
     "CostSettings",
@@ -31,6 +38,7 @@ __all__ = [
     "TrackResult",
     "Tracker",
     "TrackerSettings",
+    "TrackingWarning",
     "cost_reference",
     "initial_gains",
     "minimise",

@@ -19,7 +19,8 @@ Terms, for a rig of n_c cameras (residuals in pixels, see *Unit* below):
   model covers the pixel). Eq. 1 sums over the cameras and averages over the samples;
   we average over both, i.e. eq. 1 divided by n_c, so that one threshold serves a
   monocular and a stereo rig alike.
-- C = 1.7 C_s + 0.4 C_f (§4).
+- C = 1.7 C_s + 0.4 C_f (§4), plus w_k C_k on frames with keypoints and w_z C_z, which
+  keeps the hand in front of every camera (`handvar.tracking.keypoint_cost`).
 
 Gradients follow the chain rule residual × projection Jacobian × kinematic Jacobian with
 the matched targets s* and ŝ held fixed, as in ICP. The same quantities are returned as a
@@ -50,9 +51,11 @@ it are affine in the point's bone coordinates and follow from those four exactly
 
 One concept in one module (the cost, its per-frame data and its compiled kernel), hence
 its length. The kernel's geometry is not written here: it calls the one compiled form of
-the lens distortion (`handvar.geometry.distortion.distort_point`) and of the closest
-point of the model's image (`handvar.geometry.projected.closest_point_on_union`), and
-reads the cameras only through `handvar.camera.Rig.packed`.
+the projection with lens distortion (`handvar.geometry.distortion.project_point`) and of
+the closest point of the model's image (`handvar.geometry.projected.closest_point_on_union`),
+and reads the cameras only through `handvar.camera.Rig.packed`. The terms on the 21
+points G(x) — the keypoint term C_k and the front term C_z — are computed by
+`handvar.tracking.keypoint_cost` from the same kinematics, inside `SilhouetteCost.evaluate`.
 """
 
 from __future__ import annotations
@@ -64,9 +67,11 @@ import numpy as np
 from numba import njit
 
 from handvar.camera import Rig
-from handvar.geometry.distortion import distort_point
+from handvar.geometry.distortion import project_point as _project
 from handvar.geometry.projected import closest_point_on_union, union_axes
+from handvar.hand.kinematics import _JOINT_BONE  # the bone of each of the 21 points
 from handvar.params import N_PARAMS, check_pose
+from handvar.tracking.keypoint_cost import hand_length, joint_terms
 from handvar.validate import as_float, as_instance, as_int
 
 __all__ = [
@@ -101,6 +106,18 @@ class CostSettings:
         the paper's stopping threshold 0.006 (`SMDSettings.threshold`) at a weighted
         mean squared misfit of 0.054 px², reached on synthetic frames within about
         0.3 mm and 0.3° of the true pose (module docstring, *Unit*).
+    weight_keypoints : float
+        Weight w_k of the keypoint term C_k (hand sizes², `handvar.tracking.keypoint_cost`);
+        only frames with keypoints have it. Chosen by measurement (design §14.2).
+    keypoint_huber : float
+        δ of C_k's Huber loss, hand sizes.
+    near : float
+        Depth (mm) in front of every camera below which a joint is penalised by C_z
+        (design §13); also the floor of the depth in C_k's hand size.
+    weight_front : float
+        Weight w_z of the front term C_z.
+    front_scale : float
+        Unit of C_z's hinge, mm: a joint ``front_scale`` mm too close costs ½ w_z/(21 n_c).
     curvature_floor : float
         Fraction of the sensitivity added to the Gauss–Newton diagonal in
         `CostTerms.curvature`, the optimiser's preconditioner.
@@ -117,10 +134,17 @@ class CostSettings:
     pixel_scale: float = 3.0
     roi_margin: int = 64
     curvature_floor: float = 0.1
+    weight_keypoints: float = 100.0
+    keypoint_huber: float = 0.1
+    near: float = 100.0
+    weight_front: float = 1.0
+    front_scale: float = 10.0
 
     def __post_init__(self) -> None:
-        for name in ("weight_silhouette", "weight_filling"):
+        for name in ("weight_silhouette", "weight_filling", "weight_keypoints", "weight_front"):
             as_float(getattr(self, name), name, minimum=0.0)
+        for name in ("keypoint_huber", "near", "front_scale"):
+            as_float(getattr(self, name), name, minimum=0.0, exclusive_minimum=True)
         for name in ("n_surface", "n_pixels"):
             as_int(getattr(self, name), name, minimum=1)
         as_float(self.pixel_scale, "pixel_scale", minimum=0.0, exclusive_minimum=True)
@@ -319,7 +343,7 @@ class CostTerms:
     Attributes
     ----------
     cost : float
-        C = w_s C_s + w_f C_f, in (pixel_scale px)².
+        C = w_s C_s + w_f C_f + w_k C_k + w_z C_z, in (pixel_scale px)².
     silhouette, filling : float
         C_s and C_f (unweighted), same unit.
     gradient : (26,) ndarray
@@ -333,9 +357,12 @@ class CostTerms:
         ``diag(JᵀJ)`` of the stacked residuals (rows with zero residual do not count).
     residuals : (R,) ndarray or None
         Stacked weighted residuals r with ``C = ½ rᵀr``: for every camera the 2N
-        silhouette rows (u, v per surface sample) then the 2M filling rows.
+        silhouette rows (u, v per surface sample) then the 2M filling rows; then the
+        rows of C_k and C_z (`handvar.tracking.keypoint_cost.joint_terms`).
     jacobian : (R, 26) ndarray or None
         dr/dx, so that ``gradient = Jᵀ r`` and ``Jᵀ(J v)`` is the Gauss–Newton product.
+    keypoints, front : float
+        C_k (hand sizes², 0 without keypoints) and C_z (unweighted).
     """
 
     cost: float
@@ -346,6 +373,8 @@ class CostTerms:
     gauss_newton_diagonal: np.ndarray | None = None
     residuals: np.ndarray | None = None
     jacobian: np.ndarray | None = None
+    keypoints: float = 0.0
+    front: float = 0.0
 
     def curvature(self, floor: float) -> np.ndarray:
         """Diagonal curvature for the optimiser: ``diag(JᵀJ) + floor · sensitivity``, (26,).
@@ -418,6 +447,9 @@ class SilhouetteCost:
         self._ref_bone = np.repeat(np.arange(n_bones), 4)
         self._ref_local = np.tile(_REFERENCE, (n_bones, 1))
         self._cams = rig.packed()
+        self._joint_bone = np.ascontiguousarray(_JOINT_BONE, dtype=np.int64)
+        self._joint_local = np.ascontiguousarray(hand._joint_local, dtype=float)
+        self.length = hand_length(hand)  # L of C_k, mm
 
     # -- per frame --
     def prepare(self, masks) -> FrameData:
@@ -449,7 +481,7 @@ class SilhouetteCost:
         return p.reshape(-1, 4, 3), J.reshape(-1, 4, 3, N_PARAMS)
 
     def evaluate(
-        self, x, frame: FrameData, samples: Samples, *, residuals: bool = False
+        self, x, frame: FrameData, samples: Samples, *, residuals: bool = False, keypoints=None
     ) -> CostTerms:
         """Cost, its parts and gradient at pose `x` for the given frame and samples.
 
@@ -464,6 +496,9 @@ class SilhouetteCost:
         residuals : bool, keyword-only
             Also return the stacked residuals and their Jacobian (for Gauss–Newton
             products).
+        keypoints : (n_cams, 21, 3) ndarray or None, keyword-only
+            This frame's keypoints, x, y, confidence (missing: confidence 0), as
+            `handvar.tracking.keypoint_cost.frame_keypoints` returns; None: no C_k.
 
         Returns
         -------
@@ -521,44 +556,30 @@ class SilhouetteCost:
         )
         c_s = 0.5 * parts[0] / (N * n_active * scale2)
         c_f = 0.5 * parts[1] / (M * n_active * scale2)
-        cost = s.weight_silhouette * c_s + s.weight_filling * c_f
+        P = np.empty((self._joint_bone.shape[0], 3))
+        JP = np.empty((P.shape[0], 3, N_PARAMS))
+        _attached_all(Q, JQ, self._joint_bone, self._joint_local, P, JP)  # G(x), dG/dx
+        c_k, c_z, g_j, gn_j, r_j, J_j = joint_terms(
+            P, JP, self._cams, keypoints, length=self.length, huber=s.keypoint_huber,
+            near=s.near, weight_keypoints=s.weight_keypoints, weight_front=s.weight_front,
+            front_scale=s.front_scale, residuals=residuals,
+        )  # fmt: skip
+        g += g_j
+        gn += gn_j
+        cost = (
+            s.weight_silhouette * c_s + s.weight_filling * c_f
+            + s.weight_keypoints * c_k + s.weight_front * c_z
+        )  # fmt: skip
+        if residuals:
+            r = np.concatenate([r, r_j])
+            J = np.concatenate([J, J_j])
         return CostTerms(
             float(cost), float(c_s), float(c_f), g, sens, gn, r if residuals else None,
-            J if residuals else None,
+            J if residuals else None, c_k, c_z,
         )  # fmt: skip
 
 
 # --- compiled kernel ---------------------------------------------------------------------
-
-
-@njit(cache=True)
-def _project(k, dist, rational, R, t, p, J3, uv, J2):  # pragma: no cover - compiled
-    """Pixel (u, v) of world point p and d(u, v)/dx = d(u, v)/dp · J3; returns depth z.
-
-    Pinhole with OpenCV's distortion (as handvar.camera.Camera.project_jacobian), the
-    cameras' parameters packed by handvar.camera.Rig.packed.
-    """
-    X = R[0, 0] * p[0] + R[0, 1] * p[1] + R[0, 2] * p[2] + t[0]
-    Y = R[1, 0] * p[0] + R[1, 1] * p[1] + R[1, 2] * p[2] + t[1]
-    Z = R[2, 0] * p[0] + R[2, 1] * p[1] + R[2, 2] * p[2] + t[2]
-    iz = 1.0 / Z
-    x = X * iz
-    y = Y * iz
-    xd, yd, a00, a01, a11 = distort_point(x, y, dist, rational)  # and d(xd, yd)/d(x, y)
-    a10 = a01
-    uv[0] = k[0] * xd + k[2]
-    uv[1] = k[1] * yd + k[3]
-    # d(x, y)/d(X, Y, Z) = [[1/Z, 0, -x/Z], [0, 1/Z, -y/Z]]; then · R (world)
-    P = np.empty((2, 3))
-    for c in range(3):
-        dx = iz * R[0, c] - x * iz * R[2, c]
-        dy = iz * R[1, c] - y * iz * R[2, c]
-        P[0, c] = k[0] * (a00 * dx + a01 * dy)
-        P[1, c] = k[1] * (a10 * dx + a11 * dy)
-    for i in range(2):
-        for col in range(J3.shape[1]):
-            J2[i, col] = P[i, 0] * J3[0, col] + P[i, 1] * J3[1, col] + P[i, 2] * J3[2, col]
-    return Z
 
 
 @njit(cache=True)
@@ -574,6 +595,17 @@ def _attached(Q, JQ, b, loc, p, J3):  # pragma: no cover - compiled
             for k in range(3):
                 w += loc[k] * (JQ[b, k + 1, i, col] - JQ[b, 0, i, col])
             J3[i, col] = w
+
+
+@njit(cache=True)
+def _attached_all(Q, JQ, bone, local, P, JP):  # pragma: no cover - compiled
+    """`_attached` for every row of (bone, local): P (n, 3) and JP (n, 3, d), in place."""
+    p = np.empty(3)
+    J3 = np.empty((3, JQ.shape[3]))
+    for n in range(bone.shape[0]):
+        _attached(Q, JQ, bone[n], local[n], p, J3)
+        P[n] = p
+        JP[n] = J3
 
 
 @njit(cache=True)

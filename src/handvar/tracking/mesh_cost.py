@@ -24,8 +24,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from handvar.camera import Rig
+from handvar.hand.kinematics import _JOINT_BONE  # the bone of each of the 21 points
 from handvar.params import N_PARAMS, check_pose
 from handvar.tracking.costs import CostSettings, CostTerms, FrameData, prepare_frame
+from handvar.tracking.keypoint_cost import hand_length, joint_terms
 
 __all__ = ["MeshSamplesDrawn", "MeshSilhouetteCost"]
 
@@ -82,6 +84,8 @@ class MeshSilhouetteCost:
         self.settings = settings
         rng = np.random.default_rng(0) if rng is None else rng
         self.pool = hand.mesh.sample_surface(int(pool_size), rng)
+        self._cams = rig.packed()
+        self.length = hand_length(hand)
 
     def prepare(self, masks) -> FrameData:
         """`prepare_frame` for this rig, with the settings' margin."""
@@ -101,9 +105,19 @@ class MeshSilhouetteCost:
         return MeshSamplesDrawn(self.pool.take(idx), pixels)
 
     def evaluate(
-        self, x, frame: FrameData, samples: MeshSamplesDrawn, *, residuals: bool = False
+        self,
+        x,
+        frame: FrameData,
+        samples: MeshSamplesDrawn,
+        *,
+        residuals: bool = False,
+        keypoints=None,
     ) -> CostTerms:
-        """Cost, its parts, gradient and diagonals at pose `x` (as `SilhouetteCost`)."""
+        """Cost, its parts, gradient and diagonals at pose `x` (as `SilhouetteCost`).
+
+        With the keypoint term C_k when `keypoints` (n_cams, 21, 3) are given and the
+        front term C_z always (`handvar.tracking.keypoint_cost`).
+        """
         x = check_pose(x, "x")
         if frame.n_cameras != len(self.rig):
             raise ValueError(
@@ -151,12 +165,23 @@ class MeshSilhouetteCost:
             parts[1] += np.sum(res_f * res_f)
             r[base + 2 * N : base + 2 * (N + M)] = (a_f * res_f).ravel()
             J[base + 2 * N : base + 2 * (N + M)] = (a_f * dh).reshape(2 * M, N_PARAMS)
+        P, JP = self.hand.points(x, _JOINT_BONE, self.hand._joint_local, jacobian=True)
+        c_k, c_z, _, _, r_j, J_j = joint_terms(
+            P, JP, self._cams, keypoints, length=self.length, huber=s.keypoint_huber,
+            near=s.near, weight_keypoints=s.weight_keypoints, weight_front=s.weight_front,
+            front_scale=s.front_scale, residuals=True,
+        )  # fmt: skip
+        r = np.concatenate([r, r_j])
+        J = np.concatenate([J, J_j])
         g = J.T @ r
         gn = np.einsum("rk,rk->k", J, J)
         c_s = 0.5 * parts[0] / (N * n_active * scale2)
         c_f = 0.5 * parts[1] / (M * n_active * scale2)
-        cost = s.weight_silhouette * c_s + s.weight_filling * c_f
+        cost = (
+            s.weight_silhouette * c_s + s.weight_filling * c_f
+            + s.weight_keypoints * c_k + s.weight_front * c_z
+        )  # fmt: skip
         return CostTerms(
             float(cost), float(c_s), float(c_f), g, sens, gn, r if residuals else None,
-            J if residuals else None,
+            J if residuals else None, c_k, c_z,
         )  # fmt: skip

@@ -228,6 +228,7 @@ def minimise(
     gains: np.ndarray | None = None,
     lower: np.ndarray | None = LOWER,
     upper: np.ndarray | None = UPPER,
+    project: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> SMDResult:
     """Minimise a stochastic objective by SMD from `x0`, with v = 0 at the start.
 
@@ -250,6 +251,9 @@ def minimise(
         (for d = 26).
     lower, upper : (d,) ndarray or None, keyword-only
         Box constraints (the hand's joint limits by default).
+    project : callable, keyword-only, optional
+        ``project(x) -> x``, applied to the start and after every step before the box
+        (the tracker keeps the palm in front of the cameras, `front_projection`).
 
     Returns
     -------
@@ -267,6 +271,8 @@ def minimise(
         p = np.array(gains, dtype=float)
         if p.shape != x.shape or not np.all(p > 0):
             raise ValueError(f"gains: expected {x.shape} positive gains; got shape {p.shape}")
+    if project is not None:
+        x = np.asarray(project(x), dtype=float)
     if lower is not None or upper is not None:
         x = np.clip(x, lower, upper)
     v = np.zeros_like(x)
@@ -297,5 +303,9 @@ def minimise(
             meta_gain=s.meta_gain, horizon=s.horizon,
             min_factor=s.min_factor, max_factor=s.max_factor, lower=lower, upper=upper,
         )  # fmt: skip
+        if project is not None:
+            x = np.asarray(project(x), dtype=float)
+            if lower is not None or upper is not None:
+                x = np.clip(x, lower, upper)
         p = pe / scale
     return SMDResult(x, costs[:k].copy(), k, converged, p)
