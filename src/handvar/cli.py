@@ -475,7 +475,7 @@ def track_command(
     again (from its keypoints when it has them); the summary says how many.
 
     OUT receives poses.csv (T × 26, mm and degrees), joints.csv (T × 63, mm),
-    track.npz (poses, joints, starts, costs, iterations, seconds), overlay.png (a
+    track.npz (the track and its fit quality), overlay.png (a
     strip of frames: the observed masks with the fitted model's outline and joints)
     and, with --video, overlay.mp4 (numbered PNGs in overlay_frames/ when OpenCV has
     no mp4v codec); with recovery also quality.csv (per frame: IoU, keypoint error,

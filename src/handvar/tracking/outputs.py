@@ -4,9 +4,9 @@
 
     poses.csv     T × 26 fitted poses, mm and degrees, a header of parameter names
     joints.csv    T × 63 joint positions (j0_x, j0_y, j0_z, …), mm
-    track.npz     poses, joints, starts, costs, iterations, seconds (`TrackResult`),
-                  predictor and seed; with a quality also iou, keypoint_error,
-                  final_cost, lost, reinit, empty, keypoints (`TrackQuality`)
+    track.npz     every field of `TrackResult` (poses, joints, starts, costs,
+                  iterations, seconds, iou, cost, keypoint_error, lost, empty),
+                  predictor and seed; with a quality also reinit and with_keypoints
     quality.csv   with a quality (§14.3): per frame its silhouette IoU, keypoint error
                   (hand sizes, empty without keypoints), final cost and the flags lost,
                   reinit, empty, keypoints (0/1)
@@ -23,6 +23,7 @@ drawn over the sequence's masks or, for a real recording, over its colour frames
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
@@ -226,10 +227,10 @@ def write_track_outputs(
         p, result.joints.reshape(n_frames, -1), delimiter=",", header=jheader, comments="",
         fmt="%.4f"))  # fmt: skip
 
-    extra = {}
+    arrays = {f.name: getattr(result, f.name) for f in dataclasses.fields(result)}
     if quality is not None:
-        extra = {name: np.asarray(getattr(quality, name)) for name in _QUALITY}
-        extra["final_cost"] = extra.pop("cost")
+        arrays["reinit"] = np.asarray(quality.reinit)
+        arrays["with_keypoints"] = np.asarray(quality.keypoints)
         written["quality"] = out / "quality.csv"
         table = np.column_stack([np.arange(n_frames)] + [
             np.asarray(getattr(quality, name), dtype=float)[:n_frames] for name in _QUALITY
@@ -240,11 +241,7 @@ def write_track_outputs(
 
     def write_npz(path: str) -> None:
         with open(path, "wb") as fh:
-            np.savez_compressed(
-                fh, poses=result.poses, joints=result.joints, starts=result.starts,
-                costs=result.costs, iterations=result.iterations, seconds=result.seconds,
-                predictor=predictor, seed=seed, **extra,
-            )  # fmt: skip
+            np.savez_compressed(fh, **arrays, predictor=predictor, seed=seed)
 
     write_atomic(written["track"], write_npz)
 

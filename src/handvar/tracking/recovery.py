@@ -1,25 +1,22 @@
-"""Lost frames and recovery: per-frame fit quality, the lost rule, re-initialisation (§14.3).
+"""Lost frames and recovery: re-initialisation where the fit is lost (§14.3).
 
-The tracker of the paper never asks whether its fit still explains the frame.  Here
-every frame gets a *quality*:
+The tracker reports every frame's fit quality (`Tracker.step`, design §13): the
+silhouette IoU of the fitted model per camera, the final cost, the distance of the
+projected joints to the frame's keypoints in hand sizes, and whether the frame is
+*lost* (mean IoU below `TrackerSettings.lost_iou`, or keypoint error above
+`TrackerSettings.lost_keypoint_error`).
 
-- the silhouette IoU of the fitted model with the observed silhouettes (mean over
-  cameras, `handvar.tracking.init.silhouette_iou`);
-- on a frame with 2D keypoints, the mean distance of the projected joints G(x) to them,
-  in *hand sizes* (the detector's wrist → middle-MCP distance in that frame and camera),
-  so that the rule does not depend on the image's resolution or the hand's distance;
-- the final cost of the optimiser (reported, not judged: its scale depends on the
-  frame).
+`track_with_recovery` tracks frame by frame and, on a lost frame, searches the pose
+again in that frame (`handvar.tracking.init.initial_pose`: from the frame's keypoints
+when it has them, else the coarse silhouette search), restarts the tracker there (which
+resets the motion predictor) and tracks the frame again; the better of the two fits by
+the lost rule, then IoU, is kept.  A frame still lost after that stays flagged.  A frame
+with no silhouette in any camera is not judged: it is carried by the prediction and
+flagged *empty* (the tracker leaves a single empty camera out of the fit).
 
-A frame is **lost** when its pose is not finite, its IoU is below
-`RecoverySettings.min_iou`, or its keypoint error exceeds
-`RecoverySettings.max_keypoint_error`.  `track_with_recovery` tracks frame by frame;
-on a lost frame it searches the pose again in that frame
-(`handvar.tracking.init.initial_pose`: from the frame's keypoints when it has them,
-else the coarse silhouette search), restarts the tracker there (which resets the
-predictor) and tracks the frame again.  A frame still lost after that stays flagged.  A
-frame with an empty silhouette in any camera is not tracked: it keeps the previous pose,
-the predictor is not fed, and the frame is flagged *empty*.
+For evaluation against a detector, `joint_distances` and `pck` measure the projected
+joints against keypoints in the detector's own hand size (its wrist → middle-MCP
+distance in that frame), independent of the model.
 """
 
 from __future__ import annotations
@@ -32,14 +29,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from handvar.params import N_PARAMS
-from handvar.tracking.init import InitSettings, initial_pose, silhouette_iou
+from handvar.tracking.init import InitSettings, initial_pose
 from handvar.tracking.tracker import Tracker, TrackResult
-from handvar.validate import as_float, as_instance
+from handvar.validate import as_instance
 
 __all__ = [
-    "RECOVERY_DEFAULTS",
     "FrameQuality",
-    "RecoverySettings",
+    "RecoveredTrack",
     "TrackQuality",
     "joint_distances",
     "pck",
@@ -51,52 +47,21 @@ _WRIST, _MIDDLE_MCP = 0, 9
 
 
 @dataclass(frozen=True)
-class RecoverySettings:
-    """The lost rule and the recovery (§14.3; the paper has neither).
-
-    Attributes
-    ----------
-    min_iou : float
-        A frame whose silhouette IoU falls below this is lost.  A correct fit of the
-        example video's hand scores 0.7–0.95 (§14.4); a model that slid down the
-        forearm or left the hand scores under 0.5.
-    max_keypoint_error : float
-        A frame with keypoints whose mean joint distance to them exceeds this many hand
-        sizes is lost (0.5: half the wrist → middle-MCP distance on average, about
-        twice the error of a poor but recognisable fit).
-    reinit : bool
-        Search the pose again on a lost frame (False: only flag it).
-    """
-
-    min_iou: float = 0.5
-    max_keypoint_error: float = 0.5
-    reinit: bool = True
-
-    def __post_init__(self) -> None:
-        as_float(self.min_iou, "min_iou", minimum=0.0, maximum=1.0)
-        as_float(self.max_keypoint_error, "max_keypoint_error", minimum=0.0,
-                 exclusive_minimum=True)  # fmt: skip
-        as_instance(self.reinit, bool, "reinit")
-
-
-RECOVERY_DEFAULTS = RecoverySettings()
-
-
-@dataclass(frozen=True)
 class FrameQuality:
     """How well one frame's fit explains it.
 
     Attributes
     ----------
     iou : float
-        Silhouette IoU, mean over cameras; 0 for a non-finite pose.
+        Silhouette IoU, mean over the cameras with a silhouette (`FrameResult.mean_iou`);
+        NaN when not tracked.
     keypoint_error : float
-        Mean distance of the projected joints to the frame's keypoints, hand sizes;
-        NaN without keypoints.
+        Mean distance of the projected joints to the frame's keypoints, in the model's
+        hand size at its depth (`FrameResult.keypoint_error`); NaN without keypoints.
     cost : float
         Final cost of the optimiser, (pixel_scale px)²; NaN when not tracked.
     lost : bool
-        The lost rule (module notes).
+        The tracker's lost rule (module notes), after recovery; False on empty frames.
     """
 
     iou: float
@@ -118,7 +83,7 @@ class TrackQuality:
     reinit : (T,) bool ndarray
         Frames where the pose was searched again.
     empty : (T,) bool ndarray
-        Frames with an empty silhouette (not tracked).
+        Frames with no silhouette in any camera (carried by the prediction).
     keypoints : (T,) bool ndarray
         Frames that had keypoints.
     """
@@ -133,7 +98,7 @@ class TrackQuality:
 
     def summary(self) -> str:
         """One line: frames lost, re-initialised and empty, IoU minimum and mean."""
-        tracked = ~self.empty
+        tracked = ~self.empty & ~np.isnan(self.iou)
         iou = self.iou[tracked]
         text = (
             f"{int(self.lost.sum())} lost, {int(self.reinit.sum())} re-initialised, "
@@ -215,36 +180,26 @@ def pck(x, hand, rig, keypoints, threshold: float = 0.2) -> float:
     return float(np.mean(d <= threshold)) if d.size else math.nan
 
 
-def frame_quality(
-    x, masks, hand, rig, keypoints=None, *, cost: float = math.nan,
-    settings: RecoverySettings = RECOVERY_DEFAULTS,
-) -> FrameQuality:  # fmt: skip
-    """The quality of pose `x` on one frame and the lost rule (module notes)."""
-    from handvar.render import silhouettes
+def _quiet_step(tracker: Tracker, masks, kps):
+    """One tracker step without its empty-camera warning (the quality records it)."""
+    import warnings
 
-    if not np.all(np.isfinite(x)):
-        return FrameQuality(0.0, math.nan, cost, True)
-    iou = silhouette_iou(silhouettes(hand, x, rig), masks)
-    d = joint_distances(x, hand, rig, keypoints) if _present(keypoints) else np.full(1, np.nan)
-    error = float(np.nanmean(d)) if np.isfinite(d).any() else math.nan
-    lost = iou < settings.min_iou or (error > settings.max_keypoint_error)
-    return FrameQuality(iou, error, cost, bool(lost))
+    from handvar.tracking.tracker import TrackingWarning
 
-
-def _step(tracker: Tracker, masks, kps):
-    """One tracker step; keypoints go to the tracker's cost when it takes them."""
-    try:
-        if kps is not None and _takes_keypoints(tracker):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", TrackingWarning)
+        try:
             return tracker.step(masks, keypoints=kps)
-        return tracker.step(masks)
-    except ValueError:  # a lost track can drive the optimiser to non-finite values
-        return None
+        except ValueError:  # a lost track can drive the optimiser to non-finite values
+            return None
 
 
-def _takes_keypoints(tracker: Tracker) -> bool:
-    import inspect
-
-    return "keypoints" in inspect.signature(tracker.step).parameters
+def _score(r) -> tuple[bool, float]:
+    """Order of two fits of one frame: not lost first, then the higher mean IoU."""
+    if r is None:
+        return (False, -1.0)
+    iou = r.mean_iou
+    return (not r.lost, -1.0 if math.isnan(iou) else iou)
 
 
 def track_with_recovery(
@@ -253,7 +208,7 @@ def track_with_recovery(
     x0=None,
     *,
     keypoints: Sequence | Callable | None = None,
-    settings: RecoverySettings = RECOVERY_DEFAULTS,
+    reinit: bool = True,
     init_settings: InitSettings | None = None,
     on_frame: Callable | None = None,
 ) -> RecoveredTrack:
@@ -262,32 +217,32 @@ def track_with_recovery(
     Parameters
     ----------
     tracker : Tracker
-        The tracker (its rig, hand, predictor, generator and settings are used).
+        The tracker (its rig, hand, predictor, generator and settings, with the lost
+        rule's thresholds, are used).
     frames : iterable of (n_cams, H, W) bool array_like
-        The silhouettes of each frame, in order.  A frame with an empty camera is
-        flagged empty and not tracked.
+        The silhouettes of each frame, in order.
     x0 : (26,) array_like, optional
         Pose at the first frame; by default `initial_pose` of the first frame.
     keypoints : sequence or callable, keyword-only, optional
         ``keypoints[i]`` (or ``keypoints(i)``) for the i-th frame: per camera a (21, 3)
         array (x, y in the masks' pixels, confidence) or None, or None for a frame
-        without keypoints.  They go into the tracker's cost when it takes them
-        (``Tracker.step(..., keypoints=)``), into the frame's quality, and into the
+        without keypoints.  They go into the tracker's cost, its quality and the
         re-initialisation.
-    settings : RecoverySettings, keyword-only
+    reinit : bool, keyword-only
+        Search the pose again on a lost frame (False: only flag it).
     init_settings : InitSettings, keyword-only, optional
         Settings of the pose search.
     on_frame : callable, keyword-only, optional
-        Called as ``on_frame(i, pose, quality)`` after each frame (streamed overlays).
+        Called as ``on_frame(i, pose, quality)`` after each frame, quality a
+        `FrameQuality` (for overlays written while tracking).
 
     Returns
     -------
     RecoveredTrack
-        The track (`TrackResult`; the poses of empty frames repeat the previous one)
-        and its `TrackQuality`.
+        The track (`TrackResult`) and its `TrackQuality`.
     """
     as_instance(tracker, Tracker, "tracker")
-    as_instance(settings, RecoverySettings, "settings")
+    as_instance(reinit, bool, "reinit")
     init_kw = {} if init_settings is None else {"settings": init_settings}
     hand, rig = tracker.hand, tracker.rig
     max_it = tracker.settings.smd.max_iterations
@@ -309,78 +264,96 @@ def track_with_recovery(
         tracker.reset(result.pose)
         return time.perf_counter() - t0
 
-    rows = []  # per frame: pose, start, costs, iterations, seconds, quality, reinit, empty, kp
+    results, flags, init_seconds = [], [], []
     previous = None if x0 is None else np.asarray(x0, dtype=float)
     started = False
-    init_seconds = []
     for i, masks in enumerate(frames):
         masks = np.asarray(masks, dtype=bool)
         if masks.ndim == 2:
             masks = masks[None]
         kps = frame_keypoints(i)
-        if not masks.reshape(len(masks), -1).any(axis=1).all():
-            pose = np.full(N_PARAMS, np.nan) if previous is None else previous
-            q = FrameQuality(0.0, math.nan, math.nan, False)
-            rows.append((pose, pose, np.empty(0), 0, np.zeros(3), q, False, True, kps is not None))
-            if on_frame is not None:
-                on_frame(i, pose, q)
-            continue
-        if not started:
+        empty = not masks.any()
+        if not started and not empty:
             if x0 is None:
                 init_seconds.append(search(masks, kps))
             else:
                 tracker.reset(x0)
             started = True
-        r = _step(tracker, masks, kps)
-        pose = np.full(N_PARAMS, np.nan) if r is None else r.pose
-        cost = math.nan if r is None or not len(r.costs) else float(r.costs[-1])
-        q = frame_quality(pose, masks, hand, rig, kps, cost=cost, settings=settings)
-        reinit = False
-        if q.lost and settings.reinit:
+        if not started:  # nothing seen yet: nothing to track from
+            pose = np.full(N_PARAMS, np.nan) if previous is None else previous
+            results.append(None)
+            flags.append((pose, False, True, kps is not None))
+            if on_frame is not None:
+                on_frame(i, pose, FrameQuality(math.nan, math.nan, math.nan, False))
+            continue
+        r = _quiet_step(tracker, masks, kps)
+        again = False
+        if reinit and not empty and (r is None or r.lost):
             init_seconds.append(search(masks, kps))
-            reinit = True
-            r2 = _step(tracker, masks, kps)
-            if r2 is not None:
-                cost2 = float(r2.costs[-1]) if len(r2.costs) else math.nan
-                q2 = frame_quality(r2.pose, masks, hand, rig, kps, cost=cost2, settings=settings)
-                if r is None or q2.iou >= q.iou or not q2.lost:
-                    r, pose, q = r2, r2.pose, q2
-        if not np.all(np.isfinite(pose)) and previous is not None:
-            pose = previous  # diverged and not recovered: keep the last finite pose
-        if r is None:
-            row = (pose, pose, np.empty(0), 0, np.zeros(3))
+            again = True
+            r2 = _quiet_step(tracker, masks, kps)
+            if _score(r2) >= _score(r):
+                r = r2
+        if r is None:  # diverged and not recovered: keep the last finite pose
+            pose = np.full(N_PARAMS, np.nan) if previous is None else previous
+            if previous is not None:
+                tracker.reset(previous)
         else:
-            row = (pose, r.start, r.costs, r.iterations, r.seconds)
-        rows.append((*row, q, reinit, False, kps is not None))
-        if np.all(np.isfinite(pose)):
+            pose = r.pose
             previous = pose
+        results.append(r)
+        flags.append((pose, again, empty, kps is not None))
         if on_frame is not None:
-            on_frame(i, pose, q)
-    if not rows:
+            on_frame(i, pose, _frame_quality(r, empty))
+    if not results:
         raise ValueError("frames: expected at least one frame; got none")
-    n = len(rows)
-    poses = np.array([r[0] for r in rows])
+    return _assemble(results, flags, hand, len(rig), max_it, init_seconds)
+
+
+def _frame_quality(r, empty: bool) -> FrameQuality:
+    if r is None:
+        return FrameQuality(0.0, math.nan, math.nan, not empty)
+    return FrameQuality(r.mean_iou, r.keypoint_error, r.cost, bool(r.lost and not empty))
+
+
+def _assemble(results, flags, hand, n_cams, max_it, init_seconds) -> RecoveredTrack:
+    """The `TrackResult` and `TrackQuality` of the frames' results."""
+    n = len(results)
+    poses = np.array([f[0] for f in flags])
     costs = np.full((n, max_it), np.nan)
-    for t, r in enumerate(rows):
-        costs[t, : len(r[2])] = r[2][:max_it]
+    starts = poses.copy()
+    iterations = np.zeros(n, dtype=np.int64)
+    seconds = np.zeros((n, 3))
+    iou = np.full((n, n_cams), np.nan)
+    final = np.full(n, np.nan)
+    kp_err = np.full(n, np.nan)
+    lost = np.zeros(n, dtype=bool)
+    empty_cams = np.zeros((n, n_cams), dtype=bool)
+    for t, (r, f) in enumerate(zip(results, flags, strict=True)):
+        empty_cams[t] = f[2]
+        if r is None:
+            lost[t] = not f[2]
+            continue
+        starts[t] = r.start
+        costs[t, : r.iterations] = r.costs[:max_it]
+        iterations[t] = r.iterations
+        seconds[t] = r.seconds
+        iou[t], final[t], kp_err[t] = r.iou, r.cost, r.keypoint_error
+        empty_cams[t] = r.empty
+        lost[t] = r.lost and not f[2]
     joints = np.stack(
         [hand.joints(x) if np.all(np.isfinite(x)) else np.full((21, 3), np.nan) for x in poses]
     )
     track = TrackResult(
-        poses=poses,
-        joints=joints,
-        starts=np.array([r[1] for r in rows]),
-        costs=costs,
-        iterations=np.array([r[3] for r in rows], dtype=np.int64),
-        seconds=np.array([r[4] for r in rows]),
+        poses, joints, starts, costs, iterations, seconds, iou, final, kp_err, lost, empty_cams
     )
     quality = TrackQuality(
-        iou=np.array([r[5].iou for r in rows]),
-        keypoint_error=np.array([r[5].keypoint_error for r in rows]),
-        cost=np.array([r[5].cost for r in rows]),
-        lost=np.array([r[5].lost for r in rows]),
-        reinit=np.array([r[6] for r in rows]),
-        empty=np.array([r[7] for r in rows]),
-        keypoints=np.array([r[8] for r in rows]),
+        iou=track.mean_iou,
+        keypoint_error=kp_err,
+        cost=final,
+        lost=lost,
+        reinit=np.array([f[1] for f in flags]),
+        empty=np.array([f[2] for f in flags]),
+        keypoints=np.array([f[3] for f in flags]),
     )
     return RecoveredTrack(track, quality, np.array(init_seconds))
