@@ -46,7 +46,9 @@ def run(every: int, frames: int | None, scale: float, hand_length: float) -> dic
     given = [detected.every(every)] if every else None
     n = source.n_frames if frames is None else min(frames, source.n_frames)
     t0 = time.perf_counter()
-    masks = [m for _, _, m in source.silhouettes(stop=n, keypoints=given, allow_empty=True)]
+    # with keypoints the wrist is cut while tracking (detected, else the model's wrist)
+    frames = source.silhouettes(stop=n, wrist=not every, allow_empty=True)
+    masks = [m for _, _, m in frames]
     sil_ms = 1e3 * (time.perf_counter() - t0) / len(masks)
     n = len(masks)
     truth = source.scaled_keypoints([detected])[0]
@@ -55,7 +57,10 @@ def run(every: int, frames: int | None, scale: float, hand_length: float) -> dic
     tracker = Tracker(source.rig, hand, make_predictor("rvar"), np.random.default_rng(0))
     t0 = time.perf_counter()
     result = track_with_recovery(
-        tracker, masks, keypoints=None if used is None else (lambda i: [used.frame(i)])
+        tracker,
+        masks,
+        keypoints=None if used is None else (lambda i: [used.frame(i)]),
+        cut_wrist=bool(every),
     )
     track_ms = 1e3 * (time.perf_counter() - t0) / n
     q = result.quality

@@ -12,7 +12,8 @@ Steps:
    forearm cut at the wrist: at the detected wrist on the frames with keypoints
    (MediaPipe's, shipped as ``dex-human-hand-video-keypoints.npy``; used on every
    ``--keypoint-every``-th frame only, as from a detector at a fraction of the frame
-   rate), else where the forearm's width changes (`VideoSource.silhouettes`);
+   rate), else at the wrist of the model fitted to the previous frame (without
+   keypoints: where the forearm's width changes);
 2. the first frame's pose from its keypoints (`handvar.tracking.init.initial_pose`);
 3. tracking with the paper's RVAR predictor and the library's lost-frame recovery
    (`handvar.tracking.recovery.track_with_recovery`): a frame whose fit is lost
@@ -155,23 +156,25 @@ def main() -> None:
     current: dict[str, object] = {}
 
     def frames():
-        for t, images, masks in source.silhouettes(stop=n, keypoints=given, allow_empty=True):
-            current["images"], current["masks"] = images, masks
-            if t in picks | hard:
-                picked[t] = masks[0]
+        # with keypoints the wrist is cut while tracking (detected, else the model's wrist)
+        for _, images, masks in source.silhouettes(stop=n, wrist=given is None, allow_empty=True):
+            current["images"] = images
             yield masks
 
     clock = time.perf_counter()
     with OverlayWriter(args.out / "overlay.mp4", source.fps) as video:
 
-        def on_frame(t, pose, quality):
-            picture = overlay_frame(current["images"], source.rig, hand, pose, current["masks"])
+        def on_frame(t, pose, quality, masks):
+            if t in picks | hard:
+                picked[t] = masks[0]
+            picture = overlay_frame(current["images"], source.rig, hand, pose, masks)
             text = f"frame {t}  IoU {quality.iou:.2f}" + ("  LOST" if quality.lost else "")
             video.write(label(picture, text, alert=quality.lost))
 
         result = track_with_recovery(
             tracker, frames(), on_frame=on_frame,
             keypoints=None if scaled is None else (lambda i: [scaled.frame(i)]),
+            cut_wrist=given is not None,
         )  # fmt: skip
     seconds = time.perf_counter() - clock
     print(f"overlay video -> {video.path_written} ({video.n_frames} frames)")

@@ -22,6 +22,7 @@ from handvar.predictors import RVAR
 from handvar.synth.sequences import make_sequence
 from handvar.tracking.outputs import quality_captions
 from handvar.tracking.recovery import (
+    RecoverySettings,
     joint_distances,
     pck,
     track_with_recovery,
@@ -104,7 +105,7 @@ def test_a_start_far_off_is_lost_then_recovered(short_sequence):
 
     flagged = track_with_recovery(
         Tracker(seq.rig, hand, RVAR(), np.random.default_rng(0)), frames, wrong,
-        reinit=False,
+        settings=RecoverySettings(reinit=False),
     )  # fmt: skip
     assert flagged.quality.lost[0] and not flagged.quality.reinit.any()
 
@@ -159,12 +160,14 @@ def track_video(n_frames: int | None, every: int):
     source = open_source(VIDEO, scale=0.5)
     detected = read_keypoints(KEYPOINTS)
     given = [detected.every(every)]
-    masks = [m for _, _, m in source.silhouettes(stop=n_frames, keypoints=given)]
+    masks = [m for _, _, m in source.silhouettes(stop=n_frames, wrist=False)]
     used = source.scaled_keypoints(given)[0]
     truth = source.scaled_keypoints([detected])[0]
     hand = HandModel()
     tracker = Tracker(source.rig, hand, RVAR(), np.random.default_rng(0))
-    result = track_with_recovery(tracker, masks, keypoints=lambda i: [used.frame(i)])
+    result = track_with_recovery(
+        tracker, masks, keypoints=lambda i: [used.frame(i)], cut_wrist=True
+    )
     scores = np.array(
         [pck(x, hand, source.rig, [truth.frame(t)]) for t, x in enumerate(result.track.poses)]
     )

@@ -500,9 +500,12 @@ def track_command(
     if recover is None:
         recover = spec.kind == "recording" or keypoints is not None
     if spec.kind == "recording":  # video files / image folders: see the init section below
+        # With keypoints and recovery the wrist is cut while tracking (at the detected
+        # wrist, else at the tracked model's); otherwise here.
         source, sequence = _recording_sequence(
-            spec.paths, calib, fov, scale, n_frames, keypoints=keypoints, allow_empty=recover
-        )
+            spec.paths, calib, fov, scale, n_frames, allow_empty=recover,
+            **({"wrist": False} if recover and keypoints is not None else {"keypoints": keypoints}),
+        )  # fmt: skip
         if keypoints is not None:
             keypoints = source.scaled_keypoints(keypoints)
     elif calib is not None or fov is not None:
@@ -538,8 +541,9 @@ def track_command(
             desc=f"tracking {sequence.name}", unit="frame", leave=False,
         )  # fmt: skip
         recovered = track_with_recovery(
-            tracker, frames, x0, keypoints=None if keypoints is None else _keypoints_at(keypoints)
-        )
+            tracker, frames, x0, keypoints=None if keypoints is None else _keypoints_at(keypoints),
+            cut_wrist=source is not None and keypoints is not None,
+        )  # fmt: skip
         result, quality = recovered.track, recovered.quality
     else:
         result = tracker.track(

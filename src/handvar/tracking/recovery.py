@@ -22,6 +22,7 @@ distance in that frame), independent of the model.
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
@@ -31,13 +32,16 @@ import numpy as np
 from handvar.params import N_PARAMS
 from handvar.tracking.init import InitSettings, initial_pose
 from handvar.tracking.tracker import Tracker, TrackResult
-from handvar.validate import as_instance
+from handvar.validate import as_float, as_instance
 
 __all__ = [
+    "RECOVERY_DEFAULTS",
     "FrameQuality",
     "RecoveredTrack",
+    "RecoverySettings",
     "TrackQuality",
     "joint_distances",
+    "model_wrist_keypoints",
     "pck",
     "track_with_recovery",
 ]
@@ -195,11 +199,42 @@ def _quiet_step(tracker: Tracker, masks, kps):
 
 
 def _score(r) -> tuple[bool, float]:
-    """Order of two fits of one frame: not lost first, then the higher mean IoU."""
+    """Order of two fits of one frame: not lost first, then the lower keypoint error
+    (on a frame with keypoints) or the higher mean IoU."""
     if r is None:
-        return (False, -1.0)
+        return (False, -math.inf)
+    if not math.isnan(r.keypoint_error):
+        return (not r.lost, -r.keypoint_error)
     iou = r.mean_iou
     return (not r.lost, -1.0 if math.isnan(iou) else iou)
+
+
+@dataclass(frozen=True)
+class RecoverySettings:
+    """When `track_with_recovery` searches the pose again (§14.3; the paper has no rule).
+
+    Attributes
+    ----------
+    reinit : bool
+        Search the pose again on a lost frame (False: only flag it).
+    refit_keypoint_error : float
+        Also search it again, from the keypoints, on a frame with keypoints whose fit
+        is off them by more than this, mean over the points, hand sizes (not lost, but
+        drifting).  0.1 is half the radius of PCK@0.2: on the example video, keypoint
+        frames tracked above it had a PCK@0.2 of 0.59, those below 0.96 (§14.4).
+        ``inf`` turns it off.
+    """
+
+    reinit: bool = True
+    refit_keypoint_error: float = 0.1
+
+    def __post_init__(self) -> None:
+        as_instance(self.reinit, bool, "reinit")
+        as_float(self.refit_keypoint_error, "refit_keypoint_error", minimum=0.0,
+                 exclusive_minimum=True)  # fmt: skip
+
+
+RECOVERY_DEFAULTS = RecoverySettings()
 
 
 def track_with_recovery(
@@ -208,8 +243,9 @@ def track_with_recovery(
     x0=None,
     *,
     keypoints: Sequence | Callable | None = None,
-    reinit: bool = True,
+    settings: RecoverySettings = RECOVERY_DEFAULTS,
     init_settings: InitSettings | None = None,
+    cut_wrist: bool = False,
     on_frame: Callable | None = None,
 ) -> RecoveredTrack:
     """Track frame by frame, detect lost frames and re-initialise on them (module notes).
@@ -228,13 +264,21 @@ def track_with_recovery(
         array (x, y in the masks' pixels, confidence) or None, or None for a frame
         without keypoints.  They go into the tracker's cost, its quality and the
         re-initialisation.
-    reinit : bool, keyword-only
-        Search the pose again on a lost frame (False: only flag it).
+    settings : RecoverySettings, keyword-only
+        When to search the pose again.
     init_settings : InitSettings, keyword-only, optional
         Settings of the pose search.
+    cut_wrist : bool, keyword-only
+        `frames` are silhouettes with the forearm still on; cut each camera's at the
+        wrist here (`handvar.vision.silhouette.cut_wrist`): at the detected wrist on a
+        frame with keypoints, else at the wrist of the previous frame's fitted model
+        (its projected wrist → middle MCP, `model_wrist_keypoints`), else (no fit yet)
+        where the forearm's width changes.  Meant for tracks with keypoints, which keep
+        the model, and so its wrist, anchored.
     on_frame : callable, keyword-only, optional
-        Called as ``on_frame(i, pose, quality)`` after each frame, quality a
-        `FrameQuality` (for overlays written while tracking).
+        Called as ``on_frame(i, pose, quality, masks)`` after each frame, quality a
+        `FrameQuality` and masks the silhouettes tracked (for overlays written while
+        tracking).
 
     Returns
     -------
@@ -242,7 +286,7 @@ def track_with_recovery(
         The track (`TrackResult`) and its `TrackQuality`.
     """
     as_instance(tracker, Tracker, "tracker")
-    as_instance(reinit, bool, "reinit")
+    as_instance(settings, RecoverySettings, "settings")
     init_kw = {} if init_settings is None else {"settings": init_settings}
     hand, rig = tracker.hand, tracker.rig
     max_it = tracker.settings.smd.max_iterations
@@ -272,6 +316,8 @@ def track_with_recovery(
         if masks.ndim == 2:
             masks = masks[None]
         kps = frame_keypoints(i)
+        if cut_wrist:
+            masks = _cut(masks, kps, previous, hand, rig)
         empty = not masks.any()
         if not started and not empty:
             if x0 is None:
@@ -284,11 +330,15 @@ def track_with_recovery(
             results.append(None)
             flags.append((pose, False, True, kps is not None))
             if on_frame is not None:
-                on_frame(i, pose, FrameQuality(math.nan, math.nan, math.nan, False))
+                on_frame(i, pose, FrameQuality(math.nan, math.nan, math.nan, False), masks)
             continue
         r = _quiet_step(tracker, masks, kps)
         again = False
-        if reinit and not empty and (r is None or r.lost):
+        drifting = (
+            r is not None and kps is not None
+            and r.keypoint_error > settings.refit_keypoint_error
+        )  # fmt: skip
+        if settings.reinit and not empty and (r is None or r.lost or drifting):
             init_seconds.append(search(masks, kps))
             again = True
             r2 = _quiet_step(tracker, masks, kps)
@@ -304,10 +354,46 @@ def track_with_recovery(
         results.append(r)
         flags.append((pose, again, empty, kps is not None))
         if on_frame is not None:
-            on_frame(i, pose, _frame_quality(r, empty))
+            on_frame(i, pose, _frame_quality(r, empty), masks)
     if not results:
         raise ValueError("frames: expected at least one frame; got none")
     return _assemble(results, flags, hand, len(rig), max_it, init_seconds)
+
+
+def model_wrist_keypoints(x, hand, camera) -> np.ndarray | None:
+    """The wrist and middle MCP of pose `x` seen by `camera`, as (21, 3) keypoints.
+
+    The other 19 points are missing (confidence 0); None for a non-finite pose.  Given
+    to `handvar.vision.silhouette.cut_wrist`, they cut a silhouette where the model's
+    hand ends.
+    """
+    if x is None or not np.all(np.isfinite(x)):
+        return None
+    G = hand.joints(x)[[_WRIST, _MIDDLE_MCP]]
+    uv = camera.project(G)
+    shift = float(os.environ.get("HV_SHIFT", "0.0"))
+    uv[0] = uv[0] + shift * (uv[1] - uv[0])
+    k = np.full((21, 3), np.nan)
+    k[:, 2] = 0.0
+    k[[_WRIST, _MIDDLE_MCP], :2] = uv
+    k[[_WRIST, _MIDDLE_MCP], 2] = 1.0
+    return k
+
+
+def _cut(masks: np.ndarray, kps, previous, hand, rig) -> np.ndarray:
+    """Each camera's silhouette cut at the wrist (`track_with_recovery`'s cut_wrist)."""
+    from handvar.vision.silhouette import cut_wrist
+
+    out = []
+    for j, (m, cam) in enumerate(zip(masks, rig, strict=True)):
+        if not m.any():
+            out.append(m)
+            continue
+        k = None if kps is None else kps[j]
+        if k is None or not (np.asarray(k)[[_WRIST, _MIDDLE_MCP], 2] > 0).all():
+            k = model_wrist_keypoints(previous, hand, cam)
+        out.append(cut_wrist(m, k))
+    return np.stack(out)
 
 
 def _frame_quality(r, empty: bool) -> FrameQuality:
