@@ -1,10 +1,16 @@
 """Frames per second of the tracker on the benchmark sequence with the paper's settings.
 
-Prints the median wall time per frame split into preprocessing (distance fields),
-optimisation (SMD iterations) and prediction, the mean iterations per frame, the mean
-joint error, and with ``--profile`` the top functions of a cProfile run.
+Prints the median wall time per frame split into preprocessing (distance fields and the
+fit-quality check), optimisation (SMD iterations) and prediction, the mean iterations per
+frame, the mean joint error, and with ``--profile`` the top functions of a cProfile run.
 
-    python benchmarks/tracker.py [--frames 175] [--predictor rvar] [--profile]
+With ``--keypoints`` it tracks the same frames again with synthetic keypoints (3 px
+noise, 10 % outliers, `handvar.synth.synthetic_keypoints`) and prints the same figures
+and the ratios of the times with keypoints to those without, per SMD iteration and per
+frame. The two runs alternate ``--repeats`` times and the medians are compared, since
+the machine may be shared.
+
+    python benchmarks/tracker.py [--frames 175] [--predictor rvar] [--profile] [--keypoints]
 """
 
 from __future__ import annotations
@@ -19,6 +25,7 @@ import numpy as np
 from handvar.evaluation.metrics import mean_joint_error
 from handvar.hand import HandModel
 from handvar.predictors.catalogue import make_predictor
+from handvar.synth import synthetic_keypoints
 from handvar.synth.sequences import make_sequence
 from handvar.tracking import Tracker
 from handvar.tracking.tracker import TIMING_PARTS
@@ -30,7 +37,12 @@ def main() -> None:
     ap.add_argument("--predictor", default="rvar")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--profile", action="store_true")
+    ap.add_argument("--keypoints", action="store_true")
+    ap.add_argument("--repeats", type=int, default=3)
     args = ap.parse_args()
+    if args.keypoints:
+        compare_keypoints(args)
+        return
 
     seq = make_sequence("benchmark", n_frames=args.frames)
     hand = HandModel()
@@ -63,6 +75,38 @@ def main() -> None:
     print(f"  mean joint error, mm             {err.mean():8.2f}  (max {err.max():.2f})")
     if args.profile:
         pstats.Stats(prof).sort_stats("tottime").print_stats(15)
+
+
+def compare_keypoints(args) -> None:
+    """Silhouettes alone against silhouettes + keypoints, alternating runs."""
+    seq = make_sequence("benchmark", n_frames=args.frames)
+    hand = HandModel()
+    kp = synthetic_keypoints(seq, 3.0, 0.1, np.random.default_rng(1000))
+    Tracker(seq.rig, hand, make_predictor("none")).track(
+        seq, seq.truth.poses[0], frames=3, keypoints=kp
+    )  # warm-up
+    runs: dict[str, list] = {"silhouettes": [], "keypoints": []}
+    for _ in range(args.repeats):
+        for label, k in (("silhouettes", None), ("keypoints", kp)):
+            tracker = Tracker(seq.rig, hand, make_predictor(args.predictor),
+                              np.random.default_rng(args.seed))  # fmt: skip
+            runs[label].append(tracker.track(seq, seq.truth.poses[0], keypoints=k))
+    print(f"benchmark sequence, {seq.n_frames} frames, predictor {args.predictor}, "
+          f"seed {args.seed}, {args.repeats} alternating runs each")  # fmt: skip
+    figures = {}
+    for label, results in runs.items():
+        r = results[0]
+        opt_iter = np.median([np.median(x.seconds[:, 1] / x.iterations) for x in results])
+        frame = np.median([np.median(x.seconds.sum(axis=1)) for x in results])
+        opt_frame = np.median([np.median(x.seconds[:, 1]) for x in results])
+        err = mean_joint_error(seq.truth.joints, r.joints)
+        figures[label] = (opt_iter, frame, opt_frame)
+        print(f"  {label:<12s} µs/iteration {opt_iter * 1e6:8.1f}  ms/frame {frame * 1e3:7.2f} "
+              f"(optimisation {opt_frame * 1e3:6.2f})  iterations/frame "
+              f"{r.iterations.mean():5.1f}  joint error {err.mean():5.2f} mm")  # fmt: skip
+    a, b = figures["silhouettes"], figures["keypoints"]
+    print(f"  keypoints / silhouettes: per iteration {b[0] / a[0]:.2f}x, per frame "
+          f"{b[1] / a[1]:.2f}x, optimisation per frame {b[2] / a[2]:.2f}x")  # fmt: skip
 
 
 if __name__ == "__main__":

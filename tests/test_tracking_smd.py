@@ -96,3 +96,30 @@ def test_gain_growth_is_bounded_per_step():
     np.testing.assert_allclose(p_new, [2.0, 1.0])  # 1 + 0.1·100 = 11 → 2; factor 1 stays
     _, p_raw, _ = smd_step(x, p, v, g, meta_gain=0.1, lower=None, upper=None)
     np.testing.assert_allclose(p_raw, [11.0, 1.0])  # the paper's unbounded rule
+
+
+def test_projection_keeps_the_iterates_in_the_set_and_stop_replaces_the_threshold():
+    # minimum at b = (2, 2) outside the half-plane x0 + x1 ≤ 1; the constrained minimum is
+    # (½, ½), cost 2.25 (hand-computed); per-parameter gains stop on the boundary near it
+    rng = np.random.default_rng(0)
+    A, b = np.eye(2), np.array([2.0, 2.0])
+
+    def project(x):
+        excess = x.sum() - 1.0
+        return x - max(excess, 0.0) / 2.0
+
+    seen = []
+
+    def objective(x, need_jacobian):
+        seen.append(x.copy())
+        return _quadratic(A, b, rng, 0.0)(x, need_jacobian)
+
+    s = SMDSettings(threshold=0.0, max_iterations=60)
+    res = minimise(objective, np.array([3.0, -3.0]), s, gains=np.ones(2), lower=None,
+                   upper=None, project=project)  # fmt: skip
+    assert all(x.sum() <= 1.0 + 1e-12 for x in seen)  # the start is projected too
+    assert res.x.sum() == pytest.approx(1.0, abs=1e-9)
+    assert 0.5 * np.sum((res.x - b) ** 2) == pytest.approx(2.25, rel=0.01)
+    stopped = minimise(objective, np.zeros(2), s, gains=np.ones(2), lower=None, upper=None,
+                       stop=lambda cost: cost < 3.0)  # fmt: skip
+    assert stopped.converged and stopped.costs[-1] < 3.0 and np.all(stopped.costs[:-1] >= 3.0)

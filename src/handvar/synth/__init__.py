@@ -3,9 +3,11 @@
 :mod:`handvar.synth.motion` makes pose series (minimum-jerk key poses, replay of a real
 recording); :mod:`handvar.synth.sequences` builds the paper's three sequences
 (``benchmark``, ``flexion``, ``flip``) and renders them into a
-:class:`handvar.io.Sequence`.
+:class:`handvar.io.Sequence`; :mod:`handvar.synth.keypoints` makes a sequence's 2D
+keypoints from its ground truth (noise and outliers, as a detector's).
 """
 
+from handvar.synth.keypoints import synthetic_keypoints
 from handvar.synth.motion import (
     HtrackMapping,
     builtin_recording,
@@ -52,4 +54,5 @@ __all__ = [
     "replay",
     "retime",
     "sequence_poses",
+    "synthetic_keypoints",
 ]

@@ -112,8 +112,9 @@ def sequence_keypoints(keypoints, n_frames: int, n_cameras: int) -> list:
     keypoints : sequence or array_like
         Either one entry per camera, each a `handvar.vision.keypoints.Keypoints2D`, a
         (T, 21, 2|3) array or None; or a (T, n_cameras, 21, 2|3) array; or a list of T
-        per-frame entries as `frame_keypoints` takes. Frames beyond the keypoints' own
-        count have none.
+        per-frame entries as `frame_keypoints` takes. A list of n_cameras entries that
+        are each None, a Keypoints2D or a (T, 21, 2|3) array is read per camera. Frames
+        beyond the keypoints' own count have none.
     n_frames, n_cameras : int
         Frames tracked and cameras of the rig.
 

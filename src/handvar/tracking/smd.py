@@ -229,6 +229,7 @@ def minimise(
     lower: np.ndarray | None = LOWER,
     upper: np.ndarray | None = UPPER,
     project: Callable[[np.ndarray], np.ndarray] | None = None,
+    stop: Callable[[float], bool] | None = None,
 ) -> SMDResult:
     """Minimise a stochastic objective by SMD from `x0`, with v = 0 at the start.
 
@@ -254,6 +255,9 @@ def minimise(
     project : callable, keyword-only, optional
         ``project(x) -> x``, applied to the start and after every step before the box
         (the tracker keeps the palm in front of the cameras, `front_projection`).
+    stop : callable, keyword-only, optional
+        ``stop(cost) -> bool`` called after every evaluation in place of the test
+        ``cost < threshold`` (the tracker's test with keypoints, design §14.2).
 
     Returns
     -------
@@ -287,7 +291,7 @@ def minimise(
         g = np.asarray(g, dtype=float)
         costs[k] = cost
         k += 1
-        if cost < s.threshold:
+        if (cost < s.threshold) if stop is None else stop(cost):
             converged = True
             break
         if s.precondition:

@@ -16,8 +16,8 @@ of every camera (`front_projection`), and the cost's C_z penalises joints closer
 
 Fit quality (design §13): every frame reports the silhouette IoU of the fitted model
 against the masks per camera and their mean, the final cost, the keypoint error (hand
-sizes) and whether it is *lost*: mean IoU below `TrackerSettings.lost_iou` (0.5) or
-keypoint error above `TrackerSettings.lost_keypoint_error` (0.5 hand sizes), or no
+sizes) and whether it is *lost*: mean IoU below `TrackerSettings.lost_iou` (0.75) or
+keypoint error above `TrackerSettings.lost_keypoint_error` (0.3 hand sizes), or no
 silhouette in any camera. A camera with an empty mask is left out of the fit and
 flagged (`empty`, and a `TrackingWarning` naming frame and camera); when every camera's
 mask is empty the frame is carried by the prediction.
@@ -87,19 +87,25 @@ class TrackerSettings:
     cost : CostSettings
     smd : SMDSettings
     lost_iou : float
-        A frame whose mean silhouette IoU is below this is lost, 0.5 (design §13).
+        A frame whose mean silhouette IoU is below this is lost, 0.75 (design §13).
     lost_keypoint_error : float
-        A frame whose keypoint error exceeds this (hand sizes) is lost, 0.5 (design §13).
+        A frame whose keypoint error exceeds this (hand sizes) is lost, 0.3 (design §13).
     fit_quality : bool
         Render the fitted model to measure the IoU (about 5 ms a stereo frame at
         640×480); False leaves `iou` NaN and decides `lost` on the keypoints alone.
+    keypoint_stop : float
+        With keypoints, SMD stops once the cost without the keypoint term is below the
+        threshold and the keypoint term fell by less than this fraction in the last
+        iteration, 0.01 (design §14.2): detector noise and outliers leave the keypoint
+        term a floor that the threshold alone would never pass.
     """
 
     cost: CostSettings = field(default_factory=CostSettings)
     smd: SMDSettings = field(default_factory=SMDSettings)
-    lost_iou: float = 0.5
-    lost_keypoint_error: float = 0.5
+    lost_iou: float = 0.75
+    lost_keypoint_error: float = 0.3
     fit_quality: bool = True
+    keypoint_stop: float = 0.01
 
     def __post_init__(self) -> None:
         as_instance(self.cost, CostSettings, "cost")
@@ -107,6 +113,7 @@ class TrackerSettings:
         as_float(self.lost_iou, "lost_iou", minimum=0.0, maximum=1.0)
         as_float(self.lost_keypoint_error, "lost_keypoint_error", minimum=0.0)
         as_instance(self.fit_quality, bool, "fit_quality")
+        as_float(self.keypoint_stop, "keypoint_stop", minimum=0.0, maximum=1.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -422,15 +429,21 @@ class Tracker:
         else:
             cost, rng = self.cost, self.rng
             floor = self.settings.cost.curvature_floor
+            w_k = self.settings.cost.weight_keypoints
+            history: list[tuple[float, float]] = []  # (cost without C_k, C_k)
 
             def objective(x, need_jacobian):
                 terms = cost.evaluate(
                     x, frame, cost.draw(frame, rng), residuals=need_jacobian, keypoints=kp
                 )
+                history.append((terms.cost - w_k * terms.keypoints, terms.keypoints))
                 h = terms.curvature(floor)
                 return terms.cost, terms.gradient, terms.jacobian, h
 
-            res = minimise(objective, start, self.settings.smd, project=self._front)
+            res = minimise(
+                objective, start, self.settings.smd, project=self._front,
+                stop=None if kp is None else lambda c: self._stop(history),
+            )  # fmt: skip
             x, costs, iterations = res.x, res.costs, res.iterations
         t3 = time.perf_counter()
         iou, kp_err, lost = self._quality(x, m, kp, empty)
@@ -443,6 +456,13 @@ class Tracker:
         return FrameResult(
             x, start, costs, iterations, seconds, iou, final, kp_err, lost, empty.copy()
         )
+
+    def _stop(self, history: list[tuple[float, float]]) -> bool:
+        """SMD's stopping test with keypoints (`TrackerSettings.keypoint_stop`)."""
+        rest, c_k = history[-1]
+        if rest >= self.settings.smd.threshold or len(history) < 2:
+            return False
+        return c_k >= (1.0 - self.settings.keypoint_stop) * history[-2][1]
 
     def _quality(self, x: np.ndarray, masks, kp, empty: np.ndarray):
         """IoU per camera, keypoint error and the lost flag of the fitted pose `x`."""
