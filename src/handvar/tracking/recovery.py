@@ -22,7 +22,6 @@ distance in that frame), independent of the model.
 from __future__ import annotations
 
 import math
-import os
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
@@ -270,10 +269,10 @@ def track_with_recovery(
         Settings of the pose search.
     cut_wrist : bool, keyword-only
         `frames` are silhouettes with the forearm still on; cut each camera's at the
-        wrist here (`handvar.vision.silhouette.cut_wrist`): at the detected wrist on a
-        frame with keypoints, else at the wrist of the previous frame's fitted model
-        (its projected wrist → middle MCP, `model_wrist_keypoints`), else (no fit yet)
-        where the forearm's width changes.  Meant for tracks with keypoints, which keep
+        wrist here (`handvar.vision.silhouette.cut_wrist`), across the wrist → middle
+        MCP line through the wrist point: the detected one on a frame with keypoints,
+        else the previous frame's fitted model's (`model_wrist_keypoints`); before any
+        fit, where the forearm's width changes.  Meant for tracks with keypoints, which keep
         the model, and so its wrist, anchored.
     on_frame : callable, keyword-only, optional
         Called as ``on_frame(i, pose, quality, masks)`` after each frame, quality a
@@ -364,19 +363,31 @@ def model_wrist_keypoints(x, hand, camera) -> np.ndarray | None:
     """The wrist and middle MCP of pose `x` seen by `camera`, as (21, 3) keypoints.
 
     The other 19 points are missing (confidence 0); None for a non-finite pose.  Given
-    to `handvar.vision.silhouette.cut_wrist`, they cut a silhouette where the model's
-    hand ends.
+    to `handvar.vision.silhouette.cut_wrist` after `_cut_at_joint`, they cut a silhouette
+    at the model's wrist joint, where its hand ends.
     """
     if x is None or not np.all(np.isfinite(x)):
         return None
-    G = hand.joints(x)[[_WRIST, _MIDDLE_MCP]]
-    uv = camera.project(G)
-    shift = float(os.environ.get("HV_SHIFT", "0.0"))
-    uv[0] = uv[0] + shift * (uv[1] - uv[0])
     k = np.full((21, 3), np.nan)
     k[:, 2] = 0.0
-    k[[_WRIST, _MIDDLE_MCP], :2] = uv
+    k[[_WRIST, _MIDDLE_MCP], :2] = camera.project(hand.joints(x)[[_WRIST, _MIDDLE_MCP]])
     k[[_WRIST, _MIDDLE_MCP], 2] = 1.0
+    return k
+
+
+def _cut_at_joint(k: np.ndarray) -> np.ndarray:
+    """Keypoints whose `cut_wrist` cut passes through the wrist point itself.
+
+    `cut_wrist` cuts `WristCutDefaults.keypoint_offset` (a) hand sizes beyond the wrist
+    point, towards the forearm; moving the point a / (1 + a) of the way to the middle
+    MCP cancels that.  The tracked model ends at its wrist joint, which is the point a
+    detector marks, so the silhouette it is fitted to ends there too (§14.3).
+    """
+    from handvar.vision.wrist import WRIST_CUT_DEFAULTS
+
+    a = WRIST_CUT_DEFAULTS.keypoint_offset
+    k = np.array(k, dtype=float)
+    k[_WRIST, :2] += a / (1.0 + a) * (k[_MIDDLE_MCP, :2] - k[_WRIST, :2])
     return k
 
 
@@ -392,7 +403,7 @@ def _cut(masks: np.ndarray, kps, previous, hand, rig) -> np.ndarray:
         k = None if kps is None else kps[j]
         if k is None or not (np.asarray(k)[[_WRIST, _MIDDLE_MCP], 2] > 0).all():
             k = model_wrist_keypoints(previous, hand, cam)
-        out.append(cut_wrist(m, k))
+        out.append(cut_wrist(m, None if k is None else _cut_at_joint(k)))
     return np.stack(out)
 
 
