@@ -48,7 +48,6 @@ from handvar.params import NAMES
 from handvar.predictors import RVAR
 from handvar.render import silhouettes
 from handvar.render.overlay import OverlayWriter, overlay_frame
-from handvar.tracking.outputs import quality_captions
 from handvar.tracking.recovery import track_with_recovery
 from handvar.tracking.tracker import Tracker
 from handvar.vision.keypoints import read_keypoints
@@ -107,7 +106,7 @@ def make_strip(video, hand, poses, picked, *, height: int, captions, lost) -> np
         tile = picture[y0:y1, x0:x1]
         f = height / tile.shape[0]
         tile = cv2.resize(tile, None, fx=f, fy=f, interpolation=cv2.INTER_AREA)
-        out.append(label(tile, f"frame {t}  {captions[t]}", alert=bool(lost[t])))
+        out.append(label(tile, f"{t}: {captions[t]}", alert=bool(lost[t])))
         out.append(np.full((tile.shape[0], 3, 3), 255, np.uint8))
     return np.concatenate(out[:-1], axis=1)
 
@@ -189,7 +188,10 @@ def main() -> None:
 
     # PNG strips: the picked frames at full resolution (the same poses drawn through the
     # camera scaled back up), cropped to one box around the hand, one row.
-    captions = quality_captions(q)
+    captions = [
+        f"IoU {iou:.2f}" + ("  LOST" if gone else "") + ("  kp" if k else "")
+        for iou, gone, k in zip(q.iou, q.lost, q.keypoints, strict=True)
+    ]
     for name, chosen in (("real-video-strip.png", picks), ("real-video-hard-frames.png", hard)):
         if not chosen:
             continue
