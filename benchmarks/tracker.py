@@ -96,7 +96,9 @@ def compare_keypoints(args) -> None:
     figures = {}
     for label, results in runs.items():
         r = results[0]
-        opt_iter = np.median([np.median(x.seconds[:, 1] / x.iterations) for x in results])
+        # whole-run optimisation time over whole-run iterations (a per-frame median would
+        # weigh the fixed cost of frames that stop after one or two iterations)
+        opt_iter = np.median([x.seconds[:, 1].sum() / x.iterations.sum() for x in results])
         frame = np.median([np.median(x.seconds.sum(axis=1)) for x in results])
         opt_frame = np.median([np.median(x.seconds[:, 1]) for x in results])
         err = mean_joint_error(seq.truth.joints, r.joints)
@@ -104,6 +106,21 @@ def compare_keypoints(args) -> None:
         print(f"  {label:<12s} µs/iteration {opt_iter * 1e6:8.1f}  ms/frame {frame * 1e3:7.2f} "
               f"(optimisation {opt_frame * 1e3:6.2f})  iterations/frame "
               f"{r.iterations.mean():5.1f}  joint error {err.mean():5.2f} mm")  # fmt: skip
+    # one cost evaluation (draw + evaluate, as in an SMD iteration) at frame 90
+    tracker = Tracker(seq.rig, hand)
+    frame = tracker.prepare(seq.masks[90])
+    x, kp90, rng = seq.truth.poses[90] + 1.0, kp[90], np.random.default_rng(0)
+    times: dict[str, list] = {"silhouettes": [], "keypoints": []}
+    for _ in range(5):
+        for label, k in (("silhouettes", None), ("keypoints", kp90)):
+            t0 = time.perf_counter()
+            for _ in range(200):
+                tracker.cost.evaluate(x, frame, tracker.cost.draw(frame, rng), keypoints=k)
+            times[label].append((time.perf_counter() - t0) / 200)
+    ev = {label: np.median(v) for label, v in times.items()}
+    print(f"  one cost evaluation at frame 90: {ev['silhouettes'] * 1e6:.1f} µs without, "
+          f"{ev['keypoints'] * 1e6:.1f} µs with keypoints "
+          f"({ev['keypoints'] / ev['silhouettes']:.2f}x)")  # fmt: skip
     a, b = figures["silhouettes"], figures["keypoints"]
     print(f"  keypoints / silhouettes: per iteration {b[0] / a[0]:.2f}x, per frame "
           f"{b[1] / a[1]:.2f}x, optimisation per frame {b[2] / a[2]:.2f}x")  # fmt: skip

@@ -505,7 +505,7 @@ class Tracker:
             Wraps the frame iterator (for instance ``tqdm.tqdm``).
         prepared : list of FrameData, keyword-only, optional
             The frames already prepared (`prepare`), one per frame tracked; their
-            preprocessing time is then not counted.
+            distance fields' time is then not counted (the fit-quality check's is).
         keypoints : keyword-only, optional
             2D keypoints of the 21 points of G(x): one entry per camera, each a
             `handvar.vision.keypoints.Keypoints2D`, a (T, 21, 2|3) array or None; or a
