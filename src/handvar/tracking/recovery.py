@@ -6,13 +6,17 @@ projected joints to the frame's keypoints in hand sizes, and whether the frame i
 *lost* (mean IoU below `TrackerSettings.lost_iou`, or keypoint error above
 `TrackerSettings.lost_keypoint_error`).
 
-`track_with_recovery` tracks frame by frame and, on a lost frame, searches the pose
-again in that frame (`handvar.tracking.init.initial_pose`: from the frame's keypoints
-when it has them, else the coarse silhouette search), restarts the tracker there (which
-resets the motion predictor) and tracks the frame again; the better of the two fits by
-the lost rule, then IoU, is kept.  A frame still lost after that stays flagged.  A frame
-with no silhouette in any camera is not judged: it is carried by the prediction and
-flagged *empty* (the tracker leaves a single empty camera out of the fit).
+`track_with_recovery` tracks frame by frame and, on a lost frame (or a keypoint frame
+whose fit drifted from its keypoints, `RecoverySettings.refit_keypoint_error`), searches
+the pose again in that frame (`handvar.tracking.init.initial_pose`: from the frame's
+keypoints when it has them, else the coarse silhouette search), restarts the tracker
+there (which resets the motion predictor) and tracks the frame again; of the two fits
+the one not lost, then with the lower keypoint error (without keypoints: the higher
+IoU), is kept.  A frame still lost after that stays flagged.  A frame with no
+silhouette in any camera is not judged: it is carried by the prediction and flagged
+*empty* (the tracker leaves a single empty camera out of the fit).  Optionally the loop
+cuts the forearm off the silhouettes itself, at the detected wrist or, between keypoint
+frames, at the wrist of the model fitted to the previous frame (``cut_wrist``).
 
 For evaluation against a detector, `joint_distances` and `pck` measure the projected
 joints against keypoints in the detector's own hand size (its wrist → middle-MCP
@@ -219,9 +223,8 @@ class RecoverySettings:
     refit_keypoint_error : float
         Also search it again, from the keypoints, on a frame with keypoints whose fit
         is off them by more than this, mean over the points, hand sizes (not lost, but
-        drifting).  0.1 is half the radius of PCK@0.2: on the example video, keypoint
-        frames tracked above it had a PCK@0.2 of 0.59, those below 0.96 (§14.4).
-        ``inf`` turns it off.
+        drifting).  0.1 is half the radius of PCK@0.2, the measure of §14.4: a fit off
+        by more than that on average has points outside it.  ``inf`` turns it off.
     """
 
     reinit: bool = True
