@@ -235,3 +235,25 @@ def test_keypoint_every_needs_keypoints(tmp_path):
     )
     assert res.exit_code != 0
     assert "--keypoint-every: expected only with --keypoints" in res.output
+
+
+def test_track_without_recovery_still_uses_the_keypoints(tmp_path):
+    seq = make_sequence("benchmark", n_frames=3)
+    hand = HandModel()
+    kps = np.stack(
+        [[cam.project(hand.joints(x)) for cam in seq.rig] for x in seq.truth.poses[:3]]
+    )  # (T, n_cams, 21, 2): exact keypoints of the truth
+    files = []
+    for j in range(len(seq.rig)):
+        path = tmp_path / f"kp{j}.npy"
+        np.save(path, kps[:, j])
+        files += ["--keypoints", str(path)]
+    out = tmp_path / "o"
+    res = CliRunner().invoke(
+        main, ["track", "benchmark", "--frames", "3", "--no-recover", *files, "--out", str(out),
+               "--no-video"],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    assert "fit quality" not in res.output
+    with np.load(out / "track.npz") as npz:
+        assert np.isfinite(npz["keypoint_error"]).all()  # measured: the tracker had them

@@ -547,7 +547,7 @@ def track_command(
         result, quality = recovered.track, recovered.quality
     else:
         result = tracker.track(
-            sequence, x0, frames=n_frames,
+            sequence, x0, frames=n_frames, keypoints=keypoints,
             progress=lambda it: tqdm(it, desc=f"tracking {sequence.name}", unit="frame",
                                      leave=False),
         )  # fmt: skip
