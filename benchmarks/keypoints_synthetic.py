@@ -73,7 +73,7 @@ def main() -> None:
     ap.add_argument("--rigs", default="mono,stereo")
     ap.add_argument("--weight", type=float, default=None, help="w_k (default: CostSettings)")
     ap.add_argument("--huber", type=float, default=None, help="δ (default: CostSettings)")
-    ap.add_argument("--stop", type=float, default=None, help="keypoint_stop (TrackerSettings)")
+    ap.add_argument("--stop", type=float, default=None, help="keypoint_stop (SMDSettings)")
     ap.add_argument("--modes", default="silhouettes,keypoints")
     ap.add_argument("--noise", type=float, default=3.0, help="keypoint noise, px")
     ap.add_argument("--outliers", type=float, default=0.1, help="fraction of outliers")
@@ -89,10 +89,13 @@ def main() -> None:
         cost = dataclasses.replace(cost, keypoint_huber=args.huber)
     settings = dataclasses.replace(settings, cost=cost)
     if args.stop is not None:
-        settings = dataclasses.replace(settings, keypoint_stop=args.stop)
+        settings = dataclasses.replace(
+            settings, smd=dataclasses.replace(settings.smd, keypoint_stop=args.stop)
+        )
     print(f"benchmark sequence, {stereo.n_frames} frames, predictor {args.predictor}, "
           f"{args.trials} trials, w_k {settings.cost.weight_keypoints}, "
-          f"δ {settings.cost.keypoint_huber}, keypoint_stop {settings.keypoint_stop}")  # fmt: skip
+          f"δ {settings.cost.keypoint_huber}, "
+          f"keypoint_stop {settings.smd.keypoint_stop}")  # fmt: skip
     scales(stereo, hand, settings)
     for rig_name in args.rigs.split(","):
         seq = stereo if rig_name == "stereo" else mono(stereo)

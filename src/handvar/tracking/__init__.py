@@ -20,6 +20,7 @@ from handvar.tracking.costs import (
 from handvar.tracking.smd import SMDResult, SMDSettings, initial_gains, minimise, smd_step
 from handvar.tracking.tracker import (
     FrameResult,
+    QualitySettings,
     Tracker,
     TrackerSettings,
     TrackingWarning,
@@ -31,6 +32,7 @@ __all__ = [
     "CostTerms",
     "FrameData",
     "FrameResult",
+    "QualitySettings",
     "SMDResult",
     "SMDSettings",
     "Samples",

@@ -81,6 +81,12 @@ class SMDSettings:
         Relative floor of the diagonal curvature, ``h_i + damping · max h``: parameters
         the silhouettes hardly constrain (a hidden fingertip) get at most
         1 / damping times the step of the best constrained one.
+    keypoint_stop : float
+        The tracker's stopping test on frames with keypoints (design §14.2): stop once
+        the cost without the keypoint term is below `threshold` and the keypoint term
+        fell by less than this fraction in the last iteration, 0.01. Detector noise and
+        outliers leave the keypoint term a floor that the threshold alone would never
+        pass. Not used by `minimise` itself (the tracker passes it as ``stop=``).
     """
 
     meta_gain: float = 0.1
@@ -94,6 +100,7 @@ class SMDSettings:
     max_factor: float = 2.0
     precondition: bool = True
     damping: float = 0.01
+    keypoint_stop: float = 0.01
 
     def __post_init__(self) -> None:
         # checked, not converted: the settings keep the values (and repr) they were given
@@ -105,6 +112,7 @@ class SMDSettings:
         as_int(self.max_iterations, "max_iterations", minimum=1)
         as_float(self.min_factor, "min_factor", minimum=0, maximum=1, exclusive_minimum=True)
         as_float(self.max_factor, "max_factor", minimum=1)
+        as_float(self.keypoint_stop, "keypoint_stop", minimum=0, maximum=1)
 
 
 def initial_gains(settings: SMDSettings | None = None) -> np.ndarray:

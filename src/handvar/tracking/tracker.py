@@ -16,8 +16,8 @@ of every camera (`front_projection`), and the cost's C_z penalises joints closer
 
 Fit quality (design §13): every frame reports the silhouette IoU of the fitted model
 against the masks per camera and their mean, the final cost, the keypoint error (hand
-sizes) and whether it is *lost*: mean IoU below `TrackerSettings.lost_iou` (0.75) or
-keypoint error above `TrackerSettings.lost_keypoint_error` (0.3 hand sizes), or no
+sizes) and whether it is *lost*: mean IoU below `QualitySettings.lost_iou` (0.75) or
+keypoint error above `QualitySettings.lost_keypoint_error` (0.3 hand sizes), or no
 silhouette in any camera. A camera with an empty mask is left out of the fit and
 flagged (`empty`, and a `TrackingWarning` naming frame and camera); when every camera's
 mask is empty the frame is carried by the prediction.
@@ -61,6 +61,7 @@ from handvar.validate import as_float, as_instance, as_int
 __all__ = [
     "TIMING_PARTS",
     "FrameResult",
+    "QualitySettings",
     "TrackResult",
     "Tracker",
     "TrackerSettings",
@@ -79,41 +80,43 @@ TIMING_PARTS = ("preprocessing", "optimisation", "prediction")
 
 
 @dataclass(frozen=True)
-class TrackerSettings:
-    """Settings of the tracker: the cost's and the optimiser's (paper §4 by default).
+class QualitySettings:
+    """The fit-quality check and the lost-frame rule (design §13).
 
     Attributes
     ----------
-    cost : CostSettings
-    smd : SMDSettings
     lost_iou : float
-        A frame whose mean silhouette IoU is below this is lost, 0.75 (design §13).
+        A frame whose mean silhouette IoU is below this is lost, 0.75.
     lost_keypoint_error : float
-        A frame whose keypoint error exceeds this (hand sizes) is lost, 0.3 (design §13).
+        A frame whose keypoint error exceeds this (hand sizes) is lost, 0.3.
     fit_quality : bool
         Render the fitted model to measure the IoU (about 5 ms a stereo frame at
         640×480); False leaves `iou` NaN and decides `lost` on the keypoints alone.
-    keypoint_stop : float
-        With keypoints, SMD stops once the cost without the keypoint term is below the
-        threshold and the keypoint term fell by less than this fraction in the last
-        iteration, 0.01 (design §14.2): detector noise and outliers leave the keypoint
-        term a floor that the threshold alone would never pass.
     """
 
-    cost: CostSettings = field(default_factory=CostSettings)
-    smd: SMDSettings = field(default_factory=SMDSettings)
     lost_iou: float = 0.75
     lost_keypoint_error: float = 0.3
     fit_quality: bool = True
-    keypoint_stop: float = 0.01
+
+    def __post_init__(self) -> None:
+        as_float(self.lost_iou, "lost_iou", minimum=0.0, maximum=1.0)
+        as_float(self.lost_keypoint_error, "lost_keypoint_error", minimum=0.0)
+        as_instance(self.fit_quality, bool, "fit_quality")
+
+
+@dataclass(frozen=True)
+class TrackerSettings:
+    """Settings of the tracker: the cost's, the optimiser's (paper §4 by default) and the
+    fit-quality check's (`QualitySettings`)."""
+
+    cost: CostSettings = field(default_factory=CostSettings)
+    smd: SMDSettings = field(default_factory=SMDSettings)
+    quality: QualitySettings = field(default_factory=QualitySettings)
 
     def __post_init__(self) -> None:
         as_instance(self.cost, CostSettings, "cost")
         as_instance(self.smd, SMDSettings, "smd")
-        as_float(self.lost_iou, "lost_iou", minimum=0.0, maximum=1.0)
-        as_float(self.lost_keypoint_error, "lost_keypoint_error", minimum=0.0)
-        as_instance(self.fit_quality, bool, "fit_quality")
-        as_float(self.keypoint_stop, "keypoint_stop", minimum=0.0, maximum=1.0)
+        as_instance(self.quality, QualitySettings, "quality")
 
 
 @dataclass(frozen=True, eq=False)
@@ -458,17 +461,18 @@ class Tracker:
         )
 
     def _stop(self, history: list[tuple[float, float]]) -> bool:
-        """SMD's stopping test with keypoints (`TrackerSettings.keypoint_stop`)."""
+        """SMD's stopping test with keypoints (`SMDSettings.keypoint_stop`)."""
         rest, c_k = history[-1]
         if rest >= self.settings.smd.threshold or len(history) < 2:
             return False
-        return c_k >= (1.0 - self.settings.keypoint_stop) * history[-2][1]
+        return c_k >= (1.0 - self.settings.smd.keypoint_stop) * history[-2][1]
 
     def _quality(self, x: np.ndarray, masks, kp, empty: np.ndarray):
         """IoU per camera, keypoint error and the lost flag of the fitted pose `x`."""
         s = self.settings
+        q = s.quality
         iou = np.full(len(self.rig), np.nan)
-        if masks is not None and s.fit_quality and not empty.all():
+        if masks is not None and q.fit_quality and not empty.all():
             from handvar.render import silhouettes
 
             iou = silhouette_iou(silhouettes(self.hand, x, self.rig), masks)
@@ -477,7 +481,7 @@ class Tracker:
         )
         mean_iou = _nanmean(iou)
         lost = bool(
-            empty.all() or mean_iou < s.lost_iou or kp_err > s.lost_keypoint_error
+            empty.all() or mean_iou < q.lost_iou or kp_err > q.lost_keypoint_error
         )  # NaN compares False: a missing measure does not decide
         return iou, kp_err, lost
 
