@@ -3,8 +3,8 @@
 The tracker reports every frame's fit quality (`Tracker.step`, design §13): the
 silhouette IoU of the fitted model per camera, the final cost, the distance of the
 projected joints to the frame's keypoints in hand sizes, and whether the frame is
-*lost* (mean IoU below `TrackerSettings.lost_iou`, or keypoint error above
-`TrackerSettings.lost_keypoint_error`).
+*lost* (mean IoU below `QualitySettings.lost_iou`, or keypoint error above
+`QualitySettings.lost_keypoint_error`).
 
 `track_with_recovery` tracks frame by frame and, on a lost frame (or a keypoint frame
 whose fit drifted from its keypoints, `RecoverySettings.refit_keypoint_error`), searches
