@@ -1,4 +1,4 @@
-"""Track a real hand in a monocular video: silhouettes, initial pose, RVAR tracking, overlays.
+"""Track a real hand in a monocular video: silhouettes, keypoints, recovery, overlays.
 
 The video ``examples/data/dex-human-hand-video.mp4`` (1280×720, 30 fps, a right hand
 with the palm towards the camera, forearm visible; MIT licence, see
@@ -8,22 +8,29 @@ distance is only as good as that guess and the model's 185 mm hand length.
 
 Steps:
 
-1. skin-colour silhouettes of every frame, the forearm cut at the wrist
-   (`VideoSource.silhouettes`), at half resolution (``--scale 0.5``);
-2. the first frame's pose by the coarse search of `handvar.tracking.init.initial_pose`;
-3. tracking with the paper's RVAR predictor (γ = 0.8, cutoff 8), frame by frame; when
-   the fit's silhouette IoU falls below ``--reinit`` (0.5) the track is taken as lost
-   and the pose is searched again in that frame (step 2);
+1. skin-colour silhouettes of every frame at half resolution (``--scale 0.5``), the
+   forearm cut at the wrist: at the detected wrist on the frames with keypoints
+   (MediaPipe's, shipped as ``dex-human-hand-video-keypoints.npy``; used on every
+   ``--keypoint-every``-th frame only, as from a detector at a fraction of the frame
+   rate), else at the wrist of the model fitted to the previous frame (without
+   keypoints: where the forearm's width changes);
+2. the first frame's pose from its keypoints (`handvar.tracking.init.initial_pose`);
+3. tracking with the paper's RVAR predictor and the library's lost-frame recovery
+   (`handvar.tracking.recovery.track_with_recovery`): a frame whose fit is lost
+   (silhouette IoU below 0.5, or joints more than half a hand size from the keypoints)
+   is searched again and the predictor restarted there;
 4. outputs in ``--out``: ``poses.csv`` (T × 26, mm and degrees), ``joints.csv``
-   (T × 63, mm, camera frame), ``iou.csv`` (per-frame silhouette IoU of the fit) and
-   ``overlay.mp4`` (the model's outline in yellow, its joints and bones, the observed
-   silhouette's outline in light blue, over the real frames); and in ``--images`` a
-   PNG strip of evenly spaced frames for the README.
+   (T × 63, mm, camera frame), ``quality.csv`` (per frame: IoU, keypoint error, lost,
+   re-initialised) and ``overlay.mp4`` (the model's outline in yellow, its joints and
+   bones, the observed silhouette's outline in light blue, the frame's quality in a
+   line, red when lost); and in ``--images`` two PNG strips for the README: evenly
+   spaced frames (``real-video-strip.png``) and the hard frames ``--hard``
+   (``real-video-hard-frames.png``: the fist, the hand edge-on).
 
 Run from the repository root::
 
-    .venv/bin/python examples/real_video.py            # 150 frames, about a minute
-    .venv/bin/python examples/real_video.py --frames 30 --out /tmp/rv
+    .venv/bin/python examples/real_video.py            # the whole video, a minute or two
+    .venv/bin/python examples/real_video.py --frames 30 --out /tmp/rv --images /tmp/rv
 """
 
 from __future__ import annotations
@@ -41,12 +48,14 @@ from handvar.params import NAMES
 from handvar.predictors import RVAR
 from handvar.render import silhouettes
 from handvar.render.overlay import OverlayWriter, overlay_frame
-from handvar.tracking.init import initial_pose, silhouette_iou
+from handvar.tracking.recovery import track_with_recovery
 from handvar.tracking.tracker import Tracker
+from handvar.vision.keypoints import read_keypoints
 from handvar.vision.sources import open_source
 
 ROOT = Path(__file__).resolve().parent.parent
 VIDEO = ROOT / "examples" / "data" / "dex-human-hand-video.mp4"
+KEYPOINTS = ROOT / "examples" / "data" / "dex-human-hand-video-keypoints.npy"
 
 
 def crop_box(masks: list[np.ndarray], pad: int) -> tuple[int, int, int, int]:
@@ -63,25 +72,16 @@ def crop_box(masks: list[np.ndarray], pad: int) -> tuple[int, int, int, int]:
     )
 
 
-def label(image: np.ndarray, text: str) -> np.ndarray:
-    """Write `text` in the top-left corner of a BGR image (a copy)."""
+def label(image: np.ndarray, text: str, *, alert: bool = False) -> np.ndarray:
+    """Write `text` in the top-left corner of a BGR image (a copy), red when `alert`."""
     out = image.copy()
+    colour = (60, 60, 255) if alert else (255, 255, 255)
     cv2.putText(out, text, (6, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 3, cv2.LINE_AA)
-    cv2.putText(out, text, (6, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (255, 255, 255), 1, cv2.LINE_AA)
+    cv2.putText(out, text, (6, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5, colour, 1, cv2.LINE_AA)
     return out
 
 
-def track_frame(tracker: Tracker, masks: np.ndarray) -> tuple[np.ndarray, float]:
-    """Track one frame; the pose and its silhouette IoU (0 if the optimiser diverged)."""
-    try:
-        pose = tracker.step(masks).pose
-    except ValueError:  # a lost track can drive the optimiser to non-finite values
-        return np.full(26, np.nan), 0.0
-    model = silhouettes(tracker.hand, pose, tracker.rig)
-    return pose, silhouette_iou(model, masks)
-
-
-def make_strip(video, hand, poses, picked, *, height: int, ious) -> np.ndarray:
+def make_strip(video, hand, poses, picked, *, height: int, captions, lost) -> np.ndarray:
     """One row of full-resolution overlays of the picked frames, `height` px tall.
 
     `picked` maps a frame index to its observed silhouette at tracking resolution; the
@@ -106,7 +106,7 @@ def make_strip(video, hand, poses, picked, *, height: int, ious) -> np.ndarray:
         tile = picture[y0:y1, x0:x1]
         f = height / tile.shape[0]
         tile = cv2.resize(tile, None, fx=f, fy=f, interpolation=cv2.INTER_AREA)
-        out.append(label(tile, f"frame {t}  IoU {ious[t]:.2f}"))
+        out.append(label(tile, f"{t}: {captions[t]}", alert=bool(lost[t])))
         out.append(np.full((tile.shape[0], 3, 3), 255, np.uint8))
     return np.concatenate(out[:-1], axis=1)
 
@@ -121,16 +121,18 @@ def write_csv(path: Path, array: np.ndarray, header: str, fmt: str) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--video", type=Path, default=VIDEO)
-    parser.add_argument("--frames", type=int, default=150, help="frames to track")
+    parser.add_argument("--keypoints", type=Path, default=KEYPOINTS,
+                        help="2D keypoints of the video (.npy or .csv)")  # fmt: skip
+    parser.add_argument("--keypoint-every", type=int, default=5,
+                        help="use the keypoints of every K-th frame (0: none)")  # fmt: skip
+    parser.add_argument("--frames", type=int, default=None, help="frames to track [all]")
     parser.add_argument("--scale", type=float, default=0.5, help="resize factor of the frames")
     parser.add_argument("--seed", type=int, default=0, help="seed of the optimiser")
     parser.add_argument("--out", type=Path, default=ROOT / "examples" / "output" / "real_video")
     parser.add_argument("--images", type=Path, default=ROOT / "docs" / "images")
-    parser.add_argument(
-        "--reinit", type=float, default=0.5,
-        help="search the pose again when a frame's silhouette IoU falls below this (0: never)",
-    )  # fmt: skip
     parser.add_argument("--strip", type=int, default=6, help="frames in the PNG strip")
+    parser.add_argument("--hard", default="262,266,270,275,510,560",
+                        help="frames of the hard-frames strip (comma-separated)")  # fmt: skip
     parser.add_argument("--tile-height", type=int, default=240, help="strip height, pixels")
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
@@ -138,79 +140,70 @@ def main() -> None:
 
     source = open_source(args.video, scale=args.scale)
     print(source)
+    given = scaled = None
+    if args.keypoint_every:
+        given = [read_keypoints(args.keypoints).every(args.keypoint_every)]
+        scaled = source.scaled_keypoints(given)[0]
     hand = HandModel()
     rng = np.random.default_rng(args.seed)
     tracker = Tracker(source.rig, hand, RVAR(gamma=0.8, cutoff=8), rng)
 
-    # Frames of the strip: evenly spaced over the tracked stretch.
-    n = min(args.frames, source.n_frames)
+    n = source.n_frames if args.frames is None else min(args.frames, source.n_frames)
     picks = set(np.linspace(0, n - 1, args.strip).round().astype(int).tolist())
-    poses, ious, picked, reinits = [], [], {}, []
-    seconds = {"silhouettes": 0.0, "init": 0.0, "tracking": 0.0, "overlay": 0.0}
+    hard = {int(t) for t in args.hard.split(",") if t and int(t) < n}
+    picked: dict[int, np.ndarray] = {}
+    current: dict[str, object] = {}
+
+    def frames():
+        # with keypoints the wrist is cut while tracking (detected, else the model's wrist)
+        for _, images, masks in source.silhouettes(stop=n, wrist=given is None, allow_empty=True):
+            current["images"] = images
+            yield masks
+
     clock = time.perf_counter()
     with OverlayWriter(args.out / "overlay.mp4", source.fps) as video:
-        for t, images, masks in source.silhouettes(stop=n):
-            t1 = time.perf_counter()
-            seconds["silhouettes"] += t1 - clock
-            if t == 0:
-                init = initial_pose(masks, source.rig, hand, rng=rng)
-                print(
-                    f"initial pose: IoU {init.iou:.3f} (search {init.search_iou:.3f}, "
-                    f"shape {init.shape}, {init.n_candidates} candidates)"
-                )
-                tracker.reset(init.pose)
-                t2 = time.perf_counter()
-                seconds["init"] += t2 - t1
-                t1 = t2
-            pose, iou = track_frame(tracker, masks)
-            t2 = time.perf_counter()
-            seconds["tracking"] += t2 - t1
-            if iou < args.reinit:  # lost: search the pose again in this frame
-                init = initial_pose(masks, source.rig, hand, rng=rng)
-                tracker.reset(init.pose)
-                pose, iou = track_frame(tracker, masks)
-                if not np.all(np.isfinite(pose)):  # diverged again: keep the search's pose
-                    pose, iou = init.pose, init.iou
-                    tracker.reset(pose)
-                reinits.append(t)
-                t1, t2 = t2, time.perf_counter()
-                seconds["init"] += t2 - t1
-            poses.append(pose)
-            ious.append(iou)
-            picture = overlay_frame(images, source.rig, hand, pose, masks)
-            video.write(label(picture, f"frame {t}  IoU {ious[-1]:.2f}"))
-            if t in picks:
+
+        def on_frame(t, pose, quality, masks):
+            if t in picks | hard:
                 picked[t] = masks[0]
-            clock = time.perf_counter()
-            seconds["overlay"] += clock - t2
+            picture = overlay_frame(current["images"], source.rig, hand, pose, masks)
+            text = f"frame {t}  IoU {quality.iou:.2f}" + ("  LOST" if quality.lost else "")
+            video.write(label(picture, text, alert=quality.lost))
+
+        result = track_with_recovery(
+            tracker, frames(), on_frame=on_frame,
+            keypoints=None if scaled is None else (lambda i: [scaled.frame(i)]),
+            cut_wrist=given is not None,
+        )  # fmt: skip
+    seconds = time.perf_counter() - clock
     print(f"overlay video -> {video.path_written} ({video.n_frames} frames)")
 
-    poses_arr = np.array(poses)
-    joints = np.stack([hand.joints(x) for x in poses_arr])
-    T = len(poses_arr)
-    write_csv(args.out / "poses.csv", poses_arr, ",".join(NAMES), "%.6f")
+    poses, q = result.track.poses, result.quality
+    T = len(poses)
+    write_csv(args.out / "poses.csv", poses, ",".join(NAMES), "%.6f")
     jheader = ",".join(f"j{j}_{c}" for j in range(21) for c in "xyz")
-    write_csv(args.out / "joints.csv", joints.reshape(T, -1), jheader, "%.4f")
-    write_csv(args.out / "iou.csv", np.column_stack([np.arange(T), ious]), "frame,iou", "%g")
+    write_csv(args.out / "joints.csv", result.track.joints.reshape(T, -1), jheader, "%.4f")
+    table = np.column_stack([np.arange(T), q.iou, q.keypoint_error, q.lost, q.reinit])
+    write_csv(args.out / "quality.csv", table, "frame,iou,keypoint_error,lost,reinit", "%g")
 
-    # PNG strip: the picked frames at full resolution (the same poses drawn through the
+    # PNG strips: the picked frames at full resolution (the same poses drawn through the
     # camera scaled back up), cropped to one box around the hand, one row.
-    strip = make_strip(args.video, hand, poses_arr, picked, height=args.tile_height, ious=ious)
-    strip_path = args.images / "real-video-strip.png"
-    cv2.imwrite(str(strip_path), strip, [cv2.IMWRITE_PNG_COMPRESSION, 9])
-    print(f"strip -> {strip_path} ({strip_path.stat().st_size // 1024} KB)")
+    captions = [
+        f"IoU {iou:.2f}" + ("  LOST" if gone else "") + ("  kp" if k else "")
+        for iou, gone, k in zip(q.iou, q.lost, q.keypoints, strict=True)
+    ]
+    for name, chosen in (("real-video-strip.png", picks), ("real-video-hard-frames.png", hard)):
+        if not chosen:
+            continue
+        strip = make_strip(
+            args.video, hand, poses, {t: picked[t] for t in chosen},
+            height=args.tile_height, captions=captions, lost=q.lost,
+        )  # fmt: skip
+        path = args.images / name
+        cv2.imwrite(str(path), strip, [cv2.IMWRITE_PNG_COMPRESSION, 9])
+        print(f"strip -> {path} ({path.stat().st_size // 1024} KB)")
 
-    ious_arr = np.array(ious)
-    print(
-        f"{T} frames: silhouette IoU of the fit mean {ious_arr.mean():.3f}, "
-        f"median {np.median(ious_arr):.3f}, min {ious_arr.min():.3f} "
-        f"(frame {int(ious_arr.argmin())}); frames with IoU < 0.7: "
-        f"{int((ious_arr < 0.7).sum())}; re-initialised at frames {reinits or 'none'}"
-    )
-    total = sum(seconds.values())
-    print(
-        "seconds: " + ", ".join(f"{k} {v:.1f}" for k, v in seconds.items()) + f", total {total:.1f}"
-    )
+    print(f"{T} frames: {q.summary()}; {seconds:.1f} s (silhouettes, tracking, overlays)")
 
 
 if __name__ == "__main__":

@@ -688,22 +688,40 @@ def _recording_options(func):
               show_default=True, help="Hand length of the model, mm (as for `init`).")  # fmt: skip
 @click.option("--model", type=click.Choice(("spheres", "mesh")), default="spheres",
               show_default=True, help="Surface of the tracked hand model.")  # fmt: skip
+@click.option("--keypoints", "keypoint_files", multiple=True, type=click.Path(dir_okay=False),
+              help="2D keypoints (.npy or .csv, see `handvar keypoints`), one file per "
+              "camera in order, pixels of the full-resolution frames.")  # fmt: skip
+@click.option("--keypoint-every", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Use the keypoints of every K-th frame only (a slower detector).")  # fmt: skip
+@click.option("--recover/--no-recover", default=None,
+              help="Detect lost frames and search the pose again there "
+              "[default: on for recordings and with --keypoints].")  # fmt: skip
 @_recording_options
 @_one_line_errors
 def track_command(
-    seq, predictor, init, seed, n_frames, out, video, hand_length, model, calib, fov, scale
-) -> None:
+    seq, predictor, init, seed, n_frames, out, video, hand_length, model, keypoint_files,
+    keypoint_every, recover, calib, fov, scale,
+) -> None:  # fmt: skip
     """Track the hand through the sequence SEQ (a sequence directory or a synthetic name).
 
     SEQ may also be a real recording: a video file or an image folder, or several
     separated by commas (one per camera of --calib); its skin-colour silhouettes are
-    tracked from the pose given with --init (see `handvar init`).
+    tracked from the pose given with --init (see `handvar init`), or else from the
+    pose searched in its first frame.
+
+    With --keypoints (one file per camera), every K-th frame's keypoints
+    (--keypoint-every) place the wrist cut and pull the fit; the tracker and the motion
+    predictor carry the frames between. With recovery (--recover) each frame's fit is
+    checked (silhouette IoU, distance to the keypoints) and a lost frame is searched
+    again (from its keypoints when it has them); the summary says how many.
 
     OUT receives poses.csv (T × 26, mm and degrees), joints.csv (T × 63, mm),
-    track.npz (poses, joints, starts, costs, iterations, seconds), overlay.png (a
+    track.npz (the track and its fit quality), overlay.png (a
     strip of frames: the observed masks with the fitted model's outline and joints)
     and, with --video, overlay.mp4 (numbered PNGs in overlay_frames/ when OpenCV has
-    no mp4v codec). Prints the mean joint error when the sequence has ground truth.
+    no mp4v codec); with recovery also quality.csv (per frame: IoU, keypoint error,
+    final cost, lost, re-initialised, empty). Prints the mean joint error when the
+    sequence has ground truth.
     """
 
     import numpy as np
@@ -720,33 +738,66 @@ def track_command(
     check_output_dir(out, "--out")  # before any work
     spec = resolve_sequence(seq, names=SEQUENCE_NAMES, argument="SEQ")
     source = None  # a real recording: its colour frames go under the overlays
+    keypoints = _track_keypoints(keypoint_files, spec, keypoint_every)
+    if recover is None:
+        recover = spec.kind == "recording" or keypoints is not None
     if spec.kind == "recording":  # video files / image folders: see the init section below
-        source, sequence = _recording_sequence(spec.paths, calib, fov, scale, n_frames)
+        # With keypoints and recovery the wrist is cut while tracking (at the detected
+        # wrist, else at the tracked model's); otherwise here.
+        source, sequence = _recording_sequence(
+            spec.paths, calib, fov, scale, n_frames, allow_empty=recover,
+            **({"wrist": False} if recover and keypoints is not None else {"keypoints": keypoints}),
+        )  # fmt: skip
+        if keypoints is not None:
+            keypoints = source.scaled_keypoints(keypoints)
     elif calib is not None or fov is not None:
         raise ValueError("--calib, --fov: expected only with a video or an image folder")
     elif spec.kind == "directory":
         sequence = read_sequence(spec.paths[0], lazy=True)
     else:
         sequence = make_sequence(spec.name, n_frames=n_frames)
+    if keypoints is not None and len(keypoints) != len(sequence.rig):
+        raise ValueError(
+            f"--keypoints: expected one file per camera ({len(sequence.rig)}); got {len(keypoints)}"
+        )
     if init is not None:
         x0 = load_pose(init)
     elif sequence.truth is not None:
         x0 = sequence.truth.poses[0]
+    elif recover:
+        x0 = None  # searched in the first frame
     else:
         raise ValueError(
             f"{seq}: the sequence has no ground truth; give the first pose with --init"
         )
     hand = HandModel(HandShape.from_size(hand_length), surface=model)
-    check_in_front(hand.joints(x0), sequence.rig, "--init" if init is not None else seq)
+    if x0 is not None:
+        check_in_front(hand.joints(x0), sequence.rig, "--init" if init is not None else seq)
     tracker = Tracker(sequence.rig, hand, make_predictor(predictor), np.random.default_rng(seed))
-    result = tracker.track(
-        sequence, x0, frames=n_frames,
-        progress=lambda it: tqdm(it, desc=f"tracking {sequence.name}", unit="frame", leave=False),
-    )  # fmt: skip
+    quality = None
+    if recover:
+        from handvar.tracking.recovery import track_with_recovery
+
+        n = sequence.n_frames if n_frames is None else min(n_frames, sequence.n_frames)
+        frames = tqdm(
+            (np.asarray(sequence.masks[t]) for t in range(n)), total=n,
+            desc=f"tracking {sequence.name}", unit="frame", leave=False,
+        )  # fmt: skip
+        recovered = track_with_recovery(
+            tracker, frames, x0, keypoints=None if keypoints is None else _keypoints_at(keypoints),
+            cut_wrist=source is not None and keypoints is not None,
+        )  # fmt: skip
+        result, quality = recovered.track, recovered.quality
+    else:
+        result = tracker.track(
+            sequence, x0, frames=n_frames, keypoints=keypoints,
+            progress=lambda it: tqdm(it, desc=f"tracking {sequence.name}", unit="frame",
+                                     leave=False),
+        )  # fmt: skip
     T = result.poses.shape[0]
     written = write_track_outputs(
         out, result, sequence, hand, predictor=predictor, seed=seed, video=video,
-        backgrounds=None if source is None else recording_backgrounds(source),
+        backgrounds=None if source is None else recording_backgrounds(source), quality=quality,
     )  # fmt: skip
     if "video_error" in written:
         click.echo(f"handvar: note: no video ({written['video_error']})", err=True)
@@ -757,6 +808,12 @@ def track_command(
         f"{result.iterations.mean():.1f} iterations/frame, {fps:.1f} frames/s -> {out}"
         + (f" (with {written['video'].name})" if "video" in written else "")
     )
+    if quality is not None:
+        with_kp = int(quality.keypoints.sum())
+        click.echo(
+            f"fit quality: {quality.summary()}"
+            + (f"; keypoints on {with_kp} frames" if keypoints is not None else "")
+        )
     if sequence.truth is not None:
         from handvar.evaluation.metrics import mean_joint_error
 
@@ -791,8 +848,11 @@ def _frame_silhouettes(sources, calib, fov, scale, frame, wrist, threshold):
     )
 
 
-def _recording_sequence(paths, calib, fov, scale, n_frames):
-    """`handvar track` on a recording: the source and its skin-colour silhouettes."""
+def _recording_sequence(paths, calib, fov, scale, n_frames, **kwargs):
+    """`handvar track` on a recording: the source and its skin-colour silhouettes.
+
+    `kwargs` go to `VideoSource.silhouettes` (keypoints, allow_empty).
+    """
     from tqdm import tqdm
 
     source = _open_recordings(paths, calib, fov, scale)
@@ -800,7 +860,32 @@ def _recording_sequence(paths, calib, fov, scale, n_frames):
     return source, source.to_sequence(
         stop=n_frames,
         progress=lambda it: tqdm(it, total=total, desc="silhouettes", unit="frame", leave=False),
+        **kwargs,
     )
+
+
+def _track_keypoints(files, spec, every):
+    """`handvar track --keypoints`: per camera a `Keypoints2D` (every `every`-th frame)."""
+    if not files:
+        if every != 1:
+            raise ValueError("--keypoint-every: expected only with --keypoints")
+        return None
+    from handvar.vision.keypoints import read_keypoints
+
+    if spec.kind == "recording" and len(files) != len(spec.paths):
+        raise ValueError(
+            f"--keypoints: expected one file per recording ({len(spec.paths)}); got {len(files)}"
+        )
+    return [read_keypoints(path).every(every) for path in files]
+
+
+def _keypoints_at(keypoints):
+    """Frame i's keypoints of every camera, for `track_with_recovery`."""
+
+    def at(i):
+        return [None if k is None or i >= k.n_frames else k.frame(i) for k in keypoints]
+
+    return at
 
 
 def _sequence_frame_masks(path: str, frame: int):

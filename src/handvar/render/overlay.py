@@ -32,6 +32,7 @@ __all__ = [
     "SKELETON",
     "VIDEO_CODEC",
     "OverlayWriter",
+    "caption",
     "draw_overlay",
     "overlay_frame",
     "overlay_views",
@@ -164,6 +165,20 @@ def side_by_side(images, titles=None, *, gap: int = 4, bar: int = 28) -> np.ndar
         if gap and k < len(images) - 1:
             panels.append(np.full((h + bar, gap, 3), 24, dtype=np.uint8))
     return np.concatenate(panels, axis=1)
+
+
+def caption(image: np.ndarray, text: str, *, alert: bool = False) -> np.ndarray:
+    """A copy of the RGB `image` with one small line of ASCII `text` at its foot.
+
+    White on a dark outline, or red when `alert` (a lost frame).
+    """
+    out = np.array(image, dtype=np.uint8, copy=True)
+    scale = max(0.35, min(0.6, out.shape[0] / 900))
+    org = (6, out.shape[0] - 8)
+    colour = (255, 60, 60) if alert else (255, 255, 255)
+    cv2.putText(out, text, org, cv2.FONT_HERSHEY_SIMPLEX, scale, (0, 0, 0), 3, cv2.LINE_AA)
+    cv2.putText(out, text, org, cv2.FONT_HERSHEY_SIMPLEX, scale, colour, 1, cv2.LINE_AA)
+    return out
 
 
 def overlay_views(hand, rig: Rig, backgrounds, pose, *, thickness: int = 2) -> list[np.ndarray]:
@@ -378,6 +393,9 @@ def write_overlay_video(
     poses,
     backgrounds: Callable[[list[int]], Iterable[tuple[int, Sequence[np.ndarray] | np.ndarray]]],
     fps: float,
+    *,
+    captions: Sequence[str] | None = None,
+    alerts: Sequence[bool] | None = None,
 ) -> Path | None:
     """Every pose of a track drawn over its frame, all cameras side by side, as a video.
 
@@ -396,6 +414,10 @@ def write_overlay_video(
         ``0, …, T − 1``: the masks or RGB images the model is drawn over.
     fps : float
         Frame rate of the video.
+    captions : sequence of str, keyword-only, optional
+        One line per frame (its fit quality), written at the foot of every view.
+    alerts : sequence of bool, keyword-only, optional
+        Per frame: draw its caption in red (a lost frame).
 
     Returns
     -------
@@ -405,5 +427,8 @@ def write_overlay_video(
     with OverlayWriter(path, fps) as writer:
         for t, images in backgrounds(list(range(len(poses)))):
             views = overlay_views(hand, rig, images, poses[t])
+            if captions is not None:
+                alert = alerts is not None and bool(alerts[t])
+                views = [caption(v, captions[t], alert=alert) for v in views]
             writer.write(cv2.cvtColor(side_by_side(views, list(rig.names)), cv2.COLOR_RGB2BGR))
     return writer.path_written

@@ -4,12 +4,17 @@
 
     poses.csv     T × 26 fitted poses, mm and degrees, a header of parameter names
     joints.csv    T × 63 joint positions (j0_x, j0_y, j0_z, …), mm
-    track.npz     poses, joints, starts, costs, iterations, seconds (`TrackResult`),
-                  predictor and seed
+    track.npz     every field of `TrackResult` (poses, joints, starts, costs,
+                  iterations, seconds, iou, cost, keypoint_error, lost, empty),
+                  predictor and seed; with a quality also reinit and with_keypoints
+    quality.csv   with a quality (§14.3): per frame its silhouette IoU, keypoint error
+                  (hand sizes, empty without keypoints), final cost and the flags lost,
+                  reinit, empty, keypoints (0/1)
     overlay.png   a strip of up to six evenly spaced frames of the first camera at half
                   size: the fitted model's outline and joints over the frame
     overlay.mp4   every frame, all cameras side by side (`OverlayWriter`, which writes
-                  numbered PNGs to ``overlay_frames/`` when the codec is missing)
+                  numbered PNGs to ``overlay_frames/`` when the codec is missing); with
+                  a quality, a line of it at the foot of each view, red on lost frames
 
 The files are all-or-nothing (design §13.1): each is written under a temporary name
 beside its destination, and all are renamed into place only once every one of them was
@@ -22,6 +27,7 @@ drawn over the sequence's masks or, for a real recording, over its colour frames
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import os
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
@@ -37,6 +43,7 @@ from handvar.tracking.tracker import TrackResult
 
 __all__ = [
     "overlay_strip",
+    "quality_captions",
     "recording_backgrounds",
     "sequence_backgrounds",
     "write_track_outputs",
@@ -45,6 +52,9 @@ __all__ = [
 _N_JOINTS = 21
 _STRIP_FRAMES = 6  # frames in overlay.png, at most
 _STRIP_SHRINK = 2  # overlay.png tiles are 1/_STRIP_SHRINK of the camera's size
+
+#: The columns of quality.csv after the frame index (`TrackQuality`'s fields).
+_QUALITY = ("iou", "keypoint_error", "cost", "lost", "reinit", "empty", "keypoints")
 
 Backgrounds = Callable[[list[int]], Iterable[tuple[int, list[np.ndarray] | np.ndarray]]]
 
@@ -81,6 +91,34 @@ def recording_backgrounds(source) -> Backgrounds:
                 yield t, [cv2.cvtColor(im, cv2.COLOR_BGR2RGB) for im in images]
 
     return backgrounds
+
+
+def quality_captions(quality) -> list[str]:
+    """One line per frame of a `TrackQuality`: IoU, keypoint error and what happened.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace as Q
+    >>> q = Q(iou=np.array([0.91, 0.3]), keypoint_error=np.array([np.nan, 0.62]),
+    ...       lost=np.array([False, True]), reinit=np.array([False, True]),
+    ...       empty=np.array([False, False]))
+    >>> quality_captions(q)
+    ['IoU 0.91', 'IoU 0.30  kp 0.62  re-init  LOST']
+    """
+    lines = []
+    for t in range(len(quality.iou)):
+        if quality.empty[t]:
+            lines.append("empty silhouette")
+            continue
+        text = f"IoU {quality.iou[t]:.2f}"
+        if np.isfinite(quality.keypoint_error[t]):
+            text += f"  kp {quality.keypoint_error[t]:.2f}"
+        if quality.reinit[t]:
+            text += "  re-init"
+        if quality.lost[t]:
+            text += "  LOST"
+        lines.append(text)
+    return lines
 
 
 def _check_result(result: TrackResult, sequence: Sequence) -> int:
@@ -139,6 +177,7 @@ def write_track_outputs(
     seed: int,
     video: bool = True,
     backgrounds: Backgrounds | None = None,
+    quality=None,
 ) -> dict[str, Path | str]:
     """Write the files of a track (poses, joints, the track, overlays) into `out_dir`.
 
@@ -161,11 +200,15 @@ def write_track_outputs(
     backgrounds : callable, keyword-only, optional
         What the overlays are drawn over (see :func:`overlay_strip`); default: the
         sequence's masks.
+    quality : TrackQuality, keyword-only, optional
+        Per-frame fit quality (`handvar.tracking.recovery`): written to quality.csv and
+        track.npz and drawn on the overlay video.
 
     Returns
     -------
     dict
-        ``"poses"``, ``"joints"``, ``"track"``, ``"overlay"``: the files written (Path);
+        ``"poses"``, ``"joints"``, ``"track"``, ``"overlay"`` (and ``"quality"``): the
+        files written (Path);
         ``"video"``: overlay.mp4, or the ``overlay_frames`` folder when the codec is
         missing; ``"video_error"``: why no video was written (str), instead of raising.
     """
@@ -185,13 +228,23 @@ def write_track_outputs(
     header = ",".join(NAMES)
     jheader = ",".join(f"j{j}_{c}" for j in range(_N_JOINTS) for c in "xyz")
 
+    arrays = {f.name: getattr(result, f.name) for f in dataclasses.fields(result)}
+    if quality is not None:
+        arrays["reinit"] = np.asarray(quality.reinit)
+        arrays["with_keypoints"] = np.asarray(quality.keypoints)
+        written["quality"] = out / "quality.csv"
+        table = np.column_stack([np.arange(n_frames)] + [
+            np.asarray(getattr(quality, name), dtype=float)[:n_frames] for name in _QUALITY
+        ])  # fmt: skip
+
+        def write_quality(path: str) -> None:
+            fmt = ["%d", "%.4f", "%.4f", "%.6g", "%d", "%d", "%d", "%d"]
+            qheader = "frame," + ",".join(_QUALITY)
+            np.savetxt(path, table, delimiter=",", header=qheader, comments="", fmt=fmt)
+
     def write_npz(path: str) -> None:
         with open(path, "wb") as fh:
-            np.savez_compressed(
-                fh, poses=result.poses, joints=result.joints, starts=result.starts,
-                costs=result.costs, iterations=result.iterations, seconds=result.seconds,
-                predictor=predictor, seed=seed,
-            )  # fmt: skip
+            np.savez_compressed(fh, **arrays, predictor=predictor, seed=seed)
 
     def write_png(path: str) -> None:
         strip = overlay_strip(result, sequence, hand, backgrounds=backgrounds)
@@ -208,8 +261,10 @@ def write_track_outputs(
                 comments="", fmt="%.4f"))  # fmt: skip
             outputs.add(written["track"], write_npz)
             outputs.add(written["overlay"], write_png)
+            if quality is not None:
+                outputs.add(written["quality"], write_quality)
             if video:
-                _add_video(outputs, out, hand, sequence, result, backgrounds, written)
+                _add_video(outputs, out, hand, sequence, result, backgrounds, written, quality)
     except BaseException:
         if made:
             with contextlib.suppress(OSError):
@@ -218,14 +273,20 @@ def write_track_outputs(
     return written
 
 
-def _add_video(outputs: OutputSet, out: Path, hand, sequence, result, backgrounds, written):
+def _add_video(
+    outputs: OutputSet, out: Path, hand, sequence, result, backgrounds, written, quality=None
+):
     """Write overlay.mp4 (or overlay_frames/) aside into `outputs`; a failure is noted."""
     target = out / "overlay.mp4"
     tmp = Path(outputs.temporary(target))
     frames_tmp = tmp.with_name(tmp.stem + "_frames")  # OverlayWriter's fallback folder
     outputs.track(frames_tmp)
     try:
-        got = write_overlay_video(tmp, hand, sequence.rig, result.poses, backgrounds, sequence.fps)
+        got = write_overlay_video(
+            tmp, hand, sequence.rig, result.poses, backgrounds, sequence.fps,
+            captions=None if quality is None else quality_captions(quality),
+            alerts=None if quality is None else quality.lost,
+        )  # fmt: skip
     except OSError as exc:
         written["video_error"] = user_paths(str(exc))
         return

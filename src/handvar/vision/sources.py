@@ -230,11 +230,14 @@ class VideoSource:
         threshold: float | None = None,
         wrist: bool = SOURCE_SETTINGS.wrist,
         cleanup: dict | None = None,
+        keypoints=None,
+        allow_empty: bool = False,
     ) -> Iterator[tuple[int, list[np.ndarray], np.ndarray]]:
         """Hand silhouettes of every camera, time step by time step.
 
         Per camera: skin mask (Jones–Rehg by default), `clean_mask`, and the forearm cut
-        at the wrist (`silhouettes_from_frames`).
+        at the wrist (`silhouettes_from_frames`): at the detected wrist on a frame with
+        keypoints, else where the forearm's width changes.
 
         Parameters
         ----------
@@ -248,6 +251,13 @@ class VideoSource:
             Cut a visible forearm off at the wrist (`SourceSettings.wrist`).
         cleanup : dict, keyword-only, optional
             Keyword arguments of `clean_mask`.
+        keypoints : sequence of Keypoints2D or None, keyword-only, optional
+            Per camera, its 2D keypoints in the pixels of the recording (full
+            resolution; `handvar.vision.keypoints.read_keypoints`), or None for a camera
+            without.  A frame past their end, or without the wrist and middle MCP, is
+            cut by the silhouette alone.
+        allow_empty : bool, keyword-only
+            Yield an empty silhouette instead of raising `EmptySilhouetteError`.
 
         Yields
         ------
@@ -264,20 +274,54 @@ class VideoSource:
             (a ValueError) when a camera's silhouette is empty; the message names the
             camera's file and the frame.
         """
+        from handvar.vision.silhouette import EmptySilhouetteError
         from handvar.vision.skin import SkinModel
 
         model = SkinModel() if model is None else model
+        scaled = self.scaled_keypoints(keypoints)
         for index, images in self.frames(start, stop, step):
-            masks = silhouettes_from_frames(
-                images,
-                model,
-                threshold=threshold,
-                cleanup=cleanup,
-                wrist=wrist,
-                frame=index,
-                cameras=self.names,
-            )
+            kps = None
+            if scaled is not None:
+                kps = [None if k is None or index >= k.n_frames else k.frame(index) for k in scaled]
+            masks = []
+            for j, image in enumerate(images):
+                try:
+                    masks += silhouettes_from_frames(
+                        [image],
+                        model,
+                        threshold=threshold,
+                        cleanup=cleanup,
+                        wrist=wrist,
+                        frame=index,
+                        cameras=[self.names[j]],
+                        keypoints=None if kps is None else [kps[j]],
+                    )
+                except EmptySilhouetteError:
+                    if not allow_empty:
+                        raise
+                    masks.append(np.zeros(image.shape[:2], dtype=bool))
             yield index, images, np.stack(masks)
+
+    def scaled_keypoints(self, keypoints):
+        """Per-camera keypoints mapped to the delivered frames' pixels (or None)."""
+        from handvar.vision.keypoints import Keypoints2D
+
+        if keypoints is None:
+            return None
+        keypoints = list(keypoints)
+        if len(keypoints) != self.n_cameras:
+            raise ValueError(
+                f"keypoints: expected one Keypoints2D (or None) per camera, "
+                f"{self.n_cameras} in all; got {len(keypoints)}"
+            )
+        out = []
+        for reader, k in zip(self.readers, keypoints, strict=True):
+            if k is not None:
+                as_instance(k, Keypoints2D, "keypoints")
+                if self.scale != 1.0:
+                    k = k.scaled(self.scale, reader.size)
+            out.append(k)
+        return out
 
     def to_sequence(
         self,

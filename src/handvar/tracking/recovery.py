@@ -1,0 +1,459 @@
+"""Lost frames and recovery: re-initialisation where the fit is lost (§14.3).
+
+The tracker reports every frame's fit quality (`Tracker.step`, design §13): the
+silhouette IoU of the fitted model per camera, the final cost, the distance of the
+projected joints to the frame's keypoints in hand sizes, and whether the frame is
+*lost* (mean IoU below `QualitySettings.lost_iou`, or keypoint error above
+`QualitySettings.lost_keypoint_error`).
+
+`track_with_recovery` tracks frame by frame and, on a lost frame (or a keypoint frame
+whose fit drifted from its keypoints, `RecoverySettings.refit_keypoint_error`), searches
+the pose again in that frame (`handvar.tracking.init.initial_pose`: from the frame's
+keypoints when it has them, else the coarse silhouette search), restarts the tracker
+there (which resets the motion predictor) and tracks the frame again; of the two fits
+the one not lost, then with the lower keypoint error (without keypoints: the higher
+IoU), is kept.  A frame still lost after that stays flagged.  A frame with no
+silhouette in any camera is not judged: it is carried by the prediction and flagged
+*empty* (the tracker leaves a single empty camera out of the fit).  Optionally the loop
+cuts the forearm off the silhouettes itself, at the detected wrist or, between keypoint
+frames, at the wrist of the model fitted to the previous frame (``cut_wrist``).
+
+For evaluation against a detector, `joint_distances` and `pck` measure the projected
+joints against keypoints in the detector's own hand size (its wrist → middle-MCP
+distance in that frame), independent of the model.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from handvar.params import N_PARAMS
+from handvar.tracking.init import InitSettings, initial_pose
+from handvar.tracking.tracker import Tracker, TrackResult
+from handvar.validate import as_float, as_instance
+
+__all__ = [
+    "RECOVERY_DEFAULTS",
+    "FrameQuality",
+    "RecoveredTrack",
+    "RecoverySettings",
+    "TrackQuality",
+    "joint_distances",
+    "model_wrist_keypoints",
+    "pck",
+    "track_with_recovery",
+]
+
+#: Keypoint indices of the wrist and the middle finger's MCP (the hand size).
+_WRIST, _MIDDLE_MCP = 0, 9
+
+
+@dataclass(frozen=True)
+class FrameQuality:
+    """How well one frame's fit explains it.
+
+    Attributes
+    ----------
+    iou : float
+        Silhouette IoU, mean over the cameras with a silhouette (`FrameResult.mean_iou`);
+        NaN when not tracked.
+    keypoint_error : float
+        Mean distance of the projected joints to the frame's keypoints, in the model's
+        hand size at its depth (`FrameResult.keypoint_error`); NaN without keypoints.
+    cost : float
+        Final cost of the optimiser, (pixel_scale px)²; NaN when not tracked.
+    lost : bool
+        The tracker's lost rule (module notes), after recovery; False on empty frames.
+    """
+
+    iou: float
+    keypoint_error: float
+    cost: float
+    lost: bool
+
+
+@dataclass(frozen=True, eq=False)
+class TrackQuality:
+    """Per-frame quality of a track and what the recovery did.
+
+    Attributes
+    ----------
+    iou, keypoint_error, cost : (T,) ndarray
+        As in `FrameQuality`.
+    lost : (T,) bool ndarray
+        Frames lost after recovery.
+    reinit : (T,) bool ndarray
+        Frames where the pose was searched again.
+    empty : (T,) bool ndarray
+        Frames with no silhouette in any camera (carried by the prediction).
+    keypoints : (T,) bool ndarray
+        Frames that had keypoints.
+    """
+
+    iou: np.ndarray
+    keypoint_error: np.ndarray
+    cost: np.ndarray
+    lost: np.ndarray
+    reinit: np.ndarray
+    empty: np.ndarray
+    keypoints: np.ndarray
+
+    def summary(self) -> str:
+        """One line: frames lost, re-initialised and empty, IoU minimum and mean."""
+        tracked = ~self.empty & ~np.isnan(self.iou)
+        iou = self.iou[tracked]
+        text = (
+            f"{int(self.lost.sum())} lost, {int(self.reinit.sum())} re-initialised, "
+            f"{int(self.empty.sum())} empty"
+        )
+        if iou.size:
+            text += f"; silhouette IoU min {iou.min():.3f} (frame "
+            text += f"{int(np.flatnonzero(tracked)[iou.argmin()])}), mean {iou.mean():.3f}"
+        return text
+
+
+@dataclass(frozen=True, eq=False)
+class RecoveredTrack:
+    """The result of `track_with_recovery`: the track and its quality."""
+
+    track: TrackResult
+    quality: TrackQuality
+    init_seconds: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+
+def _present(kps) -> bool:
+    return kps is not None and any(k is not None and np.any(np.asarray(k)[:, 2] > 0) for k in kps)
+
+
+def joint_distances(x, hand, rig, keypoints) -> np.ndarray:
+    """Distances of the projected joints G(x) to the keypoints, in hand sizes.
+
+    Parameters
+    ----------
+    x : (26,) array_like
+        Pose, mm and degrees.
+    hand : HandModel
+    rig : Rig
+    keypoints : sequence of (21, 3) array_like or None
+        One per camera (None: none there): x, y in that camera's pixels, confidence.
+
+    Returns
+    -------
+    (n_cams, 21) ndarray
+        ``‖π_j(G_k(x)) − k_jk‖ / ‖k_j,wrist − k_j,middle MCP‖``; NaN where a point, a
+        camera's keypoints or its hand size is missing.
+
+    Examples
+    --------
+    >>> from handvar.camera import Rig
+    >>> from handvar.hand import HandModel, named_pose
+    >>> hand, rig, x = HandModel(), Rig.default(), named_pose("open")
+    >>> kps = [np.column_stack([cam.project(hand.joints(x)), np.ones(21)]) for cam in rig]
+    >>> float(np.nanmax(joint_distances(x, hand, rig, kps)))
+    0.0
+    """
+    out = np.full((len(rig), 21), np.nan)
+    if not np.all(np.isfinite(x)):
+        return out
+    G = hand.joints(x)
+    for j, cam in enumerate(rig):
+        k = None if keypoints is None else keypoints[j]
+        if k is None:
+            continue
+        k = np.asarray(k, dtype=float)
+        if not (k[[_WRIST, _MIDDLE_MCP], 2] > 0).all():
+            continue
+        size = float(np.linalg.norm(k[_MIDDLE_MCP, :2] - k[_WRIST, :2]))
+        if size <= 0:
+            continue
+        ok = k[:, 2] > 0
+        out[j, ok] = np.linalg.norm(cam.project(G[ok]) - k[ok, :2], axis=1) / size
+    return out
+
+
+def pck(x, hand, rig, keypoints, threshold: float = 0.2) -> float:
+    """Fraction of the present keypoints within `threshold` hand sizes of G(x)'s image.
+
+    PCK@`threshold` (percentage of correct keypoints) against the detector, over every
+    camera; NaN when no camera has keypoints with a hand size.
+    """
+    d = joint_distances(x, hand, rig, keypoints)
+    d = d[~np.isnan(d)]
+    return float(np.mean(d <= threshold)) if d.size else math.nan
+
+
+def _quiet_step(tracker: Tracker, masks, kps):
+    """One tracker step without its empty-camera warning (the quality records it)."""
+    import warnings
+
+    from handvar.tracking.tracker import TrackingWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", TrackingWarning)
+        try:
+            return tracker.step(masks, keypoints=kps)
+        except ValueError:  # a lost track can drive the optimiser to non-finite values
+            return None
+
+
+def _score(r) -> tuple[bool, float]:
+    """Order of two fits of one frame: not lost first, then the lower keypoint error
+    (on a frame with keypoints) or the higher mean IoU."""
+    if r is None:
+        return (False, -math.inf)
+    if not math.isnan(r.keypoint_error):
+        return (not r.lost, -r.keypoint_error)
+    iou = r.mean_iou
+    return (not r.lost, -1.0 if math.isnan(iou) else iou)
+
+
+@dataclass(frozen=True)
+class RecoverySettings:
+    """When `track_with_recovery` searches the pose again (§14.3; the paper has no rule).
+
+    Attributes
+    ----------
+    reinit : bool
+        Search the pose again on a lost frame (False: only flag it).
+    refit_keypoint_error : float
+        Also search it again, from the keypoints, on a frame with keypoints whose fit
+        is off them by more than this, mean over the points, hand sizes (not lost, but
+        drifting).  0.1 is half the radius of PCK@0.2, the measure of §14.4: a fit off
+        by more than that on average has points outside it.  ``inf`` turns it off.
+    """
+
+    reinit: bool = True
+    refit_keypoint_error: float = 0.1
+
+    def __post_init__(self) -> None:
+        as_instance(self.reinit, bool, "reinit")
+        as_float(self.refit_keypoint_error, "refit_keypoint_error", minimum=0.0,
+                 exclusive_minimum=True)  # fmt: skip
+
+
+RECOVERY_DEFAULTS = RecoverySettings()
+
+
+def track_with_recovery(
+    tracker: Tracker,
+    frames: Iterable,
+    x0=None,
+    *,
+    keypoints: Sequence | Callable | None = None,
+    settings: RecoverySettings = RECOVERY_DEFAULTS,
+    init_settings: InitSettings | None = None,
+    cut_wrist: bool = False,
+    on_frame: Callable | None = None,
+) -> RecoveredTrack:
+    """Track frame by frame, detect lost frames and re-initialise on them (module notes).
+
+    Parameters
+    ----------
+    tracker : Tracker
+        The tracker (its rig, hand, predictor, generator and settings, with the lost
+        rule's thresholds, are used).
+    frames : iterable of (n_cams, H, W) bool array_like
+        The silhouettes of each frame, in order.
+    x0 : (26,) array_like, optional
+        Pose at the first frame; by default `initial_pose` of the first frame.
+    keypoints : sequence or callable, keyword-only, optional
+        ``keypoints[i]`` (or ``keypoints(i)``) for the i-th frame: per camera a (21, 3)
+        array (x, y in the masks' pixels, confidence) or None, or None for a frame
+        without keypoints.  They go into the tracker's cost, its quality and the
+        re-initialisation.
+    settings : RecoverySettings, keyword-only
+        When to search the pose again.
+    init_settings : InitSettings, keyword-only, optional
+        Settings of the pose search.
+    cut_wrist : bool, keyword-only
+        `frames` are silhouettes with the forearm still on; cut each camera's at the
+        wrist here (`handvar.vision.silhouette.cut_wrist`), across the wrist → middle
+        MCP line through the wrist point: the detected one on a frame with keypoints,
+        else the previous frame's fitted model's (`model_wrist_keypoints`); before any
+        fit, where the forearm's width changes.  Meant for tracks with keypoints, which keep
+        the model, and so its wrist, anchored.
+    on_frame : callable, keyword-only, optional
+        Called as ``on_frame(i, pose, quality, masks)`` after each frame, quality a
+        `FrameQuality` and masks the silhouettes tracked (for overlays written while
+        tracking).
+
+    Returns
+    -------
+    RecoveredTrack
+        The track (`TrackResult`) and its `TrackQuality`.
+    """
+    as_instance(tracker, Tracker, "tracker")
+    as_instance(settings, RecoverySettings, "settings")
+    init_kw = {} if init_settings is None else {"settings": init_settings}
+    hand, rig = tracker.hand, tracker.rig
+    max_it = tracker.settings.smd.max_iterations
+
+    def frame_keypoints(i):
+        if keypoints is None:
+            return None
+        kps = (
+            keypoints(i) if callable(keypoints) else (keypoints[i] if i < len(keypoints) else None)
+        )
+        return kps if _present(kps) else None
+
+    def search(masks, kps):
+        t0 = time.perf_counter()
+        result = initial_pose(
+            masks, rig, hand, keypoints=kps, rng=tracker.rng,
+            tracker_settings=tracker.settings, **init_kw,
+        )  # fmt: skip
+        tracker.reset(result.pose)
+        return time.perf_counter() - t0
+
+    results, flags, init_seconds = [], [], []
+    previous = None if x0 is None else np.asarray(x0, dtype=float)
+    started = False
+    for i, masks in enumerate(frames):
+        masks = np.asarray(masks, dtype=bool)
+        if masks.ndim == 2:
+            masks = masks[None]
+        kps = frame_keypoints(i)
+        if cut_wrist:
+            masks = _cut(masks, kps, previous, hand, rig)
+        empty = not masks.any()
+        if not started and not empty:
+            if x0 is None:
+                init_seconds.append(search(masks, kps))
+            else:
+                tracker.reset(x0)
+            started = True
+        if not started:  # nothing seen yet: nothing to track from
+            pose = np.full(N_PARAMS, np.nan) if previous is None else previous
+            results.append(None)
+            flags.append((pose, False, True, kps is not None))
+            if on_frame is not None:
+                on_frame(i, pose, FrameQuality(math.nan, math.nan, math.nan, False), masks)
+            continue
+        r = _quiet_step(tracker, masks, kps)
+        again = False
+        drifting = (
+            r is not None and kps is not None
+            and r.keypoint_error > settings.refit_keypoint_error
+        )  # fmt: skip
+        if settings.reinit and not empty and (r is None or r.lost or drifting):
+            init_seconds.append(search(masks, kps))
+            again = True
+            r2 = _quiet_step(tracker, masks, kps)
+            if _score(r2) >= _score(r):
+                r = r2
+        if r is None:  # diverged and not recovered: keep the last finite pose
+            pose = np.full(N_PARAMS, np.nan) if previous is None else previous
+            if previous is not None:
+                tracker.reset(previous)
+        else:
+            pose = r.pose
+            previous = pose
+        results.append(r)
+        flags.append((pose, again, empty, kps is not None))
+        if on_frame is not None:
+            on_frame(i, pose, _frame_quality(r, empty), masks)
+    if not results:
+        raise ValueError("frames: expected at least one frame; got none")
+    return _assemble(results, flags, hand, len(rig), max_it, init_seconds)
+
+
+def model_wrist_keypoints(x, hand, camera) -> np.ndarray | None:
+    """The wrist and middle MCP of pose `x` seen by `camera`, as (21, 3) keypoints.
+
+    The other 19 points are missing (confidence 0); None for a non-finite pose.  Given
+    to `handvar.vision.silhouette.cut_wrist` after `_cut_at_joint`, they cut a silhouette
+    at the model's wrist joint, where its hand ends.
+    """
+    if x is None or not np.all(np.isfinite(x)):
+        return None
+    k = np.full((21, 3), np.nan)
+    k[:, 2] = 0.0
+    k[[_WRIST, _MIDDLE_MCP], :2] = camera.project(hand.joints(x)[[_WRIST, _MIDDLE_MCP]])
+    k[[_WRIST, _MIDDLE_MCP], 2] = 1.0
+    return k
+
+
+def _cut_at_joint(k: np.ndarray) -> np.ndarray:
+    """Keypoints whose `cut_wrist` cut passes through the wrist point itself.
+
+    `cut_wrist` cuts `WristCutDefaults.keypoint_offset` (a) hand sizes beyond the wrist
+    point, towards the forearm; moving the point a / (1 + a) of the way to the middle
+    MCP cancels that.  The tracked model ends at its wrist joint, which is the point a
+    detector marks, so the silhouette it is fitted to ends there too (§14.3).
+    """
+    from handvar.vision.wrist import WRIST_CUT_DEFAULTS
+
+    a = WRIST_CUT_DEFAULTS.keypoint_offset
+    k = np.array(k, dtype=float)
+    k[_WRIST, :2] += a / (1.0 + a) * (k[_MIDDLE_MCP, :2] - k[_WRIST, :2])
+    return k
+
+
+def _cut(masks: np.ndarray, kps, previous, hand, rig) -> np.ndarray:
+    """Each camera's silhouette cut at the wrist (`track_with_recovery`'s cut_wrist)."""
+    from handvar.vision.silhouette import cut_wrist
+
+    out = []
+    for j, (m, cam) in enumerate(zip(masks, rig, strict=True)):
+        if not m.any():
+            out.append(m)
+            continue
+        k = None if kps is None else kps[j]
+        if k is None or not (np.asarray(k)[[_WRIST, _MIDDLE_MCP], 2] > 0).all():
+            k = model_wrist_keypoints(previous, hand, cam)
+        out.append(cut_wrist(m, None if k is None else _cut_at_joint(k)))
+    return np.stack(out)
+
+
+def _frame_quality(r, empty: bool) -> FrameQuality:
+    if r is None:
+        return FrameQuality(0.0, math.nan, math.nan, not empty)
+    return FrameQuality(r.mean_iou, r.keypoint_error, r.cost, bool(r.lost and not empty))
+
+
+def _assemble(results, flags, hand, n_cams, max_it, init_seconds) -> RecoveredTrack:
+    """The `TrackResult` and `TrackQuality` of the frames' results."""
+    n = len(results)
+    poses = np.array([f[0] for f in flags])
+    costs = np.full((n, max_it), np.nan)
+    starts = poses.copy()
+    iterations = np.zeros(n, dtype=np.int64)
+    seconds = np.zeros((n, 3))
+    iou = np.full((n, n_cams), np.nan)
+    final = np.full(n, np.nan)
+    kp_err = np.full(n, np.nan)
+    lost = np.zeros(n, dtype=bool)
+    empty_cams = np.zeros((n, n_cams), dtype=bool)
+    for t, (r, f) in enumerate(zip(results, flags, strict=True)):
+        empty_cams[t] = f[2]
+        if r is None:
+            lost[t] = not f[2]
+            continue
+        starts[t] = r.start
+        costs[t, : r.iterations] = r.costs[:max_it]
+        iterations[t] = r.iterations
+        seconds[t] = r.seconds
+        iou[t], final[t], kp_err[t] = r.iou, r.cost, r.keypoint_error
+        empty_cams[t] = r.empty
+        lost[t] = r.lost and not f[2]
+    joints = np.stack(
+        [hand.joints(x) if np.all(np.isfinite(x)) else np.full((21, 3), np.nan) for x in poses]
+    )
+    track = TrackResult(
+        poses, joints, starts, costs, iterations, seconds, iou, final, kp_err, lost, empty_cams
+    )
+    quality = TrackQuality(
+        iou=track.mean_iou,
+        keypoint_error=kp_err,
+        cost=final,
+        lost=lost,
+        reinit=np.array([f[1] for f in flags]),
+        empty=np.array([f[2] for f in flags]),
+        keypoints=np.array([f[3] for f in flags]),
+    )
+    return RecoveredTrack(track, quality, np.array(init_seconds))

@@ -1,0 +1,259 @@
+"""Lost frames and recovery (§14.3): the quality measures, the loop, the CLI and the video.
+
+The quality measures are checked against hand-computed distances; the loop against
+synthetic frames whose truth is known (a start far off is lost and recovered, an empty
+frame is flagged and keeps the previous pose); the real example video against its
+detector's keypoints on the frames withheld from the tracker (PCK@0.2, §14.4).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from handvar.camera import Rig
+from handvar.cli import main
+from handvar.hand import HandModel, named_pose
+from handvar.predictors import RVAR
+from handvar.synth.sequences import make_sequence
+from handvar.tracking.outputs import quality_captions
+from handvar.tracking.recovery import (
+    RecoverySettings,
+    joint_distances,
+    pck,
+    track_with_recovery,
+)
+from handvar.tracking.tracker import Tracker
+from handvar.vision.keypoints import read_keypoints
+from handvar.vision.silhouette import EmptySilhouetteError, cut_wrist, silhouettes_from_frames
+from handvar.vision.sources import open_source
+
+DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
+VIDEO = DATA / "dex-human-hand-video.mp4"
+KEYPOINTS = DATA / "dex-human-hand-video-keypoints.npy"
+
+
+def projected_keypoints(hand, rig, x):
+    return [np.column_stack([cam.project(hand.joints(x)), np.ones(21)]) for cam in rig]
+
+
+# --- the quality measures ----------------------------------------------------------------
+
+
+def test_joint_distances_are_pixels_over_the_detected_hand_size():
+    hand, rig, x = HandModel(), Rig.default(), named_pose("open")
+    kps = projected_keypoints(hand, rig, x)
+    size = np.linalg.norm(kps[0][9, :2] - kps[0][0, :2])
+    moved = [k.copy() for k in kps]
+    moved[0][8, :2] += (3.0, 4.0)  # 5 px off; the wrist and middle MCP stay
+    moved[1][:, 2] = 0.0  # camera 2: no keypoints
+    d = joint_distances(x, hand, rig, moved)
+    assert d[0, 8] == pytest.approx(5.0 / size, rel=1e-9)
+    assert np.allclose(np.delete(d[0], 8), 0.0, atol=1e-9)
+    assert np.isnan(d[1]).all()
+
+
+def test_pck_counts_the_points_within_the_threshold():
+    hand, rig, x = HandModel(), Rig.default(), named_pose("open")
+    kps = projected_keypoints(hand, rig, x)[:1]
+    rig1 = Rig(rig.cameras[:1], rig.names[:1])
+    size = np.linalg.norm(kps[0][9, :2] - kps[0][0, :2])
+    far = kps[0].copy()
+    far[[4, 8, 12], 0] += 0.3 * size  # three points 0.3 hand sizes off
+    assert pck(x, hand, rig1, [far]) == pytest.approx(18 / 21)
+    assert pck(x, hand, rig1, [far], threshold=0.31) == 1.0
+    assert np.isnan(pck(x, hand, rig1, [None]))
+
+
+def test_captions_name_the_quality_and_the_flags():
+    q = type("Q", (), {})()
+    q.iou, q.keypoint_error = np.array([0.9, 0.2, 0.0]), np.array([0.1, np.nan, np.nan])
+    q.lost, q.reinit = np.array([False, True, False]), np.array([False, True, False])
+    q.empty = np.array([False, False, True])
+    assert quality_captions(q) == [
+        "IoU 0.90  kp 0.10",
+        "IoU 0.20  re-init  LOST",
+        "empty silhouette",
+    ]
+
+
+# --- the loop on synthetic frames --------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def short_sequence():
+    return make_sequence("benchmark", n_frames=6)
+
+
+def test_a_start_far_off_is_lost_then_recovered(short_sequence):
+    seq = short_sequence
+    hand = HandModel()
+    wrong = seq.truth.poses[0].copy()
+    wrong[:3] += (400.0, 0.0, 0.0)  # the hand 40 cm to the side: out of both views
+    tracker = Tracker(seq.rig, hand, RVAR(), np.random.default_rng(0))
+    frames = [np.asarray(seq.masks[t]) for t in range(seq.n_frames)]
+    result = track_with_recovery(tracker, frames, wrong)
+    q = result.quality
+    assert q.reinit[0] and not q.lost.any()
+    assert q.iou.min() > 0.8
+    err = np.linalg.norm(result.track.joints - seq.truth.joints[: seq.n_frames], axis=2)
+    assert err.mean() < 15.0  # mm; the search's accuracy on synthetic stereo is 3–7 mm
+
+    flagged = track_with_recovery(
+        Tracker(seq.rig, hand, RVAR(), np.random.default_rng(0)), frames, wrong,
+        settings=RecoverySettings(reinit=False),
+    )  # fmt: skip
+    assert flagged.quality.lost[0] and not flagged.quality.reinit.any()
+
+
+def test_an_empty_frame_is_flagged_and_keeps_the_previous_pose(short_sequence):
+    seq = short_sequence
+    frames = [np.asarray(seq.masks[t]) for t in range(4)]
+    frames[2] = frames[2].copy()
+    frames[2][:] = False  # no camera sees the hand
+    tracker = Tracker(seq.rig, HandModel(), RVAR(), np.random.default_rng(0))
+    result = track_with_recovery(tracker, frames, seq.truth.poses[0])
+    q = result.quality
+    assert q.empty.tolist() == [False, False, True, False]
+    assert not q.lost.any() and not q.reinit.any()
+    assert result.track.iterations[2] == 0  # carried by the prediction
+    assert np.isfinite(result.track.poses[2]).all()
+    assert "1 empty" in q.summary()
+
+
+# --- keypoints through the source --------------------------------------------------------
+
+
+def test_the_source_cuts_at_the_detected_wrist_on_frames_with_keypoints():
+    source = open_source(VIDEO, scale=0.5)
+    given = read_keypoints(KEYPOINTS).every(2)
+    scaled = source.scaled_keypoints([given])[0]
+    got = {t: m for t, _, m in source.silhouettes(stop=2, keypoints=[given])}
+    for t, images in source.frames(stop=2):
+        plain = silhouettes_from_frames(images)[0]
+        expected = cut_wrist(plain, scaled.frame(t)) if t == 0 else cut_wrist(plain)
+        assert np.array_equal(got[t][0], expected)
+
+
+def test_an_empty_camera_raises_unless_allowed(tmp_path):
+    source = open_source(VIDEO)
+    _, images = next(source.frames(stop=1))
+    folder = tmp_path / "frames"
+    folder.mkdir()
+    cv2.imwrite(str(folder / "0.png"), images[0])
+    cv2.imwrite(str(folder / "1.png"), np.zeros_like(images[0]))
+    blank = open_source(folder)
+    with pytest.raises(EmptySilhouetteError, match="frame 1"):
+        list(blank.silhouettes())
+    masks = [m for _, _, m in blank.silhouettes(allow_empty=True)]
+    assert masks[0].any() and not masks[1].any()
+
+
+# --- the example video --------------------------------------------------------------------
+
+
+def track_video(n_frames: int | None, every: int):
+    source = open_source(VIDEO, scale=0.5)
+    detected = read_keypoints(KEYPOINTS)
+    given = [detected.every(every)]
+    masks = [m for _, _, m in source.silhouettes(stop=n_frames, wrist=False)]
+    used = source.scaled_keypoints(given)[0]
+    truth = source.scaled_keypoints([detected])[0]
+    hand = HandModel()
+    tracker = Tracker(source.rig, hand, RVAR(), np.random.default_rng(0))
+    result = track_with_recovery(
+        tracker, masks, keypoints=lambda i: [used.frame(i)], cut_wrist=True
+    )
+    scores = np.array(
+        [pck(x, hand, source.rig, [truth.frame(t)]) for t, x in enumerate(result.track.poses)]
+    )
+    return result, scores
+
+
+def test_the_first_30_frames_hold_with_keypoints_every_5th():
+    result, scores = track_video(30, 5)
+    q = result.quality
+    assert q.keypoints.sum() == 6
+    assert not q.lost.any()
+    assert q.iou.min() >= 0.8
+    assert scores[~q.keypoints].mean() >= 0.9
+
+
+@pytest.fixture(scope="module")
+def whole_video():
+    return track_video(None, 5)
+
+
+@pytest.mark.slow
+def test_the_whole_video_keeps_pck_with_keypoints_every_5th(whole_video):
+    result, scores = whole_video
+    q = result.quality
+    assert len(q.iou) == 621
+    assert scores[~q.keypoints].mean() >= 0.9  # measured 0.941 (§14.4)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True, reason="edge-on frames (about 555-569) fit at IoU 0.73-0.79 (§14.4)"
+)
+def test_the_whole_video_keeps_iou_and_is_never_lost(whole_video):
+    result, _ = whole_video
+    q = result.quality
+    assert q.iou.min() >= 0.8, (q.iou.min(), int(q.iou.argmin()))
+    assert not q.lost.any(), np.flatnonzero(q.lost)
+
+
+# --- the command ---------------------------------------------------------------------------
+
+
+def test_track_with_keypoints_writes_the_quality(tmp_path):
+    out = tmp_path / "rv"
+    res = CliRunner().invoke(
+        main,
+        ["track", str(VIDEO), "--scale", "0.5", "--frames", "6", "--keypoints", str(KEYPOINTS),
+         "--keypoint-every", "5", "--out", str(out), "--no-video"],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    assert "0 lost, 0 re-initialised, 0 empty" in res.output
+    assert "keypoints on 2 frames" in res.output
+    table = np.loadtxt(out / "quality.csv", delimiter=",", skiprows=1)
+    assert table.shape == (6, 8)
+    assert table[:, 7].tolist() == [1, 0, 0, 0, 0, 1]  # keypoints on frames 0 and 5
+    assert np.isnan(table[1:5, 2]).all() and np.isfinite(table[[0, 5], 2]).all()
+    with np.load(out / "track.npz") as npz:
+        assert np.allclose(npz["iou"][:, 0], table[:, 1], atol=1e-4)
+        assert npz["with_keypoints"].tolist() == table[:, 7].astype(bool).tolist()
+
+
+def test_keypoint_every_needs_keypoints(tmp_path):
+    res = CliRunner().invoke(
+        main, ["track", str(VIDEO), "--keypoint-every", "5", "--out", str(tmp_path / "o")]
+    )
+    assert res.exit_code != 0
+    assert "--keypoint-every: expected only with --keypoints" in res.output
+
+
+def test_track_without_recovery_still_uses_the_keypoints(tmp_path):
+    seq = make_sequence("benchmark", n_frames=3)
+    hand = HandModel()
+    kps = np.stack(
+        [[cam.project(hand.joints(x)) for cam in seq.rig] for x in seq.truth.poses[:3]]
+    )  # (T, n_cams, 21, 2): exact keypoints of the truth
+    files = []
+    for j in range(len(seq.rig)):
+        path = tmp_path / f"kp{j}.npy"
+        np.save(path, kps[:, j])
+        files += ["--keypoints", str(path)]
+    out = tmp_path / "o"
+    res = CliRunner().invoke(
+        main, ["track", "benchmark", "--frames", "3", "--no-recover", *files, "--out", str(out),
+               "--no-video"],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    assert "fit quality" not in res.output
+    with np.load(out / "track.npz") as npz:
+        assert np.isfinite(npz["keypoint_error"]).all()  # measured: the tracker had them
