@@ -10,7 +10,12 @@ and the ratios of the times with keypoints to those without, per SMD iteration a
 frame. The two runs alternate ``--repeats`` times and the medians are compared, since
 the machine may be shared.
 
-    python benchmarks/tracker.py [--frames 175] [--predictor rvar] [--profile] [--keypoints]
+With ``--model mesh`` the tracker fits the skinned mesh hand (§15) to the same
+sphere-mesh-rendered frames (model mismatch; the mesh's costs are not compiled, so this
+is the slow path).
+
+    python benchmarks/tracker.py [--frames 175] [--predictor rvar] [--model spheres|mesh]
+                                 [--profile] [--keypoints]
 """
 
 from __future__ import annotations
@@ -39,13 +44,14 @@ def main() -> None:
     ap.add_argument("--profile", action="store_true")
     ap.add_argument("--keypoints", action="store_true")
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--model", choices=("spheres", "mesh"), default="spheres")
     args = ap.parse_args()
     if args.keypoints:
         compare_keypoints(args)
         return
 
     seq = make_sequence("benchmark", n_frames=args.frames)
-    hand = HandModel()
+    hand = HandModel(surface=args.model)
     # warm-up: compile the kernels, build the surface pool
     Tracker(seq.rig, hand, make_predictor("none")).track(seq, seq.truth.poses[0], frames=3)
 
@@ -64,7 +70,8 @@ def main() -> None:
     per_frame = np.median(result.seconds.sum(axis=1)) * 1e3
     per_iter = np.median(result.seconds[:, 1] / result.iterations) * 1e6
     err = mean_joint_error(seq.truth.joints, result.joints)
-    print(f"benchmark sequence, {T} frames, predictor {args.predictor}, seed {args.seed}")
+    print(f"benchmark sequence, {T} frames, predictor {args.predictor}, seed {args.seed}, "
+          f"tracked with the {args.model} model")  # fmt: skip
     print(f"  frames/s (wall, whole run)       {T / wall:8.1f}")
     print(f"  median ms/frame                  {per_frame:8.2f}")
     for name, ms in zip(TIMING_PARTS, med, strict=True):
