@@ -31,7 +31,6 @@ from scipy import ndimage
 from handvar.validate import as_array, as_float, as_int, one_of
 
 __all__ = [
-    "HAND_BREADTH",
     "HAND_LENGTH",
     "SURFACES",
     "corrupt_silhouettes",
@@ -39,9 +38,8 @@ __all__ = [
     "generator_hand",
 ]
 
-#: The tracker's default hand (mm): length wrist crease to middle tip, breadth at MCPs.
+#: The tracker's default hand length (mm): wrist crease to the middle fingertip.
 HAND_LENGTH = 185.0
-HAND_BREADTH = 85.0
 SURFACES = ("spheres", "mesh")
 
 # joints (0-based) that set the wrist cut: the wrist and the middle finger's base
@@ -64,7 +62,7 @@ def generator_hand(model: str = "spheres", length: float = 1.0, breadth: float =
     -------
     handvar.hand.kinematics.HandModel
     """
-    from handvar.hand.anthropometry import HandShape
+    from handvar.hand.anthropometry import HandProportions, HandShape
     from handvar.hand.kinematics import HandModel
 
     one_of(model, SURFACES, "model")
@@ -72,7 +70,8 @@ def generator_hand(model: str = "spheres", length: float = 1.0, breadth: float =
     breadth = as_float(breadth, "breadth", minimum=0.5, maximum=2.0)
     shape = None
     if (length, breadth) != (1.0, 1.0):
-        shape = HandShape.from_size(HAND_LENGTH * length, HAND_BREADTH * breadth)
+        default_breadth = HandProportions().breadth_ratio * HAND_LENGTH  # ≈ 85 mm
+        shape = HandShape.from_size(HAND_LENGTH * length, default_breadth * breadth)
     return HandModel(shape, surface=model)
 
 
