@@ -1,4 +1,4 @@
-"""The paper's protocol under model mismatch (§15.4): run, report and summarise.
+"""The paper's protocol under model mismatch (§15.1): run, report and summarise.
 
 Each variant is an experiment (the paper's five predictors) on a sequence the
 tracker's model does not explain exactly: rendered with the skinned mesh, by a hand

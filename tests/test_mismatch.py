@@ -1,4 +1,4 @@
-"""Sequences under model mismatch (§15.4): deterministic, really mismatched, and run."""
+"""Sequences under model mismatch (§15.1): deterministic, really mismatched, and run."""
 
 from __future__ import annotations
 
@@ -176,3 +176,24 @@ def test_flip_claims_are_not_tested_on_other_sequences(tiny_store):
     other = type(results)(**{**results.__dict__, "config": ExperimentConfig(trials=2, frames=20)})
     flips = [c for c in evaluate_claims(other) if c.section.startswith("§6")]
     assert len(flips) == 2 and all(c.holds is None for c in flips)
+
+
+def test_flip_claims_follow_the_stored_errors(tiny_store, tmp_path):
+    import shutil
+
+    import zarr
+
+    _, path = tiny_store
+    copy = tmp_path / "copy.zarr"
+    shutil.copytree(path, copy)
+    labels = list(open_store(copy)["predictor"].values)
+    error = zarr.open_group(str(copy), mode="r+")["error"]
+
+    def verdicts(rvar: float, decelerating: float) -> list[bool | None]:
+        error[labels.index("RVAR")] = rvar
+        error[labels.index("decelerating")] = decelerating
+        return [c.holds for c in evaluate_claims(load_results(copy)) if c.section[:2] == "§6"]
+
+    assert verdicts(5.0, LOSS_MM + 1.0) == [True, True]
+    assert verdicts(5.0, LOSS_MM - 1.0) == [False, True]  # neither loses the hand
+    assert verdicts(LOSS_MM + 2.0, LOSS_MM + 1.0) == [False, False]

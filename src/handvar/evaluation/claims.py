@@ -3,7 +3,7 @@
 :func:`evaluate_claims` tests every claim on the measurements (:class:`Results`) and
 states the exact test behind each verdict; a claim whose predictors are missing or
 unfinished is undecided (``holds`` None). The §6 claims about the palm flip are
-tested only on a ``flip`` sequence (at any speed or mismatch, §15.4); a trial has
+tested only on a ``flip`` sequence (at any speed or mismatch, §15.1); a trial has
 lost the hand when its mean joint error exceeds :data:`LOSS_MM` in some frame.
 """
 

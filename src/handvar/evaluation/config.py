@@ -100,7 +100,7 @@ class ExperimentConfig:
     tracker : tuple of (str, value) pairs
         Overrides of the tracker's settings (the paper's by default, §4).
     sequence_model : {"spheres", "mesh"}
-        The surface that renders the sequence (§15.4): the tracker's own sphere-mesh
+        The surface that renders the sequence (§15.1): the tracker's own sphere-mesh
         by default, or the skinned mesh -- model mismatch.
     sequence_length, sequence_breadth : float
         The rendering hand's length and breadth as factors of the tracker's default

@@ -145,7 +145,7 @@ def _intro(store, results: Results) -> list[str]:
 
 
 def _mismatch_text(cfg) -> str:
-    """One sentence: how the sequence departs from the tracker's model (§15.4)."""
+    """One sentence: how the sequence departs from the tracker's model (§15.1)."""
     parts = [
         f"rendered with the {'skinned mesh' if cfg.sequence_model == 'mesh' else 'sphere-mesh'}",
         f"tracked with the {'skinned mesh' if cfg.tracker_model == 'mesh' else 'sphere-mesh'}",

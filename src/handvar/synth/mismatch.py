@@ -1,4 +1,4 @@
-"""Sequences the tracker's model does not explain exactly: model mismatch (§15.4).
+"""Sequences the tracker's model does not explain exactly: model mismatch (§15.1).
 
 The paper's sequences are rendered by the very model that tracks them, so their
 silhouettes hold no model error. Four departures, each deterministic for a seed:
