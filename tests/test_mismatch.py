@@ -197,3 +197,26 @@ def test_flip_claims_follow_the_stored_errors(tiny_store, tmp_path):
     assert verdicts(5.0, LOSS_MM + 1.0) == [True, True]
     assert verdicts(5.0, LOSS_MM - 1.0) == [False, True]  # neither loses the hand
     assert verdicts(LOSS_MM + 2.0, LOSS_MM + 1.0) == [False, False]
+
+
+def test_synth_command_renders_the_variant(tmp_path):
+    from click.testing import CliRunner
+
+    from handvar.cli import main
+    from handvar.io import read_sequence
+
+    out = tmp_path / "seq"
+    args = ["synth", "flip", str(out), "--frames", "2", "--speed", "2", "--noise", "2"]
+    result = CliRunner().invoke(main, [*args, "--size", "1.1", "0.9"])
+    assert result.exit_code == 0, result.output
+    expected = make_sequence(
+        "flip",
+        n_frames=2,
+        speed=2,
+        silhouette_noise=2,
+        hand=generator_hand("spheres", 1.1, 0.9),
+    )
+    seq = read_sequence(out)
+    np.testing.assert_array_equal(np.asarray(seq.masks), expected.masks)
+    np.testing.assert_allclose(seq.truth.joints, expected.truth.joints)
+    assert seq.provenance["speed"] == 2.0 and seq.provenance["silhouette_noise_px"] == 2.0
