@@ -32,7 +32,7 @@ from handvar.evaluation.results import fmt, load_results
 VARIANTS: dict[str, tuple[str, tuple[str, ...]]] = {
     "flip-mesh": (
         "flip rendered with the mesh",
-        ("sequence=flip", "frames=80", "trials=10", "sequence.model=mesh"),
+        ("sequence=flip", "frames=80", "trials=20", "sequence.model=mesh"),
     ),
     "flip-4x": (
         "flip replayed 4× faster",
@@ -150,6 +150,9 @@ def main() -> None:
     print("|" + "---|" * len(HEADER))
     for row in rows:
         print("| " + " | ".join(row) + " |")
+    print()
+    for name in names:
+        print(f"{command_of(name, args.stores)}\nhandvar report {args.stores}/{name}.zarr")
 
 
 if __name__ == "__main__":
