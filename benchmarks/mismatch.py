@@ -61,8 +61,8 @@ VARIANTS: dict[str, tuple[str, tuple[str, ...]]] = {
         ("trials=12", "sequence.length=0.9", "sequence.breadth=0.9"),
     ),
     "bench-trackmesh": (
-        "benchmark tracked with the mesh (40 frames)",
-        ("trials=1", "frames=40", "tracker.model=mesh"),
+        "benchmark tracked with the mesh (60 frames)",
+        ("trials=2", "frames=60", "tracker.model=mesh"),
     ),
 }
 
