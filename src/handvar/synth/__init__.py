@@ -3,9 +3,11 @@
 :mod:`handvar.synth.motion` makes pose series (minimum-jerk key poses, replay of a real
 recording); :mod:`handvar.synth.sequences` builds the paper's three sequences
 (``benchmark``, ``flexion``, ``flip``) and renders them into a
-:class:`handvar.io.Sequence`.
+:class:`handvar.io.Sequence`; :mod:`handvar.synth.mismatch` departs from the tracker's
+model (the rendering hand's surface and size, the speed, silhouette noise; §15.1).
 """
 
+from handvar.synth.mismatch import corrupt_silhouettes, faster, generator_hand
 from handvar.synth.motion import (
     HtrackMapping,
     builtin_recording,
@@ -39,8 +41,11 @@ __all__ = [
     "HtrackMapping",
     "benchmark",
     "builtin_recording",
+    "corrupt_silhouettes",
+    "faster",
     "flexion",
     "flip",
+    "generator_hand",
     "htrack_to_handvar",
     "keyframe_motion",
     "load_htrack",
