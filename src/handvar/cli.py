@@ -118,9 +118,24 @@ def _quiet_native_logs() -> None:
     default=None,
     help="Keep only the first N frames (a quick preview).",
 )
+@click.option("--size", nargs=2, type=float, default=(1.0, 1.0), show_default=True,
+              metavar="LENGTH BREADTH",
+              help="Hand length and breadth as factors of the default 185 mm hand.")  # fmt: skip
+@click.option("--speed", type=click.FloatRange(min=1.0), default=1.0, show_default=True,
+              help="Replay the motion this many times faster (fewer frames).")  # fmt: skip
+@click.option("--noise", type=click.FloatRange(min=0.0, max=50.0), default=0.0,
+              show_default=True, help="Segmentation errors, px.")  # fmt: skip
 @_one_line_errors
 def synth_command(
-    name: str, out: str, model: str, seed: int, rgb: bool, n_frames: int | None
+    name: str,
+    out: str,
+    model: str,
+    seed: int,
+    rgb: bool,
+    n_frames: int | None,
+    size: tuple[float, float] = (1.0, 1.0),
+    speed: float = 1.0,
+    noise: float = 0.0,
 ) -> None:
     """Render the synthetic sequence NAME (benchmark, flexion, flip) into directory OUT.
 
@@ -130,8 +145,8 @@ def synth_command(
     """
     from tqdm import tqdm
 
-    from handvar.hand.kinematics import HandModel
     from handvar.io import check_output_dir, write_sequence
+    from handvar.synth.mismatch import generator_hand
     from handvar.synth.sequences import make_sequence
 
     check_output_dir(out, argument="OUT")  # fail before rendering, not after
@@ -140,7 +155,9 @@ def synth_command(
         seed=seed,
         rgb=rgb,
         n_frames=n_frames,
-        hand=HandModel(surface=model),
+        hand=generator_hand(model, *size),
+        speed=speed,
+        silhouette_noise=noise,
         progress=lambda it: tqdm(it, desc=f"rendering {name}", unit="frame", leave=False),
     )
     path = write_sequence(

@@ -1,8 +1,10 @@
-"""The paper's claims of §4–5, each beside what an experiment store shows.
+"""The paper's claims of §4–6, each beside what an experiment store shows.
 
 :func:`evaluate_claims` tests every claim on the measurements (:class:`Results`) and
 states the exact test behind each verdict; a claim whose predictors are missing or
-unfinished is undecided (``holds`` None).
+unfinished is undecided (``holds`` None). The §6 claims about the palm flip are
+tested only on a ``flip`` sequence (at any speed or mismatch, §15.1); a trial has
+lost the hand when its mean joint error exceeds :data:`LOSS_MM` in some frame.
 """
 
 from __future__ import annotations
@@ -21,7 +23,10 @@ from handvar.evaluation.results import (
     median,
 )
 
-__all__ = ["Claim", "evaluate_claims"]
+__all__ = ["LOSS_MM", "Claim", "evaluate_claims"]
+
+#: A mean joint error above this (mm) -- more than a finger's breadth -- is a lost hand.
+LOSS_MM = 20.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -285,17 +290,68 @@ _CLAIMS: tuple[tuple[str, str, str, tuple[str, ...], Callable], ...] = (
 )
 
 
+def _worst(r: Results, key: str) -> tuple[float, float, int]:
+    """(worst frame of the mean error curve, share of trials lost, trials) of `key`."""
+    p = r.index(key)
+    e = r.error[p][r.done[p]]
+    lost = float(np.mean(np.nanmax(e, axis=1) > LOSS_MM)) if len(e) else float("nan")
+    return float(np.nanmax(r.mean_error_curve(p))), lost, len(e)
+
+
+def _flip_text(r: Results) -> tuple[str, float, float]:
+    (a, la, n), (b, lb, _) = _worst(r, "rvar"), _worst(r, "decelerating")
+    text = (
+        f"worst frame of the mean error curve: RVAR {fmt(a)} mm, decelerating {fmt(b)} mm; "
+        f"trials that lose the hand (> {LOSS_MM:g} mm in some frame): RVAR {100 * la:.0f}%, "
+        f"decelerating {100 * lb:.0f}% ({n} trials)"
+    )
+    return text, a, b
+
+
+def _claim_flip_follows(r: Results) -> tuple[str, bool]:
+    text, a, b = _flip_text(r)
+    return text, bool(a < LOSS_MM <= b)
+
+
+def _claim_flip_error(r: Results) -> tuple[str, bool]:
+    i, j = r.index("rvar"), r.index("decelerating")
+    a, b = r.overall_error(i), r.overall_error(j)
+    return f"overall mean error: RVAR {fmt(a)} mm, decelerating {fmt(b)} mm", bool(a < b)
+
+
+_FLIP_CLAIMS: tuple[tuple[str, str, str, tuple[str, ...], Callable], ...] = (
+    (
+        "§6, fig. 8",
+        "RVAR follows the palm flip where the decelerating predictor fails.",
+        f"worst frame of the mean (over trials) error curve: RVAR < {LOSS_MM:g} mm ≤ decelerating",
+        ("rvar", "decelerating"),
+        _claim_flip_follows,
+    ),
+    (
+        "§6",
+        "Weaker form: RVAR tracks the palm flip better than the decelerating predictor.",
+        "overall mean error on the flip: RVAR < decelerating",
+        ("rvar", "decelerating"),
+        _claim_flip_error,
+    ),
+)
+
+
 def evaluate_claims(results: Results) -> list[Claim]:
-    """Every claim of §4–5 tested on the store's measurements.
+    """Every claim of §4–6 tested on the store's measurements.
 
     Returns
     -------
     list of Claim
         In the paper's order; ``holds`` is None where a needed predictor is missing or
-        has no finished trial.
+        has no finished trial, and for the §6 flip claims on another sequence.
     """
     out = []
-    for section, claim, test, needs, measure in _CLAIMS:
+    flip = results.config.sequence == "flip"
+    for section, claim, test, needs, measure in _CLAIMS + _FLIP_CLAIMS:
+        if measure in (_claim_flip_follows, _claim_flip_error) and not flip:
+            out.append(Claim(section, claim, test, "not a flip sequence", None))
+            continue
         reason = _missing(results, *needs)
         if reason is not None:
             out.append(Claim(section, claim, test, reason, None))

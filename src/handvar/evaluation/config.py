@@ -99,6 +99,24 @@ class ExperimentConfig:
         Noise of the ``openloop`` trials.
     tracker : tuple of (str, value) pairs
         Overrides of the tracker's settings (the paper's by default, §4).
+    sequence_model : {"spheres", "mesh"}
+        The surface that renders the sequence (§15.1): the tracker's own sphere-mesh
+        by default, or the skinned mesh -- model mismatch.
+    sequence_length, sequence_breadth : float
+        The rendering hand's length and breadth as factors of the tracker's default
+        185 × 85 mm hand (shape mismatch; the truth's joints are the rendering hand's).
+    sequence_speed : float
+        The motion replayed this many times faster at the same frame rate (the
+        sequence has fewer frames: set `frames` to at most their number).
+    sequence_noise : float
+        Strength (pixels) of the silhouette corruption of a real segmentation
+        (:func:`handvar.synth.mismatch.corrupt_silhouettes`, seeded by
+        `sequence_seed`); 0: exact silhouettes.
+    tracker_model : {"spheres", "mesh"}
+        The surface the tracker fits (the mesh costs ~13.5 ms per iteration, §15).
+
+    ``--set sequence.model=mesh`` and the like set the ``sequence_*`` fields,
+    ``--set tracker.model=mesh`` sets `tracker_model`.
     """
 
     sequence: str = "benchmark"
@@ -110,6 +128,12 @@ class ExperimentConfig:
     trial_kind: str = "tracker"
     noise: float = 2.0
     tracker: tuple[tuple[str, Any], ...] = ()
+    sequence_model: str = "spheres"
+    sequence_length: float = 1.0
+    sequence_breadth: float = 1.0
+    sequence_speed: float = 1.0
+    sequence_noise: float = 0.0
+    tracker_model: str = "spheres"
 
     def __post_init__(self) -> None:
         from handvar.synth.sequences import SEQUENCE_NAMES
@@ -119,6 +143,16 @@ class ExperimentConfig:
             object.__setattr__(self, name, as_int(getattr(self, name), name, minimum=low))
         one_of(self.trial_kind, TRIAL_KINDS, "trial_kind")
         object.__setattr__(self, "noise", as_float(self.noise, "noise", minimum=0))
+        one_of(self.sequence_model, ("spheres", "mesh"), "sequence_model")
+        one_of(self.tracker_model, ("spheres", "mesh"), "tracker_model")
+        for name, low, high in (
+            ("sequence_length", 0.5, 2.0),
+            ("sequence_breadth", 0.5, 2.0),
+            ("sequence_speed", 1.0, None),
+            ("sequence_noise", 0.0, 50.0),
+        ):
+            value = as_float(getattr(self, name), name, minimum=low, maximum=high)
+            object.__setattr__(self, name, value)
         specs = tuple(as_instance(self.predictors, (tuple, list), "predictors"))
         if not specs:
             raise ValueError("predictors: expected a non-empty tuple of PredictorSpec; got ()")
@@ -140,6 +174,16 @@ class ExperimentConfig:
     def quick(cls) -> ExperimentConfig:
         """A reduced protocol for a demonstration: 3 trials of the first 40 frames."""
         return cls(trials=3, frames=40)
+
+    @property
+    def mismatch(self) -> dict[str, Any]:
+        """The settings of the sequence and tracker that differ from the paper's."""
+        default = ExperimentConfig()
+        return {
+            name: getattr(self, name)
+            for name in _MISMATCH
+            if getattr(self, name) != getattr(default, name)
+        }
 
     @property
     def reference(self) -> PredictorSpec | None:
@@ -171,7 +215,9 @@ class ExperimentConfig:
         """Apply ``KEY=VALUE`` assignments (the command line's ``--set``).
 
         Keys: a field (``trials``, ``frames``, ``seed``, ``sequence``,
-        ``sequence_seed``, ``trial_kind`` or ``trial``, ``noise``); ``predictors`` with
+        ``sequence_seed``, ``trial_kind`` or ``trial``, ``noise``, the mismatch
+        fields ``sequence.model``, ``sequence.length``, ``sequence.breadth``,
+        ``sequence.speed``, ``sequence.noise``, ``tracker.model``); ``predictors`` with
         a comma-separated list of keys (``none,decelerating,rvar,rvar_relative,kalman``
         ...); ``extras=true``; ``tracker.FIELD`` for a tracker setting;
         ``PREDICTOR.ARG`` for a predictor's argument (``rvar.gamma=0.7``,
@@ -183,6 +229,8 @@ class ExperimentConfig:
             value = _parse_value(raw)
             if key == "trial":
                 key = "trial_kind"
+            if key.startswith("sequence.") or key == "tracker.model":
+                key = key.replace(".", "_", 1)
             if key == "predictors":
                 wanted = [k.strip() for k in str(raw).split(",") if k.strip()]
                 unknown = [k for k in wanted if k not in CATALOGUE]
@@ -289,7 +337,24 @@ class ExperimentConfig:
         return cls.from_dict(data)
 
 
-_SETTABLE = ("sequence", "sequence_seed", "frames", "trials", "seed", "trial_kind", "noise")
+_MISMATCH = (
+    "sequence_model",
+    "sequence_length",
+    "sequence_breadth",
+    "sequence_speed",
+    "sequence_noise",
+    "tracker_model",
+)
+_SETTABLE = (
+    "sequence",
+    "sequence_seed",
+    "frames",
+    "trials",
+    "seed",
+    "trial_kind",
+    "noise",
+    *_MISMATCH,
+)
 
 
 # --- the tracker ---------------------------------------------------------------------

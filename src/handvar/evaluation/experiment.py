@@ -84,8 +84,25 @@ def _render(config: ExperimentConfig, progress: bool):
         def wrap(it):
             return tqdm(it, desc=f"rendering {config.sequence}", unit="frame", leave=False)
 
+    from handvar.synth.mismatch import generator_hand
+
+    hand = None
+    if (config.sequence_model, config.sequence_length, config.sequence_breadth) != (
+        "spheres",
+        1.0,
+        1.0,
+    ):
+        hand = generator_hand(
+            config.sequence_model, config.sequence_length, config.sequence_breadth
+        )
     return make_sequence(
-        config.sequence, seed=config.sequence_seed, n_frames=config.frames, progress=wrap
+        config.sequence,
+        seed=config.sequence_seed,
+        n_frames=config.frames,
+        progress=wrap,
+        hand=hand,
+        speed=config.sequence_speed,
+        silhouette_noise=config.sequence_noise,
     )
 
 

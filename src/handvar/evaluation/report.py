@@ -151,11 +151,32 @@ def _intro(store, results: Results) -> list[str]:
             f"Some predictors have fewer than 10 finished trials (least: {int(finished.min())}); "
             "their verdicts are indicative only (the paper used 50)."
         )
+    if cfg.mismatch:
+        intro.append(_mismatch_text(cfg))
     if cfg.tracker:
         intro.append(
             "Tracker settings changed: " + ", ".join(f"{k}={v}" for k, v in cfg.tracker) + "."
         )
     return intro
+
+
+def _mismatch_text(cfg) -> str:
+    """One sentence: how the sequence departs from the tracker's model (§15.1)."""
+    parts = [
+        f"rendered with the {'skinned mesh' if cfg.sequence_model == 'mesh' else 'sphere-mesh'}",
+        f"tracked with the {'skinned mesh' if cfg.tracker_model == 'mesh' else 'sphere-mesh'}",
+    ]
+    if (cfg.sequence_length, cfg.sequence_breadth) != (1.0, 1.0):
+        parts.append(
+            f"the rendering hand {cfg.sequence_length:g} × the tracker's length and "
+            f"{cfg.sequence_breadth:g} × its breadth (errors are against the rendering "
+            "hand's joints)"
+        )
+    if cfg.sequence_speed != 1.0:
+        parts.append(f"the motion replayed {cfg.sequence_speed:g}× faster")
+    if cfg.sequence_noise:
+        parts.append(f"silhouettes corrupted at {cfg.sequence_noise:g} px")
+    return "Model mismatch: " + "; ".join(parts) + "."
 
 
 def _claim_rows(claims: list[Claim]) -> list[list[str]]:
@@ -256,7 +277,11 @@ def _html(intro, claim_rows, summary, figures: list[tuple[str, str]]) -> str:
 
 
 def write_report(
-    store: str | os.PathLike, out: str | os.PathLike, *, progress: bool = False
+    store: str | os.PathLike,
+    out: str | os.PathLike,
+    *,
+    progress: bool = False,
+    figures: tuple[str, ...] | None = None,
 ) -> Path:
     """Draw every figure and write ``report.md`` and ``report.html`` into `out`.
 
@@ -271,6 +296,9 @@ def write_report(
         ``report.md``, ``report.html``.
     progress : bool, keyword-only
         Print each file as it is written.
+    figures : tuple of str, keyword-only, optional
+        Draw only the figures of these file names (``("fig4_mean_error.png",)``);
+        all by default.
 
     Returns
     -------
@@ -286,6 +314,8 @@ def write_report(
     try:
         with OutputSet() as outputs:
             for figure in _figures(store, results):
+                if figures is not None and figure.name not in figures:
+                    continue
                 _save_figure(outputs, figure.draw(), out / figure.name)
                 written.append((figure.name, figure.caption))
             intro = _intro(store, results)

@@ -29,10 +29,10 @@ __all__ = ["TIMING_PARTS", "FrameCache", "TrialResult", "TrialRunner", "run_tria
 
 
 @functools.lru_cache(maxsize=2)
-def _hand():
+def _hand(surface: str = "spheres"):
     from handvar.hand.kinematics import HandModel
 
-    return HandModel()
+    return HandModel(surface=surface)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -148,8 +148,12 @@ def _tracker_trial(config, spec, rng, sequence, cache) -> TrialResult:
     from handvar.tracking import Tracker
 
     settings = tracker_settings(config.tracker)
-    tracker = Tracker(sequence.rig, _hand(), spec.build(), rng, settings)
-    prepared = None if cache is None else cache.frames(tracker, sequence, repr(settings.cost))
+    tracker = Tracker(sequence.rig, _hand(config.tracker_model), spec.build(), rng, settings)
+    prepared = (
+        None
+        if cache is None
+        else cache.frames(tracker, sequence, f"{config.tracker_model} {settings.cost!r}")
+    )
     result = tracker.track(sequence, sequence.truth.poses[0], prepared=prepared)
     return TrialResult(
         result.poses,

@@ -4,10 +4,13 @@
 recording); :mod:`handvar.synth.sequences` builds the paper's three sequences
 (``benchmark``, ``flexion``, ``flip``) and renders them into a
 :class:`handvar.io.Sequence`; :mod:`handvar.synth.keypoints` makes a sequence's 2D
-keypoints from its ground truth (noise and outliers, as a detector's).
+keypoints from its ground truth (noise and outliers, as a detector's);
+:mod:`handvar.synth.mismatch` departs from the tracker's model (the rendering hand's
+surface and size, the speed, silhouette noise; §15.1).
 """
 
 from handvar.synth.keypoints import synthetic_keypoints
+from handvar.synth.mismatch import corrupt_silhouettes, faster, generator_hand
 from handvar.synth.motion import (
     HtrackMapping,
     builtin_recording,
@@ -41,8 +44,11 @@ __all__ = [
     "HtrackMapping",
     "benchmark",
     "builtin_recording",
+    "corrupt_silhouettes",
+    "faster",
     "flexion",
     "flip",
+    "generator_hand",
     "htrack_to_handvar",
     "keyframe_motion",
     "load_htrack",

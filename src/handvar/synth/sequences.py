@@ -37,7 +37,7 @@ from handvar.synth.motion import (
     minimum_jerk_path,
     replay,
 )
-from handvar.validate import as_int
+from handvar.validate import as_float, as_int
 
 __all__ = [
     "SEQUENCE_NAMES",
@@ -476,6 +476,8 @@ def make_sequence(
     n_frames: int | None = None,
     progress: Callable[[Iterable[int]], Iterable[int]] | None = None,
     hand=None,
+    speed: float = 1.0,
+    silhouette_noise: float = 0.0,
 ):
     """Generate and render a named synthetic sequence.
 
@@ -492,7 +494,16 @@ def make_sequence(
         Wraps the frame iterator (for instance ``tqdm.tqdm``).
     hand : handvar.hand.kinematics.HandModel, keyword-only, optional
         The hand that renders the frames (default 185 mm sphere-mesh); a
-        ``HandModel(surface="mesh")`` renders the skinned mesh.
+        ``HandModel(surface="mesh")`` renders the skinned mesh, a hand of another
+        shape (:func:`handvar.synth.mismatch.generator_hand`) renders another size;
+        the truth's joints are this hand's.
+    speed : float, keyword-only
+        Replay the motion this many times faster at the same frame rate
+        (:func:`handvar.synth.mismatch.faster`; the sequence has fewer frames).
+    silhouette_noise : float, keyword-only
+        Corrupt the silhouettes with the errors of a real segmentation of this
+        strength in pixels (:func:`handvar.synth.mismatch.corrupt_silhouettes`,
+        seeded by `seed`); 0: exact silhouettes.
 
     Returns
     -------
@@ -500,7 +511,13 @@ def make_sequence(
         With provenance: generator, seed, settings and the source of the replayed
         motion.
     """
+    from handvar.synth.mismatch import corrupt_silhouettes, faster
+
     poses = sequence_poses(name, seed)
+    speed = as_float(speed, "speed", minimum=1.0)
+    silhouette_noise = as_float(silhouette_noise, "silhouette_noise", minimum=0.0, maximum=50.0)
+    if speed != 1.0:
+        poses = faster(poses, speed)
     n_generated = int(poses.shape[0])
     if n_frames is not None:
         if as_int(n_frames, "n_frames") < 1:
@@ -514,13 +531,17 @@ def make_sequence(
     }
     if hand is not None:
         provenance["model"] = getattr(hand, "surface", "spheres")
+    if speed != 1.0:
+        provenance["speed"] = speed
+    if silhouette_noise:
+        provenance["silhouette_noise_px"] = silhouette_noise
     if name == "benchmark":
         provenance["motion_source"] = (
             "finger articulation replayed from rows "
             f"{HTRACK_EXCERPT_FIRST_ROW}–{HTRACK_EXCERPT_FIRST_ROW + 899} of htrack "
             "fingerfist (OpenGP/htrack, tracker/Legacy/fingerfist.mat, LGPL-3.0)"
         )
-    return render_sequence(
+    seq = render_sequence(
         poses,
         name=name,
         fps=_FPS[name],
@@ -530,3 +551,9 @@ def make_sequence(
         provenance=provenance,
         hand=hand,
     )
+    if silhouette_noise:
+        masks = corrupt_silhouettes(
+            seq.masks, seq.truth.joints, seq.rig, silhouette_noise, seed=seed
+        )
+        seq = dataclasses.replace(seq, masks=masks)
+    return seq
