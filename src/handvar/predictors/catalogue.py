@@ -216,7 +216,7 @@ EXTRA_PREDICTORS: tuple[PredictorSpec, ...] = (
     # step forward (design §16, "In closed loop"); the bank of all eleven experts is the
     # open-loop one.
     PredictorSpec("adaptive", "adaptive bank", "adaptive", (("experts", "steering"),)),
-    PredictorSpec("adaptive_open", "adaptive bank, all experts", "adaptive"),
+    PredictorSpec("adaptive_open", "adaptive bank (all experts)", "adaptive"),
 )
 CATALOGUE: dict[str, PredictorSpec] = {s.key: s for s in PAPER_PREDICTORS + EXTRA_PREDICTORS}
 
