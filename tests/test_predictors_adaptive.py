@@ -214,8 +214,8 @@ def _baseline_rmse(X, truth, resets=(), blocks=None):
     return out
 
 
-def _bank_rmse(X, truth, resets=(), blocks=None):
-    P = one_step_predictions(AdaptiveBank(blocks), X, resets=resets)
+def _bank_rmse(X, truth, resets=(), blocks=None, experts="all"):
+    P = one_step_predictions(AdaptiveBank(blocks, experts=experts), X, resets=resets)
     ok = np.isfinite(P).all(1)
     return float(np.sqrt(np.mean((truth - P)[ok] ** 2)))
 
@@ -237,12 +237,13 @@ def _shipped_recordings():
 
 
 @pytest.mark.slow
-def test_bank_never_loses_to_the_best_baseline_on_the_shipped_recordings():
+@pytest.mark.parametrize("experts", ["all", "steering"])
+def test_bank_never_loses_to_the_best_baseline_on_the_shipped_recordings(experts):
     ratios = {}
     for rec, blocks in _shipped_recordings():
         truth = rec.X if rec.truth is None else rec.truth
         best = min(_baseline_rmse(rec.X, truth, blocks=blocks).values())
-        ratios[rec.name] = _bank_rmse(rec.X, truth, blocks=blocks) / best
+        ratios[rec.name] = _bank_rmse(rec.X, truth, blocks=blocks, experts=experts) / best
     assert len(ratios) == 15
     assert max(ratios.values()) <= 1.01, ratios
     assert sum(r < 1.0 for r in ratios.values()) >= len(ratios) / 2, ratios
