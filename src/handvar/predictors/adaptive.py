@@ -27,6 +27,11 @@ sweep and group, so a frame costs O(d M + n_groups M²) whatever the history.
 
 One compiled call per frame (``_bank_update``) does everything: score the experts'
 last predictions, update every expert, refit the weights, combine.
+
+A bank that steers a tracker weights only :data:`STEERING_EXPERTS` (``experts=
+"steering"``): fed back the tracker's estimates, the fit over all eleven puts its
+weight on the experts that carry the whole last step forward and the tracking drifts
+(design §16, "In closed loop").
 """
 
 from __future__ import annotations
@@ -322,6 +327,12 @@ class AdaptiveBank:
         Pseudo-observations (coordinate-frames) of the pooled error matrix of all
         groups added to each group's own: a group's weights lean on the others'
         evidence while its own is short.
+    experts : {"all", "steering"} or sequence of str, default "all"
+        The experts that may get weight (names of :data:`EXPERTS`); the others still
+        run but get none.  ``"steering"`` is :data:`STEERING_EXPERTS`, for a bank whose
+        predictions start a tracker's optimiser and which is fed the tracker's
+        estimates (design §16, "In closed loop").  w₀ is decelerating ρ = 0.4 when it
+        is kept, else uniform on the kept experts.
 
     Notes
     -----
