@@ -30,8 +30,8 @@ last predictions, update every expert, refit the weights, combine.
 
 A bank that steers a tracker weights only :data:`STEERING_EXPERTS` (``experts=
 "steering"``): fed back the tracker's estimates, the fit over all eleven puts its
-weight on the experts that carry the whole last step forward and the tracking drifts
-(design §16, "In closed loop").
+weight on the experts that carry the whole last step forward, the weights swing, and
+the tracking does not recover after fast motion (design §16, "In closed loop").
 """
 
 from __future__ import annotations
@@ -65,8 +65,9 @@ _M = len(EXPERTS)
 # The experts of a bank that steers a tracker (design §16, "In closed loop"): those whose
 # prediction carries less than the whole last step forward.  Constant velocity, the
 # default Kalman CV (q/r = 1, close to constant velocity) and the two autoregressions
-# (gains up to 1 and beyond) are left out: fed back through the tracker's estimates they
-# carry every frame's residual error forward undamped.
+# (gains up to 1 and beyond) are left out: with them, the weights fitted on the
+# tracker's estimates (which the bank's own prediction helped produce) swing from frame
+# to frame and the tracking does not recover after fast motion.
 STEERING_EXPERTS: tuple[str, ...] = (
     "no motion",
     "decelerating 0.2",
