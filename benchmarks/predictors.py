@@ -115,6 +115,7 @@ def bank_speeds(frames: int) -> None:
     cases = [
         ("adaptive bank, hand groups", 26, AdaptiveBank(hand_groups()), X26),
         ("adaptive bank, every column", 26, AdaptiveBank(), X26),
+        ("adaptive bank, steering", 26, AdaptiveBank(hand_groups(), experts="steering"), X26),
         ("adaptive bank, 6 digit groups", 63, AdaptiveBank(keypoint_blocks()), X63),
         ("adaptive bank, 21 points", 63, AdaptiveBank(points21), X63),
         ("One Euro", 26, OneEuro(), X26),

@@ -16,6 +16,7 @@ from handvar.evaluation.openloop import (
 )
 from handvar.predictors import (
     EXPERTS,
+    STEERING_EXPERTS,
     AdaptiveBank,
     Decelerating,
     KalmanCV,
@@ -121,12 +122,13 @@ def test_bank_weights_solve_the_simplex_least_squares():
     assert w @ G @ w <= res.fun * (1 + 1e-6)
 
 
-def test_bank_is_offset_equivariant():
+@pytest.mark.parametrize("experts", ["all", "steering"])
+def test_bank_is_offset_equivariant(experts):
     rng = np.random.default_rng(6)
     X = np.cumsum(rng.standard_normal((200, 6)), 0)
     c = rng.uniform(-50, 50, 6)
-    a = one_step_predictions(AdaptiveBank([[0, 1, 2], [3, 4, 5]]), X)
-    b = one_step_predictions(AdaptiveBank([[0, 1, 2], [3, 4, 5]]), X + c)
+    a = one_step_predictions(AdaptiveBank([[0, 1, 2], [3, 4, 5]], experts=experts), X)
+    b = one_step_predictions(AdaptiveBank([[0, 1, 2], [3, 4, 5]], experts=experts), X + c)
     np.testing.assert_allclose(b[1:], a[1:] + c, rtol=0, atol=1e-9)
 
 
@@ -148,6 +150,59 @@ def test_bank_rejects_bad_input_and_resets():
         AdaptiveBank(memory=0.5)
 
 
+@pytest.mark.parametrize("name", ["decelerating 0.6", "Kalman CV q/r=1e-2", "One Euro"])
+def test_bank_of_one_expert_is_that_expert(name):
+    rng = np.random.default_rng(8)
+    X = np.cumsum(np.cumsum(rng.standard_normal((150, 4)), 0), 0)
+    alone = {
+        "decelerating 0.6": Decelerating(0.6),
+        "Kalman CV q/r=1e-2": KalmanCV(q=1e-2, r=1.0),
+        "One Euro": OneEuro(rate=30.0),
+    }[name]
+    bank = one_step_predictions(AdaptiveBank([[0, 1], [2, 3]], experts=[name]), X)
+    np.testing.assert_allclose(bank[1:], one_step_predictions(alone, X)[1:], atol=1e-9)
+
+
+def test_steering_bank_weights_only_its_experts():
+    # The experts left out get no weight, and the others' weights solve the simplex
+    # least squares restricted to them (checked with scipy's SLSQP as above).
+    from scipy.optimize import minimize
+
+    rng = np.random.default_rng(9)
+    X = np.cumsum(np.cumsum(rng.standard_normal((800, 3)), 0), 0)
+    X += 2.0 * rng.standard_normal(X.shape)
+    bank = AdaptiveBank([[0, 1, 2]], memory=1e9, sweeps=50, pool=0.0, ridge=0.0,
+                        experts="steering")  # fmt: skip
+    keep = [EXPERTS.index(e) for e in STEERING_EXPERTS]
+    errors = []
+    for t, x in enumerate(X):
+        if t:
+            errors.append(x[:, None] - bank.expert_predictions.T[:, keep])
+        bank.update(x)
+    w = bank.weights[0]
+    out = np.setdiff1d(np.arange(len(EXPERTS)), keep)
+    assert (w[out] == 0).all() and w.min() >= 0 and abs(w.sum() - 1) < 1e-12
+    E = np.concatenate(errors)
+    G = E.T @ E / len(E)
+    m = len(keep)
+    res = minimize(lambda v: v @ G @ v, np.full(m, 1 / m), jac=lambda v: 2 * G @ v,
+                   bounds=[(0, 1)] * m, constraints={"type": "eq", "fun": lambda v: v.sum() - 1},
+                   method="SLSQP", options={"ftol": 1e-14, "maxiter": 500})  # fmt: skip
+    assert w[keep] @ G @ w[keep] <= res.fun * (1 + 1e-6)
+
+
+def test_bank_rejects_bad_experts_and_the_catalogue_steers():
+    from handvar.predictors.catalogue import CATALOGUE, PredictorSpec, make_predictor
+
+    for bad in ("some", [], ["no motion", "Kalman"], [3]):
+        with pytest.raises(ValueError, match="experts: expected"):
+            AdaptiveBank(experts=bad)
+    assert make_predictor("bank").experts == STEERING_EXPERTS
+    assert make_predictor("bank-all").experts == EXPERTS
+    spec = CATALOGUE["adaptive"]
+    assert PredictorSpec.from_dict(spec.to_dict()).build().experts == STEERING_EXPERTS
+
+
 # --- the acceptance rule: never worse than the best simple baseline -----------------
 def _baseline_rmse(X, truth, resets=(), blocks=None):
     preds = league_predictors(blocks, keys=())
@@ -159,8 +214,8 @@ def _baseline_rmse(X, truth, resets=(), blocks=None):
     return out
 
 
-def _bank_rmse(X, truth, resets=(), blocks=None):
-    P = one_step_predictions(AdaptiveBank(blocks), X, resets=resets)
+def _bank_rmse(X, truth, resets=(), blocks=None, experts="all"):
+    P = one_step_predictions(AdaptiveBank(blocks, experts=experts), X, resets=resets)
     ok = np.isfinite(P).all(1)
     return float(np.sqrt(np.mean((truth - P)[ok] ** 2)))
 
@@ -182,12 +237,13 @@ def _shipped_recordings():
 
 
 @pytest.mark.slow
-def test_bank_never_loses_to_the_best_baseline_on_the_shipped_recordings():
+@pytest.mark.parametrize("experts", ["all", "steering"])
+def test_bank_never_loses_to_the_best_baseline_on_the_shipped_recordings(experts):
     ratios = {}
     for rec, blocks in _shipped_recordings():
         truth = rec.X if rec.truth is None else rec.truth
         best = min(_baseline_rmse(rec.X, truth, blocks=blocks).values())
-        ratios[rec.name] = _bank_rmse(rec.X, truth, blocks=blocks) / best
+        ratios[rec.name] = _bank_rmse(rec.X, truth, blocks=blocks, experts=experts) / best
     assert len(ratios) == 15
     assert max(ratios.values()) <= 1.01, ratios
     assert sum(r < 1.0 for r in ratios.values()) >= len(ratios) / 2, ratios

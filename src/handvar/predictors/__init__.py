@@ -10,7 +10,7 @@
 """
 
 from handvar.params import hand_blocks
-from handvar.predictors.adaptive import EXPERTS, AdaptiveBank, hand_groups
+from handvar.predictors.adaptive import EXPERTS, STEERING_EXPERTS, AdaptiveBank, hand_groups
 from handvar.predictors.base import Predictor, one_step_predictions
 from handvar.predictors.kalman import KalmanCV
 from handvar.predictors.offline import OfflineVAR
@@ -23,6 +23,7 @@ from handvar.predictors.var import VAR, second_differences
 __all__ = [
     "EXPERTS",
     "RVAR",
+    "STEERING_EXPERTS",
     "VAR",
     "AdaptiveBank",
     "Decelerating",

@@ -27,6 +27,11 @@ sweep and group, so a frame costs O(d M + n_groups M²) whatever the history.
 
 One compiled call per frame (``_bank_update``) does everything: score the experts'
 last predictions, update every expert, refit the weights, combine.
+
+A bank that steers a tracker weights only :data:`STEERING_EXPERTS` (``experts=
+"steering"``): fed back the tracker's estimates, the fit over all eleven puts its
+weight on the experts that carry the whole last step forward, the weights swing, and
+the tracking does not recover after fast motion (design §16, "In closed loop").
 """
 
 from __future__ import annotations
@@ -40,7 +45,7 @@ from handvar.predictors.base import as_vector
 from handvar.predictors.one_euro import one_euro_alpha
 from handvar.validate import as_float, as_int
 
-__all__ = ["EXPERTS", "AdaptiveBank", "hand_groups"]
+__all__ = ["EXPERTS", "STEERING_EXPERTS", "AdaptiveBank", "hand_groups"]
 
 # The experts, in the order of the weights.
 EXPERTS: tuple[str, ...] = (
@@ -57,6 +62,21 @@ EXPERTS: tuple[str, ...] = (
     "AR acceleration",
 )
 _M = len(EXPERTS)
+# The experts of a bank that steers a tracker (design §16, "In closed loop"): those whose
+# prediction carries less than the whole last step forward.  Constant velocity, the
+# default Kalman CV (q/r = 1, close to constant velocity) and the two autoregressions
+# (gains up to 1 and beyond) are left out: with them, the weights fitted on the
+# tracker's estimates (which the bank's own prediction helped produce) swing from frame
+# to frame and the tracking does not recover after fast motion.
+STEERING_EXPERTS: tuple[str, ...] = (
+    "no motion",
+    "decelerating 0.2",
+    "decelerating 0.4",
+    "decelerating 0.6",
+    "One Euro",
+    "Kalman CV q/r=1e-2",
+    "Kalman CV q/r=1e-4",
+)
 _RHOS = np.array([0.2, 0.4, 0.6, 1.0])  # experts 1..4
 # Kalman experts 5, 7, 8: (q, r), as KalmanCV's arguments.
 _KALMAN_Q = np.array([1.0, 1e-2, 1e-4])
@@ -91,8 +111,10 @@ _ROWS = _OUT + 1
 
 
 @njit(cache=True)
-def _bank_update(x, S, G, N, W, index, sizes, cfg, aux):  # pragma: no cover - compiled
+def _bank_update(x, S, G, N, W, index, sizes, cfg, aux, allowed, prior):  # pragma: no cover
     """One frame: score the experts, update them, refit the weights, combine.
+
+    Only the experts with `allowed` true get weight; `prior` (M,) is w₀.
 
     `aux` holds [frames seen, increment scale c]; G and N are stored multiplied by c
     (c = λ^−t grows instead of G shrinking, and is folded back when large).
@@ -249,6 +271,8 @@ def _bank_update(x, S, G, N, W, index, sizes, cfg, aux):  # pragma: no cover - c
                 # Coordinate descent on vᵀ(A + δI)v − 2·1ᵀv over v ≥ 0.
                 for _ in range(sweeps):
                     for a in range(M):
+                        if not allowed[a]:
+                            continue
                         new = v[a] + (1.0 - Gv[a]) / (A[a, a] + delta)
                         if new < 0.0:
                             new = 0.0
@@ -269,7 +293,7 @@ def _bank_update(x, S, G, N, W, index, sizes, cfg, aux):  # pragma: no cover - c
             j = index[g, jj]
             s = 0.0
             for a in range(M):
-                s += ((1.0 - shrink) * W[g, a] + shrink * _PRIOR[a]) * S[_P0 + a, j]
+                s += ((1.0 - shrink) * W[g, a] + shrink * prior[a]) * S[_P0 + a, j]
             S[_OUT, j] = s
     aux[0] = n + 1
     return True
@@ -304,6 +328,12 @@ class AdaptiveBank:
         Pseudo-observations (coordinate-frames) of the pooled error matrix of all
         groups added to each group's own: a group's weights lean on the others'
         evidence while its own is short.
+    experts : {"all", "steering"} or sequence of str, default "all"
+        The experts that may get weight (names of :data:`EXPERTS`); the others still
+        run but get none.  ``"steering"`` is :data:`STEERING_EXPERTS`, for a bank whose
+        predictions start a tracker's optimiser and which is fed the tracker's
+        estimates (design §16, "In closed loop").  w₀ is decelerating ρ = 0.4 when it
+        is kept, else uniform on the kept experts.
 
     Notes
     -----
@@ -333,6 +363,7 @@ class AdaptiveBank:
         ridge: float = 1e-6,
         prior_frames: float = 30.0,
         pool: float = 1000.0,
+        experts: str | Sequence[str] = "all",
     ) -> None:
         self.memory = as_float(memory, "memory", minimum=1.0, exclusive_minimum=True)
         self.ar_memory = as_float(ar_memory, "ar_memory", minimum=1.0, exclusive_minimum=True)
@@ -342,6 +373,22 @@ class AdaptiveBank:
         self.prior_frames = as_float(prior_frames, "prior_frames", minimum=0.0)
         self.pool = as_float(pool, "pool", minimum=0.0)
         self.blocks = None if blocks is None else [[int(i) for i in b] for b in blocks]
+        presets = {"all": EXPERTS, "steering": STEERING_EXPERTS}
+        if isinstance(experts, str):
+            if experts not in presets:
+                raise ValueError(f"experts: expected 'all', 'steering' or names; got {experts!r}")
+            names = presets[experts]
+        else:
+            names = tuple(experts)
+            if not names or any(not isinstance(e, str) or e not in EXPERTS for e in names):
+                raise ValueError(
+                    f"experts: expected names among {', '.join(EXPERTS)}; got {experts!r}"
+                )
+        self._experts_arg = experts if isinstance(experts, str) else list(names)
+        self.experts = tuple(e for e in EXPERTS if e in names)
+        self._allowed = np.array([e in names for e in EXPERTS])
+        # w₀: decelerating ρ = 0.4 when it is an expert, else uniform.
+        self._prior = _PRIOR if self._allowed[2] else self._allowed / self._allowed.sum()
         self.reset()
 
     def reset(self) -> None:
@@ -377,7 +424,7 @@ class AdaptiveBank:
         self._S[...] = 0.0
         self._G[...] = 0.0
         self._N[...] = 0.0
-        self._W[...] = 1.0 / _M
+        self._W[...] = self._allowed / self._allowed.sum()
         self._aux[:] = (0.0, 1.0)
 
     def update(self, x) -> None:
@@ -390,7 +437,17 @@ class AdaptiveBank:
             if x.shape != (self._d,):
                 as_vector(x, "x", self._d)  # raises, naming the shape
         if not _bank_update(
-            x, self._S, self._G, self._N, self._W, self._index, self._sizes, self._cfg, self._aux
+            x,
+            self._S,
+            self._G,
+            self._N,
+            self._W,
+            self._index,
+            self._sizes,
+            self._cfg,
+            self._aux,
+            self._allowed,
+            self._prior,
         ):
             raise ValueError("x: expected finite values; got NaN or infinity")
 
@@ -418,5 +475,5 @@ class AdaptiveBank:
         blocks = "None" if self.blocks is None else f"<{len(self.blocks)} blocks>"
         return (
             f"AdaptiveBank(blocks={blocks}, memory={self.memory}, ar_memory={self.ar_memory}, "
-            f"rate={self.rate})"
+            f"rate={self.rate}, experts={self._experts_arg!r})"
         )

@@ -41,7 +41,16 @@ _PARAM_NAMES = {
     "rvar": ("gamma", "cutoff", "mode", "memory"),
     "kalman": ("q", "r"),
     "one_euro": ("min_cutoff", "beta", "d_cutoff", "rate"),
-    "adaptive": ("memory", "ar_memory", "rate", "sweeps", "ridge", "prior_frames", "pool"),
+    "adaptive": (
+        "memory",
+        "ar_memory",
+        "rate",
+        "sweeps",
+        "ridge",
+        "prior_frames",
+        "pool",
+        "experts",
+    ),
 }
 # The paper's symbols and a few spellings accepted for the constructor arguments.
 ARG_ALIASES = {
@@ -203,7 +212,11 @@ EXTRA_PREDICTORS: tuple[PredictorSpec, ...] = (
     ),
     PredictorSpec("kalman", "Kalman CV", "kalman"),
     PredictorSpec("one_euro", "One Euro", "one_euro"),
-    PredictorSpec("adaptive", "adaptive bank", "adaptive"),
+    # The bank that steers the tracker leaves out the experts that carry the whole last
+    # step forward (design §16, "In closed loop"); the bank of all eleven experts is the
+    # open-loop one.
+    PredictorSpec("adaptive", "adaptive bank", "adaptive", (("experts", "steering"),)),
+    PredictorSpec("adaptive_open", "adaptive bank (all experts)", "adaptive"),
 )
 CATALOGUE: dict[str, PredictorSpec] = {s.key: s for s in PAPER_PREDICTORS + EXTRA_PREDICTORS}
 
@@ -215,6 +228,7 @@ _SHORT = {
     "rvar-rel": "rvar_relative",
     "euro": "one_euro",
     "bank": "adaptive",
+    "bank-all": "adaptive_open",
 }
 
 

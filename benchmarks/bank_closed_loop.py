@@ -1,0 +1,122 @@
+"""The adaptive bank steering the tracker: its weights, open loop vs closed loop (design §16).
+
+Run:  .venv/bin/python benchmarks/bank_closed_loop.py [--store STORE] [--trials N]
+
+On the 175-frame benchmark sequence (taken from an experiment store, or rendered),
+prints
+
+1. the bank's weights (mean over its eight hand groups) at frames 30, 60, 100 and 174,
+   fed the true poses (open loop) and steering the SMD tracker (closed loop, trial 0),
+   for the bank of all eleven experts and for the steering bank;
+2. each expert's one-step RMSE over the finger angles (frames 31 on, degrees) measured
+   against the tracker's estimates, as the bank sees them, in that closed-loop trial;
+3. the mean joint error (mm) of the tracker over trials 0..N−1 with banks of a few
+   expert sets, beside decelerating ρ = 0.4, 0.6, 1 and RVAR.
+
+Trial k uses ``default_rng([0, k])`` as in ``handvar experiment``, so the figures are
+the experiment's first trials.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from handvar.evaluation.config import ExperimentConfig, tracker_settings
+from handvar.evaluation.trials import _hand
+from handvar.predictors import EXPERTS, STEERING_EXPERTS, AdaptiveBank, Decelerating, hand_groups
+from handvar.predictors.catalogue import CATALOGUE
+from handvar.tracking import Tracker
+
+FRAMES = (30, 60, 100, 174)
+DAMPED = ("no motion", "decelerating 0.2", "decelerating 0.4", "decelerating 0.6")
+
+
+class _Recorder(AdaptiveBank):
+    """A bank that keeps its weights and its experts' predictions of every frame."""
+
+    def update(self, x) -> None:
+        if self._d is not None:
+            self.seen.append((self.expert_predictions, np.array(x, dtype=float)))
+        super().update(x)
+        self.history.append(self.weights.mean(0))
+
+
+def _recorder(experts):
+    bank = _Recorder(hand_groups(), experts=experts)
+    bank.history, bank.seen = [], []
+    return bank
+
+
+def _track(sequence, predictor, trial: int):
+    cfg = ExperimentConfig()
+    rng = np.random.default_rng([cfg.seed, trial])
+    tracker = Tracker(sequence.rig, _hand(), predictor, rng, tracker_settings(cfg.tracker))
+    result = tracker.track(sequence, sequence.truth.poses[0])
+    return np.linalg.norm(result.joints - sequence.truth.joints, axis=-1).mean(-1)
+
+
+def _weights_table(sequence, experts) -> None:
+    fingers = [j for g in hand_groups()[2:] for j in g]
+    open_bank = _recorder(experts)
+    for x in sequence.truth.poses:
+        open_bank.update(x)
+    closed = _recorder(experts)
+    error = _track(sequence, closed, 0)
+    print(f"\nexperts={experts!r}: closed-loop mean joint error (trial 0) {error.mean():.2f} mm")
+    head = "  ".join(f"{f:>4}" for f in FRAMES)
+    print(f"{'weight at frame':<22}{'open loop':>9} {head}   {'closed loop':>11} {head}")
+    W_open, W_closed = np.array(open_bank.history), np.array(closed.history)
+    for i, name in enumerate(EXPERTS):
+        a = "  ".join(f"{W_open[f, i]:4.2f}" for f in FRAMES)
+        b = "  ".join(f"{W_closed[f, i]:4.2f}" for f in FRAMES)
+        print(f"{name:<22}{'':>9} {a}   {'':>11} {b}")
+    P = np.array([p for p, _ in closed.seen])  # (T-1, M, d): predictions of frame t+1
+    X = np.array([x for _, x in closed.seen])
+    print("expert RMSE on the finger angles vs the estimates, closed loop (deg):")
+    for i, name in enumerate(EXPERTS):
+        e = X[30:, fingers] - P[30:, i][:, fingers]
+        print(f"  {name:<22}{np.sqrt(np.mean(e**2)):6.2f}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--store", help="experiment store holding the benchmark sequence")
+    ap.add_argument("--trials", type=int, default=3)
+    args = ap.parse_args()
+    if args.store:
+        from handvar.evaluation.store import store_sequence
+
+        sequence = store_sequence(args.store)
+    else:
+        from handvar.synth.sequences import make_sequence
+
+        sequence = make_sequence("benchmark", seed=0, n_frames=175)
+    _weights_table(sequence, "all")
+    _weights_table(sequence, "steering")
+    cases = {
+        "decelerating 0.4": lambda: Decelerating(0.4),
+        "decelerating 0.6": lambda: Decelerating(0.6),
+        "constant velocity": lambda: Decelerating(1.0),
+        "RVAR": lambda: CATALOGUE["rvar"].build(),
+        "bank, all experts": lambda: AdaptiveBank(hand_groups()),
+        "bank, steering": lambda: AdaptiveBank(hand_groups(), experts="steering"),
+        "bank, damped only": lambda: AdaptiveBank(hand_groups(), experts=DAMPED),
+        "bank, damped + CV": lambda: AdaptiveBank(
+            hand_groups(), experts=(*DAMPED, "constant velocity")
+        ),
+        "bank, damped + AR": lambda: AdaptiveBank(
+            hand_groups(), experts=(*DAMPED, "AR velocity", "AR acceleration")
+        ),
+    }
+    print(f"\nmean joint error (mm) over trials 0..{args.trials - 1}; steering set: "
+          f"{', '.join(STEERING_EXPERTS)}")  # fmt: skip
+    print(f"{'predictor':<22}{'mean':>6}  per trial")
+    for name, make in cases.items():
+        per = [_track(sequence, make(), k).mean() for k in range(args.trials)]
+        print(f"{name:<22}{np.mean(per):6.2f}  " + " ".join(f"{e:.2f}" for e in per), flush=True)
+
+
+if __name__ == "__main__":
+    main()
