@@ -242,7 +242,10 @@ class RVAR:
     exact) on changes relative to each frame's predecessor, which are origin-free
     by construction.  Both modes predict x̂_{T+1} = x_T + γ (α (x̂^SV_{T+1} − x_T) +
     β (x̂^D_{T+1} − x_T)), eq. 26 rearranged, and every prediction moves with a
-    constant offset of the input, x + c ↦ x̂ + c, to rounding.
+    constant offset of the input, x + c ↦ x̂ + c, to rounding.  The relative mode is
+    eq. 26 with the no-motion prediction x_{t−1} of each frame taking the weight
+    1 − α − β that the printed fit gives to the origin; in the paper's closed-loop
+    experiment it tracks better than the absolute mode (figures in §6).
 
     Until a past prediction can be scored (the first two frames), α = β = ½.
     ``alpha`` and ``beta`` hold the weights used by the next ``predict``.
