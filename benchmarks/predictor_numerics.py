@@ -8,10 +8,11 @@ to millimetres and degrees as ``handvar predict --layout htrack`` does):
 1. how far each predictor's predictions move when a constant is added to every
    parameter (x + c should give x̂ + c): max |x̂(X + c) − c − x̂(X)| for c = 100, 1e9,
    1e12, beside the predictor's own open-loop RMSE;
-2. how many of RVAR's per-parameter eq. 27 fits end more than 1% above the exact
-   constrained minimum, the windows taken exactly as RVAR's absolute mode sees them
-   in the coordinates of the recording; the exact minimum comes from a separate
-   solve of every face of the triangle by pseudo-inverse;
+2. how many of ``fit_trust_weights``' per-parameter eq. 27 fits (the triangle, as
+   RVAR's relative mode uses it) end more than 1% above the exact constrained
+   minimum, on RVAR's windows of the recording in its own coordinates and with the
+   origin at the latest frame; the exact minimum comes from a separate solve of every
+   face of the triangle by pseudo-inverse;
 3. the online VAR's largest coefficient deviation from numpy.linalg.lstsq of the same
    window, on real motion followed by a stretch where every parameter is frozen, and
    on a motion whose scale drops from 1e6 to 1e-3.

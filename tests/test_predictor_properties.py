@@ -20,6 +20,7 @@ from handvar.predictors import (
     KalmanCV,
     NoMotion,
     _kernels,
+    fit_affine_weights,
     fit_trust_weights,
     hand_blocks,
     one_step_predictions,
@@ -204,9 +205,40 @@ def test_eq_27_reaches_the_exact_constrained_minimum(case):
         assert ours <= exact * (1 + 1e-9) + 64 * EPS * np.sqrt(exact * S) + 1e-28 * S
     # The compiled route gives the same weights.
     al, be = np.empty(x.shape[1]), np.empty(x.shape[1])
-    _kernels.trust_weights(np.stack([x, a, b]), w, np.zeros(x.shape[1]), al, be)
+    _kernels.trust_weights(np.stack([x, a, b]), w, al, be)
     np.testing.assert_allclose(al, alpha, rtol=0, atol=1e-12)
     np.testing.assert_allclose(be, beta, rtol=0, atol=1e-12)
+
+
+@FEW
+@given(case=trust_cases(), offset=st.floats(-1e6, 1e6))
+def test_eq_27_on_the_edge_is_exact_and_origin_free(case, offset):
+    x, a, b, w = case
+    alpha, beta = fit_affine_weights(x, a, b, w)
+    np.testing.assert_array_equal(alpha + beta, 1.0)
+    assert np.all((alpha >= 0) & (alpha <= 1))
+    for i in range(x.shape[1]):
+        xi, ai, bi = x[:, i], a[:, i], b[:, i]
+        ours = float(np.sum(w * (xi - alpha[i] * ai - beta[i] * bi) ** 2))
+        # The edge's minimum by lstsq in α, clipped, and its two ends.
+        sol, *_ = np.linalg.lstsq(((ai - bi) * np.sqrt(w))[:, None], (xi - bi) * np.sqrt(w))
+        ends = [0.0, 1.0, float(np.clip(sol[0], 0, 1))]
+        exact = min(float(np.sum(w * (xi - t * ai - (1 - t) * bi) ** 2)) for t in ends)
+        S = np.sum(w * (np.abs(xi - bi) + np.abs(ai - bi)) ** 2)
+        assert ours <= exact * (1 + 1e-9) + 64 * EPS * np.sqrt(exact * S) + 1e-28 * S
+    # The compiled route gives the same weights.
+    al, be = np.empty(x.shape[1]), np.empty(x.shape[1])
+    _kernels.affine_weights(np.stack([x, a, b]), w, al, be)
+    np.testing.assert_allclose(al, alpha, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(be, beta, rtol=0, atol=1e-12)
+    # Shifting all three columns moves the cost by nothing: α changes only where the
+    # minimum is flat to rounding.
+    moved, _ = fit_affine_weights(x + offset, a + offset, b + offset, w)
+    cost = w[:, None] * ((x - b)[None] - np.stack([alpha, moved])[:, None] * (a - b)) ** 2
+    best, shifted = cost.sum(1)
+    # The shifted inputs are rounded to ε·(|x| + |c|): that is the only slack.
+    S = (w[:, None] * (np.abs(x) + np.abs(a) + np.abs(b) + 3 * abs(offset)) ** 2).sum(0)
+    assert np.all(shifted <= best * (1 + 1e-9) + 64 * EPS * np.sqrt(best * S) + 1e-28 * S)
 
 
 @FEW

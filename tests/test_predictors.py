@@ -20,6 +20,7 @@ from handvar.predictors import (
     KalmanCV,
     NoMotion,
     Predictor,
+    fit_affine_weights,
     fit_trust_weights,
     hand_blocks,
     one_step_predictions,
@@ -132,6 +133,32 @@ def test_trust_weights_are_the_constrained_optimum(seed):
         assert ours[0] <= grid.min() * (1 + 1e-12)
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_affine_weights_are_the_optimum_on_the_edge(seed):
+    rng = np.random.default_rng(seed)
+    n, d = 9, 26
+    w = 0.5 ** np.arange(n - 1, -1, -1.0)  # eq. 28
+    truth = rng.normal(size=(n, d)).cumsum(0) + 300.0  # far from zero, as the palm is
+    a = truth + rng.normal(scale=rng.uniform(0.01, 2.0, d), size=(n, d))
+    b = truth + rng.normal(scale=0.5, size=(n, d)) + rng.uniform(-1, 1, d)
+    alpha, beta = fit_affine_weights(truth, a, b, w)
+    np.testing.assert_array_equal(alpha + beta, 1.0)
+    assert np.all((alpha >= 0) & (alpha <= 1))
+    # Brute force: a fine grid over the edge α + β = 1 finds nothing better.
+    g = np.linspace(0.0, 1.0, 2001)
+    for i in range(d):
+        ours = _objective(truth[:, i], a[:, i], b[:, i], w, alpha[i : i + 1], beta[i : i + 1])
+        grid = _objective(truth[:, i], a[:, i], b[:, i], w, g, 1.0 - g)
+        assert ours[0] <= grid.min() * (1 + 1e-12)
+
+
+def test_affine_weights_tie_at_one_half_when_both_predictors_agree():
+    x = np.arange(12.0).reshape(4, 3) + 100.0
+    alpha, beta = fit_affine_weights(x, x + 1.0, x + 1.0, 0.5 ** np.arange(3, -1, -1.0))
+    np.testing.assert_array_equal(alpha, 0.5)
+    np.testing.assert_array_equal(beta, 0.5)
+
+
 def test_rvar_weights_stay_in_the_triangle_on_real_motion(fingerfist):
     rvar = RVAR()
     for x in fingerfist[:300]:
@@ -196,6 +223,16 @@ def _batch_trust(target, a, b, w):
     return min(ties, key=lambda ab: ab[0] ** 2 + ab[1] ** 2)
 
 
+def _batch_affine(target, a, b, w):
+    """Eq. 27 on the edge α + β = 1 by lstsq in α, clipped; a flat edge gives ½."""
+    if np.all(a == b):
+        return 0.5, 0.5
+    sw = np.sqrt(w)
+    sol, *_ = np.linalg.lstsq(((a - b) * sw)[:, None], (target - b) * sw, rcond=None)
+    t = float(np.clip(sol[0], 0.0, 1.0))
+    return t, 1.0 - t
+
+
 def _batch_rvar(X, gamma=0.8, cutoff=8, mode="absolute"):
     T_all, d = X.shape
     blocks = hand_blocks()
@@ -208,14 +245,19 @@ def _batch_rvar(X, gamma=0.8, cutoff=8, mode="absolute"):
         if len(ts):
             w = np.array([0.5 ** (T - t) for t in ts])  # eq. 28
             for i in range(d):
-                # The origin: each frame's predecessor, or the latest frame x_T.
-                o = np.array([X[t - 1, i] if mode == "relative" else X[T, i] for t in ts])
-                tgt = np.array([X[t, i] for t in ts]) - o
-                a = np.array([sv[t - 1][i] for t in ts]) - o
-                b = np.array([dec[t - 1][i] for t in ts]) - o
-                alpha[i], beta[i] = _batch_trust(tgt, a, b, w)
-        xT = X[T]  # eq. 26 with the origin at x_T
-        out[T + 1] = xT + gamma * (alpha * (sv[T] - xT) + beta * (dec[T] - xT))
+                tgt = np.array([X[t, i] for t in ts])
+                a = np.array([sv[t - 1][i] for t in ts])
+                b = np.array([dec[t - 1][i] for t in ts])
+                if mode == "relative":  # changes from each frame's predecessor
+                    o = np.array([X[t - 1, i] for t in ts])
+                    alpha[i], beta[i] = _batch_trust(tgt - o, a - o, b - o, w)
+                else:  # positions, on the edge α + β = 1
+                    alpha[i], beta[i] = _batch_affine(tgt, a, b, w)
+        if mode == "relative":  # eq. 26 on changes from x_T
+            xT = X[T]
+            out[T + 1] = xT + gamma * (alpha * (sv[T] - xT) + beta * (dec[T] - xT))
+        else:  # eq. 26 as printed, x̂⁰ = x_T
+            out[T + 1] = (1 - gamma) * X[T] + gamma * (alpha * sv[T] + beta * dec[T])
     return out
 
 
@@ -343,7 +385,11 @@ def test_compiled_trust_weights_equal_the_numpy_reference():
     b[:, :3] = a[:, :3]  # exact ties: both predictors agree
     ref = fit_trust_weights(x, a, b, w)
     alpha, beta = np.empty(d), np.empty(d)
-    _kernels.trust_weights(np.stack([x, a, b]), w, np.zeros(d), alpha, beta)
+    _kernels.trust_weights(np.stack([x, a, b]), w, alpha, beta)
+    np.testing.assert_allclose(alpha, ref[0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(beta, ref[1], rtol=0, atol=1e-12)
+    ref = fit_affine_weights(x, a, b, w)
+    _kernels.affine_weights(np.stack([x, a, b]), w, alpha, beta)
     np.testing.assert_allclose(alpha, ref[0], rtol=0, atol=1e-12)
     np.testing.assert_allclose(beta, ref[1], rtol=0, atol=1e-12)
 

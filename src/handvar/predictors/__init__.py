@@ -16,7 +16,7 @@ from handvar.predictors.kalman import KalmanCV
 from handvar.predictors.offline import OfflineVAR
 from handvar.predictors.one_euro import OneEuro
 from handvar.predictors.order import OrderSelection, select_order
-from handvar.predictors.rvar import RVAR, fit_trust_weights
+from handvar.predictors.rvar import RVAR, fit_affine_weights, fit_trust_weights
 from handvar.predictors.simple import Decelerating, NoMotion
 from handvar.predictors.var import VAR, second_differences
 
@@ -33,6 +33,7 @@ __all__ = [
     "OneEuro",
     "OrderSelection",
     "Predictor",
+    "fit_affine_weights",
     "fit_trust_weights",
     "hand_blocks",
     "hand_groups",

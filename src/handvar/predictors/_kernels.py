@@ -181,11 +181,48 @@ _EPS = np.finfo(np.float64).eps
 
 
 @njit(cache=True)
-def trust_weights(hist, weights, origin, alpha, beta):  # pragma: no cover
+def affine_weights(hist, weights, alpha, beta):  # pragma: no cover
+    """Eq. 27 on the edge α + β = 1 per column, the maths of ``rvar.fit_affine_weights``.
+
+    hist (3, n, d): targets, predictions a, predictions b; weights (n,).  Writes α and
+    β = 1 − α.
+    """
+    n = hist.shape[1]
+    d = hist.shape[2]
+    for c in range(d):
+        s_dd = 0.0
+        s_dx = 0.0
+        S = 0.0
+        for t in range(n):
+            w = weights[t]
+            dv = hist[1, t, c] - hist[2, t, c]  # a − b
+            xv = hist[0, t, c] - hist[2, t, c]  # x − b
+            s_dd += w * dv * dv
+            s_dx += w * dv * xv
+            m = abs(xv) + abs(dv)
+            S += w * m * m
+        t_ab = min(max(s_dx / s_dd, 0.0), 1.0) if s_dd > 0 else 0.5
+        f_ab = 0.0
+        f_half = 0.0
+        for t in range(n):
+            dv = hist[1, t, c] - hist[2, t, c]
+            xv = hist[0, t, c] - hist[2, t, c]
+            r = xv - t_ab * dv
+            f_ab += weights[t] * r * r
+            r = xv - 0.5 * dv
+            f_half += weights[t] * r * r
+        best = min(f_ab, f_half)
+        tol = 1e-12 * best + 16.0 * _EPS * np.sqrt(best * S) + (16.0 * _EPS) ** 2 * S
+        al = 0.5 if f_half <= best + tol else t_ab  # a tie: the smallest α² + β²
+        alpha[c] = al
+        beta[c] = 1.0 - al
+
+
+@njit(cache=True)
+def trust_weights(hist, weights, alpha, beta):  # pragma: no cover
     """Eq. 27 per column, the same maths as ``rvar.fit_trust_weights``.
 
-    hist (3, n, d): targets, predictions a, predictions b, each taken relative to
-    ``origin`` (d,) before the fit; weights (n,).
+    hist (3, n, d): targets, predictions a, predictions b; weights (n,).
     """
     n = hist.shape[1]
     d = hist.shape[2]
@@ -197,15 +234,14 @@ def trust_weights(hist, weights, origin, alpha, beta):  # pragma: no cover
     cost = np.empty(9)
     sws = np.sqrt(weights)
     for c in range(d):
-        o = origin[c]
         s_aa = 0.0
         s_bb = 0.0
         S = 0.0
         for t in range(n):
             sw = sws[t]
-            xv = hist[0, t, c] - o
-            av = hist[1, t, c] - o
-            bv = hist[2, t, c] - o
+            xv = hist[0, t, c]
+            av = hist[1, t, c]
+            bv = hist[2, t, c]
             X[t] = sw * xv
             A[t] = sw * av
             B[t] = sw * bv

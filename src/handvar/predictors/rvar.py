@@ -6,9 +6,9 @@ with α_i, β_i ≥ 0, α_i + β_i ≤ 1 minimising, per parameter i,
 
 E_i = Σ_{t=T−c}^{T} 2^{−(T−t)} [x_t(i) − (α x̂^SV_t(i) + β x̂^D_t(i))]²       (eq. 27, 28)
 
-over the predictions each predictor made for the last c + 1 frames.  The values are
-taken with the origin at the latest observation x_T (so x̂⁰ = x_T = 0 in eq. 26), which
-makes the predictor independent of where the parameters' zero is; see ``RVAR``'s Notes.
+over the predictions each predictor made for the last c + 1 frames.  The absolute mode
+fits eq. 27 on its edge α + β = 1, the one part of the triangle on which eq. 27 does
+not depend on where the parameters' zero is; see ``RVAR``'s Notes.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from handvar.predictors.simple import Decelerating
 from handvar.predictors.var import VAR
 from handvar.validate import as_array, as_float, as_instance, as_int, one_of
 
-__all__ = ["RVAR", "fit_trust_weights"]
+__all__ = ["RVAR", "fit_affine_weights", "fit_trust_weights"]
 
 _MODES = ("absolute", "relative")
 _RANK_TOL = 1e-13  # relative rank tolerance of the 2-column design of eq. 27
@@ -58,8 +58,9 @@ def fit_trust_weights(target, a, b, weights):
     its exact constrained minimum.
 
     The fit is a function of the three columns as given: shifting all three by the
-    same constant changes it (eq. 27 is not origin-free), which is why
-    :class:`RVAR` hands it values relative to the latest observation.
+    same constant changes it (eq. 27 is not origin-free), which is why :class:`RVAR`
+    hands it changes relative to the frame before (``mode="relative"``) and fits the
+    absolute mode with :func:`fit_affine_weights` instead.
 
     Parameters
     ----------
@@ -136,6 +137,68 @@ def fit_trust_weights(target, a, b, weights):
     return alpha[pick, cols], beta[pick, cols]
 
 
+def fit_affine_weights(target, a, b, weights):
+    """Solve eq. 27 exactly on its edge α + β = 1: a weighted least squares in α.
+
+    Minimises ``E(α) = Σ_t w_t (target_t − α a_t − (1 − α) b_t)²
+    = Σ_t w_t ((target_t − b_t) − α (a_t − b_t))²`` over α ∈ [0, 1], independently for
+    every column.  E is a convex parabola in α, so its minimum over [0, 1] is the
+    unconstrained minimiser ``Σ w (a − b)(target − b) / Σ w (a − b)²`` clipped to
+    [0, 1] — exact, nothing added to E.  When the minimiser is not unique (a = b, to
+    rounding: the cost at α = ½ is within ``1e-12·E* + 16 ε √(E* S) + (16 ε)² S`` of
+    the minimum E*, with S = Σ w (|target − b| + |a − b|)²), the weights of smallest
+    norm α² + β², α = β = ½, are returned.
+
+    Only the differences target − b and a − b enter, so shifting all three columns by
+    the same constant leaves α unchanged (to rounding): on this edge eq. 27 is
+    origin-free.
+
+    Parameters
+    ----------
+    target, a, b : (n, d) array_like
+        Observed values and the two predictors' predictions of them.
+    weights : (n,) array_like
+        Non-negative weights k_t (eq. 28).
+
+    Returns
+    -------
+    alpha, beta : (d,) ndarray
+        β = 1 − α.
+
+    Examples
+    --------
+    >>> x = np.array([[1.0], [2.0]])
+    >>> alpha, beta = fit_affine_weights(x, x + 3, x - 1, [1.0, 1.0])  # x = ¼ a + ¾ b
+    >>> float(alpha[0]), float(beta[0])
+    (0.25, 0.75)
+    >>> alpha, beta = fit_affine_weights(x + 1e6, x + 1e6 + 3, x + 1e6 - 1, [1.0, 1.0])
+    >>> float(alpha[0])                                                # the same α
+    0.25
+    """
+    x = as_array(target, "target", (None, None))
+    n, d = x.shape
+    a = as_array(a, "a", (n, d))
+    b = as_array(b, "b", (n, d))
+    w = as_array(weights, "weights", (n,))
+    if np.any(w < 0):
+        raise ValueError(f"weights: expected non-negative values; got {w.min()}")
+    D, R = a - b, x - b  # the residual of eq. 27 on the edge is R − α D
+    s_dd = (w[:, None] * D * D).sum(0)
+    s_dx = (w[:, None] * D * R).sum(0)
+    t = np.divide(s_dx, s_dd, out=np.full(d, 0.5), where=s_dd > 0)
+    t = np.clip(t, 0.0, 1.0)
+
+    def cost(al):
+        r = R - al * D
+        return (w[:, None] * r * r).sum(0)
+
+    f_t, f_half = cost(t), cost(np.full(d, 0.5))
+    best = np.minimum(f_t, f_half)
+    S = (w[:, None] * (np.abs(R) + np.abs(D)) ** 2).sum(0)
+    alpha = np.where(f_half <= best + _tie_tolerance(best, S), 0.5, t)
+    return alpha, 1.0 - alpha
+
+
 class RVAR:
     """The robust VAR predictor of §5 (eq. 26–28).
 
@@ -146,11 +209,12 @@ class RVAR:
     cutoff : int, default 8
         c of eq. 27: the weights are fitted on the last c + 1 frames.
     mode : {"absolute", "relative"}, default "absolute"
-        ``"absolute"`` is eq. 26–27 as printed, with the origin of the parameters
-        placed at the latest observation x_T (see Notes).  ``"relative"`` is the
-        variant the paper mentions after eq. 27: each past frame's values are taken
-        relative to the frame before it, i.e. eq. 27 fits x_t − x_{t−1} from
-        x̂^SV_t − x_{t−1} and x̂^D_t − x_{t−1}.
+        ``"absolute"`` is eq. 26–27 with α + β = 1: eq. 27 fits the positions
+        x_t from x̂^SV_t and x̂^D_t on the edge of its triangle that does not depend
+        on the parameters' origin (see Notes).  ``"relative"`` is the variant the
+        paper mentions after eq. 27: each past frame's values are taken relative to
+        the frame before it, i.e. eq. 27 fits x_t − x_{t−1} from x̂^SV_t − x_{t−1} and
+        x̂^D_t − x_{t−1} over the whole triangle α, β ≥ 0, α + β ≤ 1.
     structured : VAR, optional
         The structured VAR; default ``VAR(order=1, memory=30, blocks=hand_blocks(),
         max_step=10.0)``, the paper's (§4.3), for the 26 hand parameters.
@@ -162,23 +226,29 @@ class RVAR:
     Eq. 26–27 as printed depend on where the parameters' origin is: adding c to
     every value adds c (1 − α − β) to each residual of eq. 27, so the fitted α, β —
     and the prediction, unless α + β = 1 — change with c.  The paper does not fix
-    the origin (a joint angle's zero and the camera's position are conventions), so
-    the absolute mode places it at the latest observation x_T, which is also the
-    no-motion prediction x̂⁰ of eq. 26.  In those coordinates eq. 27 is fitted on
-    x_t − x_T, x̂^SV_t − x_T and x̂^D_t − x_T, and eq. 26 reads
+    the origin (a joint angle's zero and the camera's position are conventions).
+    When the parameters are far from their zero compared with how much they move —
+    the palm's position, hundreds of millimetres from the camera, is — the
+    c (1 − α − β) term dominates eq. 27 and its minimum lies on the edge
+    α + β = 1; there, and only there, eq. 27 is origin-free.  The absolute mode
+    therefore fits eq. 27 on that edge for every parameter,
 
-        x̂_{T+1} = x_T + γ (α (x̂^SV_{T+1} − x_T) + β (x̂^D_{T+1} − x_T)),
+        E_i(α) = Σ_t k_t [x_t(i) − (α x̂^SV_t(i) + (1 − α) x̂^D_t(i))]²,  α ∈ [0, 1],
 
-    which is eq. 26 itself with x̂⁰ = x_T = 0: the paper's estimator, unchanged
-    except that its answer no longer depends on an arbitrary origin.  Both modes
-    predict by this formula; they differ in the reference of the fit: one common
-    reference x_T (absolute) or each frame's predecessor x_{t−1} (relative).  Every
-    prediction moves with a constant offset of the input, x + c ↦ x̂ + c, to
-    rounding.
+    (:func:`fit_affine_weights`, exact) and predicts by eq. 26 with β = 1 − α:
+    an affine combination of the two predictions, pulled towards x̂⁰ = x_T by
+    1 − γ.  Each frame t is scored against its own x_t only, never against a later
+    frame.  The relative mode fits the whole triangle (:func:`fit_trust_weights`,
+    exact) on changes relative to each frame's predecessor, which are origin-free
+    by construction.  Both modes predict x̂_{T+1} = x_T + γ (α (x̂^SV_{T+1} − x_T) +
+    β (x̂^D_{T+1} − x_T)), eq. 26 rearranged, and every prediction moves with a
+    constant offset of the input, x + c ↦ x̂ + c, to rounding.  The relative mode is
+    eq. 26 with the no-motion prediction x_{t−1} of each frame taking the weight
+    1 − α − β that the printed fit gives to the origin; in the paper's closed-loop
+    experiment it tracks better than the absolute mode (figures in §6).
 
-    α, β are eq. 27's exact constrained minimum (:func:`fit_trust_weights`); until a
-    past prediction can be scored (the first two frames), α = β = ½.  ``alpha`` and
-    ``beta`` hold the weights used by the next ``predict``.
+    Until a past prediction can be scored (the first two frames), α = β = ½.
+    ``alpha`` and ``beta`` hold the weights used by the next ``predict``.
     """
 
     def __init__(
@@ -213,7 +283,6 @@ class RVAR:
         self._n = 0  # scored past predictions held (at most c + 1)
         self._head = 0  # ring position of the next scored prediction
         self._hist: np.ndarray | None = None  # (3, c + 1, d): target, SV, D
-        self._origin: np.ndarray | None = None  # subtracted from _hist before the fit
         self.alpha: np.ndarray | None = None
         self.beta: np.ndarray | None = None
 
@@ -222,7 +291,6 @@ class RVAR:
         x = as_vector(x, "x", None if self._x is None else self._x.size)
         if self._hist is None:
             self._hist = np.zeros((3, self.cutoff + 1, x.size))
-            self._origin = np.zeros(x.size)
             self.alpha = np.full(x.size, 0.5)
             self.beta = np.full(x.size, 0.5)
         if self._pending is not None:
@@ -232,26 +300,22 @@ class RVAR:
                 np.subtract(x, self._x, out=slot[0])
                 np.subtract(sv, self._x, out=slot[1])
                 np.subtract(dec, self._x, out=slot[2])
-            else:  # as observed; the origin x_T is subtracted at the fit
+            else:  # as observed
                 slot[0], slot[1], slot[2] = x, sv, dec
             self._head = (self._head + 1) % (self.cutoff + 1)
             self._n = min(self._n + 1, self.cutoff + 1)
         self._x = x.copy()
-        if self.mode == "absolute":
-            self._origin[:] = x
         self.structured.update(x)
         self.decelerating.update(x)
         self._pending = (self.structured.predict(), self.decelerating.predict())
         if self._n:
             # The ring's rows by age: the newest (weight 1) was written last.
             ages = (self._head - 1 - np.arange(self._n)) % (self.cutoff + 1)
-            _kernels.trust_weights(
-                self._hist[:, ages], self._weights[::-1][: self._n], self._origin,
-                self.alpha, self.beta,
-            )  # fmt: skip
+            fit = _kernels.affine_weights if self.mode == "absolute" else _kernels.trust_weights
+            fit(self._hist[:, ages], self._weights[::-1][: self._n], self.alpha, self.beta)
 
     def predict(self) -> np.ndarray:
-        """x̂_{T+1} = x_T + γ (α (x̂^SV − x_T) + β (x̂^D − x_T)): eq. 26 with origin x_T."""
+        """x̂_{T+1} = x_T + γ (α (x̂^SV − x_T) + β (x̂^D − x_T)): eq. 26 rearranged."""
         if self._pending is None:
             raise RuntimeError("predict() needs at least one update()")
         sv, dec = self._pending
