@@ -44,6 +44,9 @@ _COLOURS = {
     "full_var": "tab:gray",
     "rvar_relative": "tab:purple",
     "kalman": "black",
+    "one_euro": "tab:cyan",
+    "adaptive": "tab:orange",
+    "adaptive_open": "tab:brown",
 }
 
 
