@@ -381,14 +381,14 @@ def model_wrist_keypoints(x, hand, camera) -> np.ndarray | None:
 def _cut_at_joint(k: np.ndarray) -> np.ndarray:
     """Keypoints whose `cut_wrist` cut passes through the wrist point itself.
 
-    `cut_wrist` cuts `WristCutDefaults.keypoint_offset` (a) hand sizes beyond the wrist
+    `cut_wrist` cuts `WristCutSettings.keypoint_offset` (a) hand sizes beyond the wrist
     point, towards the forearm; moving the point a / (1 + a) of the way to the middle
     MCP cancels that.  The tracked model ends at its wrist joint, which is the point a
     detector marks, so the silhouette it is fitted to ends there too (§14.3).
     """
-    from handvar.vision.wrist import WRIST_CUT_DEFAULTS
+    from handvar.vision.wrist import WRIST_CUT_SETTINGS
 
-    a = WRIST_CUT_DEFAULTS.keypoint_offset
+    a = WRIST_CUT_SETTINGS.keypoint_offset
     k = np.array(k, dtype=float)
     k[_WRIST, :2] += a / (1.0 + a) * (k[_MIDDLE_MCP, :2] - k[_WRIST, :2])
     return k

@@ -328,7 +328,9 @@ def find_wrist(
        the wrist → middle-MCP direction, a little towards the forearm
        (`handvar.vision.wrist.wrist_from_keypoints`).
     2. A silhouette that leaves the image: the forearm is followed from the border
-       inwards until its width changes (`handvar.vision.wrist.forearm_wrist`).
+       inwards until its width changes (`handvar.vision.wrist.forearm_wrist`), unless
+       the silhouette beyond that cut is shorter than `WristCutSettings.min_hand`
+       wrist widths (the cut went into the hand).
     3. Otherwise the palm-centre heuristic (`_palm_wrist`; its settings are `**kwargs`,
        see `WristSettings`).
 
@@ -345,7 +347,12 @@ def find_wrist(
     -------
     WristCut or None
     """
-    from handvar.vision.wrist import forearm_wrist, wrist_from_keypoints
+    from handvar.vision.wrist import (
+        WRIST_CUT_SETTINGS,
+        forearm_wrist,
+        hand_length,
+        wrist_from_keypoints,
+    )
 
     m = _as_mask(mask)
     if not m.any():
@@ -355,7 +362,11 @@ def find_wrist(
         if cut is not None:
             return cut
     if m[0].any() or m[-1].any() or m[:, 0].any() or m[:, -1].any():
-        return forearm_wrist(m)
+        cut = forearm_wrist(m)
+        # A hand is longer than its wrist is wide: a cut that leaves less went into
+        # the hand, so the palm-centre heuristic decides instead.
+        if cut is None or hand_length(m, cut) >= WRIST_CUT_SETTINGS.min_hand * cut.width:
+            return cut
     return _palm_wrist(m, **kwargs)
 
 

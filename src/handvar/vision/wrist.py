@@ -5,7 +5,7 @@ the arm.  `handvar.vision.silhouette.cut_wrist` removes it along a line found he
 
 - `wrist_from_keypoints`: with 2D keypoints, the line through the detected wrist
   perpendicular to the wrist → middle-MCP direction, moved a little towards the forearm
-  (`WristCutDefaults.keypoint_offset` hand sizes; the hand size is the wrist →
+  (`WristCutSettings.keypoint_offset` hand sizes; the hand size is the wrist →
   middle-MCP distance), so the heel of the palm stays.
 - `forearm_wrist`: without keypoints, from the forearm itself.  A forearm leaves the
   image; its silhouette is a band of nearly constant width.  Starting where the
@@ -15,7 +15,7 @@ the arm.  `handvar.vision.silhouette.cut_wrist` removes it along a line found he
   within ``1 ± tolerance`` of the forearm's width (the median of the preceding
   cross-sections, so that the forearm's gentle taper is followed).  The wrist is the
   first cross-section where the width leaves that band for good (for at least
-  `WristCutDefaults.persist` forearm widths): wider for a palm or a fist seen from the
+  `WristCutSettings.persist` forearm widths): wider for a palm or a fist seen from the
   front (the thumb and the knuckles stick out), narrower for a hand seen edge-on.  The
   thickness of the hand, which the palm-centre heuristic relied on, plays no part: a
   fist is no thicker than the forearm, but it is wider, and an edge-on hand is
@@ -37,12 +37,18 @@ from handvar.validate import as_float
 from handvar.vision.keypoints import as_frame_keypoints
 from handvar.vision.silhouette import WristCut, _as_mask
 
-__all__ = ["WRIST_CUT_DEFAULTS", "WristCutDefaults", "forearm_wrist", "wrist_from_keypoints"]
+__all__ = [
+    "WRIST_CUT_SETTINGS",
+    "WristCutSettings",
+    "forearm_wrist",
+    "hand_length",
+    "wrist_from_keypoints",
+]
 
 
 @dataclass(frozen=True)
-class WristCutDefaults:
-    """Named defaults of the wrist cuts (module notes; the paper has no wrist cut).
+class WristCutSettings:
+    """Named settings of the wrist cuts (module notes; the paper has no wrist cut).
 
     Attributes
     ----------
@@ -68,6 +74,12 @@ class WristCutDefaults:
     direction_window : float
         Centres of the cross-sections over this many forearm widths give the local
         direction.
+    min_hand : float
+        A cut is kept only if the silhouette extends at least this many wrist widths
+        beyond it on the hand's side: a hand is longer than its wrist is wide (a closed
+        fist measures about 1.5 wrist widths on the example video, an edge-on hand 1.3 or
+        more), so a cut that leaves less has cut into the hand (`find_wrist` then falls
+        back to the palm-centre heuristic).
     """
 
     keypoint_offset: float = 0.1
@@ -78,13 +90,14 @@ class WristCutDefaults:
     onset: float = 0.75
     min_forearm: float = 0.5
     direction_window: float = 1.0
+    min_hand: float = 1.0
 
 
-WRIST_CUT_DEFAULTS = WristCutDefaults()
+WRIST_CUT_SETTINGS = WristCutSettings()
 
 
 def wrist_from_keypoints(
-    keypoints, shape: tuple[int, int], *, offset: float = WRIST_CUT_DEFAULTS.keypoint_offset
+    keypoints, shape: tuple[int, int], *, offset: float = WRIST_CUT_SETTINGS.keypoint_offset
 ) -> WristCut | None:
     """The wrist cut from one frame's 2D keypoints (module notes).
 
@@ -191,8 +204,15 @@ def _cross_section(m: np.ndarray, centre: np.ndarray, normal: np.ndarray, half: 
     return float(b - a + 1), centre + 0.5 * (u[a] + u[b]) * normal
 
 
+def hand_length(m: np.ndarray, cut: WristCut) -> float:
+    """How far the silhouette `m` reaches beyond the cut line on the hand's side, px."""
+    ys, xs = np.nonzero(m)
+    s = (xs - cut.wrist[0]) * cut.direction[0] + (ys - cut.wrist[1]) * cut.direction[1]
+    return float(-s.min()) if s.size and s.min() < 0 else 0.0
+
+
 def forearm_wrist(
-    mask: np.ndarray, *, settings: WristCutDefaults = WRIST_CUT_DEFAULTS
+    mask: np.ndarray, *, settings: WristCutSettings = WRIST_CUT_SETTINGS
 ) -> WristCut | None:
     """The wrist of a silhouette whose forearm leaves the image (module notes).
 
@@ -200,7 +220,7 @@ def forearm_wrist(
     ----------
     mask : (H, W) array_like
         Silhouette; the largest component is used.
-    settings : WristCutDefaults, keyword-only
+    settings : WristCutSettings, keyword-only
 
     Returns
     -------
@@ -265,13 +285,14 @@ def forearm_wrist(
                 wrist = centres[k - 1]
                 d = centres[max(0, k - 1 - win)] - wrist
                 axis = d / np.linalg.norm(d) if np.linalg.norm(d) > 1e-9 else -direction
-                return WristCut(
+                cut = WristCut(
                     palm_centre=wrist - ref * axis,
                     palm_radius=0.5 * ref,
                     direction=axis,
                     wrist=np.asarray(wrist, dtype=float),
                     width=float(widths[k - 1]) if not np.isnan(widths[k - 1]) else ref,
                 )
+                return cut
         centres.append(centre)
         widths.append(width)
     return None
