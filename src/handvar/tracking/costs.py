@@ -150,6 +150,21 @@ class CostSettings:
         as_float(self.pixel_scale, "pixel_scale", minimum=0.0, exclusive_minimum=True)
         as_int(self.roi_margin, "roi_margin", minimum=0)
 
+    def total(self, c_s: float, c_f: float, c_k: float, c_z: float) -> float:
+        """C = w_s C_s + w_f C_f + w_k C_k + w_z C_z of the unweighted terms."""
+        return (
+            self.weight_silhouette * c_s + self.weight_filling * c_f
+            + self.weight_keypoints * c_k + self.weight_front * c_z
+        )  # fmt: skip
+
+    def joint_terms(self, P, JP, cams, keypoints, *, length: float, residuals: bool = False):
+        """C_k and C_z of G(x) with these settings (`keypoint_cost.joint_terms`)."""
+        return joint_terms(
+            P, JP, cams, keypoints, length=length, huber=self.keypoint_huber, near=self.near,
+            weight_keypoints=self.weight_keypoints, weight_front=self.weight_front,
+            front_scale=self.front_scale, residuals=residuals,
+        )  # fmt: skip
+
 
 # --- per-frame preprocessing --------------------------------------------------------------
 
@@ -559,17 +574,12 @@ class SilhouetteCost:
         P = np.empty((self._joint_bone.shape[0], 3))
         JP = np.empty((P.shape[0], 3, N_PARAMS))
         _attached_all(Q, JQ, self._joint_bone, self._joint_local, P, JP)  # G(x), dG/dx
-        c_k, c_z, g_j, gn_j, r_j, J_j = joint_terms(
-            P, JP, self._cams, keypoints, length=self.length, huber=s.keypoint_huber,
-            near=s.near, weight_keypoints=s.weight_keypoints, weight_front=s.weight_front,
-            front_scale=s.front_scale, residuals=residuals,
-        )  # fmt: skip
+        c_k, c_z, g_j, gn_j, r_j, J_j = s.joint_terms(
+            P, JP, self._cams, keypoints, length=self.length, residuals=residuals
+        )
         g += g_j
         gn += gn_j
-        cost = (
-            s.weight_silhouette * c_s + s.weight_filling * c_f
-            + s.weight_keypoints * c_k + s.weight_front * c_z
-        )  # fmt: skip
+        cost = s.total(c_s, c_f, c_k, c_z)
         if residuals:
             r = np.concatenate([r, r_j])
             J = np.concatenate([J, J_j])

@@ -27,7 +27,7 @@ from handvar.camera import Rig
 from handvar.hand.kinematics import _JOINT_BONE  # the bone of each of the 21 points
 from handvar.params import N_PARAMS, check_pose
 from handvar.tracking.costs import CostSettings, CostTerms, FrameData, prepare_frame
-from handvar.tracking.keypoint_cost import hand_length, joint_terms
+from handvar.tracking.keypoint_cost import hand_length
 
 __all__ = ["MeshSamplesDrawn", "MeshSilhouetteCost"]
 
@@ -166,21 +166,16 @@ class MeshSilhouetteCost:
             r[base + 2 * N : base + 2 * (N + M)] = (a_f * res_f).ravel()
             J[base + 2 * N : base + 2 * (N + M)] = (a_f * dh).reshape(2 * M, N_PARAMS)
         P, JP = self.hand.points(x, _JOINT_BONE, self.hand._joint_local, jacobian=True)
-        c_k, c_z, _, _, r_j, J_j = joint_terms(
-            P, JP, self._cams, keypoints, length=self.length, huber=s.keypoint_huber,
-            near=s.near, weight_keypoints=s.weight_keypoints, weight_front=s.weight_front,
-            front_scale=s.front_scale, residuals=True,
-        )  # fmt: skip
+        c_k, c_z, _, _, r_j, J_j = s.joint_terms(
+            P, JP, self._cams, keypoints, length=self.length, residuals=True
+        )
         r = np.concatenate([r, r_j])
         J = np.concatenate([J, J_j])
         g = J.T @ r
         gn = np.einsum("rk,rk->k", J, J)
         c_s = 0.5 * parts[0] / (N * n_active * scale2)
         c_f = 0.5 * parts[1] / (M * n_active * scale2)
-        cost = (
-            s.weight_silhouette * c_s + s.weight_filling * c_f
-            + s.weight_keypoints * c_k + s.weight_front * c_z
-        )  # fmt: skip
+        cost = s.total(c_s, c_f, c_k, c_z)
         return CostTerms(
             float(cost), float(c_s), float(c_f), g, sens, gn, r if residuals else None,
             J if residuals else None, c_k, c_z,

@@ -476,9 +476,10 @@ class Tracker:
             from handvar.render import silhouettes
 
             iou = silhouette_iou(silhouettes(self.hand, x, self.rig), masks)
-        kp_err = reprojection_error(
-            self.hand.joints(x), self.rig, kp, self._length, near=s.cost.near
-        )
+        kp_err = np.nan  # no keypoints: no G(x) to compare
+        if kp is not None:
+            G = self.hand.joints(x)
+            kp_err = reprojection_error(G, self.rig, kp, self._length, near=s.cost.near)
         mean_iou = _nanmean(iou)
         lost = bool(
             empty.all() or mean_iou < q.lost_iou or kp_err > q.lost_keypoint_error
