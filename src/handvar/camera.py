@@ -61,15 +61,9 @@ from handvar.geometry.distortion import (
     distortion_coefficients,
     padded,
 )
-from handvar.validate import as_array, as_float, as_instance
+from handvar.validate import as_array, as_float, as_instance, readonly
 
 __all__ = ["Camera", "PackedRig", "Rig"]
-
-
-def _readonly(arr: np.ndarray) -> np.ndarray:
-    arr = np.array(arr, dtype=float)
-    arr.flags.writeable = False
-    return arr
 
 
 # --- Camera --------------------------------------------------------------------------
@@ -120,9 +114,9 @@ class Camera:
         R = as_array(self.R, "R", (3, 3))
         if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
             raise ValueError("R: expected a rotation matrix (orthonormal, det +1); got " + repr(R))
-        object.__setattr__(self, "R", _readonly(R))
-        object.__setattr__(self, "t", _readonly(as_array(self.t, "t", (3,))))
-        object.__setattr__(self, "dist", _readonly(distortion_coefficients(self.dist)))
+        object.__setattr__(self, "R", readonly(R))
+        object.__setattr__(self, "t", readonly(as_array(self.t, "t", (3,))))
+        object.__setattr__(self, "dist", readonly(distortion_coefficients(self.dist)))
         try:
             w, h = (int(v) for v in self.size)
         except (TypeError, ValueError):

@@ -36,6 +36,7 @@ __all__ = [
     "as_int",
     "fmt_shape",
     "one_of",
+    "readonly",
 ]
 
 
@@ -212,6 +213,13 @@ def one_of(value, options: Iterable, name: str):
     if not ok:
         raise ValueError(f"{name}: expected one of {', '.join(map(str, options))}; got {value!r}")
     return value
+
+
+def readonly(value, dtype=float) -> np.ndarray:
+    """A read-only copy of `value` as an array of `dtype` (frozen dataclasses' fields)."""
+    arr = np.array(value, dtype=dtype)
+    arr.flags.writeable = False
+    return arr
 
 
 def _short(value, limit: int = 60) -> str:

@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from handvar.params import DIGITS
-from handvar.validate import as_array, as_instance
+from handvar.validate import as_array, as_instance, readonly
 
 #: The 16 bones, in the order used by `HandModel.bone_frames` and by
 #: `SurfaceSamples.bone`: the palm, then three bones per digit, proximal first.
@@ -162,17 +162,11 @@ def _rot_z(deg: float) -> np.ndarray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
-def _readonly(a) -> np.ndarray:
-    arr = np.array(a, dtype=float)
-    arr.flags.writeable = False
-    return arr
-
-
 def _check(value, shape: tuple[int, ...], name: str, *, positive: bool = False) -> np.ndarray:
     arr = as_array(value, name, shape)
     if positive and not np.all(arr > 0):
         raise ValueError(f"{name}: expected positive values; got minimum {arr.min()}")
-    return _readonly(arr)
+    return readonly(arr)
 
 
 def _positive_mm(value, name: str) -> float:
@@ -255,7 +249,7 @@ class HandShape:
         tip = self.segments[:, 2] - self.radii[:, 3]
         if np.any(tip <= 0):
             raise ValueError("radii: expected tip radii shorter than the distal bones")
-        set_(self, "tip_offsets", _readonly(tip))
+        set_(self, "tip_offsets", readonly(tip))
 
     @classmethod
     def from_size(

@@ -17,15 +17,9 @@ import numpy as np
 
 from handvar.geometry.cone_spheres import cone_sphere_sdf, sample_cone_spheres
 from handvar.hand.anthropometry import BONES, HandShape, bone_index
-from handvar.validate import as_array, as_instance, as_int
+from handvar.validate import as_array, as_instance, as_int, readonly
 
 __all__ = ["Primitives", "SurfacePool", "SurfaceSamples", "hand_primitives"]
-
-
-def _readonly(a, dtype=float) -> np.ndarray:
-    arr = np.array(a, dtype=dtype)
-    arr.flags.writeable = False
-    return arr
 
 
 # --- primitives ------------------------------------------------------------------------
@@ -74,9 +68,9 @@ class Primitives:
                 "centres, radii: expected end spheres that do not contain each other "
                 f"(|c2 - c1| > |r1 - r2|); got primitives {np.flatnonzero(bad).tolist()}"
             )
-        object.__setattr__(self, "bone", _readonly(bone, np.intp))
-        object.__setattr__(self, "centres", _readonly(centres))
-        object.__setattr__(self, "radii", _readonly(radii))
+        object.__setattr__(self, "bone", readonly(bone, np.intp))
+        object.__setattr__(self, "centres", readonly(centres))
+        object.__setattr__(self, "radii", readonly(radii))
         names = tuple(self.names) or tuple(f"primitive{i}" for i in range(p))
         if len(names) != p:
             raise ValueError(f"names: expected {p} names; got {len(names)}")
@@ -209,14 +203,14 @@ class SurfacePool:
             sdf = cone_sphere_sdf(rest_centres, primitives.radii, world[sl])
             buried[sl] = np.any((sdf < -tolerance) & neighbours[prim[sl]], axis=1)
         self.all = SurfaceSamples(
-            _readonly(bone, np.intp), _readonly(local), _readonly(normal), _readonly(prim, np.intp)
+            readonly(bone, np.intp), readonly(local), readonly(normal), readonly(prim, np.intp)
         )
         keep = ~buried
         self.exposed = SurfaceSamples(
-            _readonly(bone[keep], np.intp),
-            _readonly(local[keep]),
-            _readonly(normal[keep]),
-            _readonly(prim[keep], np.intp),
+            readonly(bone[keep], np.intp),
+            readonly(local[keep]),
+            readonly(normal[keep]),
+            readonly(prim[keep], np.intp),
         )
 
     def draw(self, n: int, rng: np.random.Generator, *, exposed: bool = True) -> SurfaceSamples:
