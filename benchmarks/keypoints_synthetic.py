@@ -73,6 +73,9 @@ def main() -> None:
     ap.add_argument("--rigs", default="mono,stereo")
     ap.add_argument("--weight", type=float, default=None, help="w_k (default: CostSettings)")
     ap.add_argument("--huber", type=float, default=None, help="δ (default: CostSettings)")
+    ap.add_argument("--loss", default=None, help="C_k's loss, huber or tukey (CostSettings)")
+    ap.add_argument("--refine", type=int, default=None, help="refinement steps (RefineSettings)")
+    ap.add_argument("--refine-samples", type=int, default=None, help="RefineSettings.samples")
     ap.add_argument("--stop", type=float, default=None, help="keypoint_stop (SMDSettings)")
     ap.add_argument("--modes", default="silhouettes,keypoints")
     ap.add_argument("--noise", type=float, default=3.0, help="keypoint noise, px")
@@ -87,15 +90,26 @@ def main() -> None:
         cost = dataclasses.replace(cost, weight_keypoints=args.weight)
     if args.huber is not None:
         cost = dataclasses.replace(cost, keypoint_huber=args.huber)
+    if args.loss is not None:
+        cost = dataclasses.replace(cost, keypoint_loss=args.loss)
     settings = dataclasses.replace(settings, cost=cost)
+    if args.refine is not None:
+        settings = dataclasses.replace(
+            settings, refine=dataclasses.replace(settings.refine, steps=args.refine)
+        )
+    if args.refine_samples is not None:
+        settings = dataclasses.replace(
+            settings, refine=dataclasses.replace(settings.refine, samples=args.refine_samples)
+        )
     if args.stop is not None:
         settings = dataclasses.replace(
             settings, smd=dataclasses.replace(settings.smd, keypoint_stop=args.stop)
         )
     print(f"benchmark sequence, {stereo.n_frames} frames, predictor {args.predictor}, "
           f"{args.trials} trials, w_k {settings.cost.weight_keypoints}, "
-          f"δ {settings.cost.keypoint_huber}, "
-          f"keypoint_stop {settings.smd.keypoint_stop}")  # fmt: skip
+          f"loss {settings.cost.keypoint_loss}, δ {settings.cost.keypoint_huber}, "
+          f"keypoint_stop {settings.smd.keypoint_stop}, refine {settings.refine.steps} steps "
+          f"x{settings.refine.samples} samples")  # fmt: skip
     scales(stereo, hand, settings)
     for rig_name in args.rigs.split(","):
         seq = stereo if rig_name == "stereo" else mono(stereo)

@@ -136,6 +136,7 @@ class CostSettings:
     curvature_floor: float = 0.1
     weight_keypoints: float = 100.0
     keypoint_huber: float = 0.1
+    keypoint_loss: str = "huber"
     near: float = 100.0
     weight_front: float = 1.0
     front_scale: float = 10.0
@@ -162,7 +163,7 @@ class CostSettings:
         return joint_terms(
             P, JP, cams, keypoints, length=length, huber=self.keypoint_huber, near=self.near,
             weight_keypoints=self.weight_keypoints, weight_front=self.weight_front,
-            front_scale=self.front_scale, residuals=residuals,
+            front_scale=self.front_scale, residuals=residuals, loss=self.keypoint_loss,
         )  # fmt: skip
 
 

@@ -1,0 +1,225 @@
+"""Levenberg–Marquardt refinement of a stochastic least-squares cost (design §14.2).
+
+SMD (`handvar.tracking.smd`) takes one diagonal step per fresh sample and stops at the
+first iteration that passes its test, so the pose it returns is the optimum blurred by
+the sampling noise of its last few gradients. On frames with keypoints the tracker then
+takes a few damped Gauss–Newton steps on the same cost, C = ½ rᵀr with r the stacked
+residuals of every term (`handvar.tracking.costs.CostTerms.residuals`)::
+
+    A = JᵀJ,  g = Jᵀr                               (fresh samples, matches held fixed)
+    (A + λ D) δ = −g,   D = diag(A) + ε · max diag(A)          (Marquardt's scaling)
+    x' = clamp(project(x + δ))                              (joint limits, front)
+
+A step is taken when it lowers the cost on the samples it was computed from (λ ← λ/3);
+otherwise λ ← 4λ and the step is solved again, at most `RefineSettings.max_tries` times.
+The full 26 × 26 matrix couples the parameters that the diagonal preconditioner of SMD
+treats apart: the palm's depth and its tilt, a finger's flexions. With the residuals of
+C_k in IRLS form (r = a β(d) e, `handvar.tracking.keypoint_cost`) these are
+Gauss–Newton steps of the robust cost.
+
+The paper has no such step; the tracker runs it only on frames with keypoints.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from handvar.params import LOWER, UPPER
+from handvar.validate import as_float, as_int
+
+__all__ = ["RefineResult", "RefineSettings", "lm_step", "normal_equations", "refine"]
+
+
+@dataclass(frozen=True)
+class RefineSettings:
+    """Settings of `refine` (design §14.2; not in the paper).
+
+    Attributes
+    ----------
+    steps : int
+        Gauss–Newton steps, each on fresh samples, 5; 0 turns the refinement off.
+    damping : float
+        λ of the first step, 1e-3.
+    max_tries : int
+        Solves per step before it is given up (λ grows 4× per try), 4.
+    floor : float
+        ε of D = diag(A) + ε · max diag(A): a parameter no residual moves still gets a
+        bounded step, 1e-6.
+    samples : int
+        The tracker draws this many times the cost's surface and silhouette samples
+        (`CostSettings.n_surface`, `n_pixels`) for each step: fewer random residuals
+        blur the optimum less.
+    """
+
+    steps: int = 5
+    damping: float = 1e-3
+    max_tries: int = 4
+    floor: float = 1e-6
+    samples: int = 1
+
+    def __post_init__(self) -> None:
+        as_int(self.steps, "steps", minimum=0)
+        as_float(self.damping, "damping", minimum=0.0, exclusive_minimum=True)
+        as_int(self.max_tries, "max_tries", minimum=1)
+        as_float(self.floor, "floor", minimum=0.0, exclusive_minimum=True)
+        as_int(self.samples, "samples", minimum=1)
+
+
+@dataclass(frozen=True, eq=False)
+class RefineResult:
+    """Outcome of `refine`.
+
+    Attributes
+    ----------
+    x : (d,) ndarray
+        Final parameters.
+    costs : (k,) ndarray
+        The cost at the start of every step, on that step's samples.
+    evaluations : int
+        Cost evaluations in all (with and without the Jacobian).
+    accepted : int
+        Steps taken.
+    """
+
+    x: np.ndarray
+    costs: np.ndarray
+    evaluations: int
+    accepted: int
+
+
+@njit(cache=True)
+def normal_equations(r: np.ndarray, J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """JᵀJ (d, d) and Jᵀr (d,), skipping the rows of J that are zero.
+
+    Compiled rather than ``J.T @ J``: for these small products a multi-threaded BLAS
+    spends more time synchronising its threads than computing, and most rows of the
+    silhouette terms are zero (samples that fit).
+    """
+    d = J.shape[1]
+    A = np.zeros((d, d))
+    g = np.zeros(d)
+    for i in range(J.shape[0]):
+        row = J[i]
+        nonzero = False
+        for a in range(d):
+            if row[a] != 0.0:
+                nonzero = True
+                break
+        if not nonzero:
+            continue
+        for a in range(d):
+            ja = row[a]
+            if ja == 0.0:
+                continue
+            g[a] += ja * r[i]
+            for b in range(a, d):
+                A[a, b] += ja * row[b]
+    for a in range(d):
+        for b in range(a):
+            A[a, b] = A[b, a]
+    return A, g
+
+
+def lm_step(r: np.ndarray, J: np.ndarray, lam: float, floor: float = 1e-6) -> np.ndarray:
+    """The damped Gauss–Newton step δ of ½|r|², ``(JᵀJ + λ D) δ = −Jᵀr`` (module docstring).
+
+    Parameters
+    ----------
+    r : (R,) ndarray
+        Residuals.
+    J : (R, d) ndarray
+        Their Jacobian.
+    lam : float
+        λ.
+    floor : float
+        ε of D = diag(JᵀJ) + ε · max diag(JᵀJ).
+
+    Returns
+    -------
+    (d,) ndarray
+
+    Examples
+    --------
+    >>> J = np.array([[2.0, 0.0], [0.0, 1.0]]); r = np.array([4.0, -1.0])
+    >>> lm_step(r, J, 1e-12)
+    array([-2.,  1.])
+    """
+    A, g = normal_equations(np.ascontiguousarray(r, dtype=float),
+                            np.ascontiguousarray(J, dtype=float))  # fmt: skip
+    h = np.diag(A).copy()
+    top = float(h.max()) if h.size else 0.0
+    D = h + floor * (top if top > 0.0 else 1.0)
+    return np.linalg.solve(A + lam * np.diag(D), -g)
+
+
+def refine(
+    draw: Callable[[], Callable[[np.ndarray, bool], tuple]],
+    x0,
+    settings: RefineSettings | None = None,
+    *,
+    lower: np.ndarray | None = LOWER,
+    upper: np.ndarray | None = UPPER,
+    project: Callable[[np.ndarray], np.ndarray] | None = None,
+) -> RefineResult:
+    """Refine `x0` by damped Gauss–Newton steps on a stochastic cost (module docstring).
+
+    Parameters
+    ----------
+    draw : callable
+        ``draw() -> f`` with fresh samples; ``f(x, jacobian) -> (cost, r, J)`` evaluates
+        the cost on those samples at x, with the residuals r (R,) and their Jacobian
+        (R, d) when `jacobian` is true (None otherwise), ``cost = ½ rᵀr``.
+    x0 : (d,) array_like
+        Start.
+    settings : RefineSettings, optional
+    lower, upper : (d,) ndarray or None, keyword-only
+        Box the steps are clamped to (the joint limits by default).
+    project : callable, keyword-only, optional
+        ``project(x) -> x`` applied to every candidate before the box (the tracker's
+        front projection).
+
+    Returns
+    -------
+    RefineResult
+
+    Examples
+    --------
+    >>> A = np.array([[3.0, 1.0], [1.0, 2.0]]); b = np.array([1.0, 4.0])
+    >>> def draw():
+    ...     return lambda x, jac: (0.5 * np.sum((A @ x - b) ** 2), A @ x - b, A)
+    >>> res = refine(draw, np.zeros(2), lower=None, upper=None)
+    >>> np.allclose(res.x, np.linalg.solve(A, b), atol=1e-6)
+    True
+    """
+    s = RefineSettings() if settings is None else settings
+    x = np.array(x0, dtype=float)
+
+    def admissible(z):
+        if project is not None:
+            z = np.asarray(project(z), dtype=float)
+        if lower is not None or upper is not None:
+            z = np.clip(z, lower, upper)
+        return z
+
+    lam = s.damping
+    costs = np.empty(s.steps)
+    evaluations = accepted = 0
+    for k in range(s.steps):
+        f = draw()
+        cost, r, J = f(x, True)
+        evaluations += 1
+        costs[k] = cost
+        for _ in range(s.max_tries):
+            candidate = admissible(x + lm_step(np.asarray(r), np.asarray(J), lam, s.floor))
+            evaluations += 1
+            if f(candidate, False)[0] < cost:
+                x = candidate
+                accepted += 1
+                lam = max(lam / 3.0, 1e-12)
+                break
+            lam *= 4.0
+    return RefineResult(x, costs, evaluations, accepted)
