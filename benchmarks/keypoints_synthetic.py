@@ -76,6 +76,10 @@ def main() -> None:
     ap.add_argument("--loss", default=None, help="C_k's loss, huber or tukey (CostSettings)")
     ap.add_argument("--refine", type=int, default=None, help="refinement steps (RefineSettings)")
     ap.add_argument("--refine-samples", type=int, default=None, help="RefineSettings.samples")
+    ap.add_argument("--fixed", action="store_true", help="RefineSettings.resample False")
+    ap.add_argument("--rw", type=float, default=None)
+    ap.add_argument("--rloss", default=None)
+    ap.add_argument("--rscale", type=float, default=None)
     ap.add_argument("--stop", type=float, default=None, help="keypoint_stop (SMDSettings)")
     ap.add_argument("--modes", default="silhouettes,keypoints")
     ap.add_argument("--noise", type=float, default=3.0, help="keypoint noise, px")
@@ -101,6 +105,16 @@ def main() -> None:
         settings = dataclasses.replace(
             settings, refine=dataclasses.replace(settings.refine, samples=args.refine_samples)
         )
+    if args.fixed:
+        settings = dataclasses.replace(
+            settings, refine=dataclasses.replace(settings.refine, resample=False)
+        )
+    for key, val in (("weight_keypoints", args.rw), ("keypoint_loss", args.rloss),
+                     ("keypoint_scale", args.rscale)):
+        if val is not None:
+            settings = dataclasses.replace(
+                settings, refine=dataclasses.replace(settings.refine, **{key: val})
+            )
     if args.stop is not None:
         settings = dataclasses.replace(
             settings, smd=dataclasses.replace(settings.smd, keypoint_stop=args.stop)

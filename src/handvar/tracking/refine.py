@@ -59,7 +59,11 @@ class RefineSettings:
     damping: float = 1e-3
     max_tries: int = 4
     floor: float = 1e-6
-    samples: int = 1
+    samples: int = 4
+    resample: bool = True
+    keypoint_loss: str = "tukey"
+    keypoint_scale: float = 0.2
+    weight_keypoints: float = 10.0
 
     def __post_init__(self) -> None:
         as_int(self.steps, "steps", minimum=0)
@@ -207,19 +211,23 @@ def refine(
 
     lam = s.damping
     costs = np.empty(s.steps)
-    evaluations = accepted = 0
+    f = draw()
+    cost, r, J = f(x, True)
+    evaluations, accepted = 1, 0
     for k in range(s.steps):
-        f = draw()
-        cost, r, J = f(x, True)
-        evaluations += 1
         costs[k] = cost
         for _ in range(s.max_tries):
             candidate = admissible(x + lm_step(np.asarray(r), np.asarray(J), lam, s.floor))
+            c_new, r_new, J_new = f(candidate, not s.resample)
             evaluations += 1
-            if f(candidate, False)[0] < cost:
-                x = candidate
+            if c_new < cost:
+                x, cost, r, J = candidate, c_new, r_new, J_new
                 accepted += 1
                 lam = max(lam / 3.0, 1e-12)
                 break
             lam *= 4.0
+        if s.resample and k + 1 < s.steps:
+            f = draw()
+            cost, r, J = f(x, True)
+            evaluations += 1
     return RefineResult(x, costs, evaluations, accepted)

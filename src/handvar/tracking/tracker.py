@@ -337,11 +337,13 @@ class Tracker:
         else:
             self.cost = SilhouetteCost(hand, rig, settings.cost)
         self._front = front_projection(rig, settings.cost.near)
-        self._refine_cost = self.cost
-        if settings.refine.samples > 1:
-            c, k = settings.cost, settings.refine.samples
-            dense = replace(c, n_surface=k * c.n_surface, n_pixels=k * c.n_pixels)
-            self._refine_cost = type(self.cost)(hand, rig, dense)
+        c, rs = settings.cost, settings.refine
+        dense = replace(
+            c, n_surface=rs.samples * c.n_surface, n_pixels=rs.samples * c.n_pixels,
+            keypoint_loss=rs.keypoint_loss, keypoint_huber=rs.keypoint_scale,
+            weight_keypoints=rs.weight_keypoints,
+        )  # fmt: skip
+        self._refine_cost = type(self.cost)(hand, rig, dense)
         self._length = hand_length(hand)
         self._x0: np.ndarray | None = None
         self._n = 0
