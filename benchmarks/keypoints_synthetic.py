@@ -23,6 +23,7 @@ from handvar.hand import HandModel
 from handvar.predictors.catalogue import make_predictor
 from handvar.synth import make_sequence, synthetic_keypoints
 from handvar.tracking import Tracker, TrackerSettings
+from handvar.tracking.refine import RefineSettings
 
 THUMB_TIP = 4
 THUMB_FRAMES = slice(160, 176)
@@ -74,12 +75,8 @@ def main() -> None:
     ap.add_argument("--weight", type=float, default=None, help="w_k (default: CostSettings)")
     ap.add_argument("--huber", type=float, default=None, help="δ (default: CostSettings)")
     ap.add_argument("--loss", default=None, help="C_k's loss, huber or tukey (CostSettings)")
-    ap.add_argument("--refine", type=int, default=None, help="refinement steps (RefineSettings)")
-    ap.add_argument("--refine-samples", type=int, default=None, help="RefineSettings.samples")
-    ap.add_argument("--fixed", action="store_true", help="RefineSettings.resample False")
-    ap.add_argument("--rw", type=float, default=None)
-    ap.add_argument("--rloss", default=None)
-    ap.add_argument("--rscale", type=float, default=None)
+    ap.add_argument("--refine", default=None,
+                    help="RefineSettings fields, e.g. steps=0 or samples=2,weight_keypoints=5")
     ap.add_argument("--stop", type=float, default=None, help="keypoint_stop (SMDSettings)")
     ap.add_argument("--modes", default="silhouettes,keypoints")
     ap.add_argument("--noise", type=float, default=3.0, help="keypoint noise, px")
@@ -97,24 +94,14 @@ def main() -> None:
     if args.loss is not None:
         cost = dataclasses.replace(cost, keypoint_loss=args.loss)
     settings = dataclasses.replace(settings, cost=cost)
-    if args.refine is not None:
-        settings = dataclasses.replace(
-            settings, refine=dataclasses.replace(settings.refine, steps=args.refine)
-        )
-    if args.refine_samples is not None:
-        settings = dataclasses.replace(
-            settings, refine=dataclasses.replace(settings.refine, samples=args.refine_samples)
-        )
-    if args.fixed:
-        settings = dataclasses.replace(
-            settings, refine=dataclasses.replace(settings.refine, resample=False)
-        )
-    for key, val in (("weight_keypoints", args.rw), ("keypoint_loss", args.rloss),
-                     ("keypoint_scale", args.rscale)):
-        if val is not None:
-            settings = dataclasses.replace(
-                settings, refine=dataclasses.replace(settings.refine, **{key: val})
-            )
+    if args.refine:
+        fields = {f.name: f.type for f in dataclasses.fields(RefineSettings)}
+        values = {}
+        for item in args.refine.split(","):
+            key, value = item.split("=")
+            kind = {"int": int, "float": float, "bool": lambda v: v == "True"}.get(fields[key], str)
+            values[key] = kind(value)
+        settings = dataclasses.replace(settings, refine=dataclasses.replace(settings.refine, **values))
     if args.stop is not None:
         settings = dataclasses.replace(
             settings, smd=dataclasses.replace(settings.smd, keypoint_stop=args.stop)
