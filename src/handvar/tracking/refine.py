@@ -55,11 +55,11 @@ class RefineSettings:
         blur the optimum less.
     """
 
-    steps: int = 5
-    damping: float = 1e-3
+    steps: int = 2
+    damping: float = 0.1
     max_tries: int = 4
-    floor: float = 1e-6
-    samples: int = 4
+    floor: float = 0.01
+    samples: int = 2
     resample: bool = True
     keypoint_loss: str = "tukey"
     keypoint_scale: float = 0.2
