@@ -15,9 +15,12 @@ missing). The pixel distance is normalised by the hand's projected size::
     C_k = Σ_j Σ_i c_ij ρ(d_ij) / (21 n_k)     n_k = cameras with any keypoint
 
 with Huber's loss ρ(d) = ½ d² for d ≤ δ and δ (d − ½ δ) beyond (δ = `keypoint_huber`,
-0.1 hand sizes). The depth in s_j is floored at `near`. Each point gives two residual
-rows r = a β(d) e with β = √(2ρ(d)) / d, so that ½ |r|² = a² ρ(d) exactly; their
-Jacobian is exact (β's derivative included) and the gradient is Jᵀ r.
+0.1 hand sizes), or Tukey's biweight ρ(d) = c²/6 (1 − (1 − d²/c²)³) for d ≤ c and c²/6
+beyond (c = the same setting; ``loss="tukey"``, the tracker's refinement). The depth in
+s_j is floored at `near`. Each point gives two residual rows r = a β(d) e with
+β = √(2ρ(d)) / d, so that ½ |r|² = a² ρ(d) exactly (for Tukey's loss β² = 1 − u + u²/3,
+u = d²/c², below c, and c / (√3 d) beyond); their Jacobian is exact (β's derivative
+included) and the gradient is Jᵀ r.
 
 C_z, the hand in front of every camera (design §13)
 ---------------------------------------------------
@@ -39,6 +42,7 @@ from handvar.geometry.distortion import project_point
 from handvar.validate import as_array
 
 __all__ = [
+    "LOSSES",
     "frame_keypoints",
     "hand_length",
     "joint_terms",
@@ -171,9 +175,12 @@ def joint_terms(P, JP, cams, keypoints, *, length, huber, near, weight_keypoints
     keypoints : (n_cams, 21, 3) ndarray or None
         x, y, confidence per camera (`frame_keypoints`); None for no keypoint term.
     length, huber, near, weight_keypoints, weight_front, front_scale : float, keyword-only
-        L (mm), δ (hand sizes), the near depth (mm), w_k, w_z and the hinge's unit (mm).
+        L (mm), the loss's scale δ or c (hand sizes), the near depth (mm), w_k, w_z and
+        the hinge's unit (mm).
     residuals : bool, keyword-only
         Also return the residual rows and their Jacobian.
+    loss : {"huber", "tukey"}, keyword-only
+        C_k's loss ρ (module docstring).
 
     Returns
     -------

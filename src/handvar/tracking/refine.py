@@ -1,23 +1,36 @@
 """Levenberg–Marquardt refinement of a stochastic least-squares cost (design §14.2).
 
-SMD (`handvar.tracking.smd`) takes one diagonal step per fresh sample and stops at the
-first iteration that passes its test, so the pose it returns is the optimum blurred by
-the sampling noise of its last few gradients. On frames with keypoints the tracker then
-takes a few damped Gauss–Newton steps on the same cost, C = ½ rᵀr with r the stacked
-residuals of every term (`handvar.tracking.costs.CostTerms.residuals`)::
+SMD (`handvar.tracking.smd`) takes one diagonally preconditioned step per fresh sample
+and stops at the first iteration that passes its test, so the pose it returns is the
+optimum blurred by the sampling noise of its last gradients and by the directions its
+diagonal scaling ignores. On frames with keypoints the tracker then takes a few damped
+Gauss–Newton steps on the cost C = ½ rᵀr, r the stacked residuals of every term
+(`handvar.tracking.costs.CostTerms.residuals`)::
 
-    A = JᵀJ,  g = Jᵀr                               (fresh samples, matches held fixed)
-    (A + λ D) δ = −g,   D = diag(A) + ε · max diag(A)          (Marquardt's scaling)
-    x' = clamp(project(x + δ))                              (joint limits, front)
+    A = JᵀJ,  g = Jᵀr                    (samples drawn for the step, matches held fixed)
+    (A + λ D) δ = −g,   D = diag(A) + ε · max diag(A)           (Marquardt's scaling)
+    x' = clamp(project(x + δ))                                (joint limits, front)
 
 A step is taken when it lowers the cost on the samples it was computed from (λ ← λ/3);
 otherwise λ ← 4λ and the step is solved again, at most `RefineSettings.max_tries` times.
-The full 26 × 26 matrix couples the parameters that the diagonal preconditioner of SMD
-treats apart: the palm's depth and its tilt, a finger's flexions. With the residuals of
-C_k in IRLS form (r = a β(d) e, `handvar.tracking.keypoint_cost`) these are
-Gauss–Newton steps of the robust cost.
+The full 26 × 26 matrix couples the parameters that SMD's diagonal treats apart (the
+palm's depth and tilt, a finger's flexions); the floor ε bounds the step along a
+direction that no residual constrains (a finger's flexion towards a single camera), so
+that the refinement does not jump to the other branch of an ambiguity that SMD and the
+motion prediction had settled.
 
-The paper has no such step; the tracker runs it only on frames with keypoints.
+The refinement's cost is the tracker's with three changes (`RefineSettings`): more
+samples per step, and C_k with Tukey's redescending loss and a lower weight. SMD keeps
+Huber's loss and w_k = 100: from a prediction that may be far off, a convex loss and a
+strong pull bring a finger back into the basin; there, a detection more than c = 0.2
+hand sizes off is a wrong one, and Tukey's loss drops it where Huber's still pulls with
+force δ; w_k = 10 leaves the silhouettes, exact where they see a part, to place it, and
+the keypoints to settle what they leave open. With the residuals of C_k in IRLS form
+(r = a β(d) e, `handvar.tracking.keypoint_cost`) the steps are Gauss–Newton steps of the
+robust cost.
+
+The paper has no such step; the tracker runs it only on frames with keypoints, so
+tracking without keypoints is the paper's.
 """
 
 from __future__ import annotations
@@ -29,7 +42,8 @@ import numpy as np
 from numba import njit
 
 from handvar.params import LOWER, UPPER
-from handvar.validate import as_float, as_int
+from handvar.tracking.keypoint_cost import LOSSES
+from handvar.validate import as_float, as_instance, as_int, one_of
 
 __all__ = ["RefineResult", "RefineSettings", "lm_step", "normal_equations", "refine"]
 
@@ -41,18 +55,27 @@ class RefineSettings:
     Attributes
     ----------
     steps : int
-        Gauss–Newton steps, each on fresh samples, 5; 0 turns the refinement off.
+        Gauss–Newton steps, 2; 0 turns the refinement off.
     damping : float
-        λ of the first step, 1e-3.
+        λ of the first step, 0.1.
     max_tries : int
         Solves per step before it is given up (λ grows 4× per try), 4.
     floor : float
-        ε of D = diag(A) + ε · max diag(A): a parameter no residual moves still gets a
-        bounded step, 1e-6.
+        ε of D = diag(A) + ε · max diag(A), 0.01: the damping of a parameter that no
+        residual moves is at least λ ε times the curvature of the best constrained one.
     samples : int
         The tracker draws this many times the cost's surface and silhouette samples
-        (`CostSettings.n_surface`, `n_pixels`) for each step: fewer random residuals
+        (`CostSettings.n_surface`, `n_pixels`) for each step, 2: fewer random residuals
         blur the optimum less.
+    resample : bool
+        Fresh samples for every step (True); False keeps the first step's samples, so
+        that a taken step's evaluation serves as the next step's linearisation.
+    keypoint_loss : {"huber", "tukey"}
+        C_k's loss in the refinement's cost (`CostSettings.keypoint_loss`), "tukey".
+    keypoint_scale : float
+        Its scale (Tukey's c), hand sizes, 0.2.
+    weight_keypoints : float
+        w_k in the refinement's cost, 10.
     """
 
     steps: int = 2
@@ -71,6 +94,10 @@ class RefineSettings:
         as_int(self.max_tries, "max_tries", minimum=1)
         as_float(self.floor, "floor", minimum=0.0, exclusive_minimum=True)
         as_int(self.samples, "samples", minimum=1)
+        as_instance(self.resample, bool, "resample")
+        one_of(self.keypoint_loss, LOSSES, "keypoint_loss")
+        as_float(self.keypoint_scale, "keypoint_scale", minimum=0.0, exclusive_minimum=True)
+        as_float(self.weight_keypoints, "weight_keypoints", minimum=0.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -195,12 +222,14 @@ def refine(
     >>> A = np.array([[3.0, 1.0], [1.0, 2.0]]); b = np.array([1.0, 4.0])
     >>> def draw():
     ...     return lambda x, jac: (0.5 * np.sum((A @ x - b) ** 2), A @ x - b, A)
-    >>> res = refine(draw, np.zeros(2), lower=None, upper=None)
+    >>> res = refine(draw, np.zeros(2), RefineSettings(steps=10), lower=None, upper=None)
     >>> np.allclose(res.x, np.linalg.solve(A, b), atol=1e-6)
     True
     """
-    s = RefineSettings() if settings is None else settings
+    s = RefineSettings() if settings is None else as_instance(settings, RefineSettings, "settings")
     x = np.array(x0, dtype=float)
+    if x.ndim != 1 or not np.all(np.isfinite(x)):
+        raise ValueError(f"x0: expected a finite (d,) vector; got shape {x.shape}")
 
     def admissible(z):
         if project is not None:
