@@ -7,7 +7,13 @@ keypoints, over `--trials` seeds, it prints the mean joint error over all frames
 trials, the maximum thumb-tip error over frames 160–175 per trial (the thumb's return,
 which silhouettes lose), the frames flagged lost, the mean IoU and mean iterations.
 
+The tracker refines every frame with keypoints after SMD (`handvar.tracking.refine`,
+design §14.2); ``--refine steps=0`` tracks without the refinement, ``--refine
+FIELD=VALUE,...`` sets other `RefineSettings` fields; ``--weight``, ``--huber``,
+``--loss`` and ``--stop`` set SMD's keypoint term and stopping test.
+
     python benchmarks/keypoints_synthetic.py [--trials 10] [--predictor rvar] [--rigs mono,stereo]
+                                             [--frames T] [--refine steps=0]
 """
 
 from __future__ import annotations
@@ -75,8 +81,11 @@ def main() -> None:
     ap.add_argument("--weight", type=float, default=None, help="w_k (default: CostSettings)")
     ap.add_argument("--huber", type=float, default=None, help="δ (default: CostSettings)")
     ap.add_argument("--loss", default=None, help="C_k's loss, huber or tukey (CostSettings)")
-    ap.add_argument("--refine", default=None,
-                    help="RefineSettings fields, e.g. steps=0 or samples=2,weight_keypoints=5")
+    ap.add_argument(
+        "--refine",
+        default=None,
+        help="RefineSettings fields, e.g. steps=0 or samples=2,weight_keypoints=5",
+    )
     ap.add_argument("--stop", type=float, default=None, help="keypoint_stop (SMDSettings)")
     ap.add_argument("--modes", default="silhouettes,keypoints")
     ap.add_argument("--noise", type=float, default=3.0, help="keypoint noise, px")
@@ -101,7 +110,9 @@ def main() -> None:
             key, value = item.split("=")
             kind = {"int": int, "float": float, "bool": lambda v: v == "True"}.get(fields[key], str)
             values[key] = kind(value)
-        settings = dataclasses.replace(settings, refine=dataclasses.replace(settings.refine, **values))
+        settings = dataclasses.replace(
+            settings, refine=dataclasses.replace(settings.refine, **values)
+        )
     if args.stop is not None:
         settings = dataclasses.replace(
             settings, smd=dataclasses.replace(settings.smd, keypoint_stop=args.stop)
