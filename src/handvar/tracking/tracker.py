@@ -7,8 +7,10 @@ to the predictor. Frames can be given one at a time (`Tracker.step`, for a live 
 or as a whole `handvar.io.Sequence` (`Tracker.track`).
 
 Keypoints (design §14.2): a frame may come with 2D keypoints of the 21 points of G(x)
-per camera; the cost then has the keypoint term w_k C_k. A frame without keypoints is
-fitted on the silhouettes alone.
+per camera; the cost then has the keypoint term w_k C_k, and after SMD a few
+Levenberg–Marquardt steps refine the pose (`handvar.tracking.refine`, with Tukey's loss
+on the keypoints; `TrackerSettings.refine`). A frame without keypoints is fitted on the
+silhouettes alone, by SMD alone.
 
 The hand in front (design §13): after every SMD step the palm's origin is moved in front
 of every camera (`front_projection`), and the cost's C_z penalises joints closer than
