@@ -7,7 +7,13 @@ keypoints, over `--trials` seeds, it prints the mean joint error over all frames
 trials, the maximum thumb-tip error over frames 160–175 per trial (the thumb's return,
 which silhouettes lose), the frames flagged lost, the mean IoU and mean iterations.
 
+The tracker refines every frame with keypoints after SMD (`handvar.tracking.refine`,
+design §14.2); ``--refine steps=0`` tracks without the refinement, ``--refine
+FIELD=VALUE,...`` sets other `RefineSettings` fields; ``--weight``, ``--huber``,
+``--loss`` and ``--stop`` set SMD's keypoint term and stopping test.
+
     python benchmarks/keypoints_synthetic.py [--trials 10] [--predictor rvar] [--rigs mono,stereo]
+                                             [--frames T] [--refine steps=0]
 """
 
 from __future__ import annotations
@@ -23,6 +29,7 @@ from handvar.hand import HandModel
 from handvar.predictors.catalogue import make_predictor
 from handvar.synth import make_sequence, synthetic_keypoints
 from handvar.tracking import Tracker, TrackerSettings
+from handvar.tracking.refine import RefineSettings
 
 THUMB_TIP = 4
 THUMB_FRAMES = slice(160, 176)
@@ -73,6 +80,12 @@ def main() -> None:
     ap.add_argument("--rigs", default="mono,stereo")
     ap.add_argument("--weight", type=float, default=None, help="w_k (default: CostSettings)")
     ap.add_argument("--huber", type=float, default=None, help="δ (default: CostSettings)")
+    ap.add_argument("--loss", default=None, help="C_k's loss, huber or tukey (CostSettings)")
+    ap.add_argument(
+        "--refine",
+        default=None,
+        help="RefineSettings fields, e.g. steps=0 or samples=2,weight_keypoints=5",
+    )
     ap.add_argument("--stop", type=float, default=None, help="keypoint_stop (SMDSettings)")
     ap.add_argument("--modes", default="silhouettes,keypoints")
     ap.add_argument("--noise", type=float, default=3.0, help="keypoint noise, px")
@@ -87,15 +100,28 @@ def main() -> None:
         cost = dataclasses.replace(cost, weight_keypoints=args.weight)
     if args.huber is not None:
         cost = dataclasses.replace(cost, keypoint_huber=args.huber)
+    if args.loss is not None:
+        cost = dataclasses.replace(cost, keypoint_loss=args.loss)
     settings = dataclasses.replace(settings, cost=cost)
+    if args.refine:
+        fields = {f.name: f.type for f in dataclasses.fields(RefineSettings)}
+        values = {}
+        for item in args.refine.split(","):
+            key, value = item.split("=")
+            kind = {"int": int, "float": float, "bool": lambda v: v == "True"}.get(fields[key], str)
+            values[key] = kind(value)
+        settings = dataclasses.replace(
+            settings, refine=dataclasses.replace(settings.refine, **values)
+        )
     if args.stop is not None:
         settings = dataclasses.replace(
             settings, smd=dataclasses.replace(settings.smd, keypoint_stop=args.stop)
         )
     print(f"benchmark sequence, {stereo.n_frames} frames, predictor {args.predictor}, "
           f"{args.trials} trials, w_k {settings.cost.weight_keypoints}, "
-          f"δ {settings.cost.keypoint_huber}, "
-          f"keypoint_stop {settings.smd.keypoint_stop}")  # fmt: skip
+          f"loss {settings.cost.keypoint_loss}, δ {settings.cost.keypoint_huber}, "
+          f"keypoint_stop {settings.smd.keypoint_stop}, refine {settings.refine.steps} steps "
+          f"x{settings.refine.samples} samples")  # fmt: skip
     scales(stereo, hand, settings)
     for rig_name in args.rigs.split(","):
         seq = stereo if rig_name == "stereo" else mono(stereo)

@@ -7,8 +7,10 @@ frame, the mean joint error, and with ``--profile`` the top functions of a cProf
 With ``--keypoints`` it tracks the same frames again with synthetic keypoints (3 px
 noise, 10 % outliers, `handvar.synth.synthetic_keypoints`) and prints the same figures
 and the ratios of the times with keypoints to those without, per SMD iteration and per
-frame. The two runs alternate ``--repeats`` times and the medians are compared, since
-the machine may be shared.
+frame. Frames with keypoints are refined after SMD (`handvar.tracking.refine`); its time
+counts as optimisation, so the time "per iteration" with keypoints includes it. The two
+runs alternate ``--repeats`` times and the medians are compared, since the machine may
+be shared.
 
 With ``--model mesh`` the tracker fits the skinned mesh hand (§15) to the same
 sphere-mesh-rendered frames (model mismatch; the mesh's costs are not compiled, so this

@@ -46,11 +46,12 @@ def central_differences(f, x, h=1e-5):
     return np.array([(f(x + h * e) - f(x - h * e)) / (2 * h) for e in np.eye(x.size)])
 
 
+@pytest.mark.parametrize("loss", ["huber", "tukey"])
 @pytest.mark.parametrize("behind", [False, True])
-def test_gradient_matches_central_differences(setup, behind):
+def test_gradient_matches_central_differences(setup, behind, loss):
     hand, rig, x, frame = setup
     rng = np.random.default_rng(4)
-    cost = SilhouetteCost(hand, rig, ONLY_JOINTS)
+    cost = SilhouetteCost(hand, rig, dataclasses.replace(ONLY_JOINTS, keypoint_loss=loss))
     samples = cost.draw(frame, rng)
     kp = noisy_keypoints(hand, rig, x, rng)
     y = x + rng.normal(0.0, 3.0, 26)
@@ -59,28 +60,38 @@ def test_gradient_matches_central_differences(setup, behind):
     terms = cost.evaluate(y, frame, samples, residuals=True, keypoints=kp)
     fd = central_differences(lambda z: cost.evaluate(z, frame, samples, keypoints=kp).cost, y)
     np.testing.assert_allclose(terms.gradient, fd, rtol=1e-5, atol=1e-8 * np.abs(fd).max())
-    # the stacked rows reproduce the cost (Huber included) and the gradient
+    # the stacked rows reproduce the cost (the robust loss included) and the gradient
     np.testing.assert_allclose(0.5 * terms.residuals @ terms.residuals, terms.cost, rtol=1e-12)
     np.testing.assert_allclose(terms.jacobian.T @ terms.residuals, terms.gradient, atol=1e-12)
     assert (terms.front > 0) == behind
 
 
-def test_keypoint_term_matches_plain_reference(setup):
+def huber(d, delta):
+    return np.where(d <= delta, 0.5 * d**2, delta * (d - 0.5 * delta))
+
+
+def tukey(d, c):
+    """Tukey's biweight as textbooks write it: c²/6 (1 − (1 − (d/c)²)³), c²/6 beyond c."""
+    return np.where(d <= c, c**2 / 6.0 * (1.0 - (1.0 - (d / c) ** 2) ** 3), c**2 / 6.0)
+
+
+@pytest.mark.parametrize(("loss", "rho"), [("huber", huber), ("tukey", tukey)])
+def test_keypoint_term_matches_plain_reference(setup, loss, rho):
     hand, rig, x, frame = setup
     rng = np.random.default_rng(5)
     kp = noisy_keypoints(hand, rig, x, rng)
-    s = CostSettings()
-    cost = SilhouetteCost(hand, rig)
+    s = CostSettings(keypoint_loss=loss, keypoint_huber=0.2)
+    cost = SilhouetteCost(hand, rig, s)
     terms = cost.evaluate(x, frame, cost.draw(frame, rng), keypoints=kp)
-    # reference: numpy projection, hand size f L / z of the palm point, Huber loss
+    # reference: numpy projection, hand size f L / z of the palm point, the loss
     G, L, delta = hand.joints(x), hand_length(hand), s.keypoint_huber
     total = 0.0
     for j, cam in enumerate(rig):
         z = cam.camera_from_world(0.5 * (G[0] + G[9])[None])[0, 2]
         size = cam.fx * L / z  # fx = fy in the default rig
         d = np.linalg.norm(cam.project(G) - kp[j, :, :2], axis=1) / size
-        rho = np.where(d <= delta, 0.5 * d**2, delta * (d - 0.5 * delta))
-        total += np.sum(kp[j, :, 2] * rho)
+        assert np.any(d > delta) and np.any(d < delta)  # both branches of the loss
+        total += np.sum(kp[j, :, 2] * rho(d, delta))
     assert terms.keypoints == pytest.approx(total / (21 * 2), rel=1e-10)
     plain = cost.evaluate(x, frame, cost.draw(frame, np.random.default_rng(5)))
     assert plain.keypoints == 0.0

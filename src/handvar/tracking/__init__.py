@@ -3,6 +3,8 @@
 - :mod:`~handvar.tracking.costs`: C_s, C_f (eq. 1) and their gradients (paper §2.1).
 - :mod:`~handvar.tracking.keypoint_cost`: the keypoint term C_k and the front term C_z.
 - :mod:`~handvar.tracking.smd`: stochastic meta-descent (paper §4).
+- :mod:`~handvar.tracking.refine`: Levenberg–Marquardt steps after SMD on frames with
+  keypoints (design §14.2).
 - :mod:`~handvar.tracking.tracker`: `Tracker` (predict → optimise → update per frame).
 - :mod:`~handvar.tracking.outputs`: the files of a track (poses, joints, overlays).
 """
@@ -17,6 +19,7 @@ from handvar.tracking.costs import (
     nearest_silhouette_field,
     prepare_frame,
 )
+from handvar.tracking.refine import RefineResult, RefineSettings, refine
 from handvar.tracking.smd import SMDResult, SMDSettings, initial_gains, minimise, smd_step
 from handvar.tracking.tracker import (
     FrameResult,
@@ -33,6 +36,8 @@ __all__ = [
     "FrameData",
     "FrameResult",
     "QualitySettings",
+    "RefineResult",
+    "RefineSettings",
     "SMDResult",
     "SMDSettings",
     "Samples",
@@ -46,5 +51,6 @@ __all__ = [
     "minimise",
     "nearest_silhouette_field",
     "prepare_frame",
+    "refine",
     "smd_step",
 ]

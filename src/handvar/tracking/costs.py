@@ -71,8 +71,8 @@ from handvar.geometry.distortion import project_point as _project
 from handvar.geometry.projected import closest_point_on_union, union_axes
 from handvar.hand.kinematics import _JOINT_BONE  # the bone of each of the 21 points
 from handvar.params import N_PARAMS, check_pose
-from handvar.tracking.keypoint_cost import hand_length, joint_terms
-from handvar.validate import as_float, as_instance, as_int
+from handvar.tracking.keypoint_cost import LOSSES, hand_length, joint_terms
+from handvar.validate import as_float, as_instance, as_int, one_of
 
 __all__ = [
     "CostSettings",
@@ -110,7 +110,11 @@ class CostSettings:
         Weight w_k of the keypoint term C_k (hand sizes², `handvar.tracking.keypoint_cost`);
         only frames with keypoints have it. Chosen by measurement (design §14.2).
     keypoint_huber : float
-        δ of C_k's Huber loss, hand sizes.
+        The scale of C_k's loss, hand sizes: Huber's δ (0.1), or Tukey's c.
+    keypoint_loss : {"huber", "tukey"}
+        C_k's loss ρ: Huber's (convex; a wrong detection pulls with bounded force) or
+        Tukey's biweight (redescending; a point farther than c pulls not at all). The
+        tracker's refinement after SMD uses its own (`RefineSettings`, design §14.2).
     near : float
         Depth (mm) in front of every camera below which a joint is penalised by C_z
         (design §13); also the floor of the depth in C_k's hand size.
@@ -136,6 +140,7 @@ class CostSettings:
     curvature_floor: float = 0.1
     weight_keypoints: float = 100.0
     keypoint_huber: float = 0.1
+    keypoint_loss: str = "huber"
     near: float = 100.0
     weight_front: float = 1.0
     front_scale: float = 10.0
@@ -149,6 +154,7 @@ class CostSettings:
             as_int(getattr(self, name), name, minimum=1)
         as_float(self.pixel_scale, "pixel_scale", minimum=0.0, exclusive_minimum=True)
         as_int(self.roi_margin, "roi_margin", minimum=0)
+        one_of(self.keypoint_loss, LOSSES, "keypoint_loss")
 
     def total(self, c_s: float, c_f: float, c_k: float, c_z: float) -> float:
         """C = w_s C_s + w_f C_f + w_k C_k + w_z C_z of the unweighted terms."""
@@ -162,7 +168,7 @@ class CostSettings:
         return joint_terms(
             P, JP, cams, keypoints, length=length, huber=self.keypoint_huber, near=self.near,
             weight_keypoints=self.weight_keypoints, weight_front=self.weight_front,
-            front_scale=self.front_scale, residuals=residuals,
+            front_scale=self.front_scale, residuals=residuals, loss=self.keypoint_loss,
         )  # fmt: skip
 
 

@@ -15,9 +15,12 @@ missing). The pixel distance is normalised by the hand's projected size::
     C_k = Σ_j Σ_i c_ij ρ(d_ij) / (21 n_k)     n_k = cameras with any keypoint
 
 with Huber's loss ρ(d) = ½ d² for d ≤ δ and δ (d − ½ δ) beyond (δ = `keypoint_huber`,
-0.1 hand sizes). The depth in s_j is floored at `near`. Each point gives two residual
-rows r = a β(d) e with β = √(2ρ(d)) / d, so that ½ |r|² = a² ρ(d) exactly; their
-Jacobian is exact (β's derivative included) and the gradient is Jᵀ r.
+0.1 hand sizes), or Tukey's biweight ρ(d) = c²/6 (1 − (1 − d²/c²)³) for d ≤ c and c²/6
+beyond (c = the same setting; ``loss="tukey"``, the tracker's refinement). The depth in
+s_j is floored at `near`. Each point gives two residual rows r = a β(d) e with
+β = √(2ρ(d)) / d, so that ½ |r|² = a² ρ(d) exactly (for Tukey's loss β² = 1 − u + u²/3,
+u = d²/c², below c, and c / (√3 d) beyond); their Jacobian is exact (β's derivative
+included) and the gradient is Jᵀ r.
 
 C_z, the hand in front of every camera (design §13)
 ---------------------------------------------------
@@ -39,6 +42,7 @@ from handvar.geometry.distortion import project_point
 from handvar.validate import as_array
 
 __all__ = [
+    "LOSSES",
     "frame_keypoints",
     "hand_length",
     "joint_terms",
@@ -157,7 +161,7 @@ def sequence_keypoints(keypoints, n_frames: int, n_cameras: int) -> list:
 
 
 def joint_terms(P, JP, cams, keypoints, *, length, huber, near, weight_keypoints,
-                weight_front, front_scale, residuals=False):  # fmt: skip
+                weight_front, front_scale, residuals=False, loss="huber"):  # fmt: skip
     """C_k and C_z (module docstring) with gradient, Gauss–Newton diagonal and residuals.
 
     Parameters
@@ -171,9 +175,12 @@ def joint_terms(P, JP, cams, keypoints, *, length, huber, near, weight_keypoints
     keypoints : (n_cams, 21, 3) ndarray or None
         x, y, confidence per camera (`frame_keypoints`); None for no keypoint term.
     length, huber, near, weight_keypoints, weight_front, front_scale : float, keyword-only
-        L (mm), δ (hand sizes), the near depth (mm), w_k, w_z and the hinge's unit (mm).
+        L (mm), the loss's scale δ or c (hand sizes), the near depth (mm), w_k, w_z and
+        the hinge's unit (mm).
     residuals : bool, keyword-only
         Also return the residual rows and their Jacobian.
+    loss : {"huber", "tukey"}, keyword-only
+        C_k's loss ρ (module docstring).
 
     Returns
     -------
@@ -207,17 +214,40 @@ def joint_terms(P, JP, cams, keypoints, *, length, huber, near, weight_keypoints
     _joint_kernel(
         np.ascontiguousarray(P, dtype=float), np.ascontiguousarray(JP, dtype=float),
         cams.intrinsics, cams.dist, cams.rational, cams.R, cams.t, kp, has,
-        float(length), float(huber), float(near), float(front_scale), a_k, a_z, residuals,
-        r, J, g, gn, parts,
+        float(length), float(huber), LOSSES.index(loss), float(near), float(front_scale),
+        a_k, a_z, residuals, r, J, g, gn, parts,
     )  # fmt: skip
     c_k = parts[0] / (21.0 * n_k) if n_k else 0.0
     c_z = parts[1] / (21.0 * n_cams)
     return float(c_k), float(c_z), g, gn, (r if residuals else None), (J if residuals else None)
 
 
+#: The losses ρ of C_k, by their code in the compiled kernel.
+LOSSES = ("huber", "tukey")
+
+
+@njit(cache=True)
+def _robust(d, c, loss):  # pragma: no cover - compiled
+    """ρ(d), β(d) = √(2ρ(d)) / d and dβ/dd of Huber's (loss 0) or Tukey's (1) loss, scale c."""
+    if loss == 0:  # Huber
+        if d <= c:
+            return 0.5 * d * d, 1.0, 0.0
+        rho = c * (d - 0.5 * c)
+        phi = np.sqrt(2.0 * rho)
+        return rho, phi / d, (c / phi * d - phi) / (d * d)
+    # Tukey's biweight: ρ = c²/6 (1 − (1 − u)³), u = d²/c², constant c²/6 beyond c
+    if d >= c:
+        b = c / (np.sqrt(3.0) * d)
+        return c * c / 6.0, b, -b / d
+    u = d * d / (c * c)
+    b2 = 1.0 - u + u * u / 3.0  # β² = 2ρ/d², exact for small d
+    b = np.sqrt(b2)
+    return 0.5 * d * d * b2, b, (-1.0 + 2.0 * u / 3.0) * d / (c * c * b)
+
+
 @njit(cache=True)
 def _joint_kernel(P, JP, cam_k, cam_dist, cam_rational, cam_R, cam_t, kp, has, L, delta,
-                  near, scale, a_k, a_z, want_jacobian, r, J, g, gn,
+                  loss, near, scale, a_k, a_z, want_jacobian, r, J, g, gn,
                   parts):  # fmt: skip  # pragma: no cover - compiled
     """Rows, gradient and unweighted sums of C_k and C_z, in place (see `joint_terms`)."""
     n_par = JP.shape[2]
@@ -280,15 +310,7 @@ def _joint_kernel(P, JP, cam_k, cam_dist, cam_rational, cam_R, cam_t, kp, has, L
             for col in range(n_par):
                 de[0, col] = (J2[0, col] - e0 * dz[col]) / s
                 de[1, col] = (J2[1, col] - e1 * dz[col]) / s
-            if dist <= delta:
-                rho = 0.5 * dist * dist
-                beta = 1.0
-                dbeta = 0.0  # dβ/dd
-            else:
-                rho = delta * (dist - 0.5 * delta)
-                phi = np.sqrt(2.0 * rho)
-                beta = phi / dist
-                dbeta = (delta / phi * dist - phi) / (dist * dist)
+            rho, beta, dbeta = _robust(dist, delta, loss)
             parts[0] += conf * rho
             w = a_k * np.sqrt(conf)
             row = base + 2 * i

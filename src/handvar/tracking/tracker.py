@@ -7,8 +7,10 @@ to the predictor. Frames can be given one at a time (`Tracker.step`, for a live 
 or as a whole `handvar.io.Sequence` (`Tracker.track`).
 
 Keypoints (design §14.2): a frame may come with 2D keypoints of the 21 points of G(x)
-per camera; the cost then has the keypoint term w_k C_k. A frame without keypoints is
-fitted on the silhouettes alone.
+per camera; the cost then has the keypoint term w_k C_k, and after SMD a few
+Levenberg–Marquardt steps refine the pose (`handvar.tracking.refine`, with Tukey's loss
+on the keypoints; `TrackerSettings.refine`). A frame without keypoints is fitted on the
+silhouettes alone, by SMD alone.
 
 The hand in front (design §13): after every SMD step the palm's origin is moved in front
 of every camera (`front_projection`), and the cost's C_z penalises joints closer than
@@ -42,7 +44,7 @@ from __future__ import annotations
 import time
 import warnings
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -55,6 +57,7 @@ from handvar.tracking.keypoint_cost import (
     reprojection_error,
     sequence_keypoints,
 )
+from handvar.tracking.refine import RefineSettings, refine
 from handvar.tracking.smd import SMDSettings, minimise
 from handvar.validate import as_float, as_instance, as_int
 
@@ -106,16 +109,19 @@ class QualitySettings:
 
 @dataclass(frozen=True)
 class TrackerSettings:
-    """Settings of the tracker: the cost's, the optimiser's (paper §4 by default) and the
+    """Settings of the tracker: the cost's, the optimiser's (paper §4 by default), the
+    refinement's on frames with keypoints (`RefineSettings`, design §14.2) and the
     fit-quality check's (`QualitySettings`)."""
 
     cost: CostSettings = field(default_factory=CostSettings)
     smd: SMDSettings = field(default_factory=SMDSettings)
     quality: QualitySettings = field(default_factory=QualitySettings)
+    refine: RefineSettings = field(default_factory=RefineSettings)
 
     def __post_init__(self) -> None:
         as_instance(self.cost, CostSettings, "cost")
         as_instance(self.smd, SMDSettings, "smd")
+        as_instance(self.refine, RefineSettings, "refine")
         as_instance(self.quality, QualitySettings, "quality")
 
 
@@ -333,6 +339,13 @@ class Tracker:
         else:
             self.cost = SilhouetteCost(hand, rig, settings.cost)
         self._front = front_projection(rig, settings.cost.near)
+        c, rs = settings.cost, settings.refine
+        dense = replace(
+            c, n_surface=rs.samples * c.n_surface, n_pixels=rs.samples * c.n_pixels,
+            keypoint_loss=rs.keypoint_loss, keypoint_huber=rs.keypoint_scale,
+            weight_keypoints=rs.weight_keypoints,
+        )  # fmt: skip
+        self._refine_cost = type(self.cost)(hand, rig, dense)
         self._length = hand_length(hand)
         self._x0: np.ndarray | None = None
         self._n = 0
@@ -448,6 +461,8 @@ class Tracker:
                 stop=None if kp is None else lambda c: self._stop(history),
             )  # fmt: skip
             x, costs, iterations = res.x, res.costs, res.iterations
+            if kp is not None and self.settings.refine.steps > 0:
+                x = self._refine(x, frame, kp)
         t3 = time.perf_counter()
         iou, kp_err, lost = self._quality(x, m, kp, empty)
         t4 = time.perf_counter()
@@ -459,6 +474,21 @@ class Tracker:
         return FrameResult(
             x, start, costs, iterations, seconds, iou, final, kp_err, lost, empty.copy()
         )
+
+    def _refine(self, x: np.ndarray, frame: FrameData, kp: np.ndarray) -> np.ndarray:
+        """Levenberg–Marquardt steps after SMD on a frame with keypoints (design §14.2)."""
+        cost, rng = self._refine_cost, self.rng
+
+        def draw():
+            samples = cost.draw(frame, rng)
+
+            def f(z, jacobian):
+                t = cost.evaluate(z, frame, samples, residuals=jacobian, keypoints=kp)
+                return t.cost, t.residuals, t.jacobian
+
+            return f
+
+        return refine(draw, x, self.settings.refine, project=self._front).x
 
     def _stop(self, history: list[tuple[float, float]]) -> bool:
         """SMD's stopping test with keypoints (`SMDSettings.keypoint_stop`)."""
