@@ -60,6 +60,7 @@ EXPERTS: tuple[str, ...] = (
     "Kalman CV q/r=1e-4",
     "AR velocity",
     "AR acceleration",
+    "fast blend",
 )
 _M = len(EXPERTS)
 # The experts of a bank that steers a tracker (design §16, "In closed loop"): those whose
@@ -84,6 +85,7 @@ _KALMAN_R = np.array([1.0, 1.0, 1.0])
 _KALMAN_SLOT = np.array([5, 7, 8])
 _P11_0 = 1e4  # KalmanCV's initial velocity variance
 _PRIOR = np.zeros(_M)
+_FAST = EXPERTS.index("fast blend")
 _PRIOR[2] = 1.0  # decelerating ρ = 0.4, the paper's choice (§4), until errors are known
 
 
@@ -103,15 +105,71 @@ _X0 = 0  # x_T, x_{T-1}, x_{T-2}
 _KAL0 = 3  # per Kalman expert k: m0, m1, P00, P01, P11 at rows _KAL0 + 5k ...
 _OE0 = _KAL0 + 5 * len(_KALMAN_Q)  # One Euro: x̂, dx̂
 _AR0 = _OE0 + 2  # Σ v v₋₁, Σ v₋₁², Σ y y₋₁, Σ y₋₁², y_T
-_P0 = _AR0 + 5  # the experts' predictions, M rows
+_FB0 = _AR0 + 5  # fast blend: Σ a², Σ a b, Σ b², Σ a r, Σ b r, Σ r² (discounted by λ_F)
+_Y1 = _FB0 + 6  # y_{T−1}
+_SV = _Y1 + 1  # the block VAR's undamped prediction x_T + v_T + ŷ (eq. 5)
+_P0 = _SV + 1  # the experts' predictions, M rows
 _OUT = _P0 + _M  # the combined prediction
 _ROWS = _OUT + 1
 # cfg (the kernel's parameters): λ, λ_AR, α(f_d) of One Euro, f_cmin, β, rate, ridge,
-# pool, n₀, sweeps.
+# pool, n₀, sweeps, γ and λ_F of the fast blend.
 
 
 @njit(cache=True)
-def _bank_update(x, S, G, N, W, index, sizes, cfg, aux, allowed, prior):  # pragma: no cover
+def _triangle(saa, sab, sbb, sax, sbx, sxx):  # pragma: no cover
+    """argmin over α, β ≥ 0, α + β ≤ 1 of Σ (r − α a − β b)², from the sums (eq. 27).
+
+    The cost is a convex quadratic in (α, β), so its minimum over the triangle is the
+    interior stationary point when that is feasible, else the minimum of an edge
+    (β = 0, α = 0, α + β = 1; one-variable least squares clipped to [0, 1]).  Among
+    candidates whose cost is within rounding of the least, the one of smallest
+    α² + β² is kept (as :func:`~handvar.predictors.rvar.fit_trust_weights`).
+    """
+    ca = np.empty(4)
+    cb = np.empty(4)
+    ca[0] = -1.0  # infeasible unless the interior point exists
+    cb[0] = -1.0
+    det = saa * sbb - sab * sab
+    if det > 1e-12 * saa * sbb and det > 0.0:
+        ca[0] = (sax * sbb - sbx * sab) / det
+        cb[0] = (sbx * saa - sax * sab) / det
+    ca[1] = min(max(sax / saa, 0.0), 1.0) if saa > 0.0 else 0.0  # β = 0
+    cb[1] = 0.0
+    ca[2] = 0.0  # α = 0
+    cb[2] = min(max(sbx / sbb, 0.0), 1.0) if sbb > 0.0 else 0.0
+    sdd = saa - 2.0 * sab + sbb  # α + β = 1: r − b = α (a − b)
+    t = min(max((sax - sab - sbx + sbb) / sdd, 0.0), 1.0) if sdd > 0.0 else 0.5
+    ca[3] = t
+    cb[3] = 1.0 - t
+    best = np.inf
+    cost = np.empty(4)
+    for k in range(4):
+        al = ca[k]
+        be = cb[k]
+        if al < 0.0 or be < 0.0 or al + be > 1.0 + 1e-12:
+            cost[k] = np.inf
+            continue
+        cost[k] = (sxx - 2.0 * (al * sax + be * sbx) + al * al * saa
+                   + 2.0 * al * be * sab + be * be * sbb)  # fmt: skip
+        best = min(best, cost[k])
+    tol = 1e-12 * (abs(sxx) + saa + sbb)
+    alpha = 0.0
+    beta = 0.0
+    small = np.inf
+    for k in range(4):
+        if cost[k] <= best + tol:
+            nn = ca[k] * ca[k] + cb[k] * cb[k]
+            if nn < small:
+                small = nn
+                alpha = ca[k]
+                beta = cb[k]
+    return alpha, beta
+
+
+@njit(cache=True)
+def _bank_update(
+    x, S, G, N, W, index, sizes, cfg, aux, allowed, prior, vindex, vsizes, Vyy, Vxy
+):  # pragma: no cover
     """One frame: score the experts, update them, refit the weights, combine.
 
     Only the experts with `allowed` true get weight; `prior` (M,) is w₀.
@@ -128,6 +186,7 @@ def _bank_update(x, S, G, N, W, index, sizes, cfg, aux, allowed, prior):  # prag
             return False
     lam, lam_ar, oe_a_d, oe_min, oe_beta, rate, ridge, pool, n0 = cfg[:9]
     sweeps = int(cfg[9])
+    gamma, lam_f, lam_v, max_step = cfg[10], cfg[11], cfg[12], cfg[13]
     n = int(aux[0])
     # 1. Score the experts' predictions of this frame: G_g = λ G_g + Σ_j e eᵀ.
     if n >= 1:
@@ -154,6 +213,19 @@ def _bank_update(x, S, G, N, W, index, sizes, cfg, aux, allowed, prior):  # prag
     # 2. Update every expert and make its prediction of the next frame.
     for j in range(d):
         z = x[j]
+        # Fast blend: score the last undamped AR-acceleration (a) and constant-velocity
+        # (b) predictions relative to x_{t−1}, as the relative mode of eq. 27 does.
+        if n >= 1:
+            xp = S[_X0, j]
+            r = z - xp
+            pa = S[_SV, j] - xp
+            pb = S[_P0 + 4, j] - xp
+            S[_FB0, j] = lam_f * S[_FB0, j] + pa * pa
+            S[_FB0 + 1, j] = lam_f * S[_FB0 + 1, j] + pa * pb
+            S[_FB0 + 2, j] = lam_f * S[_FB0 + 2, j] + pb * pb
+            S[_FB0 + 3, j] = lam_f * S[_FB0 + 3, j] + pa * r
+            S[_FB0 + 4, j] = lam_f * S[_FB0 + 4, j] + pb * r
+            S[_FB0 + 5, j] = lam_f * S[_FB0 + 5, j] + r * r
         S[_X0 + 2, j] = S[_X0 + 1, j]
         S[_X0 + 1, j] = S[_X0, j]
         S[_X0, j] = z
@@ -211,6 +283,7 @@ def _bank_update(x, S, G, N, W, index, sizes, cfg, aux, allowed, prior):  # prag
         y = 0.0
         if n >= 2:
             y = z - 2.0 * S[_X0 + 1, j] + S[_X0 + 2, j]
+            S[_Y1, j] = S[_AR0 + 4, j]
             if n >= 3:
                 S[_AR0 + 2, j] = lam_ar * S[_AR0 + 2, j] + y * S[_AR0 + 4, j]
                 S[_AR0 + 3, j] = lam_ar * S[_AR0 + 3, j] + S[_AR0 + 4, j] ** 2
@@ -218,6 +291,75 @@ def _bank_update(x, S, G, N, W, index, sizes, cfg, aux, allowed, prior):  # prag
         a = S[_AR0 + 2, j] / (1.001 * S[_AR0 + 3, j] + 1e-300)
         a = min(max(a, -1.0), 1.0)
         S[_P0 + 10, j] = z + v + a * y
+    # 2b. The block VAR(1) on second differences (eq. 2, 25), discounted least squares:
+    # Ŷ = Σ y_t y_{t−1}ᵀ (Σ y_{t−1} y_{t−1}ᵀ)⁻¹ y_T per block, each ŷ_j bounded by the
+    # block's largest |y_T| (the diagonal AR's |a| ≤ 1, unit-free).
+    L = np.empty((Vyy.shape[1], Vyy.shape[1]))
+    zz = np.empty(Vyy.shape[1])
+    for bb in range(vsizes.shape[0]):
+        k = vsizes[bb]
+        if n >= 3:
+            for p in range(k):
+                ip = vindex[bb, p]
+                for q in range(k):
+                    iq = vindex[bb, q]
+                    Vyy[bb, p, q] = lam_v * Vyy[bb, p, q] + S[_Y1, ip] * S[_Y1, iq]
+                    Vxy[bb, p, q] = lam_v * Vxy[bb, p, q] + S[_AR0 + 4, ip] * S[_Y1, iq]
+        # Cholesky of Vyy + εI, ε = 10⁻⁹ tr / k: z = Vyy⁻¹ y_T, ŷ = Vxy z.
+        tr = 0.0
+        ymax = 0.0
+        for p in range(k):
+            tr += Vyy[bb, p, p]
+            ymax = max(ymax, abs(S[_AR0 + 4, vindex[bb, p]]))
+        ok = n >= 3 + k and tr > 0.0
+        if ok:
+            eps = 1e-9 * tr / k
+            for p in range(k):
+                for q in range(p + 1):
+                    acc = Vyy[bb, p, q] + (eps if p == q else 0.0)
+                    for m in range(q):
+                        acc -= L[p, m] * L[q, m]
+                    if p == q:
+                        if acc <= 0.0:
+                            ok = False
+                            break
+                        L[p, p] = np.sqrt(acc)
+                    else:
+                        L[p, q] = acc / L[q, q]
+                if not ok:
+                    break
+        if ok:
+            for p in range(k):  # L u = y_T
+                acc = S[_AR0 + 4, vindex[bb, p]]
+                for m in range(p):
+                    acc -= L[p, m] * zz[m]
+                zz[p] = acc / L[p, p]
+            for p in range(k - 1, -1, -1):  # Lᵀ z = u
+                acc = zz[p]
+                for m in range(p + 1, k):
+                    acc -= L[m, p] * zz[m]
+                zz[p] = acc / L[p, p]
+        for p in range(k):
+            j = vindex[bb, p]
+            yh = 0.0
+            if ok:
+                for q in range(k):
+                    yh += Vxy[bb, p, q] * zz[q]
+                yh = min(max(yh, -ymax), ymax)
+            step = S[_P0 + 4, j] - x[j] + yh  # x̂^SV − x_T = v_T + ŷ, bounded (§4.2)
+            step = min(max(step, -max_step), max_step)
+            S[_SV, j] = x[j] + step
+    # 2c. The fast blend (eq. 26 in the relative mode of eq. 27, per coordinate):
+    # x_T + γ (α (x̂^SV − x_T) + β (x̂^CV − x_T)), α, β on the triangle.
+    for j in range(d):
+        z = x[j]
+        if n >= 1:
+            al, be = _triangle(S[_FB0, j], S[_FB0 + 1, j], S[_FB0 + 2, j],
+                               S[_FB0 + 3, j], S[_FB0 + 4, j], S[_FB0 + 5, j])  # fmt: skip
+        else:
+            al = 0.5
+            be = 0.5
+        S[_P0 + 11, j] = z + gamma * (al * (S[_SV, j] - z) + be * (S[_P0 + 4, j] - z))
     # 3. Refit the weights of every group and combine.  Each group's Gram matrix is
     # normalised to mean diagonal 1 (Ĝ_g) and shrunk towards the pooled Ĝ of all
     # groups by `pool` pseudo-observations: A_g = N_g Ĝ_g + pool Ḡ.
@@ -364,7 +506,19 @@ class AdaptiveBank:
         prior_frames: float = 30.0,
         pool: float = 1000.0,
         experts: str | Sequence[str] = "all",
+        gamma: float = 0.8,
+        var_blocks: Sequence[Sequence[int]] | None = None,
+        var_memory: float = 30.0,
+        max_step: float | None = 10.0,
     ) -> None:
+        self.max_step = (
+            None
+            if max_step is None
+            else as_float(max_step, "max_step", minimum=0.0, exclusive_minimum=True)
+        )
+        self.gamma = as_float(gamma, "gamma", minimum=0.0, maximum=1.0)
+        self.var_memory = as_float(var_memory, "var_memory", minimum=1.0, exclusive_minimum=True)
+        self.var_blocks = None if var_blocks is None else [[int(i) for i in b] for b in var_blocks]
         self.memory = as_float(memory, "memory", minimum=1.0, exclusive_minimum=True)
         self.ar_memory = as_float(ar_memory, "ar_memory", minimum=1.0, exclusive_minimum=True)
         self.rate = as_float(rate, "rate", minimum=0.0, exclusive_minimum=True)
@@ -387,8 +541,14 @@ class AdaptiveBank:
         self._experts_arg = experts if isinstance(experts, str) else list(names)
         self.experts = tuple(e for e in EXPERTS if e in names)
         self._allowed = np.array([e in names for e in EXPERTS])
-        # w₀: decelerating ρ = 0.4 when it is an expert, else uniform.
-        self._prior = _PRIOR if self._allowed[2] else self._allowed / self._allowed.sum()
+        # w₀: the fast blend when it is an expert, else decelerating ρ = 0.4, else uniform.
+        if self._allowed[_FAST]:
+            self._prior = np.zeros(_M)
+            self._prior[_FAST] = 1.0
+        elif self._allowed[2]:
+            self._prior = _PRIOR
+        else:
+            self._prior = self._allowed / self._allowed.sum()
         self.reset()
 
     def reset(self) -> None:
@@ -416,12 +576,30 @@ class AdaptiveBank:
         self._cfg = np.array([
             1.0 - 1.0 / self.memory, 1.0 - 1.0 / self.ar_memory, one_euro_alpha(1.0, self.rate),
             1.0, 0.0, self.rate, self.ridge, self.pool, self.prior_frames, self.sweeps,
+            self.gamma, 0.5, 1.0 - 1.0 / self.var_memory,
+            np.inf if self.max_step is None else self.max_step,
         ])  # fmt: skip
+        vblocks = [[i] for i in range(d)] if self.var_blocks is None else self.var_blocks
+        vflat = sorted(i for b in vblocks for i in b)
+        if vflat != list(range(d)) or any(len(b) == 0 for b in vblocks):
+            raise ValueError(
+                f"var_blocks: expected a partition of the indices 0..{d - 1} (each exactly "
+                f"once); got {self.var_blocks!r}"
+            )
+        nvb, vmax = len(vblocks), max(len(b) for b in vblocks)
+        self._vindex = np.zeros((nvb, vmax), dtype=np.intp)
+        for b, idx in enumerate(vblocks):
+            self._vindex[b, : len(idx)] = idx
+        self._vsizes = np.array([len(b) for b in vblocks], dtype=np.intp)
+        self._Vyy = np.zeros((nvb, vmax, vmax))
+        self._Vxy = np.zeros((nvb, vmax, vmax))
         self._d = d
         self._clear()
 
     def _clear(self) -> None:
         self._S[...] = 0.0
+        self._Vyy[...] = 0.0
+        self._Vxy[...] = 0.0
         self._G[...] = 0.0
         self._N[...] = 0.0
         self._W[...] = self._allowed / self._allowed.sum()
@@ -448,6 +626,10 @@ class AdaptiveBank:
             self._aux,
             self._allowed,
             self._prior,
+            self._vindex,
+            self._vsizes,
+            self._Vyy,
+            self._Vxy,
         ):
             raise ValueError("x: expected finite values; got NaN or infinity")
 
