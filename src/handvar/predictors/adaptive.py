@@ -4,8 +4,11 @@ A bank of M cheap one-step predictors (the experts) runs on every coordinate: no
 motion (eq. 16), decelerating (eq. 22) at ρ = 0.2, 0.4, 0.6 and constant velocity
 (ρ = 1), the constant-velocity Kalman filter at three noise ratios (the default
 one of :class:`~handvar.predictors.KalmanCV` and two smoother ones), the One Euro
-filter, and two autoregressions fitted online per coordinate (the velocity on the
-previous velocity, and the second difference of eq. 3 on the previous one).  For
+filter, two autoregressions fitted online per coordinate (the velocity on the
+previous velocity, and the second difference of eq. 3 on the previous one), and the
+fast blend: RVAR's eq. 26 in the relative mode of eq. 27, per coordinate, between a
+block VAR(1) on second differences (eq. 2, 25; discounted least squares) and
+constant velocity, with eq. 28's weights 2^−(T−t).  For
 every group g of coordinates the prediction is
 
     x̂_{T+1}(j) = Σ_i w_{g,i} x̂^i_{T+1}(j),   j ∈ g,   w_g ∈ Δ (w ≥ 0, Σ w = 1)
@@ -29,9 +32,12 @@ One compiled call per frame (``_bank_update``) does everything: score the expert
 last predictions, update every expert, refit the weights, combine.
 
 A bank that steers a tracker weights only :data:`STEERING_EXPERTS` (``experts=
-"steering"``): fed back the tracker's estimates, the fit over all eleven puts its
+"steering"``): fed back the tracker's estimates, the fit over all twelve puts its
 weight on the experts that carry the whole last step forward, the weights swing, and
-the tracking does not recover after fast motion (design §16, "In closed loop").
+the tracking does not recover after fast motion (design §16, "In closed loop").  The
+fast blend is the steering set's extrapolator: it carries at most γ of the step and
+its own weights, refitted per coordinate within two or three frames, fall back to no
+motion when the extrapolation fails.
 """
 
 from __future__ import annotations
@@ -68,7 +74,8 @@ _M = len(EXPERTS)
 # default Kalman CV (q/r = 1, close to constant velocity) and the two autoregressions
 # (gains up to 1 and beyond) are left out: with them, the weights fitted on the
 # tracker's estimates (which the bank's own prediction helped produce) swing from frame
-# to frame and the tracking does not recover after fast motion.
+# to frame and the tracking does not recover after fast motion.  The fast blend stays:
+# it carries at most γ = 0.8 of the (bounded) step, and it drops to no motion by itself.
 STEERING_EXPERTS: tuple[str, ...] = (
     "no motion",
     "decelerating 0.2",
@@ -77,6 +84,7 @@ STEERING_EXPERTS: tuple[str, ...] = (
     "One Euro",
     "Kalman CV q/r=1e-2",
     "Kalman CV q/r=1e-4",
+    "fast blend",
 )
 _RHOS = np.array([0.2, 0.4, 0.6, 1.0])  # experts 1..4
 # Kalman experts 5, 7, 8: (q, r), as KalmanCV's arguments.
@@ -121,18 +129,27 @@ def _triangle(saa, sab, sbb, sax, sbx, sxx):  # pragma: no cover
 
     The cost is a convex quadratic in (α, β), so its minimum over the triangle is the
     interior stationary point when that is feasible, else the minimum of an edge
-    (β = 0, α = 0, α + β = 1; one-variable least squares clipped to [0, 1]).  Among
+    (β = 0, α = 0, α + β = 1; one-variable least squares clipped to [0, 1]); when the
+    two columns are collinear, the minimum-norm solution joins the candidates.  Among
     candidates whose cost is within rounding of the least, the one of smallest
     α² + β² is kept (as :func:`~handvar.predictors.rvar.fit_trust_weights`).
     """
-    ca = np.empty(4)
-    cb = np.empty(4)
+    ca = np.empty(5)
+    cb = np.empty(5)
     ca[0] = -1.0  # infeasible unless the interior point exists
     cb[0] = -1.0
+    ca[4] = -1.0
+    cb[4] = -1.0
     det = saa * sbb - sab * sab
     if det > 1e-12 * saa * sbb and det > 0.0:
         ca[0] = (sax * sbb - sbx * sab) / det
         cb[0] = (sbx * saa - sax * sab) / det
+    elif saa + sbb > 0.0:  # rank one: the minimum-norm solution (pseudo-inverse)
+        ua = np.sqrt(saa)
+        ub = np.sqrt(sbb) if sab >= 0.0 else -np.sqrt(sbb)
+        h = (ua * sax + ub * sbx) / (saa + sbb) ** 2
+        ca[4] = h * ua
+        cb[4] = h * ub
     ca[1] = min(max(sax / saa, 0.0), 1.0) if saa > 0.0 else 0.0  # β = 0
     cb[1] = 0.0
     ca[2] = 0.0  # α = 0
@@ -142,8 +159,8 @@ def _triangle(saa, sab, sbb, sax, sbx, sxx):  # pragma: no cover
     ca[3] = t
     cb[3] = 1.0 - t
     best = np.inf
-    cost = np.empty(4)
-    for k in range(4):
+    cost = np.empty(5)
+    for k in range(5):
         al = ca[k]
         be = cb[k]
         if al < 0.0 or be < 0.0 or al + be > 1.0 + 1e-12:
@@ -156,7 +173,7 @@ def _triangle(saa, sab, sbb, sax, sbx, sxx):  # pragma: no cover
     alpha = 0.0
     beta = 0.0
     small = np.inf
-    for k in range(4):
+    for k in range(5):
         if cost[k] <= best + tol:
             nn = ca[k] * ca[k] + cb[k] * cb[k]
             if nn < small:
@@ -474,11 +491,33 @@ class AdaptiveBank:
         The experts that may get weight (names of :data:`EXPERTS`); the others still
         run but get none.  ``"steering"`` is :data:`STEERING_EXPERTS`, for a bank whose
         predictions start a tracker's optimiser and which is fed the tracker's
-        estimates (design §16, "In closed loop").  w₀ is decelerating ρ = 0.4 when it
-        is kept, else uniform on the kept experts.
+        estimates (design §16, "In closed loop").  w₀ is the fast blend when it is
+        kept, else decelerating ρ = 0.4 when that is kept, else uniform on the kept
+        experts.
+    gamma : float, default 0.8
+        γ of eq. 26 in the fast blend: the most of the extrapolated step it carries.
+    var_blocks : sequence of sequences of int, optional
+        The blocks of the fast blend's VAR (eq. 25); default every coordinate alone.
+        For hand parameters :func:`~handvar.params.hand_blocks`.
+    var_memory : float, default 30
+        The horizon of the fast blend's VAR: its sums are discounted by
+        1 − 1/var_memory a frame (the structured VAR's N = 30, §4.3).
+    max_step : float or None, default 10
+        Bound on |x̂^SV − x_T| of the fast blend's VAR prediction, in the coordinates'
+        units (the paper's 10° threshold, §4.2); ``None`` disables it.
 
     Notes
     -----
+    The fast blend predicts x_T + γ (α (x̂^SV − x_T) + β (x̂^CV − x_T)) (eq. 26) per
+    coordinate, with α, β ≥ 0, α + β ≤ 1 minimising Σ_t 2^−(T−t) (r_t − α a_t − β b_t)²
+    (eq. 27, 28 in the relative mode: r_t, a_t, b_t are x_t, x̂^SV_t and x̂^CV_t minus
+    x_{t−1}; :func:`~handvar.predictors.rvar.fit_trust_weights`' problem, solved from
+    five discounted sums).  x̂^SV = x_T + v_T + ŷ with ŷ = C_b D_b⁻¹ y_T per VAR block
+    b, C_b = Σ λ_V^{T−t} y_t y_{t−1}ᵀ, D_b = Σ λ_V^{T−t} y_{t−1} y_{t−1}ᵀ + εI
+    (ε = 10⁻⁹ tr D_b / k), each ŷ_j clipped to the block's largest |y_T(i)| and the
+    step v_T + ŷ to ±max_step; ŷ = 0 until a block of k coordinates has k + 1
+    equations.  α = β = ½ until a prediction has been scored.
+
     The weights start uniform; with one frame seen every expert predicts that frame.
     Every expert is offset-equivariant, and the weights depend only on errors, so
     x + c ↦ x̂ + c.  :attr:`weights` gives the current weights, (n_groups, M), in
