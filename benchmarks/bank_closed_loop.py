@@ -95,7 +95,7 @@ def main() -> None:
     ap.add_argument("--store", help="experiment store holding the benchmark sequence")
     ap.add_argument("--trials", type=int, default=3)
     ap.add_argument("--window", type=int, nargs=2, default=(148, 160), metavar=("FIRST", "LAST"))
-    ap.add_argument("--cases", help="comma-separated names of the cases to run (default all)")
+    ap.add_argument("--cases", help="semicolon-separated names of the cases to run (default all)")
     ap.add_argument("--no-weights", action="store_true", help="skip the weight tables")
     args = ap.parse_args()
     if args.store:
@@ -132,7 +132,7 @@ def main() -> None:
         "bank, damped + AR": bank((*DAMPED, "AR velocity", "AR acceleration")),
     }
     if args.cases:
-        cases = {k: v for k, v in cases.items() if k in args.cases.split(",")}
+        cases = {k: v for k, v in cases.items() if k in args.cases.split(";")}
     lo, hi = args.window
     steps = np.diff(sequence.truth.poses[lo - 1 : hi + 1, 11:14], axis=0)  # thumb flexions
     print(f"\nthumb flexion steps (deg/frame), frames {lo}-{hi}, the largest of the three: "
