@@ -1,6 +1,6 @@
 """Microseconds per frame (update + predict) of every predictor at d = 26.
 
-Run:  .venv/bin/python benchmarks/predictors.py [--frames N]
+Run:  .venv/bin/python benchmarks/predictors.py [--frames N] [--bank-only]
 
 Each predictor is fed a real recorded hand motion (the shipped htrack recording,
 converted to degrees and millimetres); the window is warmed up past `memory` first
@@ -70,7 +70,7 @@ class LstsqRefit:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=2000, help="timed frames per case")
-    args = parser.parse_args()
+    args, _ = parser.parse_known_args()
     full = [list(range(26))]
     rows = []
     for memory in (30, 3000):
@@ -145,7 +145,10 @@ def bank_speeds(frames: int) -> None:
 
 
 if __name__ == "__main__":
-    main()
     extra = argparse.ArgumentParser(add_help=False)
     extra.add_argument("--frames", type=int, default=2000)
-    bank_speeds(extra.parse_known_args()[0].frames)
+    extra.add_argument("--bank-only", action="store_true", help="only the last table")
+    known = extra.parse_known_args()[0]
+    if not known.bank_only:
+        main()
+    bank_speeds(known.frames)
