@@ -209,6 +209,12 @@ def test_bank_rejects_bad_input_and_resets():
         AdaptiveBank([[0], [0, 1]]).update([1.0, 2.0])
     with pytest.raises(ValueError, match="memory"):
         AdaptiveBank(memory=0.5)
+    with pytest.raises(ValueError, match="var_blocks: expected a partition"):
+        AdaptiveBank(var_blocks=[[0], [0, 1]]).update([1.0, 2.0])
+    with pytest.raises(ValueError, match="max_step"):
+        AdaptiveBank(max_step=0.0)
+    with pytest.raises(ValueError, match="gamma"):
+        AdaptiveBank(gamma=1.5)
 
 
 @pytest.mark.parametrize("name", ["decelerating 0.6", "Kalman CV q/r=1e-2", "One Euro"])
