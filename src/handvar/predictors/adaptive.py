@@ -134,52 +134,47 @@ def _triangle(saa, sab, sbb, sax, sbx, sxx):  # pragma: no cover
     candidates whose cost is within rounding of the least, the one of smallest
     α² + β² is kept (as :func:`~handvar.predictors.rvar.fit_trust_weights`).
     """
-    ca = np.empty(5)
-    cb = np.empty(5)
-    ca[0] = -1.0  # infeasible unless the interior point exists
-    cb[0] = -1.0
-    ca[4] = -1.0
-    cb[4] = -1.0
+    a0 = b0 = a4 = b4 = -1.0  # infeasible unless the interior / rank-one point exists
     det = saa * sbb - sab * sab
     if det > 1e-12 * saa * sbb and det > 0.0:
-        ca[0] = (sax * sbb - sbx * sab) / det
-        cb[0] = (sbx * saa - sax * sab) / det
+        a0 = (sax * sbb - sbx * sab) / det
+        b0 = (sbx * saa - sax * sab) / det
     elif saa + sbb > 0.0:  # rank one: the minimum-norm solution (pseudo-inverse)
         ua = np.sqrt(saa)
         ub = np.sqrt(sbb) if sab >= 0.0 else -np.sqrt(sbb)
         h = (ua * sax + ub * sbx) / (saa + sbb) ** 2
-        ca[4] = h * ua
-        cb[4] = h * ub
-    ca[1] = min(max(sax / saa, 0.0), 1.0) if saa > 0.0 else 0.0  # β = 0
-    cb[1] = 0.0
-    ca[2] = 0.0  # α = 0
-    cb[2] = min(max(sbx / sbb, 0.0), 1.0) if sbb > 0.0 else 0.0
+        a4 = h * ua
+        b4 = h * ub
+    a1 = min(max(sax / saa, 0.0), 1.0) if saa > 0.0 else 0.0  # β = 0
+    b2 = min(max(sbx / sbb, 0.0), 1.0) if sbb > 0.0 else 0.0  # α = 0
     sdd = saa - 2.0 * sab + sbb  # α + β = 1: r − b = α (a − b)
-    t = min(max((sax - sab - sbx + sbb) / sdd, 0.0), 1.0) if sdd > 0.0 else 0.5
-    ca[3] = t
-    cb[3] = 1.0 - t
+    a3 = min(max((sax - sab - sbx + sbb) / sdd, 0.0), 1.0) if sdd > 0.0 else 0.5
+    ca = (a0, a1, 0.0, a3, a4)  # tuples: no allocation in the per-coordinate loop
+    cb = (b0, 0.0, b2, 1.0 - a3, b4)
     best = np.inf
-    cost = np.empty(5)
     for k in range(5):
         al = ca[k]
         be = cb[k]
         if al < 0.0 or be < 0.0 or al + be > 1.0 + 1e-12:
-            cost[k] = np.inf
             continue
-        cost[k] = (sxx - 2.0 * (al * sax + be * sbx) + al * al * saa
-                   + 2.0 * al * be * sab + be * be * sbb)  # fmt: skip
-        best = min(best, cost[k])
+        f = (sxx - 2.0 * (al * sax + be * sbx) + al * al * saa
+             + 2.0 * al * be * sab + be * be * sbb)  # fmt: skip
+        best = min(best, f)
     tol = 1e-12 * (abs(sxx) + saa + sbb)
     alpha = 0.0
     beta = 0.0
     small = np.inf
     for k in range(5):
-        if cost[k] <= best + tol:
-            nn = ca[k] * ca[k] + cb[k] * cb[k]
-            if nn < small:
-                small = nn
-                alpha = ca[k]
-                beta = cb[k]
+        al = ca[k]
+        be = cb[k]
+        if al < 0.0 or be < 0.0 or al + be > 1.0 + 1e-12:
+            continue
+        f = (sxx - 2.0 * (al * sax + be * sbx) + al * al * saa
+             + 2.0 * al * be * sab + be * be * sbb)  # fmt: skip
+        if f <= best + tol and al * al + be * be < small:
+            small = al * al + be * be
+            alpha = al
+            beta = be
     return alpha, beta
 
 
