@@ -7,7 +7,7 @@ prints
 
 1. the bank's weights (mean over its eight hand groups) at frames 30, 60, 100 and 174,
    fed the true poses (open loop) and steering the SMD tracker (closed loop, trial 0),
-   for the bank of all eleven experts and for the steering bank;
+   for the bank of all twelve experts and for the steering bank;
 2. each expert's one-step RMSE over the finger angles (frames 31 on, degrees) measured
    against the tracker's estimates, as the bank sees them, in that closed-loop trial;
 3. the mean joint error (mm) of the tracker over trials 0..N−1 with banks of a few
