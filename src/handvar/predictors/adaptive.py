@@ -29,7 +29,9 @@ warm-started from the previous frame's weights, a few sweeps a frame — O(M²) 
 sweep and group, so a frame costs O(d M + n_groups M²) whatever the history.
 
 One compiled call per frame (``_bank_update``) does everything: score the experts'
-last predictions, update every expert, refit the weights, combine.
+last predictions, update every expert, refit the weights, combine.  The module is
+longer than most because it holds one concept, the bank: its experts are computed
+inside that one call, so their updates live here rather than in their own modules.
 
 A bank that steers a tracker weights only :data:`STEERING_EXPERTS` (``experts=
 "steering"``): fed back the tracker's estimates, the fit over all twelve puts its
