@@ -7,11 +7,14 @@ prints
 
 1. the bank's weights (mean over its eight hand groups) at frames 30, 60, 100 and 174,
    fed the true poses (open loop) and steering the SMD tracker (closed loop, trial 0),
-   for the bank of all eleven experts and for the steering bank;
+   for the bank of all twelve experts and for the steering bank;
 2. each expert's one-step RMSE over the finger angles (frames 31 on, degrees) measured
    against the tracker's estimates, as the bank sees them, in that closed-loop trial;
 3. the mean joint error (mm) of the tracker over trials 0..N−1 with banks of a few
-   expert sets, beside decelerating ρ = 0.4, 0.6, 1 and RVAR.
+   expert sets, the fast blend alone and without its parts (a diagonal VAR instead of
+   eq. 25's blocks, no step bound), beside decelerating ρ = 0.4, 0.6, 1 and both
+   RVARs; and the same mean over frames 148–160 only, where the thumb crosses the palm
+   (``--window``; the thumb's flexion steps there are printed first).
 
 Trial k uses ``default_rng([0, k])`` as in ``handvar experiment``, so the figures are
 the experiment's first trials.
@@ -25,7 +28,14 @@ import numpy as np
 
 from handvar.evaluation.config import ExperimentConfig, tracker_settings
 from handvar.evaluation.trials import _hand
-from handvar.predictors import EXPERTS, STEERING_EXPERTS, AdaptiveBank, Decelerating, hand_groups
+from handvar.predictors import (
+    EXPERTS,
+    STEERING_EXPERTS,
+    AdaptiveBank,
+    Decelerating,
+    hand_blocks,
+    hand_groups,
+)
 from handvar.predictors.catalogue import CATALOGUE
 from handvar.tracking import Tracker
 
@@ -44,7 +54,7 @@ class _Recorder(AdaptiveBank):
 
 
 def _recorder(experts):
-    bank = _Recorder(hand_groups(), experts=experts)
+    bank = _Recorder(hand_groups(), experts=experts, var_blocks=hand_blocks())
     bank.history, bank.seen = [], []
     return bank
 
@@ -84,6 +94,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--store", help="experiment store holding the benchmark sequence")
     ap.add_argument("--trials", type=int, default=3)
+    ap.add_argument("--window", type=int, nargs=2, default=(148, 160), metavar=("FIRST", "LAST"))
+    ap.add_argument("--cases", help="semicolon-separated names of the cases to run (default all)")
+    ap.add_argument("--no-weights", action="store_true", help="skip the weight tables")
     args = ap.parse_args()
     if args.store:
         from handvar.evaluation.store import store_sequence
@@ -93,29 +106,45 @@ def main() -> None:
         from handvar.synth.sequences import make_sequence
 
         sequence = make_sequence("benchmark", seed=0, n_frames=175)
-    _weights_table(sequence, "all")
-    _weights_table(sequence, "steering")
+    if not args.no_weights:
+        _weights_table(sequence, "all")
+        _weights_table(sequence, "steering")
+    hb = hand_blocks()
+    old_steering = tuple(e for e in STEERING_EXPERTS if e != "fast blend")
+
+    def bank(experts, **kw):
+        return lambda: AdaptiveBank(hand_groups(), experts=experts, **{"var_blocks": hb, **kw})
+
     cases = {
         "decelerating 0.4": lambda: Decelerating(0.4),
         "decelerating 0.6": lambda: Decelerating(0.6),
         "constant velocity": lambda: Decelerating(1.0),
         "RVAR": lambda: CATALOGUE["rvar"].build(),
-        "bank, all experts": lambda: AdaptiveBank(hand_groups()),
-        "bank, steering": lambda: AdaptiveBank(hand_groups(), experts="steering"),
-        "bank, damped only": lambda: AdaptiveBank(hand_groups(), experts=DAMPED),
-        "bank, damped + CV": lambda: AdaptiveBank(
-            hand_groups(), experts=(*DAMPED, "constant velocity")
-        ),
-        "bank, damped + AR": lambda: AdaptiveBank(
-            hand_groups(), experts=(*DAMPED, "AR velocity", "AR acceleration")
-        ),
+        "RVAR relative": lambda: CATALOGUE["rvar_relative"].build(),
+        "bank, all experts": bank("all"),
+        "bank, steering": bank("steering"),
+        "steering w/o fast blend": bank(old_steering),
+        "fast blend alone": bank(["fast blend"]),
+        "fast blend, diagonal VAR": bank(["fast blend"], var_blocks=None),
+        "fast blend, no bound": bank(["fast blend"], max_step=None),
+        "bank, damped only": bank(DAMPED),
+        "bank, damped + CV": bank((*DAMPED, "constant velocity")),
+        "bank, damped + AR": bank((*DAMPED, "AR velocity", "AR acceleration")),
     }
-    print(f"\nmean joint error (mm) over trials 0..{args.trials - 1}; steering set: "
-          f"{', '.join(STEERING_EXPERTS)}")  # fmt: skip
-    print(f"{'predictor':<22}{'mean':>6}  per trial")
+    if args.cases:
+        cases = {k: v for k, v in cases.items() if k in args.cases.split(";")}
+    lo, hi = args.window
+    steps = np.diff(sequence.truth.poses[lo - 1 : hi + 1, 11:14], axis=0)  # thumb flexions
+    print(f"\nthumb flexion steps (deg/frame), frames {lo}-{hi}, the largest of the three: "
+          + " ".join(f"{v:.1f}" for v in np.abs(steps).max(1)))  # fmt: skip
+    print(f"\nmean joint error (mm) over trials 0..{args.trials - 1}, all frames and frames "
+          f"{lo}-{hi}; steering set: {', '.join(STEERING_EXPERTS)}")  # fmt: skip
+    print(f"{'predictor':<26}{'mean':>6}{f'{lo}-{hi}':>9}  per trial")
     for name, make in cases.items():
-        per = [_track(sequence, make(), k).mean() for k in range(args.trials)]
-        print(f"{name:<22}{np.mean(per):6.2f}  " + " ".join(f"{e:.2f}" for e in per), flush=True)
+        per = [_track(sequence, make(), k) for k in range(args.trials)]
+        e = np.array(per)
+        print(f"{name:<26}{e.mean():6.2f}{e[:, lo : hi + 1].mean():9.2f}  "
+              + " ".join(f"{v:.2f}" for v in e.mean(1)), flush=True)  # fmt: skip
 
 
 if __name__ == "__main__":

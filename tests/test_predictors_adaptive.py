@@ -23,6 +23,7 @@ from handvar.predictors import (
     NoMotion,
     OfflineVAR,
     OneEuro,
+    hand_blocks,
     hand_groups,
     one_step_predictions,
     second_differences,
@@ -98,6 +99,66 @@ def test_bank_experts_equal_the_standalone_predictors():
             np.testing.assert_allclose(P[EXPERTS.index(name)], p.predict(), rtol=1e-12, atol=1e-9)
 
 
+def _fast_blend_reference(X, var_blocks, gamma=0.8, var_memory=30.0, max_step=10.0):
+    """The fast blend written plainly: every sum recomputed from the whole history.
+
+    The block VAR's coefficients by discounted least squares on all equations so far
+    (numpy's solve), the step bounds, and eq. 27's triangle fit by RVAR's exact
+    ``fit_trust_weights`` on all scored frames with eq. 28's weights 2^−(T−t).
+    """
+    from handvar.predictors.rvar import fit_trust_weights
+
+    T, d = X.shape
+    lam = 1.0 - 1.0 / var_memory
+    Y = np.full((T, d), np.nan)
+    Y[2:] = X[2:] - 2 * X[1:-1] + X[:-2]  # eq. 3
+    out, sv_hist, cv_hist = np.empty((T, d)), [], []
+    for n in range(T):  # after frame n (n + 1 frames seen)
+        x, v = X[n], (X[n] - X[n - 1] if n else np.zeros(d))
+        sv = x + v
+        for b in var_blocks:
+            k = len(b)
+            ts = range(3, n + 1)  # equations (y_t, y_{t-1}), t = 3..n
+            if n + 1 < 4 + k:  # fewer than k + 1 equations
+                continue
+            wt = np.array([lam ** (n - t) for t in ts])
+            Yt, Yp = Y[list(ts)][:, b], Y[[t - 1 for t in ts]][:, b]
+            D = (wt[:, None] * Yp).T @ Yp
+            C = (wt[:, None] * Yt).T @ Yp
+            D += 1e-9 * np.trace(D) / k * np.eye(k)
+            yh = C @ np.linalg.solve(D, Y[n, b])
+            ymax = np.abs(Y[n, b]).max()
+            sv[b] = x[b] + np.clip(v[b] + np.clip(yh, -ymax, ymax), -max_step, max_step)
+        if n == 0:
+            alpha = beta = np.full(d, 0.5)
+        else:
+            prev = X[np.arange(n)]  # x_{t-1} for the scored frames t = 1..n
+            alpha, beta = fit_trust_weights(
+                X[1 : n + 1] - prev,
+                np.array(sv_hist) - prev,
+                np.array(cv_hist) - prev,
+                0.5 ** np.arange(n - 1, -1, -1.0),
+            )
+        sv_hist.append(sv)
+        cv_hist.append(x + v)
+        out[n] = x + gamma * (alpha * (sv - x) + beta * v)  # eq. 26
+    return out
+
+
+@pytest.mark.parametrize("var_blocks", [None, [[0], [1, 2, 3], [4]]])
+def test_fast_blend_equals_a_plain_reference(var_blocks):
+    rng = np.random.default_rng(12)
+    X = np.cumsum(np.cumsum(rng.standard_normal((90, 5)), 0), 0)
+    X[40:50] += 30.0 * rng.standard_normal((10, 5))  # steps beyond max_step
+    bank = AdaptiveBank(var_blocks=var_blocks)
+    ours = []
+    for x in X:
+        bank.update(x)
+        ours.append(bank.expert_predictions[EXPERTS.index("fast blend")])
+    blocks = [[j] for j in range(5)] if var_blocks is None else var_blocks
+    np.testing.assert_allclose(np.array(ours), _fast_blend_reference(X, blocks), atol=1e-7)
+
+
 def test_bank_weights_solve_the_simplex_least_squares():
     # After a long stationary series, the weights of one group minimise wᵀ G w on the
     # simplex for the discounted error Gram G: checked with scipy's SLSQP.
@@ -148,6 +209,12 @@ def test_bank_rejects_bad_input_and_resets():
         AdaptiveBank([[0], [0, 1]]).update([1.0, 2.0])
     with pytest.raises(ValueError, match="memory"):
         AdaptiveBank(memory=0.5)
+    with pytest.raises(ValueError, match="var_blocks: expected a partition"):
+        AdaptiveBank(var_blocks=[[0], [0, 1]]).update([1.0, 2.0])
+    with pytest.raises(ValueError, match="max_step"):
+        AdaptiveBank(max_step=0.0)
+    with pytest.raises(ValueError, match="gamma"):
+        AdaptiveBank(gamma=1.5)
 
 
 @pytest.mark.parametrize("name", ["decelerating 0.6", "Kalman CV q/r=1e-2", "One Euro"])
@@ -198,6 +265,7 @@ def test_bank_rejects_bad_experts_and_the_catalogue_steers():
         with pytest.raises(ValueError, match="experts: expected"):
             AdaptiveBank(experts=bad)
     assert make_predictor("bank").experts == STEERING_EXPERTS
+    assert make_predictor("bank").var_blocks == hand_blocks()  # eq. 25, as RVAR's VAR
     assert make_predictor("bank-all").experts == EXPERTS
     spec = CATALOGUE["adaptive"]
     assert PredictorSpec.from_dict(spec.to_dict()).build().experts == STEERING_EXPERTS

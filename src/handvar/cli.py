@@ -539,7 +539,11 @@ def _sequence_frame(path: str, frame: int):
     help="Add variants of a predictor, e.g. rvar.gamma=0.5,0.6,0.7; repeatable.",
 )  # fmt: skip
 @click.option("--quick", is_flag=True, help="A reduced protocol: 3 trials of 40 frames.")
-@click.option("--extras", is_flag=True, help="Add the relative RVAR and the Kalman filter.")
+@click.option(
+    "--extras",
+    is_flag=True,
+    help="Add ours: relative RVAR, Kalman CV, One Euro and both adaptive banks.",
+)
 @click.option("--progress/--no-progress", default=True, show_default=True)
 @_one_line_errors
 def experiment_command(store, scheduler, workers, assignments, sweeps, quick, extras, progress):

@@ -206,7 +206,8 @@ class ExperimentConfig:
         )
 
     def with_extras(self) -> ExperimentConfig:
-        """Add the relative RVAR and the Kalman filter (those not yet present)."""
+        """Add :data:`EXTRA_PREDICTORS` (relative RVAR, Kalman CV, One Euro, both adaptive
+        banks), those not yet present."""
         keys = {s.key for s in self.predictors}
         extra = tuple(s for s in EXTRA_PREDICTORS if s.key not in keys)
         return dataclasses.replace(self, predictors=self.predictors + extra)

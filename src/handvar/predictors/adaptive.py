@@ -4,8 +4,11 @@ A bank of M cheap one-step predictors (the experts) runs on every coordinate: no
 motion (eq. 16), decelerating (eq. 22) at ρ = 0.2, 0.4, 0.6 and constant velocity
 (ρ = 1), the constant-velocity Kalman filter at three noise ratios (the default
 one of :class:`~handvar.predictors.KalmanCV` and two smoother ones), the One Euro
-filter, and two autoregressions fitted online per coordinate (the velocity on the
-previous velocity, and the second difference of eq. 3 on the previous one).  For
+filter, two autoregressions fitted online per coordinate (the velocity on the
+previous velocity, and the second difference of eq. 3 on the previous one), and the
+fast blend: RVAR's eq. 26 in the relative mode of eq. 27, per coordinate, between a
+block VAR(1) on second differences (eq. 2, 25; discounted least squares) and
+constant velocity, with eq. 28's weights 2^−(T−t).  For
 every group g of coordinates the prediction is
 
     x̂_{T+1}(j) = Σ_i w_{g,i} x̂^i_{T+1}(j),   j ∈ g,   w_g ∈ Δ (w ≥ 0, Σ w = 1)
@@ -26,12 +29,17 @@ warm-started from the previous frame's weights, a few sweeps a frame — O(M²) 
 sweep and group, so a frame costs O(d M + n_groups M²) whatever the history.
 
 One compiled call per frame (``_bank_update``) does everything: score the experts'
-last predictions, update every expert, refit the weights, combine.
+last predictions, update every expert, refit the weights, combine.  The module is
+longer than most because it holds one concept, the bank: its experts are computed
+inside that one call, so their updates live here rather than in their own modules.
 
 A bank that steers a tracker weights only :data:`STEERING_EXPERTS` (``experts=
-"steering"``): fed back the tracker's estimates, the fit over all eleven puts its
+"steering"``): fed back the tracker's estimates, the fit over all twelve puts its
 weight on the experts that carry the whole last step forward, the weights swing, and
-the tracking does not recover after fast motion (design §16, "In closed loop").
+the tracking does not recover after fast motion (design §16, "In closed loop").  The
+fast blend is the steering set's extrapolator: it carries at most γ of the step and
+its own weights, refitted per coordinate within two or three frames, fall back to no
+motion when the extrapolation fails.
 """
 
 from __future__ import annotations
@@ -60,6 +68,7 @@ EXPERTS: tuple[str, ...] = (
     "Kalman CV q/r=1e-4",
     "AR velocity",
     "AR acceleration",
+    "fast blend",
 )
 _M = len(EXPERTS)
 # The experts of a bank that steers a tracker (design §16, "In closed loop"): those whose
@@ -67,7 +76,8 @@ _M = len(EXPERTS)
 # default Kalman CV (q/r = 1, close to constant velocity) and the two autoregressions
 # (gains up to 1 and beyond) are left out: with them, the weights fitted on the
 # tracker's estimates (which the bank's own prediction helped produce) swing from frame
-# to frame and the tracking does not recover after fast motion.
+# to frame and the tracking does not recover after fast motion.  The fast blend stays:
+# it carries at most γ = 0.8 of the (bounded) step, and it drops to no motion by itself.
 STEERING_EXPERTS: tuple[str, ...] = (
     "no motion",
     "decelerating 0.2",
@@ -76,6 +86,7 @@ STEERING_EXPERTS: tuple[str, ...] = (
     "One Euro",
     "Kalman CV q/r=1e-2",
     "Kalman CV q/r=1e-4",
+    "fast blend",
 )
 _RHOS = np.array([0.2, 0.4, 0.6, 1.0])  # experts 1..4
 # Kalman experts 5, 7, 8: (q, r), as KalmanCV's arguments.
@@ -84,6 +95,7 @@ _KALMAN_R = np.array([1.0, 1.0, 1.0])
 _KALMAN_SLOT = np.array([5, 7, 8])
 _P11_0 = 1e4  # KalmanCV's initial velocity variance
 _PRIOR = np.zeros(_M)
+_FAST = EXPERTS.index("fast blend")
 _PRIOR[2] = 1.0  # decelerating ρ = 0.4, the paper's choice (§4), until errors are known
 
 
@@ -103,15 +115,75 @@ _X0 = 0  # x_T, x_{T-1}, x_{T-2}
 _KAL0 = 3  # per Kalman expert k: m0, m1, P00, P01, P11 at rows _KAL0 + 5k ...
 _OE0 = _KAL0 + 5 * len(_KALMAN_Q)  # One Euro: x̂, dx̂
 _AR0 = _OE0 + 2  # Σ v v₋₁, Σ v₋₁², Σ y y₋₁, Σ y₋₁², y_T
-_P0 = _AR0 + 5  # the experts' predictions, M rows
+_FB0 = _AR0 + 5  # fast blend: Σ a², Σ a b, Σ b², Σ a r, Σ b r, Σ r² (discounted by λ_F)
+_Y1 = _FB0 + 6  # y_{T−1}
+_SV = _Y1 + 1  # the block VAR's undamped prediction x_T + v_T + ŷ (eq. 5)
+_P0 = _SV + 1  # the experts' predictions, M rows
 _OUT = _P0 + _M  # the combined prediction
 _ROWS = _OUT + 1
 # cfg (the kernel's parameters): λ, λ_AR, α(f_d) of One Euro, f_cmin, β, rate, ridge,
-# pool, n₀, sweeps.
+# pool, n₀, sweeps, γ and λ_F of the fast blend.
 
 
 @njit(cache=True)
-def _bank_update(x, S, G, N, W, index, sizes, cfg, aux, allowed, prior):  # pragma: no cover
+def _triangle(saa, sab, sbb, sax, sbx, sxx):  # pragma: no cover
+    """argmin over α, β ≥ 0, α + β ≤ 1 of Σ (r − α a − β b)², from the sums (eq. 27).
+
+    The cost is a convex quadratic in (α, β), so its minimum over the triangle is the
+    interior stationary point when that is feasible, else the minimum of an edge
+    (β = 0, α = 0, α + β = 1; one-variable least squares clipped to [0, 1]); when the
+    two columns are collinear, the minimum-norm solution joins the candidates.  Among
+    candidates whose cost is within rounding of the least, the one of smallest
+    α² + β² is kept (as :func:`~handvar.predictors.rvar.fit_trust_weights`).
+    """
+    a0 = b0 = a4 = b4 = -1.0  # infeasible unless the interior / rank-one point exists
+    det = saa * sbb - sab * sab
+    if det > 1e-12 * saa * sbb and det > 0.0:
+        a0 = (sax * sbb - sbx * sab) / det
+        b0 = (sbx * saa - sax * sab) / det
+    elif saa + sbb > 0.0:  # rank one: the minimum-norm solution (pseudo-inverse)
+        ua = np.sqrt(saa)
+        ub = np.sqrt(sbb) if sab >= 0.0 else -np.sqrt(sbb)
+        h = (ua * sax + ub * sbx) / (saa + sbb) ** 2
+        a4 = h * ua
+        b4 = h * ub
+    a1 = min(max(sax / saa, 0.0), 1.0) if saa > 0.0 else 0.0  # β = 0
+    b2 = min(max(sbx / sbb, 0.0), 1.0) if sbb > 0.0 else 0.0  # α = 0
+    sdd = saa - 2.0 * sab + sbb  # α + β = 1: r − b = α (a − b)
+    a3 = min(max((sax - sab - sbx + sbb) / sdd, 0.0), 1.0) if sdd > 0.0 else 0.5
+    ca = (a0, a1, 0.0, a3, a4)  # tuples: no allocation in the per-coordinate loop
+    cb = (b0, 0.0, b2, 1.0 - a3, b4)
+    best = np.inf
+    for k in range(5):
+        al = ca[k]
+        be = cb[k]
+        if al < 0.0 or be < 0.0 or al + be > 1.0 + 1e-12:
+            continue
+        f = (sxx - 2.0 * (al * sax + be * sbx) + al * al * saa
+             + 2.0 * al * be * sab + be * be * sbb)  # fmt: skip
+        best = min(best, f)
+    tol = 1e-12 * (abs(sxx) + saa + sbb)
+    alpha = 0.0
+    beta = 0.0
+    small = np.inf
+    for k in range(5):
+        al = ca[k]
+        be = cb[k]
+        if al < 0.0 or be < 0.0 or al + be > 1.0 + 1e-12:
+            continue
+        f = (sxx - 2.0 * (al * sax + be * sbx) + al * al * saa
+             + 2.0 * al * be * sab + be * be * sbb)  # fmt: skip
+        if f <= best + tol and al * al + be * be < small:
+            small = al * al + be * be
+            alpha = al
+            beta = be
+    return alpha, beta
+
+
+@njit(cache=True)
+def _bank_update(
+    x, S, G, N, W, index, sizes, cfg, aux, allowed, prior, vindex, vsizes, Vyy, Vxy
+):  # pragma: no cover
     """One frame: score the experts, update them, refit the weights, combine.
 
     Only the experts with `allowed` true get weight; `prior` (M,) is w₀.
@@ -128,6 +200,7 @@ def _bank_update(x, S, G, N, W, index, sizes, cfg, aux, allowed, prior):  # prag
             return False
     lam, lam_ar, oe_a_d, oe_min, oe_beta, rate, ridge, pool, n0 = cfg[:9]
     sweeps = int(cfg[9])
+    gamma, lam_f, lam_v, max_step = cfg[10], cfg[11], cfg[12], cfg[13]
     n = int(aux[0])
     # 1. Score the experts' predictions of this frame: G_g = λ G_g + Σ_j e eᵀ.
     if n >= 1:
@@ -154,6 +227,19 @@ def _bank_update(x, S, G, N, W, index, sizes, cfg, aux, allowed, prior):  # prag
     # 2. Update every expert and make its prediction of the next frame.
     for j in range(d):
         z = x[j]
+        # Fast blend: score the last undamped AR-acceleration (a) and constant-velocity
+        # (b) predictions relative to x_{t−1}, as the relative mode of eq. 27 does.
+        if n >= 1:
+            xp = S[_X0, j]
+            r = z - xp
+            pa = S[_SV, j] - xp
+            pb = S[_P0 + 4, j] - xp
+            S[_FB0, j] = lam_f * S[_FB0, j] + pa * pa
+            S[_FB0 + 1, j] = lam_f * S[_FB0 + 1, j] + pa * pb
+            S[_FB0 + 2, j] = lam_f * S[_FB0 + 2, j] + pb * pb
+            S[_FB0 + 3, j] = lam_f * S[_FB0 + 3, j] + pa * r
+            S[_FB0 + 4, j] = lam_f * S[_FB0 + 4, j] + pb * r
+            S[_FB0 + 5, j] = lam_f * S[_FB0 + 5, j] + r * r
         S[_X0 + 2, j] = S[_X0 + 1, j]
         S[_X0 + 1, j] = S[_X0, j]
         S[_X0, j] = z
@@ -211,6 +297,7 @@ def _bank_update(x, S, G, N, W, index, sizes, cfg, aux, allowed, prior):  # prag
         y = 0.0
         if n >= 2:
             y = z - 2.0 * S[_X0 + 1, j] + S[_X0 + 2, j]
+            S[_Y1, j] = S[_AR0 + 4, j]
             if n >= 3:
                 S[_AR0 + 2, j] = lam_ar * S[_AR0 + 2, j] + y * S[_AR0 + 4, j]
                 S[_AR0 + 3, j] = lam_ar * S[_AR0 + 3, j] + S[_AR0 + 4, j] ** 2
@@ -218,6 +305,75 @@ def _bank_update(x, S, G, N, W, index, sizes, cfg, aux, allowed, prior):  # prag
         a = S[_AR0 + 2, j] / (1.001 * S[_AR0 + 3, j] + 1e-300)
         a = min(max(a, -1.0), 1.0)
         S[_P0 + 10, j] = z + v + a * y
+    # 2b. The block VAR(1) on second differences (eq. 2, 25), discounted least squares:
+    # Ŷ = Σ y_t y_{t−1}ᵀ (Σ y_{t−1} y_{t−1}ᵀ)⁻¹ y_T per block, each ŷ_j bounded by the
+    # block's largest |y_T| (the diagonal AR's |a| ≤ 1, unit-free).
+    L = np.empty((Vyy.shape[1], Vyy.shape[1]))
+    zz = np.empty(Vyy.shape[1])
+    for bb in range(vsizes.shape[0]):
+        k = vsizes[bb]
+        if n >= 3:
+            for p in range(k):
+                ip = vindex[bb, p]
+                for q in range(k):
+                    iq = vindex[bb, q]
+                    Vyy[bb, p, q] = lam_v * Vyy[bb, p, q] + S[_Y1, ip] * S[_Y1, iq]
+                    Vxy[bb, p, q] = lam_v * Vxy[bb, p, q] + S[_AR0 + 4, ip] * S[_Y1, iq]
+        # Cholesky of Vyy + εI, ε = 10⁻⁹ tr / k: z = Vyy⁻¹ y_T, ŷ = Vxy z.
+        tr = 0.0
+        ymax = 0.0
+        for p in range(k):
+            tr += Vyy[bb, p, p]
+            ymax = max(ymax, abs(S[_AR0 + 4, vindex[bb, p]]))
+        ok = n >= 3 + k and tr > 0.0
+        if ok:
+            eps = 1e-9 * tr / k
+            for p in range(k):
+                for q in range(p + 1):
+                    acc = Vyy[bb, p, q] + (eps if p == q else 0.0)
+                    for m in range(q):
+                        acc -= L[p, m] * L[q, m]
+                    if p == q:
+                        if acc <= 0.0:
+                            ok = False
+                            break
+                        L[p, p] = np.sqrt(acc)
+                    else:
+                        L[p, q] = acc / L[q, q]
+                if not ok:
+                    break
+        if ok:
+            for p in range(k):  # L u = y_T
+                acc = S[_AR0 + 4, vindex[bb, p]]
+                for m in range(p):
+                    acc -= L[p, m] * zz[m]
+                zz[p] = acc / L[p, p]
+            for p in range(k - 1, -1, -1):  # Lᵀ z = u
+                acc = zz[p]
+                for m in range(p + 1, k):
+                    acc -= L[m, p] * zz[m]
+                zz[p] = acc / L[p, p]
+        for p in range(k):
+            j = vindex[bb, p]
+            yh = 0.0
+            if ok:
+                for q in range(k):
+                    yh += Vxy[bb, p, q] * zz[q]
+                yh = min(max(yh, -ymax), ymax)
+            step = S[_P0 + 4, j] - x[j] + yh  # x̂^SV − x_T = v_T + ŷ, bounded (§4.2)
+            step = min(max(step, -max_step), max_step)
+            S[_SV, j] = x[j] + step
+    # 2c. The fast blend (eq. 26 in the relative mode of eq. 27, per coordinate):
+    # x_T + γ (α (x̂^SV − x_T) + β (x̂^CV − x_T)), α, β on the triangle.
+    for j in range(d):
+        z = x[j]
+        if n >= 1:
+            al, be = _triangle(S[_FB0, j], S[_FB0 + 1, j], S[_FB0 + 2, j],
+                               S[_FB0 + 3, j], S[_FB0 + 4, j], S[_FB0 + 5, j])  # fmt: skip
+        else:
+            al = 0.5
+            be = 0.5
+        S[_P0 + 11, j] = z + gamma * (al * (S[_SV, j] - z) + be * (S[_P0 + 4, j] - z))
     # 3. Refit the weights of every group and combine.  Each group's Gram matrix is
     # normalised to mean diagonal 1 (Ĝ_g) and shrunk towards the pooled Ĝ of all
     # groups by `pool` pseudo-observations: A_g = N_g Ĝ_g + pool Ḡ.
@@ -332,11 +488,33 @@ class AdaptiveBank:
         The experts that may get weight (names of :data:`EXPERTS`); the others still
         run but get none.  ``"steering"`` is :data:`STEERING_EXPERTS`, for a bank whose
         predictions start a tracker's optimiser and which is fed the tracker's
-        estimates (design §16, "In closed loop").  w₀ is decelerating ρ = 0.4 when it
-        is kept, else uniform on the kept experts.
+        estimates (design §16, "In closed loop").  w₀ is the fast blend when it is
+        kept, else decelerating ρ = 0.4 when that is kept, else uniform on the kept
+        experts.
+    gamma : float, default 0.8
+        γ of eq. 26 in the fast blend: the most of the extrapolated step it carries.
+    var_blocks : sequence of sequences of int, optional
+        The blocks of the fast blend's VAR (eq. 25); default every coordinate alone.
+        For hand parameters :func:`~handvar.params.hand_blocks`.
+    var_memory : float, default 30
+        The horizon of the fast blend's VAR: its sums are discounted by
+        1 − 1/var_memory a frame (the structured VAR's N = 30, §4.3).
+    max_step : float or None, default 10
+        Bound on |x̂^SV − x_T| of the fast blend's VAR prediction, in the coordinates'
+        units (the paper's 10° threshold, §4.2); ``None`` disables it.
 
     Notes
     -----
+    The fast blend predicts x_T + γ (α (x̂^SV − x_T) + β (x̂^CV − x_T)) (eq. 26) per
+    coordinate, with α, β ≥ 0, α + β ≤ 1 minimising Σ_t 2^−(T−t) (r_t − α a_t − β b_t)²
+    (eq. 27, 28 in the relative mode: r_t, a_t, b_t are x_t, x̂^SV_t and x̂^CV_t minus
+    x_{t−1}; :func:`~handvar.predictors.rvar.fit_trust_weights`' problem, solved from
+    five discounted sums).  x̂^SV = x_T + v_T + ŷ with ŷ = C_b D_b⁻¹ y_T per VAR block
+    b, C_b = Σ λ_V^{T−t} y_t y_{t−1}ᵀ, D_b = Σ λ_V^{T−t} y_{t−1} y_{t−1}ᵀ + εI
+    (ε = 10⁻⁹ tr D_b / k), each ŷ_j clipped to the block's largest |y_T(i)| and the
+    step v_T + ŷ to ±max_step; ŷ = 0 until a block of k coordinates has k + 1
+    equations.  α = β = ½ until a prediction has been scored.
+
     The weights start uniform; with one frame seen every expert predicts that frame.
     Every expert is offset-equivariant, and the weights depend only on errors, so
     x + c ↦ x̂ + c.  :attr:`weights` gives the current weights, (n_groups, M), in
@@ -364,7 +542,19 @@ class AdaptiveBank:
         prior_frames: float = 30.0,
         pool: float = 1000.0,
         experts: str | Sequence[str] = "all",
+        gamma: float = 0.8,
+        var_blocks: Sequence[Sequence[int]] | None = None,
+        var_memory: float = 30.0,
+        max_step: float | None = 10.0,
     ) -> None:
+        self.max_step = (
+            None
+            if max_step is None
+            else as_float(max_step, "max_step", minimum=0.0, exclusive_minimum=True)
+        )
+        self.gamma = as_float(gamma, "gamma", minimum=0.0, maximum=1.0)
+        self.var_memory = as_float(var_memory, "var_memory", minimum=1.0, exclusive_minimum=True)
+        self.var_blocks = None if var_blocks is None else [[int(i) for i in b] for b in var_blocks]
         self.memory = as_float(memory, "memory", minimum=1.0, exclusive_minimum=True)
         self.ar_memory = as_float(ar_memory, "ar_memory", minimum=1.0, exclusive_minimum=True)
         self.rate = as_float(rate, "rate", minimum=0.0, exclusive_minimum=True)
@@ -387,8 +577,14 @@ class AdaptiveBank:
         self._experts_arg = experts if isinstance(experts, str) else list(names)
         self.experts = tuple(e for e in EXPERTS if e in names)
         self._allowed = np.array([e in names for e in EXPERTS])
-        # w₀: decelerating ρ = 0.4 when it is an expert, else uniform.
-        self._prior = _PRIOR if self._allowed[2] else self._allowed / self._allowed.sum()
+        # w₀: the fast blend when it is an expert, else decelerating ρ = 0.4, else uniform.
+        if self._allowed[_FAST]:
+            self._prior = np.zeros(_M)
+            self._prior[_FAST] = 1.0
+        elif self._allowed[2]:
+            self._prior = _PRIOR
+        else:
+            self._prior = self._allowed / self._allowed.sum()
         self.reset()
 
     def reset(self) -> None:
@@ -416,12 +612,30 @@ class AdaptiveBank:
         self._cfg = np.array([
             1.0 - 1.0 / self.memory, 1.0 - 1.0 / self.ar_memory, one_euro_alpha(1.0, self.rate),
             1.0, 0.0, self.rate, self.ridge, self.pool, self.prior_frames, self.sweeps,
+            self.gamma, 0.5, 1.0 - 1.0 / self.var_memory,
+            np.inf if self.max_step is None else self.max_step,
         ])  # fmt: skip
+        vblocks = [[i] for i in range(d)] if self.var_blocks is None else self.var_blocks
+        vflat = sorted(i for b in vblocks for i in b)
+        if vflat != list(range(d)) or any(len(b) == 0 for b in vblocks):
+            raise ValueError(
+                f"var_blocks: expected a partition of the indices 0..{d - 1} (each exactly "
+                f"once); got {self.var_blocks!r}"
+            )
+        nvb, vmax = len(vblocks), max(len(b) for b in vblocks)
+        self._vindex = np.zeros((nvb, vmax), dtype=np.intp)
+        for b, idx in enumerate(vblocks):
+            self._vindex[b, : len(idx)] = idx
+        self._vsizes = np.array([len(b) for b in vblocks], dtype=np.intp)
+        self._Vyy = np.zeros((nvb, vmax, vmax))
+        self._Vxy = np.zeros((nvb, vmax, vmax))
         self._d = d
         self._clear()
 
     def _clear(self) -> None:
         self._S[...] = 0.0
+        self._Vyy[...] = 0.0
+        self._Vxy[...] = 0.0
         self._G[...] = 0.0
         self._N[...] = 0.0
         self._W[...] = self._allowed / self._allowed.sum()
@@ -448,6 +662,10 @@ class AdaptiveBank:
             self._aux,
             self._allowed,
             self._prior,
+            self._vindex,
+            self._vsizes,
+            self._Vyy,
+            self._Vxy,
         ):
             raise ValueError("x: expected finite values; got NaN or infinity")
 

@@ -50,6 +50,9 @@ _PARAM_NAMES = {
         "prior_frames",
         "pool",
         "experts",
+        "gamma",
+        "var_memory",
+        "max_step",
     ),
 }
 # The paper's symbols and a few spellings accepted for the constructor arguments.
@@ -87,8 +90,9 @@ class PredictorSpec:
         :class:`~handvar.predictors.VAR` (``structured=True``: the blocks of eq. 25),
         :class:`~handvar.predictors.RVAR` (``memory``: N of its structured VAR),
         :class:`~handvar.predictors.KalmanCV`, :class:`~handvar.predictors.OneEuro` or
-        :class:`~handvar.predictors.AdaptiveBank` (its weight groups: the given
-        blocks, or for hand parameters :func:`~handvar.predictors.hand_groups`).
+        :class:`~handvar.predictors.AdaptiveBank` (its weight groups and its fast
+        blend's VAR blocks: the given blocks, or for hand parameters
+        :func:`~handvar.predictors.hand_groups` and :func:`hand_blocks`).
     params : tuple of (str, value) pairs
         Constructor arguments; missing ones take the predictor's defaults.
     """
@@ -147,7 +151,9 @@ class PredictorSpec:
 
         kw = self.kwargs
         if self.kind == "adaptive":
-            return AdaptiveBank(hand_groups() if blocks is None else blocks, **kw)
+            if blocks is None:  # hand parameters: the table's groups, eq. 25's blocks
+                return AdaptiveBank(hand_groups(), var_blocks=hand_blocks(), **kw)
+            return AdaptiveBank(blocks, var_blocks=blocks, **kw)
         if self.kind == "one_euro":
             return OneEuro(**kw)
         blocks = hand_blocks() if blocks is None else blocks
@@ -213,7 +219,7 @@ EXTRA_PREDICTORS: tuple[PredictorSpec, ...] = (
     PredictorSpec("kalman", "Kalman CV", "kalman"),
     PredictorSpec("one_euro", "One Euro", "one_euro"),
     # The bank that steers the tracker leaves out the experts that carry the whole last
-    # step forward (design §16, "In closed loop"); the bank of all eleven experts is the
+    # step forward (design §16, "In closed loop"); the bank of all twelve experts is the
     # open-loop one.
     PredictorSpec("adaptive", "adaptive bank", "adaptive", (("experts", "steering"),)),
     PredictorSpec("adaptive_open", "adaptive bank (all experts)", "adaptive"),
