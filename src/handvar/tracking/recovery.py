@@ -10,9 +10,14 @@ projected joints to the frame's keypoints in hand sizes, and whether the frame i
 whose fit drifted from its keypoints, `RecoverySettings.refit_keypoint_error`), searches
 the pose again in that frame (`handvar.tracking.init.initial_pose`: from the frame's
 keypoints when it has them, else the coarse silhouette search), restarts the tracker
-there (which resets the motion predictor) and tracks the frame again; of the two fits
-the one not lost, then with the lower keypoint error (without keypoints: the higher
-IoU), is kept.  A frame still lost after that stays flagged.  A frame with no
+there (which resets the motion predictor) and tracks the frame again.  A fit of poor
+quality (silhouette IoU below `RecoverySettings.refine_iou`, lost, or drifting) is first
+*refined*: the optimiser continues from it, with fresh gains, for
+`RecoverySettings.refine_iterations` more iterations.  Of all the fits of a frame the
+best by its own quality is kept (`_score`: not lost, then the keypoint error down to
+the re-fit threshold, then the higher IoU), and the motion predictor learns that one
+(its state before the frame is restored when the kept fit is not the last one made).
+A frame still lost after that stays flagged.  A frame with no
 silhouette in any camera is not judged: it is carried by the prediction and flagged
 *empty* (the tracker leaves a single empty camera out of the fit).  Optionally the loop
 cuts the forearm off the silhouettes itself, at the detected wrist or, between keypoint
@@ -25,6 +30,8 @@ distance in that frame), independent of the model.
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import math
 import time
 from collections.abc import Callable, Iterable, Sequence
@@ -33,9 +40,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from handvar.params import N_PARAMS
+from handvar.predictors import NoMotion
 from handvar.tracking.init import InitSettings, initial_pose
 from handvar.tracking.tracker import Tracker, TrackResult
-from handvar.validate import as_float, as_instance
+from handvar.validate import as_float, as_instance, as_int
 
 __all__ = [
     "RECOVERY_DEFAULTS",
@@ -201,15 +209,22 @@ def _quiet_step(tracker: Tracker, masks, kps):
             return None
 
 
-def _score(r) -> tuple[bool, float]:
-    """Order of two fits of one frame: not lost first, then the lower keypoint error
-    (on a frame with keypoints) or the higher mean IoU."""
+def _score(r, keypoint_error: float) -> tuple[bool, float, float]:
+    """Order of the fits of one frame by their own quality, best highest.
+
+    Not lost first; then the lower keypoint error, down to `keypoint_error` (fits that
+    close to their keypoints tie: the keypoints cannot tell them apart, the silhouette
+    can); then the higher mean IoU.  Without keypoints only the IoU decides.
+    """
     if r is None:
-        return (False, -math.inf)
-    if not math.isnan(r.keypoint_error):
-        return (not r.lost, -r.keypoint_error)
+        return (False, -math.inf, -math.inf)
+    e = r.keypoint_error
     iou = r.mean_iou
-    return (not r.lost, -1.0 if math.isnan(iou) else iou)
+    return (
+        not r.lost,
+        0.0 if math.isnan(e) else -max(e, keypoint_error),
+        -1.0 if math.isnan(iou) else iou,
+    )
 
 
 @dataclass(frozen=True)
@@ -225,15 +240,26 @@ class RecoverySettings:
         is off them by more than this, mean over the points, hand sizes (not lost, but
         drifting).  0.1 is half the radius of PCK@0.2, the measure of §14.4: a fit off
         by more than that on average has points outside it.  ``inf`` turns it off.
+    refine_iou : float
+        Refine a fit whose mean silhouette IoU is below this (and a lost or drifting
+        one): continue the optimisation from it (§14.3).  0.8, the IoU asked of every
+        frame in §14.4; 0 refines only lost and drifting fits.
+    refine_iterations : int
+        Iterations of that refinement, from the fit with the optimiser's initial
+        gains; 100.  0 turns refinement off.
     """
 
     reinit: bool = True
     refit_keypoint_error: float = 0.1
+    refine_iou: float = 0.8
+    refine_iterations: int = 100
 
     def __post_init__(self) -> None:
         as_instance(self.reinit, bool, "reinit")
         as_float(self.refit_keypoint_error, "refit_keypoint_error", minimum=0.0,
                  exclusive_minimum=True)  # fmt: skip
+        as_float(self.refine_iou, "refine_iou", minimum=0.0, maximum=1.0)
+        as_int(self.refine_iterations, "refine_iterations", minimum=0)
 
 
 RECOVERY_DEFAULTS = RecoverySettings()
@@ -310,6 +336,38 @@ def track_with_recovery(
         tracker.reset(result.pose)
         return time.perf_counter() - t0
 
+    refiner: list[Tracker] = []  # continues a fit: no motion, refine_iterations
+
+    def refine(r, masks, kps):
+        if not refiner:
+            smd = dataclasses.replace(
+                tracker.settings.smd, max_iterations=settings.refine_iterations
+            )
+            refiner.append(Tracker(
+                rig, hand, NoMotion(), tracker.rng,
+                dataclasses.replace(tracker.settings, smd=smd),
+            ))  # fmt: skip
+        refiner[0].reset(r.pose)
+        r2 = _quiet_step(refiner[0], masks, kps)
+        if r2 is None:
+            return None
+        return dataclasses.replace(
+            r2, start=r.start, costs=np.concatenate([r.costs, r2.costs]),
+            iterations=r.iterations + r2.iterations, seconds=r.seconds + r2.seconds,
+        )  # fmt: skip
+
+    def drifting(r, kps) -> bool:
+        return kps is not None and r.keypoint_error > settings.refit_keypoint_error
+
+    def poor(r, kps) -> bool:
+        if r is None or settings.refine_iterations == 0:
+            return False
+        return r.lost or drifting(r, kps) or r.mean_iou < settings.refine_iou
+
+    def better(a, b) -> bool:
+        thr = settings.refit_keypoint_error
+        return _score(a, thr) > _score(b, thr)
+
     results, flags, init_seconds = [], [], []
     previous = None if x0 is None else np.asarray(x0, dtype=float)
     started = False
@@ -334,18 +392,41 @@ def track_with_recovery(
             if on_frame is not None:
                 on_frame(i, pose, FrameQuality(math.nan, math.nan, math.nan, False), masks)
             continue
+        before = copy.deepcopy(tracker.predictor)  # its state before this frame
         r = _quiet_step(tracker, masks, kps)
+        # `learned`: the tracker's predictor was last updated with `best`
+        best, base, learned = r, before, True
+        if not empty and poor(r, kps):
+            refined = refine(r, masks, kps)
+            if better(refined, best):
+                best, learned = refined, False
         again = False
-        drifting = (
-            r is not None and kps is not None
-            and r.keypoint_error > settings.refit_keypoint_error
-        )  # fmt: skip
-        if settings.reinit and not empty and (r is None or r.lost or drifting):
+        if (
+            settings.reinit
+            and not empty
+            and (
+                best is None
+                or best.lost
+                or drifting(best, kps)
+                or (kps is not None and poor(best, kps))
+            )
+        ):  # on a keypoint frame the search is from the keypoints: also for a poor fit
             init_seconds.append(search(masks, kps))
-            again = True
+            again, learned = True, False
+            restarted = copy.deepcopy(tracker.predictor)
             r2 = _quiet_step(tracker, masks, kps)
-            if _score(r2) >= _score(r):
-                r = r2
+            if better(r2, best):
+                best, base, learned = r2, restarted, True
+            if poor(r2, kps):
+                refined = refine(r2, masks, kps)
+                if better(refined, best):
+                    best, base, learned = refined, restarted, False
+        if best is not None and not learned:  # the predictor learns the fit kept
+            if tracker.frames_tracked == 0:  # the restart's step diverged
+                tracker.reset(best.pose)
+            _restore(tracker, base)
+            tracker.predictor.update(best.pose)
+        r = best
         if r is None:  # diverged and not recovered: keep the last finite pose
             pose = np.full(N_PARAMS, np.nan) if previous is None else previous
             if previous is not None:
@@ -408,6 +489,15 @@ def _cut(masks: np.ndarray, kps, previous, hand, rig) -> np.ndarray:
             k = model_wrist_keypoints(previous, hand, cam)
         out.append(cut_wrist(m, None if k is None else _cut_at_joint(k)))
     return np.stack(out)
+
+
+def _restore(tracker: Tracker, state) -> None:
+    """Put the predictor state `state` (a copy of the tracker's predictor) back in place."""
+    if hasattr(tracker.predictor, "__dict__"):
+        tracker.predictor.__dict__.clear()
+        tracker.predictor.__dict__.update(state.__dict__)
+    else:
+        tracker.predictor = state
 
 
 def _frame_quality(r, empty: bool) -> FrameQuality:
