@@ -39,7 +39,7 @@ VIDEO = DATA / "dex-human-hand-video.mp4"
 KEYPOINTS = DATA / "dex-human-hand-video-keypoints.npy"
 
 
-def run(every: int, frames: int | None, scale: float, hand_length: float) -> dict:
+def run(every: int, frames: int | None, scale: float, hand_length: float, seed: int = 0) -> dict:
     """Track with keypoints on every `every`-th frame (0: none) and score the track."""
     source = open_source(VIDEO, scale=scale)
     detected = read_keypoints(KEYPOINTS)
@@ -54,7 +54,7 @@ def run(every: int, frames: int | None, scale: float, hand_length: float) -> dic
     truth = source.scaled_keypoints([detected])[0]
     used = source.scaled_keypoints(given)[0] if every else None
     hand = HandModel(HandShape.from_size(hand_length))
-    tracker = Tracker(source.rig, hand, make_predictor("rvar"), np.random.default_rng(0))
+    tracker = Tracker(source.rig, hand, make_predictor("rvar"), np.random.default_rng(seed))
     t0 = time.perf_counter()
     result = track_with_recovery(
         tracker,
@@ -95,13 +95,15 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=None, help="only the first N frames")
     parser.add_argument("--scale", type=float, default=0.5, help="resize factor of the frames")
     parser.add_argument("--hand-length", type=float, default=185.0, help="model hand, mm")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the optimiser")
     args = parser.parse_args()
     print(
-        f"example video, scale {args.scale:g}, hand {args.hand_length:g} mm, RVAR, seed 0; "
+        f"example video, scale {args.scale:g}, hand {args.hand_length:g} mm, RVAR, "
+        f"seed {args.seed}; "
         "PCK@0.2 against the detector on every frame"
     )
     for every in args.every or [5, 10, 0]:
-        r = run(every, args.frames, args.scale, args.hand_length)
+        r = run(every, args.frames, args.scale, args.hand_length, args.seed)
         what = f"keypoints every {every:>2}" if every else "no keypoints      "
         print(
             f"  {what}: {r['frames']} frames | PCK@0.2 withheld {r['pck_withheld']:.3f}, "

@@ -18,16 +18,18 @@ from click.testing import CliRunner
 from handvar.camera import Rig
 from handvar.cli import main
 from handvar.hand import HandModel, named_pose
-from handvar.predictors import RVAR
+from handvar.predictors import RVAR, Decelerating
 from handvar.synth.sequences import make_sequence
 from handvar.tracking.outputs import quality_captions
 from handvar.tracking.recovery import (
     RecoverySettings,
+    _score,
     joint_distances,
     pck,
     track_with_recovery,
 )
-from handvar.tracking.tracker import Tracker
+from handvar.tracking.smd import SMDSettings
+from handvar.tracking.tracker import Tracker, TrackerSettings
 from handvar.vision.keypoints import read_keypoints
 from handvar.vision.silhouette import EmptySilhouetteError, cut_wrist, silhouettes_from_frames
 from handvar.vision.sources import open_source
@@ -123,6 +125,56 @@ def test_an_empty_frame_is_flagged_and_keeps_the_previous_pose(short_sequence):
     assert result.track.iterations[2] == 0  # carried by the prediction
     assert np.isfinite(result.track.poses[2]).all()
     assert "1 empty" in q.summary()
+
+
+def test_a_poor_fit_is_refined_and_the_predictor_learns_the_refined_pose(short_sequence):
+    seq = short_sequence
+    frames = [np.asarray(seq.masks[t]) for t in range(3)]
+    x0 = seq.truth.poses[0].copy()
+    x0[:3] += (30.0, 0.0, 0.0)  # 3 cm off, and only 2 iterations a frame: a poor fit
+    short = TrackerSettings(smd=SMDSettings(max_iterations=2))
+
+    def run(refine_iterations):
+        tracker = Tracker(seq.rig, HandModel(), Decelerating(1.0), np.random.default_rng(0), short)
+        settings = RecoverySettings(reinit=False, refine_iterations=refine_iterations)
+        return track_with_recovery(tracker, frames, x0, settings=settings)
+
+    plain, refined = run(0), run(100)
+    assert plain.quality.iou[0] < 0.8 <= refined.quality.iou[0]
+    assert plain.track.iterations[0] == 2 < refined.track.iterations[0] <= 102
+    assert refined.track.iterations[1] <= 2  # a good fit is left alone
+    # with one pose learnt, constant velocity predicts it: the next frame starts at the
+    # pose kept (had the predictor also learnt the unrefined fit, it would extrapolate)
+    np.testing.assert_allclose(refined.track.starts[1], refined.track.poses[0], atol=1e-9)
+    err = np.linalg.norm(refined.track.joints[0] - seq.truth.joints[0], axis=1).mean()
+    assert err < np.linalg.norm(plain.track.joints[0] - seq.truth.joints[0], axis=1).mean()
+
+
+def test_fits_are_ordered_by_lost_then_keypoints_down_to_the_band_then_iou():
+    def fit(lost, error, iou):
+        return type("F", (), {"lost": lost, "keypoint_error": error, "mean_iou": iou})()
+
+    band = 0.1
+    order = [  # worst first
+        None,
+        fit(True, 0.01, 0.95),
+        fit(False, 0.3, 0.95),
+        fit(False, 0.2, 0.80),
+        fit(False, 0.09, 0.80),
+        fit(False, 0.05, 0.85),  # both within the band: the IoU decides
+    ]
+    scores = [_score(f, band) for f in order]
+    assert scores == sorted(scores) and len(set(scores)) == len(scores)
+    assert _score(fit(False, np.nan, 0.9), band) > _score(fit(False, np.nan, 0.8), band)
+
+
+def test_recovery_settings_are_checked():
+    with pytest.raises(ValueError, match="refine_iou"):
+        RecoverySettings(refine_iou=1.5)
+    with pytest.raises(ValueError, match="refine_iterations"):
+        RecoverySettings(refine_iterations=-1)
+    with pytest.raises(TypeError, match="refine_iterations"):
+        RecoverySettings(refine_iterations=2.5)
 
 
 # --- keypoints through the source --------------------------------------------------------

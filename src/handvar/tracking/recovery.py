@@ -343,8 +343,10 @@ def track_with_recovery(
             smd = dataclasses.replace(
                 tracker.settings.smd, max_iterations=settings.refine_iterations
             )
+            # its own generator, spawned from the tracker's without drawing from it: the
+            # frames that need no refinement are fitted with the same draws as without it
             refiner.append(Tracker(
-                rig, hand, NoMotion(), tracker.rng,
+                rig, hand, NoMotion(), tracker.rng.spawn(1)[0],
                 dataclasses.replace(tracker.settings, smd=smd),
             ))  # fmt: skip
         refiner[0].reset(r.pose)
