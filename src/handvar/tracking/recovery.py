@@ -247,12 +247,21 @@ class RecoverySettings:
     refine_iterations : int
         Iterations of that refinement, from the fit with the optimiser's initial
         gains; 100.  0 turns refinement off.
+    refine_keypoint_weight : float
+        On a frame with keypoints whose fit is still poor after that (and after the
+        search), one more refinement with the keypoint term's weight scaled by this
+        (0.3: w_k = 30 for the tracker's 100, §14.2): where the detector and the
+        silhouette disagree, the silhouette gets a larger say, and the fit is kept
+        only if better by the order of `_score` (its joints within
+        `refit_keypoint_error` of the keypoints, or a lost fit no longer lost; its
+        recorded cost is that of the scaled weight).  1 turns it off.
     """
 
     reinit: bool = True
     refit_keypoint_error: float = 0.1
     refine_iou: float = 0.8
     refine_iterations: int = 100
+    refine_keypoint_weight: float = 0.3
 
     def __post_init__(self) -> None:
         as_instance(self.reinit, bool, "reinit")
@@ -260,6 +269,8 @@ class RecoverySettings:
                  exclusive_minimum=True)  # fmt: skip
         as_float(self.refine_iou, "refine_iou", minimum=0.0, maximum=1.0)
         as_int(self.refine_iterations, "refine_iterations", minimum=0)
+        as_float(self.refine_keypoint_weight, "refine_keypoint_weight", minimum=0.0,
+                 maximum=1.0, exclusive_minimum=True)  # fmt: skip
 
 
 RECOVERY_DEFAULTS = RecoverySettings()
@@ -336,21 +347,25 @@ def track_with_recovery(
         tracker.reset(result.pose)
         return time.perf_counter() - t0
 
-    refiner: list[Tracker] = []  # continues a fit: no motion, refine_iterations
+    refiners: dict[float, Tracker] = {}  # continue a fit: no motion, refine_iterations
 
-    def refine(r, masks, kps):
-        if not refiner:
+    def refine(r, masks, kps, weight: float = 1.0):
+        """`r` refined, the keypoint term's weight scaled by `weight`."""
+        if weight not in refiners:
             smd = dataclasses.replace(
                 tracker.settings.smd, max_iterations=settings.refine_iterations
             )
+            cost = tracker.settings.cost
+            cost = dataclasses.replace(cost, weight_keypoints=weight * cost.weight_keypoints)
             # its own generator, spawned from the tracker's without drawing from it: the
             # frames that need no refinement are fitted with the same draws as without it
-            refiner.append(Tracker(
+            refiners[weight] = Tracker(
                 rig, hand, NoMotion(), tracker.rng.spawn(1)[0],
-                dataclasses.replace(tracker.settings, smd=smd),
-            ))  # fmt: skip
-        refiner[0].reset(r.pose)
-        r2 = _quiet_step(refiner[0], masks, kps)
+                dataclasses.replace(tracker.settings, smd=smd, cost=cost),
+            )  # fmt: skip
+        refiner = refiners[weight]
+        refiner.reset(r.pose)
+        r2 = _quiet_step(refiner, masks, kps)
         if r2 is None:
             return None
         return dataclasses.replace(
@@ -423,6 +438,11 @@ def track_with_recovery(
                 refined = refine(r2, masks, kps)
                 if better(refined, best):
                     best, base, learned = refined, restarted, False
+        w = settings.refine_keypoint_weight
+        if kps is not None and w < 1.0 and poor(best, kps):  # silhouette and keypoints disagree
+            refined = refine(best, masks, kps, w)
+            if better(refined, best):
+                best, learned = refined, False
         if best is not None and not learned:  # the predictor learns the fit kept
             if tracker.frames_tracked == 0:  # the restart's step diverged
                 tracker.reset(best.pose)
