@@ -18,7 +18,7 @@ from click.testing import CliRunner
 from handvar.camera import Rig
 from handvar.cli import main
 from handvar.hand import HandModel, named_pose
-from handvar.predictors import RVAR, Decelerating
+from handvar.predictors import RVAR, Decelerating, NoMotion
 from handvar.synth.sequences import make_sequence
 from handvar.tracking.outputs import quality_captions
 from handvar.tracking.recovery import (
@@ -150,6 +150,29 @@ def test_a_poor_fit_is_refined_and_the_predictor_learns_the_refined_pose(short_s
     assert err < np.linalg.norm(plain.track.joints[0] - seq.truth.joints[0], axis=1).mean()
 
 
+def test_where_keypoints_and_silhouette_disagree_a_lighter_keypoint_term_may_win(short_sequence):
+    # keypoints like a detector's on a hand edge-on: the fingertips short, 0.25 hand
+    # sizes towards their MCPs; the silhouettes are the true ones
+    seq = short_sequence
+    hand, x = HandModel(), seq.truth.poses[0]
+    kps = projected_keypoints(hand, seq.rig, x)
+    for k in kps:
+        size = np.linalg.norm(k[9, :2] - k[0, :2])
+        for tip, mcp in ((8, 5), (12, 9), (16, 13), (20, 17)):
+            d = k[mcp, :2] - k[tip, :2]
+            k[tip, :2] += 0.25 * size * d / np.linalg.norm(d)
+
+    def run(weight):
+        tracker = Tracker(seq.rig, hand, NoMotion(), np.random.default_rng(0))
+        settings = RecoverySettings(reinit=False, refine_iou=1.0, refine_keypoint_weight=weight)
+        frames = [np.asarray(seq.masks[0])]
+        return track_with_recovery(tracker, frames, x, keypoints=[kps], settings=settings).quality
+
+    full, lighter = run(1.0), run(0.3)
+    assert lighter.iou[0] > full.iou[0]
+    assert lighter.keypoint_error[0] <= RecoverySettings().refit_keypoint_error
+
+
 def test_fits_are_ordered_by_lost_then_keypoints_down_to_the_band_then_iou():
     def fit(lost, error, iou):
         return type("F", (), {"lost": lost, "keypoint_error": error, "mean_iou": iou})()
@@ -173,6 +196,8 @@ def test_recovery_settings_are_checked():
         RecoverySettings(refine_iou=1.5)
     with pytest.raises(ValueError, match="refine_iterations"):
         RecoverySettings(refine_iterations=-1)
+    with pytest.raises(ValueError, match="refine_keypoint_weight"):
+        RecoverySettings(refine_keypoint_weight=0.0)
     with pytest.raises(TypeError, match="refine_iterations"):
         RecoverySettings(refine_iterations=2.5)
 
