@@ -266,22 +266,24 @@ def whole_video():
 
 
 @pytest.mark.slow
-def test_the_whole_video_keeps_pck_with_keypoints_every_5th(whole_video):
+def test_the_whole_video_keeps_pck_and_is_never_lost_with_keypoints_every_5th(whole_video):
     result, scores = whole_video
     q = result.quality
     assert len(q.iou) == 621
-    assert scores[~q.keypoints].mean() >= 0.9  # measured 0.941 (§14.4)
+    assert scores[~q.keypoints].mean() >= 0.9  # measured 0.942 (§14.4)
+    assert not q.lost.any(), np.flatnonzero(q.lost)
 
 
 @pytest.mark.slow
 @pytest.mark.xfail(
-    strict=True, reason="edge-on frames (about 555-569) fit at IoU 0.73-0.79 (§14.4)"
+    strict=True,
+    reason="the model cannot reach IoU 0.8 on some frames even with that frame's keypoints: "
+    "the thumb's web at 384, the heel of the palm edge-on at 555 (§14.4)",
 )
-def test_the_whole_video_keeps_iou_and_is_never_lost(whole_video):
+def test_the_whole_video_keeps_iou(whole_video):
     result, _ = whole_video
     q = result.quality
     assert q.iou.min() >= 0.8, (q.iou.min(), int(q.iou.argmin()))
-    assert not q.lost.any(), np.flatnonzero(q.lost)
 
 
 # --- the command ---------------------------------------------------------------------------
