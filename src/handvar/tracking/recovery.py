@@ -11,13 +11,16 @@ whose fit drifted from its keypoints, `RecoverySettings.refit_keypoint_error`), 
 the pose again in that frame (`handvar.tracking.init.initial_pose`: from the frame's
 keypoints when it has them, else the coarse silhouette search), restarts the tracker
 there (which resets the motion predictor) and tracks the frame again.  A fit of poor
-quality (silhouette IoU below `RecoverySettings.refine_iou`, lost, or drifting) is first
-*refined*: the optimiser continues from it, with fresh gains, for
-`RecoverySettings.refine_iterations` more iterations.  Of all the fits of a frame the
-best by its own quality is kept (`_score`: not lost, then the keypoint error down to
-the re-fit threshold, then the higher IoU), and the motion predictor learns that one
-(its state before the frame is restored when the kept fit is not the last one made).
-A frame still lost after that stays flagged.  A frame with no
+quality (lost, drifting, or on a frame with keypoints a silhouette IoU below
+`RecoverySettings.refine_iou`) is first *refined*: the optimiser continues from it, with
+fresh gains, for `RecoverySettings.refine_iterations` more iterations; on a frame with
+keypoints a fit still poor after that is searched again from the keypoints, and then
+refined once more with the keypoint term's weight lowered
+(`RecoverySettings.refine_keypoint_weight`).  Of all the fits of a frame the best by
+its own quality is kept (`_score`: not lost, then the keypoint error down to the re-fit
+threshold, then the higher IoU), and the motion predictor learns that one (its state
+before the frame is restored when the kept fit is not the last one made).  A frame
+still lost after that stays flagged.  A frame with no
 silhouette in any camera is not judged: it is carried by the prediction and flagged
 *empty* (the tracker leaves a single empty camera out of the fit).  Optionally the loop
 cuts the forearm off the silhouettes itself, at the detected wrist or, between keypoint
@@ -241,9 +244,11 @@ class RecoverySettings:
         drifting).  0.1 is half the radius of PCK@0.2, the measure of §14.4: a fit off
         by more than that on average has points outside it.  ``inf`` turns it off.
     refine_iou : float
-        Refine a fit whose mean silhouette IoU is below this (and a lost or drifting
-        one): continue the optimisation from it (§14.3).  0.8, the IoU asked of every
-        frame in §14.4; 0 refines only lost and drifting fits.
+        Refine a fit on a frame with keypoints whose mean silhouette IoU is below this
+        (and any lost or drifting fit): continue the optimisation from it (§14.3).  0.8,
+        the IoU asked of every frame in §14.4; 0 refines only lost and drifting fits.
+        A frame without keypoints is not refined for its IoU alone: without keypoints
+        a higher IoU is no sign of a better pose (§14.1, §14.4).
     refine_iterations : int
         Iterations of that refinement, from the fit with the optimiser's initial
         gains; 100.  0 turns refinement off.
@@ -287,7 +292,7 @@ def track_with_recovery(
     cut_wrist: bool = False,
     on_frame: Callable | None = None,
 ) -> RecoveredTrack:
-    """Track frame by frame, detect lost frames and re-initialise on them (module notes).
+    """Track frame by frame, refine poor fits, re-initialise lost ones (module notes).
 
     Parameters
     ----------
@@ -379,7 +384,8 @@ def track_with_recovery(
     def poor(r, kps) -> bool:
         if r is None or settings.refine_iterations == 0:
             return False
-        return r.lost or drifting(r, kps) or r.mean_iou < settings.refine_iou
+        # without keypoints a higher IoU is no better pose (§14.1): refined only when lost
+        return r.lost or drifting(r, kps) or (kps is not None and r.mean_iou < settings.refine_iou)
 
     def better(a, b) -> bool:
         thr = settings.refit_keypoint_error
