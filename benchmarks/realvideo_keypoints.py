@@ -34,7 +34,13 @@ from handvar.hand.anthropometry import HandShape
 from handvar.predictors import NoMotion
 from handvar.predictors.catalogue import make_predictor
 from handvar.tracking.costs import CostSettings
-from handvar.tracking.recovery import joint_distances, pck, track_with_recovery
+from handvar.tracking.recovery import (
+    RECOVERY_DEFAULTS,
+    RecoverySettings,
+    joint_distances,
+    pck,
+    track_with_recovery,
+)
 from handvar.tracking.smd import SMDSettings
 from handvar.tracking.tracker import Tracker, TrackerSettings
 from handvar.vision.keypoints import read_keypoints
@@ -52,6 +58,7 @@ def run(
     hand_length: float,
     seed: int = 0,
     probe: tuple[int, ...] = (),
+    settings: RecoverySettings = RECOVERY_DEFAULTS,
 ) -> dict:
     """Track with keypoints on every `every`-th frame (0: none) and score the track.
 
@@ -84,6 +91,7 @@ def run(
         keypoints=None if used is None else (lambda i: [used.frame(i)]),
         cut_wrist=bool(every),
         on_frame=keep,
+        settings=settings,
     )
     track_ms = 1e3 * (time.perf_counter() - t0) / n
     q = result.quality
@@ -153,15 +161,23 @@ def main() -> None:
     parser.add_argument(
         "--probe", default="", help="frames (comma-separated) to refit without the keypoints"
     )
+    parser.add_argument("--refine-iterations", type=int,
+                        default=RECOVERY_DEFAULTS.refine_iterations,
+                        help="iterations of the refinement of a poor fit (0: none)")  # fmt: skip
+    parser.add_argument("--refine-without-keypoints", action="store_true",
+                        help="refine frames without keypoints for their IoU too")  # fmt: skip
     args = parser.parse_args()
+    settings = RecoverySettings(
+        refine_iterations=args.refine_iterations,
+        refine_without_keypoints=args.refine_without_keypoints,
+    )
     print(
         f"example video, scale {args.scale:g}, hand {args.hand_length:g} mm, RVAR, "
-        f"seed {args.seed}; "
-        "PCK@0.2 against the detector on every frame"
+        f"seed {args.seed}; PCK@0.2 against the detector on every frame; {settings}"
     )
     for every in args.every or [5, 10, 0]:
         probe = tuple(int(t) for t in args.probe.split(",") if t)
-        r = run(every, args.frames, args.scale, args.hand_length, args.seed, probe)
+        r = run(every, args.frames, args.scale, args.hand_length, args.seed, probe, settings)
         what = f"keypoints every {every:>2}" if every else "no keypoints      "
         print(
             f"  {what}: {r['frames']} frames | PCK@0.2 withheld {r['pck_withheld']:.3f}, "

@@ -136,7 +136,9 @@ def test_a_poor_fit_is_refined_and_the_predictor_learns_the_refined_pose(short_s
 
     def run(refine_iterations):
         tracker = Tracker(seq.rig, HandModel(), Decelerating(1.0), np.random.default_rng(0), short)
-        settings = RecoverySettings(reinit=False, refine_iterations=refine_iterations)
+        settings = RecoverySettings(
+            reinit=False, refine_iterations=refine_iterations, refine_without_keypoints=True
+        )
         return track_with_recovery(tracker, frames, x0, settings=settings)
 
     plain, refined = run(0), run(100)
@@ -198,6 +200,8 @@ def test_recovery_settings_are_checked():
         RecoverySettings(refine_iterations=-1)
     with pytest.raises(ValueError, match="refine_keypoint_weight"):
         RecoverySettings(refine_keypoint_weight=0.0)
+    with pytest.raises(TypeError, match="refine_without_keypoints"):
+        RecoverySettings(refine_without_keypoints=1)
     with pytest.raises(TypeError, match="refine_iterations"):
         RecoverySettings(refine_iterations=2.5)
 

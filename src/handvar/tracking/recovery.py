@@ -247,11 +247,15 @@ class RecoverySettings:
         Refine a fit on a frame with keypoints whose mean silhouette IoU is below this
         (and any lost or drifting fit): continue the optimisation from it (§14.3).  0.8,
         the IoU asked of every frame in §14.4; 0 refines only lost and drifting fits.
-        A frame without keypoints is not refined for its IoU alone: without keypoints
-        a higher IoU is no sign of a better pose (§14.1, §14.4).
+        A frame without keypoints is not refined for its IoU alone (unless
+        `refine_without_keypoints`): without keypoints a higher IoU is no sign of a
+        better pose (§14.1, §14.3).
     refine_iterations : int
         Iterations of that refinement, from the fit with the optimiser's initial
         gains; 100.  0 turns refinement off.
+    refine_without_keypoints : bool
+        Refine frames without keypoints for their IoU too; False (§14.3 says what it
+        did on the example video).
     refine_keypoint_weight : float
         On a frame with keypoints whose fit is still poor after that (and after the
         search), one more refinement with the keypoint term's weight scaled by this
@@ -266,6 +270,7 @@ class RecoverySettings:
     refit_keypoint_error: float = 0.1
     refine_iou: float = 0.8
     refine_iterations: int = 100
+    refine_without_keypoints: bool = False
     refine_keypoint_weight: float = 0.3
 
     def __post_init__(self) -> None:
@@ -274,6 +279,7 @@ class RecoverySettings:
                  exclusive_minimum=True)  # fmt: skip
         as_float(self.refine_iou, "refine_iou", minimum=0.0, maximum=1.0)
         as_int(self.refine_iterations, "refine_iterations", minimum=0)
+        as_instance(self.refine_without_keypoints, bool, "refine_without_keypoints")
         as_float(self.refine_keypoint_weight, "refine_keypoint_weight", minimum=0.0,
                  maximum=1.0, exclusive_minimum=True)  # fmt: skip
 
@@ -385,7 +391,8 @@ def track_with_recovery(
         if r is None or settings.refine_iterations == 0:
             return False
         # without keypoints a higher IoU is no better pose (§14.1): refined only when lost
-        return r.lost or drifting(r, kps) or (kps is not None and r.mean_iou < settings.refine_iou)
+        judged = kps is not None or settings.refine_without_keypoints
+        return r.lost or drifting(r, kps) or (judged and r.mean_iou < settings.refine_iou)
 
     def better(a, b) -> bool:
         thr = settings.refit_keypoint_error
