@@ -130,7 +130,12 @@ class TrackQuality:
 
 @dataclass(frozen=True, eq=False)
 class RecoveredTrack:
-    """The result of `track_with_recovery`: the track and its quality."""
+    """The result of `track_with_recovery`: the track and its quality.
+
+    A refined frame's ``track.iterations`` counts the refinements' iterations too (so
+    it may exceed the tracker's ``max_iterations``); its row of ``track.costs`` keeps
+    the first ``max_iterations`` of them.
+    """
 
     track: TrackResult
     quality: TrackQuality
