@@ -15,7 +15,10 @@ searched in frame 0) is scored against the detector's keypoints of *every* frame
   silhouettes, which are timed apart).
 
 Run: ``PYTHONPATH=src .venv/bin/python benchmarks/realvideo_keypoints.py``
-(``--every 5`` for one setting; ``--frames N`` for the first N frames only).
+(``--every 5`` for one setting; ``--frames N`` for the first N frames only; ``--seed S``
+for the optimiser's seed; ``--probe 555,565`` to refit those frames from the track with
+the keypoint weight lowered and without keypoints: how far silhouette and keypoints
+can be matched together, `refit`).
 """
 
 from __future__ import annotations
@@ -28,9 +31,18 @@ import numpy as np
 
 from handvar.hand import HandModel
 from handvar.hand.anthropometry import HandShape
+from handvar.predictors import NoMotion
 from handvar.predictors.catalogue import make_predictor
-from handvar.tracking.recovery import pck, track_with_recovery
-from handvar.tracking.tracker import Tracker
+from handvar.tracking.costs import CostSettings
+from handvar.tracking.recovery import (
+    RECOVERY_DEFAULTS,
+    RecoverySettings,
+    joint_distances,
+    pck,
+    track_with_recovery,
+)
+from handvar.tracking.smd import SMDSettings
+from handvar.tracking.tracker import Tracker, TrackerSettings
 from handvar.vision.keypoints import read_keypoints
 from handvar.vision.sources import open_source
 
@@ -39,8 +51,19 @@ VIDEO = DATA / "dex-human-hand-video.mp4"
 KEYPOINTS = DATA / "dex-human-hand-video-keypoints.npy"
 
 
-def run(every: int, frames: int | None, scale: float, hand_length: float) -> dict:
-    """Track with keypoints on every `every`-th frame (0: none) and score the track."""
+def run(
+    every: int,
+    frames: int | None,
+    scale: float,
+    hand_length: float,
+    seed: int = 0,
+    probe: tuple[int, ...] = (),
+    settings: RecoverySettings = RECOVERY_DEFAULTS,
+) -> dict:
+    """Track with keypoints on every `every`-th frame (0: none) and score the track.
+
+    For each frame in `probe`, the tracked fit is also refitted (`refit`).
+    """
     source = open_source(VIDEO, scale=scale)
     detected = read_keypoints(KEYPOINTS)
     given = [detected.every(every)] if every else None
@@ -54,13 +77,21 @@ def run(every: int, frames: int | None, scale: float, hand_length: float) -> dic
     truth = source.scaled_keypoints([detected])[0]
     used = source.scaled_keypoints(given)[0] if every else None
     hand = HandModel(HandShape.from_size(hand_length))
-    tracker = Tracker(source.rig, hand, make_predictor("rvar"), np.random.default_rng(0))
+    tracker = Tracker(source.rig, hand, make_predictor("rvar"), np.random.default_rng(seed))
+    tracked = {}  # the silhouettes fitted in the probed frames (cut while tracking)
+
+    def keep(i, pose, quality, m):
+        if i in probe:
+            tracked[i] = m
+
     t0 = time.perf_counter()
     result = track_with_recovery(
         tracker,
         masks,
         keypoints=None if used is None else (lambda i: [used.frame(i)]),
         cut_wrist=bool(every),
+        on_frame=keep,
+        settings=settings,
     )
     track_ms = 1e3 * (time.perf_counter() - t0) / n
     q = result.quality
@@ -68,7 +99,13 @@ def run(every: int, frames: int | None, scale: float, hand_length: float) -> dic
         [pck(result.track.poses[t], hand, source.rig, [truth.frame(t)]) for t in range(n)]
     )
     withheld = ~q.keypoints
+    probes = {
+        t: refit(result.track.poses[t], tracked[t], hand, source.rig, truth.frame(t))
+        for t in probe
+        if t in tracked
+    }
     return {
+        "probes": probes,
         "every": every,
         "frames": n,
         "pck_withheld": float(np.nanmean(scores[withheld])),
@@ -78,7 +115,9 @@ def run(every: int, frames: int | None, scale: float, hand_length: float) -> dic
         "iou_min_frame": int(np.flatnonzero(~q.empty)[q.iou[~q.empty].argmin()]),
         "iou_mean": float(q.iou[~q.empty].mean()),
         "frames_iou_below_0.8": int(np.sum(q.iou[~q.empty] < 0.8)),
+        "iou_below_0.8_frames": np.flatnonzero(q.iou < 0.8).tolist(),
         "lost": int(q.lost.sum()),
+        "lost_frames": np.flatnonzero(q.lost).tolist(),
         "reinit": int(q.reinit.sum()),
         "reinit_frames": np.flatnonzero(q.reinit).tolist(),
         "empty": int(q.empty.sum()),
@@ -88,6 +127,29 @@ def run(every: int, frames: int | None, scale: float, hand_length: float) -> dic
     }
 
 
+def refit(pose, masks, hand, rig, keypoints, iterations: int = 200) -> list[tuple]:
+    """How far the silhouette and the keypoints of one frame can be matched together.
+
+    From the tracked `pose`, the frame's silhouettes are fitted again (`iterations`
+    iterations, no motion, seed 0) with the detector's keypoints at the keypoint weight
+    w_k = 100 (the tracker's), 30 and 10, and without them.  Returns per fit (label,
+    silhouette IoU, mean distance of the projected joints to the keypoints in the
+    detector's hand sizes, PCK@0.2).
+    """
+    out = []
+    for label, weight in (("w_k 100", 100.0), ("w_k 30", 30.0), ("w_k 10", 10.0), ("none", None)):
+        settings = TrackerSettings(
+            cost=CostSettings(weight_keypoints=100.0 if weight is None else weight),
+            smd=SMDSettings(max_iterations=iterations),
+        )
+        tracker = Tracker(rig, hand, NoMotion(), np.random.default_rng(0), settings)
+        tracker.reset(pose)
+        r = tracker.step(masks, keypoints=None if weight is None else [keypoints])
+        d = joint_distances(r.pose, hand, rig, [keypoints])
+        out.append((label, r.mean_iou, float(np.nanmean(d)), pck(r.pose, hand, rig, [keypoints])))
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--every", type=int, action="append",
@@ -95,13 +157,27 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=None, help="only the first N frames")
     parser.add_argument("--scale", type=float, default=0.5, help="resize factor of the frames")
     parser.add_argument("--hand-length", type=float, default=185.0, help="model hand, mm")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the optimiser")
+    parser.add_argument(
+        "--probe", default="", help="frames (comma-separated) to refit without the keypoints"
+    )
+    parser.add_argument("--refine-iterations", type=int,
+                        default=RECOVERY_DEFAULTS.refine_iterations,
+                        help="iterations of the refinement of a poor fit (0: none)")  # fmt: skip
+    parser.add_argument("--refine-without-keypoints", action="store_true",
+                        help="refine frames without keypoints for their IoU too")  # fmt: skip
     args = parser.parse_args()
+    settings = RecoverySettings(
+        refine_iterations=args.refine_iterations,
+        refine_without_keypoints=args.refine_without_keypoints,
+    )
     print(
-        f"example video, scale {args.scale:g}, hand {args.hand_length:g} mm, RVAR, seed 0; "
-        "PCK@0.2 against the detector on every frame"
+        f"example video, scale {args.scale:g}, hand {args.hand_length:g} mm, RVAR, "
+        f"seed {args.seed}; PCK@0.2 against the detector on every frame; {settings}"
     )
     for every in args.every or [5, 10, 0]:
-        r = run(every, args.frames, args.scale, args.hand_length)
+        probe = tuple(int(t) for t in args.probe.split(",") if t)
+        r = run(every, args.frames, args.scale, args.hand_length, args.seed, probe, settings)
         what = f"keypoints every {every:>2}" if every else "no keypoints      "
         print(
             f"  {what}: {r['frames']} frames | PCK@0.2 withheld {r['pck_withheld']:.3f}, "
@@ -112,6 +188,12 @@ def main() -> None:
             f"{r['iterations']:.1f} iterations, tracking {r['track_ms']:.0f} ms/frame, "
             f"silhouettes {r['silhouette_ms']:.0f} ms/frame"
         )
+        print(f"    IoU < 0.8 at {r['iou_below_0.8_frames'][:20]}; lost at {r['lost_frames'][:20]}")
+        for t, fits in r["probes"].items():
+            text = "; ".join(
+                f"{a}: IoU {b:.3f}, joints {c:.3f}, PCK {d:.2f}" for a, b, c, d in fits
+            )
+            print(f"    frame {t} refitted from the track, 200 iterations: {text}")
 
 
 if __name__ == "__main__":

@@ -15,10 +15,11 @@ Steps:
    rate), else at the wrist of the model fitted to the previous frame (without
    keypoints: where the forearm's width changes);
 2. the first frame's pose from its keypoints (`handvar.tracking.init.initial_pose`);
-3. tracking with the paper's RVAR predictor and the library's lost-frame recovery
-   (`handvar.tracking.recovery.track_with_recovery`): a frame whose fit is lost
-   (silhouette IoU below 0.5, or joints more than half a hand size from the keypoints)
-   is searched again and the predictor restarted there;
+3. tracking with the paper's RVAR predictor and the library's recovery
+   (`handvar.tracking.recovery.track_with_recovery`, design §14.3): a poor fit is
+   refined, and a frame whose fit is lost (silhouette IoU below 0.75, or joints more
+   than 0.3 hand sizes from the keypoints) or drifting from its keypoints is searched
+   again and the predictor restarted there;
 4. outputs in ``--out``: ``poses.csv`` (T × 26, mm and degrees), ``joints.csv``
    (T × 63, mm, camera frame), ``quality.csv`` (per frame: IoU, keypoint error, lost,
    re-initialised) and ``overlay.mp4`` (the model's outline in yellow, its joints and

@@ -144,11 +144,6 @@ def test_real_video_initial_pose_fits_its_silhouette():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="silhouettes alone, no recovery: the forearm-following wrist cut leaves forearm "
-    "in frames 54-58 and the fit follows it (min IoU 0.54; the palm-centre cut gave 0.74)",
-)
 def test_real_video_tracking_keeps_the_silhouette():
     source = open_source(VIDEO, scale=0.5)
     hand = HandModel()
@@ -159,4 +154,7 @@ def test_real_video_tracking_keeps_the_silhouette():
             tracker.reset(initial_pose(masks, source.rig, hand).pose)
         pose = tracker.step(masks).pose
         ious.append(silhouette_iou(silhouettes(hand, pose, source.rig), masks))
+    print(f"min IoU {min(ious):.3f} (frame {int(np.argmin(ious))}), mean {np.mean(ious):.3f}")
+    # the forearm cut used to stop at the image border on frames 54-55 and the fit
+    # followed the forearm to frame 58 (min IoU 0.54; design §14.1)
     assert min(ious) > 0.7

@@ -18,16 +18,18 @@ from click.testing import CliRunner
 from handvar.camera import Rig
 from handvar.cli import main
 from handvar.hand import HandModel, named_pose
-from handvar.predictors import RVAR
+from handvar.predictors import RVAR, Decelerating, NoMotion
 from handvar.synth.sequences import make_sequence
 from handvar.tracking.outputs import quality_captions
 from handvar.tracking.recovery import (
     RecoverySettings,
+    _score,
     joint_distances,
     pck,
     track_with_recovery,
 )
-from handvar.tracking.tracker import Tracker
+from handvar.tracking.smd import SMDSettings
+from handvar.tracking.tracker import Tracker, TrackerSettings
 from handvar.vision.keypoints import read_keypoints
 from handvar.vision.silhouette import EmptySilhouetteError, cut_wrist, silhouettes_from_frames
 from handvar.vision.sources import open_source
@@ -125,6 +127,85 @@ def test_an_empty_frame_is_flagged_and_keeps_the_previous_pose(short_sequence):
     assert "1 empty" in q.summary()
 
 
+def test_a_poor_fit_is_refined_and_the_predictor_learns_the_refined_pose(short_sequence):
+    seq = short_sequence
+    frames = [np.asarray(seq.masks[t]) for t in range(3)]
+    x0 = seq.truth.poses[0].copy()
+    x0[:3] += (30.0, 0.0, 0.0)  # 3 cm off, and only 2 iterations a frame: a poor fit
+    short = TrackerSettings(smd=SMDSettings(max_iterations=2))
+
+    def run(refine_iterations):
+        tracker = Tracker(seq.rig, HandModel(), Decelerating(1.0), np.random.default_rng(0), short)
+        settings = RecoverySettings(
+            reinit=False, refine_iterations=refine_iterations, refine_without_keypoints=True
+        )
+        return track_with_recovery(tracker, frames, x0, settings=settings)
+
+    plain, refined = run(0), run(100)
+    assert plain.quality.iou[0] < 0.8 <= refined.quality.iou[0]
+    assert plain.track.iterations[0] == 2 < refined.track.iterations[0] <= 102
+    assert refined.track.iterations[1] <= 2  # a good fit is left alone
+    # with one pose learnt, constant velocity predicts it: the next frame starts at the
+    # pose kept (had the predictor also learnt the unrefined fit, it would extrapolate)
+    np.testing.assert_allclose(refined.track.starts[1], refined.track.poses[0], atol=1e-9)
+    err = np.linalg.norm(refined.track.joints[0] - seq.truth.joints[0], axis=1).mean()
+    assert err < np.linalg.norm(plain.track.joints[0] - seq.truth.joints[0], axis=1).mean()
+
+
+def test_where_keypoints_and_silhouette_disagree_a_lighter_keypoint_term_may_win(short_sequence):
+    # keypoints like a detector's on a hand edge-on: the fingertips short, 0.25 hand
+    # sizes towards their MCPs; the silhouettes are the true ones
+    seq = short_sequence
+    hand, x = HandModel(), seq.truth.poses[0]
+    kps = projected_keypoints(hand, seq.rig, x)
+    for k in kps:
+        size = np.linalg.norm(k[9, :2] - k[0, :2])
+        for tip, mcp in ((8, 5), (12, 9), (16, 13), (20, 17)):
+            d = k[mcp, :2] - k[tip, :2]
+            k[tip, :2] += 0.25 * size * d / np.linalg.norm(d)
+
+    def run(weight):
+        tracker = Tracker(seq.rig, hand, NoMotion(), np.random.default_rng(0))
+        settings = RecoverySettings(reinit=False, refine_iou=1.0, refine_keypoint_weight=weight)
+        frames = [np.asarray(seq.masks[0])]
+        return track_with_recovery(tracker, frames, x, keypoints=[kps], settings=settings).quality
+
+    full, lighter = run(1.0), run(0.3)
+    assert lighter.iou[0] > full.iou[0]
+    assert lighter.keypoint_error[0] <= RecoverySettings().refit_keypoint_error
+
+
+def test_fits_are_ordered_by_lost_then_keypoints_down_to_the_band_then_iou():
+    def fit(lost, error, iou):
+        return type("F", (), {"lost": lost, "keypoint_error": error, "mean_iou": iou})()
+
+    band = 0.1
+    order = [  # worst first
+        None,
+        fit(True, 0.01, 0.95),
+        fit(False, 0.3, 0.95),
+        fit(False, 0.2, 0.80),
+        fit(False, 0.09, 0.80),
+        fit(False, 0.05, 0.85),  # both within the band: the IoU decides
+    ]
+    scores = [_score(f, band) for f in order]
+    assert scores == sorted(scores) and len(set(scores)) == len(scores)
+    assert _score(fit(False, np.nan, 0.9), band) > _score(fit(False, np.nan, 0.8), band)
+
+
+def test_recovery_settings_are_checked():
+    with pytest.raises(ValueError, match="refine_iou"):
+        RecoverySettings(refine_iou=1.5)
+    with pytest.raises(ValueError, match="refine_iterations"):
+        RecoverySettings(refine_iterations=-1)
+    with pytest.raises(ValueError, match="refine_keypoint_weight"):
+        RecoverySettings(refine_keypoint_weight=0.0)
+    with pytest.raises(TypeError, match="refine_without_keypoints"):
+        RecoverySettings(refine_without_keypoints=1)
+    with pytest.raises(TypeError, match="refine_iterations"):
+        RecoverySettings(refine_iterations=2.5)
+
+
 # --- keypoints through the source --------------------------------------------------------
 
 
@@ -189,22 +270,24 @@ def whole_video():
 
 
 @pytest.mark.slow
-def test_the_whole_video_keeps_pck_with_keypoints_every_5th(whole_video):
+def test_the_whole_video_keeps_pck_and_is_never_lost_with_keypoints_every_5th(whole_video):
     result, scores = whole_video
     q = result.quality
     assert len(q.iou) == 621
-    assert scores[~q.keypoints].mean() >= 0.9  # measured 0.941 (§14.4)
+    assert scores[~q.keypoints].mean() >= 0.9  # measured 0.942 (§14.4)
+    assert not q.lost.any(), np.flatnonzero(q.lost)
 
 
 @pytest.mark.slow
 @pytest.mark.xfail(
-    strict=True, reason="edge-on frames (about 555-569) fit at IoU 0.73-0.79 (§14.4)"
+    strict=True,
+    reason="7 frames fit at IoU 0.77-0.80: edge-on keypoint frames (555, 565) where the model "
+    "cannot match silhouette and keypoints together, and frames between keypoint frames (§14.4)",
 )
-def test_the_whole_video_keeps_iou_and_is_never_lost(whole_video):
+def test_the_whole_video_keeps_iou(whole_video):
     result, _ = whole_video
     q = result.quality
     assert q.iou.min() >= 0.8, (q.iou.min(), int(q.iou.argmin()))
-    assert not q.lost.any(), np.flatnonzero(q.lost)
 
 
 # --- the command ---------------------------------------------------------------------------

@@ -149,6 +149,20 @@ def test_find_wrist_on_synthetic_arm(angle):
     assert (hand & no_arm).sum() / no_arm.sum() > 0.98
 
 
+@pytest.mark.parametrize("blob", [1.8, 1.2])
+def test_a_silhouette_wider_where_it_enters_the_image_is_still_cut_at_the_wrist(blob):
+    # Skin beside the forearm at the image's edge (a shadow, a sleeve's gap) makes the
+    # first cross-sections wider: the narrowing after them has no forearm before it.
+    m, wrist, _, R = synthetic_arm(0.0)
+    h, w = m.shape
+    m = m.copy()
+    m[h - 25 :, int(w / 2 - blob * R) : int(w / 2 + blob * R)] = True
+    cut = find_wrist(m)
+    assert cut is not None
+    assert np.linalg.norm(cut.wrist - wrist) < 0.35 * R
+    assert not cut_wrist(m)[h - 25 :].any()
+
+
 def test_no_forearm_means_no_cut():
     m, *_ = synthetic_arm(10.0, forearm=False)
     assert find_wrist(m) is None

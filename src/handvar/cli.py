@@ -715,7 +715,7 @@ def _recording_options(func):
 @click.option("--keypoint-every", type=click.IntRange(min=1), default=1, show_default=True,
               help="Use the keypoints of every K-th frame only (a slower detector).")  # fmt: skip
 @click.option("--recover/--no-recover", default=None,
-              help="Detect lost frames and search the pose again there "
+              help="Refine poor fits, detect lost frames and search the pose again there "
               "[default: on for recordings and with --keypoints].")  # fmt: skip
 @_recording_options
 @_one_line_errors
@@ -733,8 +733,9 @@ def track_command(
     With --keypoints (one file per camera), every K-th frame's keypoints
     (--keypoint-every) place the wrist cut and pull the fit; the tracker and the motion
     predictor carry the frames between. With recovery (--recover) each frame's fit is
-    checked (silhouette IoU, distance to the keypoints) and a lost frame is searched
-    again (from its keypoints when it has them); the summary says how many.
+    checked (silhouette IoU, distance to the keypoints), a poor fit is refined, and a
+    lost frame is searched again (from its keypoints when it has them); the summary
+    says how many.
 
     OUT receives poses.csv (T × 26, mm and degrees), joints.csv (T × 63, mm),
     track.npz (the track and its fit quality), overlay.png (a

@@ -10,9 +10,17 @@ projected joints to the frame's keypoints in hand sizes, and whether the frame i
 whose fit drifted from its keypoints, `RecoverySettings.refit_keypoint_error`), searches
 the pose again in that frame (`handvar.tracking.init.initial_pose`: from the frame's
 keypoints when it has them, else the coarse silhouette search), restarts the tracker
-there (which resets the motion predictor) and tracks the frame again; of the two fits
-the one not lost, then with the lower keypoint error (without keypoints: the higher
-IoU), is kept.  A frame still lost after that stays flagged.  A frame with no
+there (which resets the motion predictor) and tracks the frame again.  A fit of poor
+quality (lost, drifting, or on a frame with keypoints a silhouette IoU below
+`RecoverySettings.refine_iou`) is first *refined*: the optimiser continues from it, with
+fresh gains, for `RecoverySettings.refine_iterations` more iterations; on a frame with
+keypoints a fit still poor after that is searched again from the keypoints, and then
+refined once more with the keypoint term's weight lowered
+(`RecoverySettings.refine_keypoint_weight`).  Of all the fits of a frame the best by
+its own quality is kept (`_score`: not lost, then the keypoint error down to the re-fit
+threshold, then the higher IoU), and the motion predictor learns that one (its state
+before the frame is restored when the kept fit is not the last one made).  A frame
+still lost after that stays flagged.  A frame with no
 silhouette in any camera is not judged: it is carried by the prediction and flagged
 *empty* (the tracker leaves a single empty camera out of the fit).  Optionally the loop
 cuts the forearm off the silhouettes itself, at the detected wrist or, between keypoint
@@ -25,6 +33,8 @@ distance in that frame), independent of the model.
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import math
 import time
 from collections.abc import Callable, Iterable, Sequence
@@ -33,9 +43,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from handvar.params import N_PARAMS
+from handvar.predictors import NoMotion
 from handvar.tracking.init import InitSettings, initial_pose
 from handvar.tracking.tracker import Tracker, TrackResult
-from handvar.validate import as_float, as_instance
+from handvar.validate import as_float, as_instance, as_int
 
 __all__ = [
     "RECOVERY_DEFAULTS",
@@ -119,7 +130,12 @@ class TrackQuality:
 
 @dataclass(frozen=True, eq=False)
 class RecoveredTrack:
-    """The result of `track_with_recovery`: the track and its quality."""
+    """The result of `track_with_recovery`: the track and its quality.
+
+    A refined frame's ``track.iterations`` counts the refinements' iterations too (so
+    it may exceed the tracker's ``max_iterations``); its row of ``track.costs`` keeps
+    the first ``max_iterations`` of them.
+    """
 
     track: TrackResult
     quality: TrackQuality
@@ -201,15 +217,22 @@ def _quiet_step(tracker: Tracker, masks, kps):
             return None
 
 
-def _score(r) -> tuple[bool, float]:
-    """Order of two fits of one frame: not lost first, then the lower keypoint error
-    (on a frame with keypoints) or the higher mean IoU."""
+def _score(r, keypoint_error: float) -> tuple[bool, float, float]:
+    """Order of the fits of one frame by their own quality, best highest.
+
+    Not lost first; then the lower keypoint error, down to `keypoint_error` (fits that
+    close to their keypoints tie: the keypoints cannot tell them apart, the silhouette
+    can); then the higher mean IoU.  Without keypoints only the IoU decides.
+    """
     if r is None:
-        return (False, -math.inf)
-    if not math.isnan(r.keypoint_error):
-        return (not r.lost, -r.keypoint_error)
+        return (False, -math.inf, -math.inf)
+    e = r.keypoint_error
     iou = r.mean_iou
-    return (not r.lost, -1.0 if math.isnan(iou) else iou)
+    return (
+        not r.lost,
+        0.0 if math.isnan(e) else -max(e, keypoint_error),
+        -1.0 if math.isnan(iou) else iou,
+    )
 
 
 @dataclass(frozen=True)
@@ -225,15 +248,45 @@ class RecoverySettings:
         is off them by more than this, mean over the points, hand sizes (not lost, but
         drifting).  0.1 is half the radius of PCK@0.2, the measure of §14.4: a fit off
         by more than that on average has points outside it.  ``inf`` turns it off.
+    refine_iou : float
+        Refine a fit on a frame with keypoints whose mean silhouette IoU is below this
+        (and any lost or drifting fit): continue the optimisation from it (§14.3).  0.8,
+        the IoU asked of every frame in §14.4; 0 refines only lost and drifting fits.
+        A frame without keypoints is not refined for its IoU alone (unless
+        `refine_without_keypoints`): without keypoints a higher IoU is no sign of a
+        better pose (§14.1, §14.3).
+    refine_iterations : int
+        Iterations of that refinement, from the fit with the optimiser's initial
+        gains; 100.  0 turns refinement off.
+    refine_without_keypoints : bool
+        Refine frames without keypoints for their IoU too; False (§14.3 says what it
+        did on the example video).
+    refine_keypoint_weight : float
+        On a frame with keypoints whose fit is still poor after that (and after the
+        search), one more refinement with the keypoint term's weight scaled by this
+        (0.3: w_k = 30 for the tracker's 100, §14.2): where the detector and the
+        silhouette disagree, the silhouette gets a larger say, and the fit is kept
+        only if better by the order of `_score` (its joints within
+        `refit_keypoint_error` of the keypoints, or a lost fit no longer lost; its
+        recorded cost is that of the scaled weight).  1 turns it off.
     """
 
     reinit: bool = True
     refit_keypoint_error: float = 0.1
+    refine_iou: float = 0.8
+    refine_iterations: int = 100
+    refine_without_keypoints: bool = False
+    refine_keypoint_weight: float = 0.3
 
     def __post_init__(self) -> None:
         as_instance(self.reinit, bool, "reinit")
         as_float(self.refit_keypoint_error, "refit_keypoint_error", minimum=0.0,
                  exclusive_minimum=True)  # fmt: skip
+        as_float(self.refine_iou, "refine_iou", minimum=0.0, maximum=1.0)
+        as_int(self.refine_iterations, "refine_iterations", minimum=0)
+        as_instance(self.refine_without_keypoints, bool, "refine_without_keypoints")
+        as_float(self.refine_keypoint_weight, "refine_keypoint_weight", minimum=0.0,
+                 maximum=1.0, exclusive_minimum=True)  # fmt: skip
 
 
 RECOVERY_DEFAULTS = RecoverySettings()
@@ -250,7 +303,7 @@ def track_with_recovery(
     cut_wrist: bool = False,
     on_frame: Callable | None = None,
 ) -> RecoveredTrack:
-    """Track frame by frame, detect lost frames and re-initialise on them (module notes).
+    """Track frame by frame, refine poor fits, re-initialise lost ones (module notes).
 
     Parameters
     ----------
@@ -310,6 +363,46 @@ def track_with_recovery(
         tracker.reset(result.pose)
         return time.perf_counter() - t0
 
+    refiners: dict[float, Tracker] = {}  # continue a fit: no motion, refine_iterations
+
+    def refine(r, masks, kps, weight: float = 1.0):
+        """`r` refined, the keypoint term's weight scaled by `weight`."""
+        if weight not in refiners:
+            smd = dataclasses.replace(
+                tracker.settings.smd, max_iterations=settings.refine_iterations
+            )
+            cost = tracker.settings.cost
+            cost = dataclasses.replace(cost, weight_keypoints=weight * cost.weight_keypoints)
+            # its own generator, spawned from the tracker's without drawing from it: the
+            # frames that need no refinement are fitted with the same draws as without it
+            refiners[weight] = Tracker(
+                rig, hand, NoMotion(), tracker.rng.spawn(1)[0],
+                dataclasses.replace(tracker.settings, smd=smd, cost=cost),
+            )  # fmt: skip
+        refiner = refiners[weight]
+        refiner.reset(r.pose)
+        r2 = _quiet_step(refiner, masks, kps)
+        if r2 is None:
+            return None
+        return dataclasses.replace(
+            r2, start=r.start, costs=np.concatenate([r.costs, r2.costs]),
+            iterations=r.iterations + r2.iterations, seconds=r.seconds + r2.seconds,
+        )  # fmt: skip
+
+    def drifting(r, kps) -> bool:
+        return kps is not None and r.keypoint_error > settings.refit_keypoint_error
+
+    def poor(r, kps) -> bool:
+        if r is None or settings.refine_iterations == 0:
+            return False
+        # without keypoints a higher IoU is no better pose (§14.1): refined only when lost
+        judged = kps is not None or settings.refine_without_keypoints
+        return r.lost or drifting(r, kps) or (judged and r.mean_iou < settings.refine_iou)
+
+    def better(a, b) -> bool:
+        thr = settings.refit_keypoint_error
+        return _score(a, thr) > _score(b, thr)
+
     results, flags, init_seconds = [], [], []
     previous = None if x0 is None else np.asarray(x0, dtype=float)
     started = False
@@ -334,18 +427,46 @@ def track_with_recovery(
             if on_frame is not None:
                 on_frame(i, pose, FrameQuality(math.nan, math.nan, math.nan, False), masks)
             continue
+        before = copy.deepcopy(tracker.predictor)  # its state before this frame
         r = _quiet_step(tracker, masks, kps)
+        # `learned`: the tracker's predictor was last updated with `best`
+        best, base, learned = r, before, True
+        if not empty and poor(r, kps):
+            refined = refine(r, masks, kps)
+            if better(refined, best):
+                best, learned = refined, False
         again = False
-        drifting = (
-            r is not None and kps is not None
-            and r.keypoint_error > settings.refit_keypoint_error
-        )  # fmt: skip
-        if settings.reinit and not empty and (r is None or r.lost or drifting):
+        if (
+            settings.reinit
+            and not empty
+            and (
+                best is None
+                or best.lost
+                or drifting(best, kps)
+                or (kps is not None and poor(best, kps))
+            )
+        ):  # on a keypoint frame the search is from the keypoints: also for a poor fit
             init_seconds.append(search(masks, kps))
-            again = True
+            again, learned = True, False
+            restarted = copy.deepcopy(tracker.predictor)
             r2 = _quiet_step(tracker, masks, kps)
-            if _score(r2) >= _score(r):
-                r = r2
+            if better(r2, best):
+                best, base, learned = r2, restarted, True
+            if poor(r2, kps):
+                refined = refine(r2, masks, kps)
+                if better(refined, best):
+                    best, base, learned = refined, restarted, False
+        w = settings.refine_keypoint_weight
+        if kps is not None and w < 1.0 and poor(best, kps):  # silhouette and keypoints disagree
+            refined = refine(best, masks, kps, w)
+            if better(refined, best):
+                best, learned = refined, False
+        if best is not None and not learned:  # the predictor learns the fit kept
+            if tracker.frames_tracked == 0:  # the restart's step diverged
+                tracker.reset(best.pose)
+            _restore(tracker, base)
+            tracker.predictor.update(best.pose)
+        r = best
         if r is None:  # diverged and not recovered: keep the last finite pose
             pose = np.full(N_PARAMS, np.nan) if previous is None else previous
             if previous is not None:
@@ -408,6 +529,15 @@ def _cut(masks: np.ndarray, kps, previous, hand, rig) -> np.ndarray:
             k = model_wrist_keypoints(previous, hand, cam)
         out.append(cut_wrist(m, None if k is None else _cut_at_joint(k)))
     return np.stack(out)
+
+
+def _restore(tracker: Tracker, state) -> None:
+    """Put the predictor state `state` (a copy of the tracker's predictor) back in place."""
+    if hasattr(tracker.predictor, "__dict__"):
+        tracker.predictor.__dict__.clear()
+        tracker.predictor.__dict__.update(state.__dict__)
+    else:
+        tracker.predictor = state
 
 
 def _frame_quality(r, empty: bool) -> FrameQuality:

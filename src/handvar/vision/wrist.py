@@ -70,7 +70,9 @@ class WristCutSettings:
         The cut is moved back from where the change was found to the last
         cross-section within ``onset · tolerance`` of the forearm's width.
     min_forearm : float
-        Forearm lengths (in forearm widths) followed before a change is looked for.
+        Forearm lengths (in forearm widths) followed before a change is looked for; a
+        change whose onset lies closer to the image border is passed over (a silhouette
+        that widens or narrows where it enters the image shows no forearm before it).
     direction_window : float
         Centres of the cross-sections over this many forearm widths give the local
         direction.
@@ -282,6 +284,11 @@ def forearm_wrist(
                     and not abs(widths[k - 1] - ref) <= settings.onset * settings.tolerance * ref
                 ):
                     k -= 1
+                if k < settings.min_forearm * ref:  # no forearm before it: not a wrist
+                    change_at = None
+                    centres.append(centre)
+                    widths.append(width)
+                    continue
                 wrist = centres[k - 1]
                 d = centres[max(0, k - 1 - win)] - wrist
                 axis = d / np.linalg.norm(d) if np.linalg.norm(d) > 1e-9 else -direction
