@@ -240,9 +240,10 @@ def format_table(rows: list[OpenLoopRow]) -> str:
         sub = [r for r in rows if r.group == group]
         unit = f" ({sub[0].unit})" if sub[0].unit else ""
         lines.append(f"{group}{unit}, {sub[0].frames} frames")
-        lines.append(f"  {'predictor':<16}{'RMSE':>10}{'MAE':>10}{'R̃² vs none':>12}")
+        w = max(16, *(len(r.predictor) + 1 for r in sub))
+        lines.append(f"  {'predictor':<{w}}{'RMSE':>10}{'MAE':>10}{'R̃² vs none':>12}")
         for r in sub:
-            lines.append(f"  {r.predictor:<16}{r.rmse:>10.4f}{r.mae:>10.4f}{r.r2_tilde:>12.3f}")
+            lines.append(f"  {r.predictor:<{w}}{r.rmse:>10.4f}{r.mae:>10.4f}{r.r2_tilde:>12.3f}")
         lines.append("")
     return "\n".join(lines)
 
@@ -456,14 +457,15 @@ def format_league(rows: list[LeagueRow], *, group: str = "all") -> str:
     lines = []
     sub = [r for r in rows if r.group == group]
     recs = list(dict.fromkeys(r.recording for r in sub))
+    w = max(17, *(len(r.predictor) + 1 for r in sub))  # the name column
     for rec in recs:
         rr = sorted((r for r in sub if r.recording == rec), key=lambda r: r.rank)
         lines.append(f"{rec} ({group}, {rr[0].frames} frames)")
-        lines.append(f"  {'rank':<6}{'predictor':<18}{'RMSE':>10}{'R̃²':>8}{'/ best baseline':>17}")
+        lines.append(f"  {'rank':<6}{'predictor':<{w + 1}}{'RMSE':>10}{'R̃²':>8}{'/ best baseline':>17}")
         for r in rr:
             mark = "*" if r.predictor in BASELINES else " "
             lines.append(
-                f"  {r.rank:<6}{r.predictor:<17}{mark}{r.rmse:>10.4f}{r.r2_tilde:>8.3f}"
+                f"  {r.rank:<6}{r.predictor:<{w}}{mark}{r.rmse:>10.4f}{r.r2_tilde:>8.3f}"
                 f"{r.ratio:>17.3f}"
             )
         lines.append("")
@@ -472,12 +474,12 @@ def format_league(rows: list[LeagueRow], *, group: str = "all") -> str:
     for k, rec in enumerate(recs):
         lines.append(f"  [{k + 1}] {rec}")
     head = "".join(f"{f'[{k + 1}]':>8}" for k in range(len(recs)))
-    lines.append(f"  {'predictor':<18}{head}{'worst':>8}")
+    lines.append(f"  {'predictor':<{w + 1}}{head}{'worst':>8}")
     for name in names:
         vals = [next(r.ratio for r in sub if r.recording == rec and r.predictor == name)
                 for rec in recs]  # fmt: skip
         mark = "*" if name in BASELINES else " "
-        lines.append(f"  {name:<17}{mark}" + "".join(f"{v:>8.3f}" for v in vals)
+        lines.append(f"  {name:<{w}}{mark}" + "".join(f"{v:>8.3f}" for v in vals)
                      + f"{max(vals):>8.3f}")  # fmt: skip
     return "\n".join(lines) + "\n"
 
