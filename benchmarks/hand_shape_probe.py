@@ -17,7 +17,9 @@ Run: ``PYTHONPATH=src .venv/bin/python benchmarks/hand_shape_probe.py``
 (``--probe 555,565,283,128``; ``--cache /tmp/track.npz``; ``--shapes NAME,...`` for
 some of the shapes only; ``--track-breadth 0.55 --track-heel 1.0`` to track the video with
 that hand instead of the default, which prints that track's PCK@0.2 on the withheld
-frames and its frames under IoU 0.8; the refits start from that track).
+frames and its frames under IoU 0.8; the refits start from that track;
+``--track-segments all|distal`` to track the video a second time with the segment
+lengths scaled by the bone-length ratios of the first track).
 """
 
 from __future__ import annotations
@@ -120,6 +122,8 @@ def main() -> None:
     parser.add_argument("--probe", default="555,565,283,128")
     parser.add_argument("--cache", default="", help="npz of the track (written, then reused)")
     parser.add_argument("--every", type=int, default=5)
+    parser.add_argument("--track-segments", choices=["", "all", "distal"], default="",
+                        help="track again with the segments from the keypoints")  # fmt: skip
     parser.add_argument("--seed", type=int, default=0, help="seed of the optimiser")
     parser.add_argument("--shapes", default="", help="only these shapes (comma-separated)")
     parser.add_argument("--track-breadth", type=float, default=0.46,
@@ -139,6 +143,14 @@ def main() -> None:
             breadth_ratio=args.track_breadth, palm_heel_narrowing=args.track_heel
         )
         poses, iou, flags, kept = track(source, truth, args.every, probe, tracked, args.seed)
+        if args.track_segments:
+            # the segments scaled by the detected / projected bone lengths of that track
+            ratios, _ = segment_ratios(poses, iou, flags, truth, source.rig)
+            scale = np.maximum(ratios, 1.0) if args.track_segments == "distal" else ratios
+            segments = tuple(map(tuple, np.asarray(tracked.segments) * scale))
+            tracked = dataclasses.replace(tracked, segments=segments)
+            print(f"  tracked again with the segments scaled by ({args.track_segments}):")
+            poses, iou, flags, kept = track(source, truth, args.every, probe, tracked, args.seed)
         if args.cache:
             arrays = {"poses": poses, "iou": iou, "flags": flags}
             for t, m in kept.items():
