@@ -397,18 +397,14 @@ def predict_command(
         write_league_csv,
         write_league_figure,
     )
-    from handvar.predictors.catalogue import _SHORT, CATALOGUE
+    from handvar.predictors.catalogue import catalogue_key
 
     # The outputs are checked before any work and written together at the end.
     if csv_out is not None:
         check_output_file(csv_out, "--csv", suffixes=(".csv", ".txt"))
     if figure_out is not None:
         check_output_file(figure_out, "--figure", suffixes=(".png", ".pdf", ".svg"))
-    for key in keys:
-        if _SHORT.get(key, key) not in CATALOGUE:
-            names = ", ".join([*CATALOGUE, *_SHORT])
-            raise ValueError(f"--predictor: expected one of {names}; got {key!r}")
-    keys = [_SHORT.get(k, k) for k in keys] or None
+    keys = [catalogue_key(k, "--predictor") for k in keys] or None
     inner = {"htrack": "handvar"}.get(layout, layout)
 
     def load(spec: str, option: str):

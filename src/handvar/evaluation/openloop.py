@@ -461,7 +461,8 @@ def format_league(rows: list[LeagueRow], *, group: str = "all") -> str:
     for rec in recs:
         rr = sorted((r for r in sub if r.recording == rec), key=lambda r: r.rank)
         lines.append(f"{rec} ({group}, {rr[0].frames} frames)")
-        lines.append(f"  {'rank':<6}{'predictor':<{w + 1}}{'RMSE':>10}{'R̃²':>8}{'/ best baseline':>17}")
+        head = f"{'RMSE':>10}{'R̃²':>8}{'/ best baseline':>17}"
+        lines.append(f"  {'rank':<6}{'predictor':<{w + 1}}{head}")
         for r in rr:
             mark = "*" if r.predictor in BASELINES else " "
             lines.append(

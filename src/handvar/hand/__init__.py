@@ -15,7 +15,14 @@
 """
 
 from handvar.geometry.projected import ProjectedPrimitives
-from handvar.hand.anthropometry import BONES, JOINTS, HandProportions, HandShape
+from handvar.hand.anthropometry import (
+    BONES,
+    JOINTS,
+    MIDDLE_MCP,
+    WRIST,
+    HandProportions,
+    HandShape,
+)
 from handvar.hand.kinematics import POSE_NAMES, HandModel, named_pose
 from handvar.hand.surface import Primitives, SurfaceSamples
 from handvar.params import (
@@ -39,11 +46,13 @@ __all__ = [
     "GROUPS",
     "JOINTS",
     "LOWER",
+    "MIDDLE_MCP",
     "NAMES",
     "N_PARAMS",
     "POSE_NAMES",
     "UNITS",
     "UPPER",
+    "WRIST",
     "HandModel",
     "HandProportions",
     "HandShape",

@@ -55,6 +55,9 @@ JOINTS: tuple[str, ...] = (
     "ring_mcp", "ring_pip", "ring_dip", "ring_tip",
     "little_mcp", "little_pip", "little_dip", "little_tip",
 )  # fmt: skip
+#: Indices into `JOINTS` of the wrist and the middle finger's MCP joint: the two points
+#: that give a hand's size and direction in an image (keypoint scale, wrist cut).
+WRIST, MIDDLE_MCP = JOINTS.index("wrist"), JOINTS.index("middle_mcp")
 
 #: Abduction sign per digit: abduction `a` turns the digit by ``Rz(ABDUCTION_SIGN[k]·a)``
 #: about the palm normal, so positive values move the thumb, index and middle finger

@@ -79,11 +79,12 @@ _BONE_MASK.flags.writeable = False
 _NO_A = np.zeros((4, 3 * N_PARAMS))  # placeholders for the compiled loop without Jacobian
 _NO_J = np.zeros((0, 3, N_PARAMS))
 
-# Bone and local position of each of the 21 keypoints (local positions of tips depend
-# on the shape and are filled in by HandModel).
+# The bone each of the 21 points of G(x) is attached to (its position in that bone's
+# frame depends on the shape for the tips: `HandModel.joint_attachment`).
 _JOINT_BONE = np.array(
     [0] + [bone_index(k, lv) for k in range(5) for lv in (0, 1, 2, 2)], dtype=np.intp
 )
+_JOINT_BONE.flags.writeable = False
 
 
 def _euler_matrix(angles_deg) -> np.ndarray:
@@ -405,7 +406,17 @@ class HandModel:
 
     def joints_jacobian(self, x) -> np.ndarray:
         """d G / d x: (21, 3, 26), mm per mm (translation) or mm per degree (angles)."""
-        return self.points(x, _JOINT_BONE, self._joint_local, jacobian=True)[1]
+        return self.joints_with_jacobian(x)[1]
+
+    def joints_with_jacobian(self, x) -> tuple[np.ndarray, np.ndarray]:
+        """G(x) and d G / d x together: (21, 3) mm and (21, 3, 26)."""
+        return self.points(x, _JOINT_BONE, self._joint_local, jacobian=True)
+
+    def joint_attachment(self) -> tuple[np.ndarray, np.ndarray]:
+        """Where the 21 points of G(x) sit: each one's bone, (21,) int, and its position
+        in that bone's frame, (21, 3) mm (the tips at the end of the distal bones), as
+        `points` takes them."""
+        return _JOINT_BONE, self._joint_local.copy()
 
     def points(self, x, bone, local, jacobian: bool = False):
         """World positions of points attached to bones, and optionally d points / d x.

@@ -26,7 +26,9 @@ __all__ = [
     "CATALOGUE",
     "EXTRA_PREDICTORS",
     "PAPER_PREDICTORS",
+    "SHORT_NAMES",
     "PredictorSpec",
+    "catalogue_key",
     "json_scalar",
     "make_predictor",
 ]
@@ -226,8 +228,8 @@ EXTRA_PREDICTORS: tuple[PredictorSpec, ...] = (
 )
 CATALOGUE: dict[str, PredictorSpec] = {s.key: s for s in PAPER_PREDICTORS + EXTRA_PREDICTORS}
 
-# Short names of the command line.
-_SHORT = {
+#: Short names of the command line, and the catalogue key each stands for.
+SHORT_NAMES: dict[str, str] = {
     "decel": "decelerating",
     "fullvar": "full_var",
     "svar": "structured_var",
@@ -249,8 +251,19 @@ def make_predictor(name: str):
         ``"one_euro"``, ``"adaptive"``) or a short name (``decel``, ``fullvar``,
         ``svar``, ``rvar-rel``, ``euro``, ``bank``).
     """
-    key = _SHORT.get(name, name)
+    return CATALOGUE[catalogue_key(name)].build()
+
+
+def catalogue_key(name: str, argument: str = "predictor") -> str:
+    """The catalogue key that `name` (a key or a short name) stands for.
+
+    Raises ``ValueError`` naming `argument` when it is neither.
+
+    >>> catalogue_key("bank"), catalogue_key("rvar")
+    ('adaptive', 'rvar')
+    """
+    key = SHORT_NAMES.get(name, name)
     if key not in CATALOGUE:
-        names = ", ".join([*CATALOGUE, *_SHORT])
-        raise ValueError(f"predictor: expected one of {names}; got {name!r}")
-    return CATALOGUE[key].build()
+        names = ", ".join([*CATALOGUE, *SHORT_NAMES])
+        raise ValueError(f"{argument}: expected one of {names}; got {name!r}")
+    return key

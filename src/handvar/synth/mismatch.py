@@ -28,6 +28,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
+from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
 from handvar.validate import as_array, as_float, as_int, one_of
 
 __all__ = [
@@ -41,9 +42,6 @@ __all__ = [
 #: The tracker's default hand length (mm): wrist crease to the middle fingertip.
 HAND_LENGTH = 185.0
 SURFACES = ("spheres", "mesh")
-
-# joints (0-based) that set the wrist cut: the wrist and the middle finger's base
-_WRIST, _MIDDLE_BASE = 0, 9
 
 
 def generator_hand(model: str = "spheres", length: float = 1.0, breadth: float = 1.0):
@@ -206,7 +204,7 @@ def corrupt_silhouettes(masks, joints, rig, px: float, *, seed: int = 0) -> np.n
         return out
     for f in range(m.shape[0]):
         for c, camera in enumerate(rig.cameras):
-            wrist, base = camera.project(g[f, [_WRIST, _MIDDLE_BASE]])
+            wrist, base = camera.project(g[f, [WRIST, MIDDLE_MCP]])
             rng = np.random.default_rng([seed, 4, f, c])
             out[f, c] = _corrupt_one(m[f, c], wrist, base, px, rng)
     return out

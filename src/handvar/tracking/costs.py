@@ -69,7 +69,6 @@ from numba import njit
 from handvar.camera import Rig
 from handvar.geometry.distortion import project_point as _project
 from handvar.geometry.projected import closest_point_on_union, union_axes
-from handvar.hand.kinematics import _JOINT_BONE  # the bone of each of the 21 points
 from handvar.params import N_PARAMS, check_pose
 from handvar.tracking.keypoint_cost import LOSSES, hand_length, joint_terms
 from handvar.validate import as_float, as_instance, as_int, one_of
@@ -468,8 +467,9 @@ class SilhouetteCost:
         self._ref_bone = np.repeat(np.arange(n_bones), 4)
         self._ref_local = np.tile(_REFERENCE, (n_bones, 1))
         self._cams = rig.packed()
-        self._joint_bone = np.ascontiguousarray(_JOINT_BONE, dtype=np.int64)
-        self._joint_local = np.ascontiguousarray(hand._joint_local, dtype=float)
+        bone, local = hand.joint_attachment()
+        self._joint_bone = np.ascontiguousarray(bone, dtype=np.int64)
+        self._joint_local = np.ascontiguousarray(local, dtype=float)
         self.length = hand_length(hand)  # L of C_k, mm
 
     # -- per frame --

@@ -39,6 +39,7 @@ import numpy as np
 from numba import njit
 
 from handvar.geometry.distortion import project_point
+from handvar.hand.anthropometry import MIDDLE_MCP, WRIST  # the hand size L: their distance
 from handvar.validate import as_array
 
 __all__ = [
@@ -49,9 +50,6 @@ __all__ = [
     "reprojection_error",
     "sequence_keypoints",
 ]
-
-#: Joints whose distance is the hand size L: the wrist and the middle finger's MCP.
-WRIST, MIDDLE_MCP = 0, 9
 
 
 def hand_length(hand) -> float:

@@ -24,7 +24,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from handvar.camera import Rig
-from handvar.hand.kinematics import _JOINT_BONE  # the bone of each of the 21 points
 from handvar.params import N_PARAMS, check_pose
 from handvar.tracking.costs import CostSettings, CostTerms, FrameData, prepare_frame
 from handvar.tracking.keypoint_cost import hand_length
@@ -165,7 +164,7 @@ class MeshSilhouetteCost:
             parts[1] += np.sum(res_f * res_f)
             r[base + 2 * N : base + 2 * (N + M)] = (a_f * res_f).ravel()
             J[base + 2 * N : base + 2 * (N + M)] = (a_f * dh).reshape(2 * M, N_PARAMS)
-        P, JP = self.hand.points(x, _JOINT_BONE, self.hand._joint_local, jacobian=True)
+        P, JP = self.hand.joints_with_jacobian(x)
         c_k, c_z, _, _, r_j, J_j = s.joint_terms(
             P, JP, self._cams, keypoints, length=self.length, residuals=True
         )

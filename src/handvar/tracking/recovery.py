@@ -42,6 +42,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
 from handvar.params import N_PARAMS
 from handvar.predictors import NoMotion
 from handvar.tracking.init import InitSettings, initial_pose
@@ -59,9 +60,6 @@ __all__ = [
     "pck",
     "track_with_recovery",
 ]
-
-#: Keypoint indices of the wrist and the middle finger's MCP (the hand size).
-_WRIST, _MIDDLE_MCP = 0, 9
 
 
 @dataclass(frozen=True)
@@ -182,9 +180,9 @@ def joint_distances(x, hand, rig, keypoints) -> np.ndarray:
         if k is None:
             continue
         k = np.asarray(k, dtype=float)
-        if not (k[[_WRIST, _MIDDLE_MCP], 2] > 0).all():
+        if not (k[[WRIST, MIDDLE_MCP], 2] > 0).all():
             continue
-        size = float(np.linalg.norm(k[_MIDDLE_MCP, :2] - k[_WRIST, :2]))
+        size = float(np.linalg.norm(k[MIDDLE_MCP, :2] - k[WRIST, :2]))
         if size <= 0:
             continue
         ok = k[:, 2] > 0
@@ -494,8 +492,8 @@ def model_wrist_keypoints(x, hand, camera) -> np.ndarray | None:
         return None
     k = np.full((21, 3), np.nan)
     k[:, 2] = 0.0
-    k[[_WRIST, _MIDDLE_MCP], :2] = camera.project(hand.joints(x)[[_WRIST, _MIDDLE_MCP]])
-    k[[_WRIST, _MIDDLE_MCP], 2] = 1.0
+    k[[WRIST, MIDDLE_MCP], :2] = camera.project(hand.joints(x)[[WRIST, MIDDLE_MCP]])
+    k[[WRIST, MIDDLE_MCP], 2] = 1.0
     return k
 
 
@@ -511,7 +509,7 @@ def _cut_at_joint(k: np.ndarray) -> np.ndarray:
 
     a = WRIST_CUT_SETTINGS.keypoint_offset
     k = np.array(k, dtype=float)
-    k[_WRIST, :2] += a / (1.0 + a) * (k[_MIDDLE_MCP, :2] - k[_WRIST, :2])
+    k[WRIST, :2] += a / (1.0 + a) * (k[MIDDLE_MCP, :2] - k[WRIST, :2])
     return k
 
 
@@ -525,7 +523,7 @@ def _cut(masks: np.ndarray, kps, previous, hand, rig) -> np.ndarray:
             out.append(m)
             continue
         k = None if kps is None else kps[j]
-        if k is None or not (np.asarray(k)[[_WRIST, _MIDDLE_MCP], 2] > 0).all():
+        if k is None or not (np.asarray(k)[[WRIST, MIDDLE_MCP], 2] > 0).all():
             k = model_wrist_keypoints(previous, hand, cam)
         out.append(cut_wrist(m, None if k is None else _cut_at_joint(k)))
     return np.stack(out)

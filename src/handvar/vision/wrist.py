@@ -33,6 +33,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
 from handvar.validate import as_float
 from handvar.vision.keypoints import as_frame_keypoints
 from handvar.vision.silhouette import WristCut, _as_mask
@@ -129,9 +130,9 @@ def wrist_from_keypoints(
     """
     k = as_frame_keypoints(keypoints)
     offset = as_float(offset, "offset")
-    if not (k[[0, 9], 2] > 0).all():
+    if not (k[[WRIST, MIDDLE_MCP], 2] > 0).all():
         return None
-    wrist, mcp = k[0, :2], k[9, :2]
+    wrist, mcp = k[WRIST, :2], k[MIDDLE_MCP, :2]
     size = float(np.linalg.norm(mcp - wrist))
     if size < 1e-6:
         return None
