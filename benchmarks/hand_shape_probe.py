@@ -45,14 +45,12 @@ import numpy as np
 
 from handvar.hand import HandModel
 from handvar.hand.anthropometry import HandProportions, HandShape
-from handvar.predictors import NoMotion
 from handvar.predictors.catalogue import make_predictor
-from handvar.tracking.costs import CostSettings
-from handvar.tracking.recovery import joint_distances, pck, track_with_recovery
-from handvar.tracking.smd import SMDSettings
-from handvar.tracking.tracker import Tracker, TrackerSettings
+from handvar.tracking.recovery import pck, track_with_recovery
+from handvar.tracking.tracker import Tracker
 from handvar.vision.keypoints import read_keypoints
 from handvar.vision.sources import open_source
+from realvideo_keypoints import refit as refit_frame  # this folder (run as a script)
 
 DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
 VIDEO = DATA / "dex-human-hand-video.mp4"
@@ -115,19 +113,9 @@ def segment_ratios(poses, iou, flags, truth, rig) -> np.ndarray:
     return np.median(np.array(ratios), axis=0), len(ratios)
 
 
-def refit(pose, masks, hand, rig, keypoints, iterations: int = 200):
-    out = []
-    for label, weight in (("w_k 100", 100.0), ("none", None)):
-        settings = TrackerSettings(
-            cost=CostSettings(weight_keypoints=100.0 if weight is None else weight),
-            smd=SMDSettings(max_iterations=iterations),
-        )
-        tracker = Tracker(rig, hand, NoMotion(), np.random.default_rng(0), settings)
-        tracker.reset(pose)
-        r = tracker.step(masks, keypoints=None if weight is None else [keypoints])
-        d = joint_distances(r.pose, hand, rig, [keypoints])
-        out.append((label, r.mean_iou, float(np.nanmean(d)), pck(r.pose, hand, rig, [keypoints])))
-    return out
+def refit(pose, masks, hand, rig, keypoints):
+    """`realvideo_keypoints.refit` with the tracker's keypoint weight and without keypoints."""
+    return refit_frame(pose, masks, hand, rig, keypoints, weights=(100.0, None))
 
 
 def main() -> None:

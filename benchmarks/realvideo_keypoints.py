@@ -127,7 +127,9 @@ def run(
     }
 
 
-def refit(pose, masks, hand, rig, keypoints, iterations: int = 200) -> list[tuple]:
+def refit(
+    pose, masks, hand, rig, keypoints, iterations: int = 200, weights=(100.0, 30.0, 10.0, None)
+) -> list[tuple]:
     """How far the silhouette and the keypoints of one frame can be matched together.
 
     From the tracked `pose`, the frame's silhouettes are fitted again (`iterations`
@@ -137,7 +139,8 @@ def refit(pose, masks, hand, rig, keypoints, iterations: int = 200) -> list[tupl
     detector's hand sizes, PCK@0.2).
     """
     out = []
-    for label, weight in (("w_k 100", 100.0), ("w_k 30", 30.0), ("w_k 10", 10.0), ("none", None)):
+    for weight in weights:
+        label = "none" if weight is None else f"w_k {weight:g}"
         settings = TrackerSettings(
             cost=CostSettings(weight_keypoints=100.0 if weight is None else weight),
             smd=SMDSettings(max_iterations=iterations),

@@ -455,6 +455,22 @@ def _bank_update(
     return True
 
 
+def _partition(blocks, d: int, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """Blocks of the indices 0..d-1 (each alone when None) as the kernel takes them: an
+    index table (n_blocks, largest block), padded with 0, and the block sizes."""
+    blocks = [[i] for i in range(d)] if blocks is None else blocks
+    flat = sorted(i for b in blocks for i in b)
+    if flat != list(range(d)) or any(len(b) == 0 for b in blocks):
+        raise ValueError(
+            f"{name}: expected a partition of the indices 0..{d - 1} (each exactly once); "
+            f"got {blocks!r}"
+        )
+    index = np.zeros((len(blocks), max(len(b) for b in blocks)), dtype=np.intp)
+    for g, b in enumerate(blocks):
+        index[g, : len(b)] = b
+    return index, np.array([len(b) for b in blocks], dtype=np.intp)
+
+
 class AdaptiveBank:
     """Online convex combination of simple predictors, one set of weights per group.
 
@@ -592,18 +608,8 @@ class AdaptiveBank:
         self._d: int | None = None
 
     def _allocate(self, d: int) -> None:
-        blocks = [[i] for i in range(d)] if self.blocks is None else self.blocks
-        flat = sorted(i for b in blocks for i in b)
-        if flat != list(range(d)) or any(len(b) == 0 for b in blocks):
-            raise ValueError(
-                f"blocks: expected a partition of the indices 0..{d - 1} (each exactly "
-                f"once); got {self.blocks!r}"
-            )
-        ng, kmax = len(blocks), max(len(b) for b in blocks)
-        self._index = np.zeros((ng, kmax), dtype=np.intp)
-        for g, b in enumerate(blocks):
-            self._index[g, : len(b)] = b
-        self._sizes = np.array([len(b) for b in blocks], dtype=np.intp)
+        self._index, self._sizes = _partition(self.blocks, d, "blocks")
+        ng = len(self._sizes)
         self._S = np.zeros((_ROWS, d))
         self._G = np.zeros((ng, _M, _M))
         self._N = np.zeros(ng)
@@ -615,18 +621,8 @@ class AdaptiveBank:
             self.gamma, 0.5, 1.0 - 1.0 / self.var_memory,
             np.inf if self.max_step is None else self.max_step,
         ])  # fmt: skip
-        vblocks = [[i] for i in range(d)] if self.var_blocks is None else self.var_blocks
-        vflat = sorted(i for b in vblocks for i in b)
-        if vflat != list(range(d)) or any(len(b) == 0 for b in vblocks):
-            raise ValueError(
-                f"var_blocks: expected a partition of the indices 0..{d - 1} (each exactly "
-                f"once); got {self.var_blocks!r}"
-            )
-        nvb, vmax = len(vblocks), max(len(b) for b in vblocks)
-        self._vindex = np.zeros((nvb, vmax), dtype=np.intp)
-        for b, idx in enumerate(vblocks):
-            self._vindex[b, : len(idx)] = idx
-        self._vsizes = np.array([len(b) for b in vblocks], dtype=np.intp)
+        self._vindex, self._vsizes = _partition(self.var_blocks, d, "var_blocks")
+        nvb, vmax = self._vindex.shape
         self._Vyy = np.zeros((nvb, vmax, vmax))
         self._Vxy = np.zeros((nvb, vmax, vmax))
         self._d = d
