@@ -125,6 +125,15 @@ _ROWS = _OUT + 1
 # pool, n₀, sweeps, γ and λ_F of the fast blend.
 
 
+@njit(cache=True, inline="always")
+def _triangle_cost(al, be, saa, sab, sbb, sax, sbx, sxx):  # pragma: no cover
+    """Σ (r − α a − β b)² from the sums, +∞ outside the triangle α, β ≥ 0, α + β ≤ 1."""
+    if al < 0.0 or be < 0.0 or al + be > 1.0 + 1e-12:
+        return np.inf
+    return (sxx - 2.0 * (al * sax + be * sbx) + al * al * saa
+            + 2.0 * al * be * sab + be * be * sbb)  # fmt: skip
+
+
 @njit(cache=True)
 def _triangle(saa, sab, sbb, sax, sbx, sxx):  # pragma: no cover
     """argmin over α, β ≥ 0, α + β ≤ 1 of Σ (r − α a − β b)², from the sums (eq. 27).
@@ -155,13 +164,7 @@ def _triangle(saa, sab, sbb, sax, sbx, sxx):  # pragma: no cover
     cb = (b0, 0.0, b2, 1.0 - a3, b4)
     best = np.inf
     for k in range(5):
-        al = ca[k]
-        be = cb[k]
-        if al < 0.0 or be < 0.0 or al + be > 1.0 + 1e-12:
-            continue
-        f = (sxx - 2.0 * (al * sax + be * sbx) + al * al * saa
-             + 2.0 * al * be * sab + be * be * sbb)  # fmt: skip
-        best = min(best, f)
+        best = min(best, _triangle_cost(ca[k], cb[k], saa, sab, sbb, sax, sbx, sxx))
     tol = 1e-12 * (abs(sxx) + saa + sbb)
     alpha = 0.0
     beta = 0.0
@@ -169,10 +172,7 @@ def _triangle(saa, sab, sbb, sax, sbx, sxx):  # pragma: no cover
     for k in range(5):
         al = ca[k]
         be = cb[k]
-        if al < 0.0 or be < 0.0 or al + be > 1.0 + 1e-12:
-            continue
-        f = (sxx - 2.0 * (al * sax + be * sbx) + al * al * saa
-             + 2.0 * al * be * sab + be * be * sbb)  # fmt: skip
+        f = _triangle_cost(al, be, saa, sab, sbb, sax, sbx, sxx)
         if f <= best + tol and al * al + be * be < small:
             small = al * al + be * be
             alpha = al
