@@ -138,8 +138,10 @@ class FrameResult:
     costs : (k,) ndarray
         Cost at each iteration, (pixel_scale px)².
     iterations : int
-        Number of cost evaluations k (at most ``max_iterations``; 0 when no camera had a
-        silhouette and the pose is the prediction).
+        Number of SMD cost evaluations k (at most ``max_iterations``; 0 when no camera
+        had a silhouette and the pose is the prediction). The Levenberg–Marquardt steps
+        on a keypoint frame are not counted; a frame refined by
+        `handvar.tracking.recovery` counts the refinement's iterations too.
     seconds : (3,) ndarray
         Wall time of preprocessing (the masks' distance fields and the fit-quality
         check), optimisation and prediction, seconds.
