@@ -181,6 +181,11 @@ def lm_step(r: np.ndarray, J: np.ndarray, lam: float, floor: float = 1e-6) -> np
     """
     A, g = normal_equations(np.ascontiguousarray(r, dtype=float),
                             np.ascontiguousarray(J, dtype=float))  # fmt: skip
+    return _damped_solve(A, g, lam, floor)
+
+
+def _damped_solve(A: np.ndarray, g: np.ndarray, lam: float, floor: float) -> np.ndarray:
+    """δ of ``(A + λ D) δ = −g``, D = diag(A) + ε · max diag(A) (ε = `floor`)."""
     h = np.diag(A).copy()
     top = float(h.max()) if h.size else 0.0
     D = h + floor * (top if top > 0.0 else 1.0)
@@ -245,8 +250,11 @@ def refine(
     evaluations, accepted = 1, 0
     for k in range(s.steps):
         costs[k] = cost
+        # JᵀJ and Jᵀr once per step: a rejected try changes only λ
+        A, g = normal_equations(np.ascontiguousarray(r, dtype=float),
+                                np.ascontiguousarray(J, dtype=float))  # fmt: skip
         for _ in range(s.max_tries):
-            candidate = admissible(x + lm_step(np.asarray(r), np.asarray(J), lam, s.floor))
+            candidate = admissible(x + _damped_solve(A, g, lam, s.floor))
             c_new, r_new, J_new = f(candidate, not s.resample)
             evaluations += 1
             if c_new < cost:
