@@ -285,22 +285,18 @@ def forearm_wrist(
                     and not abs(widths[k - 1] - ref) <= settings.onset * settings.tolerance * ref
                 ):
                     k -= 1
-                if k < settings.min_forearm * ref:  # no forearm before it: not a wrist
-                    change_at = None
-                    centres.append(centre)
-                    widths.append(width)
-                    continue
-                wrist = centres[k - 1]
-                d = centres[max(0, k - 1 - win)] - wrist
-                axis = d / np.linalg.norm(d) if np.linalg.norm(d) > 1e-9 else -direction
-                cut = WristCut(
-                    palm_centre=wrist - ref * axis,
-                    palm_radius=0.5 * ref,
-                    direction=axis,
-                    wrist=np.asarray(wrist, dtype=float),
-                    width=float(widths[k - 1]) if not np.isnan(widths[k - 1]) else ref,
-                )
-                return cut
+                if k >= settings.min_forearm * ref:  # else no forearm before it: no wrist
+                    wrist = centres[k - 1]
+                    d = centres[max(0, k - 1 - win)] - wrist
+                    axis = d / np.linalg.norm(d) if np.linalg.norm(d) > 1e-9 else -direction
+                    return WristCut(
+                        palm_centre=wrist - ref * axis,
+                        palm_radius=0.5 * ref,
+                        direction=axis,
+                        wrist=np.asarray(wrist, dtype=float),
+                        width=float(widths[k - 1]) if not np.isnan(widths[k - 1]) else ref,
+                    )
+                change_at = None
         centres.append(centre)
         widths.append(width)
     return None
