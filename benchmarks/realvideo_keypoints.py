@@ -4,7 +4,10 @@ The video ``examples/data/dex-human-hand-video.mp4`` (621 frames, monocular, ass
 camera) and its MediaPipe keypoints ``examples/data/dex-human-hand-video-keypoints.npy``
 (every frame).  For keypoints on every 5th frame, every 10th frame and none, the track
 (`handvar.tracking.recovery.track_with_recovery`, RVAR predictor, seed 0, the first pose
-searched in frame 0) is scored against the detector's keypoints of *every* frame:
+searched in frame 0) is scored against the detector's keypoints of *every* frame.  The
+frames between detections get the detected points carried there by optical flow
+(`handvar.vision.carry`, §14.5), as `handvar track` does; the detector's own keypoints of
+those frames are withheld from the tracker.  Printed:
 
 - PCK@0.2: the fraction of the 21 projected joints within 0.2 hand sizes of the
   detector's keypoints (hand size: the detected wrist → middle-MCP distance in that
@@ -16,21 +19,23 @@ searched in frame 0) is scored against the detector's keypoints of *every* frame
 
 Run: ``PYTHONPATH=src .venv/bin/python benchmarks/realvideo_keypoints.py``
 (``--every 5`` for one setting; ``--frames N`` for the first N frames only; ``--seed S``
-for the optimiser's seed; ``--probe 555,565`` to refit those frames from the track with
-the keypoint weight lowered and without keypoints: how far silhouette and keypoints
+for the optimiser's seed; ``--no-carry`` to leave the frames between detections without
+keypoints; ``--probe 555,565`` to refit those frames from the track with the keypoint
+weight lowered and without keypoints: how far silhouette and keypoints
 can be matched together, `refit`).
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import time
 from pathlib import Path
 
 import numpy as np
 
 from handvar.hand import HandModel
-from handvar.hand.anthropometry import HandShape
+from handvar.hand.anthropometry import MIDDLE_MCP, WRIST, HandShape
 from handvar.predictors import NoMotion
 from handvar.predictors.catalogue import make_predictor
 from handvar.tracking.costs import CostSettings
@@ -59,10 +64,13 @@ def run(
     seed: int = 0,
     probe: tuple[int, ...] = (),
     settings: RecoverySettings = RECOVERY_DEFAULTS,
+    carry: bool = True,
 ) -> dict:
     """Track with keypoints on every `every`-th frame (0: none) and score the track.
 
-    For each frame in `probe`, the tracked fit is also refitted (`refit`).
+    With `carry` the keypoints are carried by optical flow over the frames between
+    (`VideoSource.carried_keypoints`, §14.5).  For each frame in `probe`, the tracked
+    fit is also refitted (`refit`).
     """
     source = open_source(VIDEO, scale=scale)
     detected = read_keypoints(KEYPOINTS)
@@ -76,6 +84,22 @@ def run(
     n = len(masks)
     truth = source.scaled_keypoints([detected])[0]
     used = source.scaled_keypoints(given)[0] if every else None
+    carry_ms = 0.0
+    if every and carry:
+        t0 = time.perf_counter()
+        used = source.carried_keypoints(given, stop=n)[0]
+        carry_ms = 1e3 * (time.perf_counter() - t0) / n  # frames read again, and the flow
+    with_detection = np.zeros(n, dtype=bool)  # frames whose detections the tracker was given
+    if every:
+        with_detection = given[0].present[:n].any(axis=1)
+    carried_error = carried_kept = math.nan
+    if every and carry:  # the carried points against the withheld detections
+        t = np.flatnonzero(~with_detection & truth.present[:n].any(axis=1))
+        size = np.linalg.norm(truth.xy[t, MIDDLE_MCP] - truth.xy[t, WRIST], axis=1)
+        d = np.linalg.norm(used.xy[t] - truth.xy[t], axis=2) / size[:, None]
+        both = used.present[t] & truth.present[t]
+        carried_error = float(np.mean(d[both]))
+        carried_kept = float(both.sum() / truth.present[t].sum())
     hand = HandModel(HandShape.from_size(hand_length))
     tracker = Tracker(source.rig, hand, make_predictor("rvar"), np.random.default_rng(seed))
     tracked = {}  # the silhouettes fitted in the probed frames (cut while tracking)
@@ -98,7 +122,7 @@ def run(
     scores = np.array(
         [pck(result.track.poses[t], hand, source.rig, [truth.frame(t)]) for t in range(n)]
     )
-    withheld = ~q.keypoints
+    withheld = ~with_detection
     probes = {
         t: refit(result.track.poses[t], tracked[t], hand, source.rig, truth.frame(t))
         for t in probe
@@ -124,6 +148,10 @@ def run(
         "iterations": float(result.track.iterations.mean()),
         "track_ms": track_ms,
         "silhouette_ms": sil_ms,
+        "carry_ms": carry_ms,
+        "carried_error": carried_error,
+        "carried_kept": carried_kept,
+        "carried": int(np.sum(q.keypoints & ~with_detection)),
     }
 
 
@@ -169,6 +197,8 @@ def main() -> None:
                         help="iterations of the refinement of a poor fit (0: none)")  # fmt: skip
     parser.add_argument("--refine-without-keypoints", action="store_true",
                         help="refine frames without keypoints for their IoU too")  # fmt: skip
+    parser.add_argument("--no-carry", dest="carry", action="store_false",
+                        help="do not carry the keypoints between detections (§14.5)")  # fmt: skip
     args = parser.parse_args()
     settings = RecoverySettings(
         refine_iterations=args.refine_iterations,
@@ -176,11 +206,15 @@ def main() -> None:
     )
     print(
         f"example video, scale {args.scale:g}, hand {args.hand_length:g} mm, RVAR, "
-        f"seed {args.seed}; PCK@0.2 against the detector on every frame; {settings}"
+        f"seed {args.seed}; PCK@0.2 against the detector on every frame; {settings}; "
+        f"keypoints {'carried' if args.carry else 'not carried'} between detections"
     )
     for every in args.every or [5, 10, 0]:
         probe = tuple(int(t) for t in args.probe.split(",") if t)
-        r = run(every, args.frames, args.scale, args.hand_length, args.seed, probe, settings)
+        r = run(
+            every, args.frames, args.scale, args.hand_length, args.seed, probe, settings,
+            args.carry,
+        )  # fmt: skip
         what = f"keypoints every {every:>2}" if every else "no keypoints      "
         print(
             f"  {what}: {r['frames']} frames | PCK@0.2 withheld {r['pck_withheld']:.3f}, "
@@ -190,6 +224,13 @@ def main() -> None:
             f"{r['reinit']} {r['reinit_frames'][:8]}, empty {r['empty']} | "
             f"{r['iterations']:.1f} iterations, tracking {r['track_ms']:.0f} ms/frame, "
             f"silhouettes {r['silhouette_ms']:.0f} ms/frame"
+            + (
+                f" | carried on {r['carried']} frames ({100 * r['carried_kept']:.0f} % of the "
+                f"points, {r['carried_error']:.3f} hand sizes from the detector's), "
+                f"{r['carry_ms']:.1f} ms/frame"
+                if r["carried"]
+                else ""
+            )
         )
         print(f"    IoU < 0.8 at {r['iou_below_0.8_frames'][:20]}; lost at {r['lost_frames'][:20]}")
         for t, fits in r["probes"].items():

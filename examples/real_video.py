@@ -12,7 +12,8 @@ Steps:
    forearm cut at the wrist: at the detected wrist on the frames with keypoints
    (MediaPipe's, shipped as ``dex-human-hand-video-keypoints.npy``; used on every
    ``--keypoint-every``-th frame only, as from a detector at a fraction of the frame
-   rate), else at the wrist of the model fitted to the previous frame (without
+   rate, and carried to the frames between by optical flow, `handvar.vision.carry`,
+   design §14.5), else at the wrist of the model fitted to the previous frame (without
    keypoints: where the forearm's width changes);
 2. the first frame's pose from its keypoints (`handvar.tracking.init.initial_pose`);
 3. tracking with the paper's RVAR predictor and the library's recovery
@@ -126,6 +127,8 @@ def main() -> None:
                         help="2D keypoints of the video (.npy or .csv)")  # fmt: skip
     parser.add_argument("--keypoint-every", type=int, default=5,
                         help="use the keypoints of every K-th frame (0: none)")  # fmt: skip
+    parser.add_argument("--no-carry", dest="carry", action="store_false",
+                        help="do not carry the keypoints between detections")  # fmt: skip
     parser.add_argument("--frames", type=int, default=None, help="frames to track [all]")
     parser.add_argument("--scale", type=float, default=0.5, help="resize factor of the frames")
     parser.add_argument("--seed", type=int, default=0, help="seed of the optimiser")
@@ -141,15 +144,20 @@ def main() -> None:
 
     source = open_source(args.video, scale=args.scale)
     print(source)
+    n = source.n_frames if args.frames is None else min(args.frames, source.n_frames)
     given = scaled = None
+    with_detection = np.zeros(n, dtype=bool)
     if args.keypoint_every:
         given = [read_keypoints(args.keypoints).every(args.keypoint_every)]
-        scaled = source.scaled_keypoints(given)[0]
+        with_detection = given[0].present[:n].any(axis=1)
+        if args.carry:
+            scaled = source.carried_keypoints(given, stop=n)[0]
+        else:
+            scaled = source.scaled_keypoints(given)[0]
     hand = HandModel()
     rng = np.random.default_rng(args.seed)
     tracker = Tracker(source.rig, hand, RVAR(gamma=0.8, cutoff=8), rng)
 
-    n = source.n_frames if args.frames is None else min(args.frames, source.n_frames)
     picks = set(np.linspace(0, n - 1, args.strip).round().astype(int).tolist())
     hard = {int(t) for t in args.hard.split(",") if t and int(t) < n}
     picked: dict[int, np.ndarray] = {}
@@ -191,7 +199,7 @@ def main() -> None:
     # camera scaled back up), cropped to one box around the hand, one row.
     captions = [
         f"IoU {iou:.2f}" + ("  LOST" if gone else "") + ("  kp" if k else "")
-        for iou, gone, k in zip(q.iou, q.lost, q.keypoints, strict=True)
+        for iou, gone, k in zip(q.iou, q.lost, with_detection, strict=True)
     ]
     for name, chosen in (("real-video-strip.png", picks), ("real-video-hard-frames.png", hard)):
         if not chosen:

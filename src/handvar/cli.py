@@ -710,6 +710,9 @@ def _recording_options(func):
               "camera in order, pixels of the full-resolution frames.")  # fmt: skip
 @click.option("--keypoint-every", type=click.IntRange(min=1), default=1, show_default=True,
               help="Use the keypoints of every K-th frame only (a slower detector).")  # fmt: skip
+@click.option("--carry/--no-carry", default=None,
+              help="Carry the keypoints by optical flow over the frames without any "
+              "[default: on for recordings with --keypoints].")  # fmt: skip
 @click.option("--recover/--no-recover", default=None,
               help="Refine poor fits, detect lost frames and search the pose again there "
               "[default: on for recordings and with --keypoints].")  # fmt: skip
@@ -717,7 +720,7 @@ def _recording_options(func):
 @_one_line_errors
 def track_command(
     seq, predictor, init, seed, n_frames, out, video, hand_length, model, keypoint_files,
-    keypoint_every, recover, calib, fov, scale,
+    keypoint_every, carry, recover, calib, fov, scale,
 ) -> None:  # fmt: skip
     """Track the hand through the sequence SEQ (a sequence directory or a synthetic name).
 
@@ -727,11 +730,12 @@ def track_command(
     pose searched in its first frame.
 
     With --keypoints (one file per camera), every K-th frame's keypoints
-    (--keypoint-every) place the wrist cut and pull the fit; the tracker and the motion
-    predictor carry the frames between. With recovery (--recover) each frame's fit is
-    checked (silhouette IoU, distance to the keypoints), a poor fit is refined, and a
-    lost frame is searched again (from its keypoints when it has them); the summary
-    says how many.
+    (--keypoint-every) place the wrist cut and pull the fit. On a recording the
+    detected points are carried by optical flow over the frames between (--carry), and
+    the tracker and the motion predictor carry the rest. With recovery (--recover)
+    each frame's fit is checked (silhouette IoU, distance to the keypoints), a poor fit
+    is refined, and a lost frame is searched again (from its keypoints when it has
+    them); the summary says how many.
 
     OUT receives poses.csv (T × 26, mm and degrees), joints.csv (T × 63, mm),
     track.npz (the track and its fit quality), overlay.png (a
@@ -757,6 +761,12 @@ def track_command(
     spec = resolve_sequence(seq, names=SEQUENCE_NAMES, argument="SEQ")
     source = None  # a real recording: its colour frames go under the overlays
     keypoints = _track_keypoints(keypoint_files, spec, keypoint_every)
+    if carry and (keypoints is None or spec.kind != "recording"):
+        raise ValueError(
+            "--carry: expected a recording (a video file or an image folder) with --keypoints"
+        )
+    carry = carry is not False and keypoints is not None and spec.kind == "recording"
+    detected = keypoints
     if recover is None:
         recover = spec.kind == "recording" or keypoints is not None
     if spec.kind == "recording":  # video files / image folders: see the init section below
@@ -766,7 +776,9 @@ def track_command(
             spec.paths, calib, fov, scale, n_frames, allow_empty=recover,
             **({"wrist": False} if recover and keypoints is not None else {"keypoints": keypoints}),
         )  # fmt: skip
-        if keypoints is not None:
+        if carry:
+            keypoints = source.carried_keypoints(keypoints, stop=n_frames)
+        elif keypoints is not None:
             keypoints = source.scaled_keypoints(keypoints)
     elif calib is not None or fov is not None:
         raise ValueError("--calib, --fov: expected only with a video or an image folder")
@@ -828,10 +840,15 @@ def track_command(
     )
     if quality is not None:
         with_kp = int(quality.keypoints.sum())
-        click.echo(
-            f"fit quality: {quality.summary()}"
-            + (f"; keypoints on {with_kp} frames" if keypoints is not None else "")
-        )
+        text = f"fit quality: {quality.summary()}"
+        if keypoints is not None:
+            text += f"; keypoints on {with_kp} frames"
+        if carry:
+            seen = np.zeros(T, dtype=bool)
+            for k in detected:
+                seen[: min(T, k.n_frames)] |= k.present[:T].any(axis=1)
+            text += f" ({int(seen.sum())} with a detection, the others carried)"
+        click.echo(text)
     if sequence.truth is not None:
         from handvar.evaluation.metrics import mean_joint_error
 

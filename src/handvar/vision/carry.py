@@ -1,0 +1,214 @@
+"""Keypoints carried between detector frames by optical flow (§14.5).
+
+A keypoint detector slower than the tracker (`Keypoints2D.every`: at 6 fps beside a
+30 fps tracker) leaves the frames between its detections without keypoints; there the
+fit rests on the silhouette and the motion prediction alone, and a finger can settle in
+the wrong gap of the silhouette.  The image still shows where the detected points went:
+each point is followed from frame to frame by pyramidal Lucas–Kanade optical flow
+(Bouguet's implementation, `cv2.calcOpticalFlowPyrLK`), starting at the last detection.
+
+For a point p in the grey frame I_{t-1} the flow finds p' in I_t minimising the windowed
+brightness difference Σ_w (I_t(q + p' − p) − I_{t-1}(q))², coarse to fine over an image
+pyramid.  A point is kept only if the flow found it both ways: tracked back from p' to
+I_{t-1} it must land within `CarrySettings.max_error` pixels of p (the forward–backward
+check of Kalal, Mikolajczyk and Matas, 2010).  A point that fails it, or that OpenCV
+reports as not found, is dropped until the next detection: a dropped point is missing,
+not guessed.  The carried points keep the detector's confidence times
+`CarrySettings.confidence`.  Nothing is carried more than `CarrySettings.max_frames`
+frames past a detection.
+
+Carrying is causal (frame t uses frames t−1 and t and the detections up to t), so it
+runs online beside the tracker (`KeypointCarrier`); `carry_keypoints` carries a whole
+recording's keypoints at once.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from handvar.validate import as_array, as_float, as_instance, as_int
+from handvar.vision.keypoints import N_KEYPOINTS, Keypoints2D, as_frame_keypoints
+
+__all__ = ["CARRY_SETTINGS", "CarrySettings", "KeypointCarrier", "carry_keypoints"]
+
+
+@dataclass(frozen=True)
+class CarrySettings:
+    """Named settings of the optical-flow carrying (module notes; §14.5).
+
+    Attributes
+    ----------
+    window : int
+        Side of the Lucas–Kanade window, pixels of the tracked frames; 15 (OpenCV's
+        example value; at half resolution a fingertip is about 10 px wide).
+    levels : int
+        Pyramid levels above the frame; 3 (motions up to about 2³ windows a frame).
+    max_error : float
+        Forward–backward error above which a point is dropped, pixels; 1.
+    confidence : float
+        Factor on the detector's confidence of a carried point; 1 (on the example video
+        the carried points lie as close to the detector's own as its neighbouring
+        detections do, §14.5).
+    max_frames : int
+        Frames after a detection beyond which nothing is carried; 30 (one second of
+        video at 30 fps).
+    """
+
+    window: int = 15
+    levels: int = 3
+    max_error: float = 1.0
+    confidence: float = 1.0
+    max_frames: int = 30
+
+    def __post_init__(self) -> None:
+        as_int(self.window, "window", minimum=3)
+        as_int(self.levels, "levels", minimum=0)
+        as_float(self.max_error, "max_error", minimum=0.0, exclusive_minimum=True)
+        as_float(self.confidence, "confidence", minimum=0.0, maximum=1.0,
+                 exclusive_minimum=True)  # fmt: skip
+        as_int(self.max_frames, "max_frames", minimum=1)
+
+
+CARRY_SETTINGS = CarrySettings()
+
+
+def _grey(image, name: str) -> np.ndarray:
+    a = as_array(image, name, what="an (H, W) grey or (H, W, 3) BGR image")
+    if a.ndim == 3 and a.shape[2] == 3:
+        return cv2.cvtColor(np.ascontiguousarray(a, dtype=np.uint8), cv2.COLOR_BGR2GRAY)
+    if a.ndim == 2:
+        return np.ascontiguousarray(a, dtype=np.uint8)
+    raise ValueError(f"{name}: expected an (H, W) grey or (H, W, 3) BGR image; got shape {a.shape}")
+
+
+class KeypointCarrier:
+    """Keypoints of one camera, carried by optical flow between detections, online.
+
+    Give it every frame in order with that frame's detected keypoints (or None);
+    `step` returns the frame's keypoints: the detection where there is one, else the
+    last detection's points followed to this frame (module notes).
+
+    Parameters
+    ----------
+    settings : CarrySettings, optional
+
+    Examples
+    --------
+    A bright square moving 2 px to the right per frame carries its corner along:
+
+    >>> frames = np.zeros((3, 64, 64), np.uint8)
+    >>> for t in range(3):
+    ...     frames[t, 20:40, 20 + 2 * t:40 + 2 * t] = 255
+    >>> detected = np.full((21, 3), np.nan)
+    >>> detected[0] = (20.0, 20.0, 1.0)  # the top-left corner
+    >>> carrier = KeypointCarrier()
+    >>> _ = carrier.step(frames[0], detected)
+    >>> _ = carrier.step(frames[1])
+    >>> np.round(carrier.step(frames[2])[0], 1).tolist()
+    [24.0, 20.0, 1.0]
+    """
+
+    def __init__(self, settings: CarrySettings = CARRY_SETTINGS) -> None:
+        self.settings = as_instance(settings, CarrySettings, "settings")
+        s = settings
+        self._flow = {
+            "winSize": (s.window, s.window),
+            "maxLevel": s.levels,
+            "criteria": (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 30, 0.01),
+        }
+        self._grey: np.ndarray | None = None  # the previous frame
+        self._points: np.ndarray | None = None  # (21, 1, 2) float32, being carried
+        self._confidence = np.zeros(N_KEYPOINTS)  # 0: not carried
+        self._age = 0  # frames since the last detection
+
+    def step(self, image, keypoints=None) -> np.ndarray | None:
+        """This frame's keypoints: detected, else carried from the previous frame.
+
+        Parameters
+        ----------
+        image : (H, W, 3) BGR or (H, W) grey uint8 array_like
+            The frame, in the pixels the keypoints are in.
+        keypoints : (21, 2) or (21, 3) array_like, optional
+            The frame's detection (x, y[, confidence]; NaN or confidence 0 missing);
+            None, or no point present, for a frame without one.
+
+        Returns
+        -------
+        (21, 3) ndarray or None
+            x, y, confidence (NaN, NaN, 0 where missing); None when no point is there.
+        """
+        grey = _grey(image, "image")
+        if self._grey is not None and grey.shape != self._grey.shape:
+            raise ValueError(
+                f"image: expected the size of the previous frame {self._grey.shape[::-1]}; "
+                f"got {grey.shape[::-1]}"
+            )
+        detected = None if keypoints is None else as_frame_keypoints(keypoints, "keypoints")
+        previous, self._grey = self._grey, grey
+        if detected is not None and np.any(detected[:, 2] > 0):
+            self._points = np.nan_to_num(detected[:, :2]).astype(np.float32)[:, None, :]
+            self._confidence = detected[:, 2].copy()
+            self._age = 0
+            return detected
+        self._age += 1
+        if self._points is None or previous is None or self._age > self.settings.max_frames:
+            return None
+        self._carry(previous, grey)
+        if not np.any(self._confidence > 0):
+            return None
+        out = np.full((N_KEYPOINTS, 3), np.nan)
+        out[:, 2] = 0.0
+        ok = self._confidence > 0
+        out[ok, :2] = self._points[ok, 0]
+        out[ok, 2] = self._confidence[ok] * self.settings.confidence
+        return out
+
+    def _carry(self, previous: np.ndarray, grey: np.ndarray) -> None:
+        """Move the carried points from `previous` to `grey`; drop those that fail."""
+        ok = self._confidence > 0
+        if not ok.any():
+            return
+        p0 = np.ascontiguousarray(self._points[ok])
+        p1, found, _ = cv2.calcOpticalFlowPyrLK(previous, grey, p0, None, **self._flow)
+        back, found_back, _ = cv2.calcOpticalFlowPyrLK(grey, previous, p1, None, **self._flow)
+        error = np.linalg.norm((back - p0)[:, 0], axis=1)
+        kept = (found[:, 0] == 1) & (found_back[:, 0] == 1) & (error <= self.settings.max_error)
+        kept &= np.isfinite(p1[:, 0]).all(axis=1)
+        index = np.flatnonzero(ok)
+        self._points[index] = p1
+        self._confidence[index[~kept]] = 0.0
+
+
+def carry_keypoints(
+    images: Iterable, keypoints: Keypoints2D, settings: CarrySettings = CARRY_SETTINGS
+) -> Keypoints2D:
+    """One camera's keypoints carried by optical flow over the frames without a detection.
+
+    Parameters
+    ----------
+    images : iterable of (H, W, 3) BGR or (H, W) grey uint8 arrays
+        The camera's frames from frame 0, in the pixels of `keypoints`; frames past the
+        last image keep `keypoints` as they are.
+    keypoints : Keypoints2D
+        The detections (`Keypoints2D.every` for a detector at a lower rate).
+    settings : CarrySettings, optional
+
+    Returns
+    -------
+    Keypoints2D
+        The detections where there are any, the carried points elsewhere (module notes).
+    """
+    as_instance(keypoints, Keypoints2D, "keypoints")
+    carrier = KeypointCarrier(settings)
+    out = keypoints.to_array()
+    for t, image in enumerate(images):
+        if t >= keypoints.n_frames:
+            break
+        k = carrier.step(image, keypoints.frame(t))
+        if k is not None:
+            out[t] = k
+    return Keypoints2D.from_array(out, name=keypoints.name)
