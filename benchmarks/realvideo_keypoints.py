@@ -18,7 +18,9 @@ Run: ``PYTHONPATH=src .venv/bin/python benchmarks/realvideo_keypoints.py``
 (``--every 5`` for one setting; ``--frames N`` for the first N frames only; ``--seed S``
 for the optimiser's seed; ``--probe 555,565`` to refit those frames from the track with
 the keypoint weight lowered and without keypoints: how far silhouette and keypoints
-can be matched together, `refit`).
+can be matched together, `refit`; ``--tips pad`` to compare the detected fingertips
+with the centres of the model's fingertip pads, design §14.5).  PCK is that of G(x)
+either way.
 """
 
 from __future__ import annotations
@@ -59,6 +61,7 @@ def run(
     seed: int = 0,
     probe: tuple[int, ...] = (),
     settings: RecoverySettings = RECOVERY_DEFAULTS,
+    tips: str = "end",
 ) -> dict:
     """Track with keypoints on every `every`-th frame (0: none) and score the track.
 
@@ -77,7 +80,10 @@ def run(
     truth = source.scaled_keypoints([detected])[0]
     used = source.scaled_keypoints(given)[0] if every else None
     hand = HandModel(HandShape.from_size(hand_length))
-    tracker = Tracker(source.rig, hand, make_predictor("rvar"), np.random.default_rng(seed))
+    tracker_settings = TrackerSettings(cost=CostSettings(keypoint_tips=tips))
+    tracker = Tracker(
+        source.rig, hand, make_predictor("rvar"), np.random.default_rng(seed), tracker_settings
+    )
     tracked = {}  # the silhouettes fitted in the probed frames (cut while tracking)
 
     def keep(i, pose, quality, m):
@@ -100,7 +106,7 @@ def run(
     )
     withheld = ~q.keypoints
     probes = {
-        t: refit(result.track.poses[t], tracked[t], hand, source.rig, truth.frame(t))
+        t: refit(result.track.poses[t], tracked[t], hand, source.rig, truth.frame(t), tips=tips)
         for t in probe
         if t in tracked
     }
@@ -128,7 +134,14 @@ def run(
 
 
 def refit(
-    pose, masks, hand, rig, keypoints, iterations: int = 200, weights=(100.0, 30.0, 10.0, None)
+    pose,
+    masks,
+    hand,
+    rig,
+    keypoints,
+    iterations: int = 200,
+    weights=(100.0, 30.0, 10.0, None),
+    tips: str = "end",
 ) -> list[tuple]:
     """How far the silhouette and the keypoints of one frame can be matched together.
 
@@ -142,7 +155,9 @@ def refit(
     for weight in weights:
         label = "none" if weight is None else f"w_k {weight:g}"
         settings = TrackerSettings(
-            cost=CostSettings(weight_keypoints=100.0 if weight is None else weight),
+            cost=CostSettings(
+                weight_keypoints=100.0 if weight is None else weight, keypoint_tips=tips
+            ),
             smd=SMDSettings(max_iterations=iterations),
         )
         tracker = Tracker(rig, hand, NoMotion(), np.random.default_rng(0), settings)
@@ -169,6 +184,8 @@ def main() -> None:
                         help="iterations of the refinement of a poor fit (0: none)")  # fmt: skip
     parser.add_argument("--refine-without-keypoints", action="store_true",
                         help="refine frames without keypoints for their IoU too")  # fmt: skip
+    parser.add_argument("--tips", choices=("end", "pad"), default="end",
+                        help="model point of a detected fingertip (design §14.5)")  # fmt: skip
     args = parser.parse_args()
     settings = RecoverySettings(
         refine_iterations=args.refine_iterations,
@@ -176,11 +193,14 @@ def main() -> None:
     )
     print(
         f"example video, scale {args.scale:g}, hand {args.hand_length:g} mm, RVAR, "
-        f"seed {args.seed}; PCK@0.2 against the detector on every frame; {settings}"
+        f"seed {args.seed}, fingertips at the {args.tips}; PCK@0.2 of G(x) against the "
+        f"detector on every frame; {settings}"
     )
     for every in args.every or [5, 10, 0]:
         probe = tuple(int(t) for t in args.probe.split(",") if t)
-        r = run(every, args.frames, args.scale, args.hand_length, args.seed, probe, settings)
+        r = run(
+            every, args.frames, args.scale, args.hand_length, args.seed, probe, settings, args.tips
+        )
         what = f"keypoints every {every:>2}" if every else "no keypoints      "
         print(
             f"  {what}: {r['frames']} frames | PCK@0.2 withheld {r['pck_withheld']:.3f}, "
