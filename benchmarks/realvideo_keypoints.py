@@ -18,9 +18,10 @@ Run: ``PYTHONPATH=src .venv/bin/python benchmarks/realvideo_keypoints.py``
 (``--every 5`` for one setting; ``--frames N`` for the first N frames only; ``--seed S``
 for the optimiser's seed; ``--probe 555,565`` to refit those frames from the track with
 the keypoint weight lowered and without keypoints: how far silhouette and keypoints
-can be matched together, `refit`; ``--tips pad`` to compare the detected fingertips
-with the centres of the model's fingertip pads, design §14.5).  PCK is that of G(x)
-either way.
+can be matched together, `refit`; ``--breakdown`` to split the misfit of every frame
+under IoU 0.8 into the heel band, the fingertips and the rest, `misfit`; ``--tips pad``
+to compare the detected fingertips with the centres of the model's fingertip pads,
+design §14.5).  PCK is that of G(x) either way.
 """
 
 from __future__ import annotations
@@ -62,10 +63,12 @@ def run(
     probe: tuple[int, ...] = (),
     settings: RecoverySettings = RECOVERY_DEFAULTS,
     tips: str = "end",
+    breakdown: bool = False,
 ) -> dict:
     """Track with keypoints on every `every`-th frame (0: none) and score the track.
 
-    For each frame in `probe`, the tracked fit is also refitted (`refit`).
+    For each frame in `probe`, the tracked fit is also refitted (`refit`); with
+    `breakdown`, every frame's misfit is split by `misfit`.
     """
     source = open_source(VIDEO, scale=scale)
     detected = read_keypoints(KEYPOINTS)
@@ -85,10 +88,13 @@ def run(
         source.rig, hand, make_predictor("rvar"), np.random.default_rng(seed), tracker_settings
     )
     tracked = {}  # the silhouettes fitted in the probed frames (cut while tracking)
+    parts = {}  # frame: `misfit` of the fit
 
     def keep(i, pose, quality, m):
         if i in probe:
             tracked[i] = m
+        if breakdown and m[0].any() and np.all(np.isfinite(pose)):
+            parts[i] = misfit(pose, m[0], hand, source.rig)
 
     t0 = time.perf_counter()
     result = track_with_recovery(
@@ -111,6 +117,7 @@ def run(
         if t in tracked
     }
     return {
+        "parts": parts,
         "probes": probes,
         "every": every,
         "frames": n,
@@ -131,6 +138,36 @@ def run(
         "track_ms": track_ms,
         "silhouette_ms": sil_ms,
     }
+
+
+def misfit(pose, mask, hand, rig, band: float = 0.2) -> dict:
+    """Where the fitted model and the (cut) silhouette of camera 0 disagree.
+
+    Pixels are split into the *heel band* (closer to the model's wrist than `band` hand
+    sizes along its wrist → middle-MCP line, beyond which the silhouette is cut), the
+    *tips* (outside the band, nearest to a projected fingertip of G(x) among its 21
+    points) and the *rest*.  Returns the IoU, the observed-only and model-only pixels of
+    each part, and the IoU with the heel band or the tips left out of both masks.
+    """
+    from handvar.render import silhouettes
+
+    model = silhouettes(hand, pose, rig)[0]
+    G = rig[0].project(hand.joints(pose))
+    size = float(np.linalg.norm(G[9] - G[0]))
+    ys, xs = np.nonzero(mask | model)
+    p = np.column_stack([xs, ys]).astype(float)
+    along = (p - G[0]) @ (G[9] - G[0]) / size**2
+    nearest = np.argmin(((p[:, None, :] - G[None]) ** 2).sum(axis=2), axis=1)
+    heel = along < band
+    tips = ~heel & np.isin(nearest, [4, 8, 12, 16, 20])
+    obs, mod = mask[ys, xs], model[ys, xs]
+    out = {"iou": float((obs & mod).sum() / (obs | mod).sum())}
+    for name, part in (("heel", heel), ("tips", tips), ("rest", ~heel & ~tips)):
+        out[f"observed_{name}"] = int((obs & ~mod & part).sum())
+        out[f"model_{name}"] = int((mod & ~obs & part).sum())
+        out[f"iou_without_{name}"] = float((obs & mod & ~part).sum() / ((obs | mod) & ~part).sum())
+    out["observed"] = int(obs.sum())
+    return out
 
 
 def refit(
@@ -186,6 +223,8 @@ def main() -> None:
                         help="refine frames without keypoints for their IoU too")  # fmt: skip
     parser.add_argument("--tips", choices=("end", "pad"), default="end",
                         help="model point of a detected fingertip (design §14.5)")  # fmt: skip
+    parser.add_argument("--breakdown", action="store_true",
+                        help="split each frame's misfit: heel band, fingertips, rest")  # fmt: skip
     args = parser.parse_args()
     settings = RecoverySettings(
         refine_iterations=args.refine_iterations,
@@ -199,8 +238,9 @@ def main() -> None:
     for every in args.every or [5, 10, 0]:
         probe = tuple(int(t) for t in args.probe.split(",") if t)
         r = run(
-            every, args.frames, args.scale, args.hand_length, args.seed, probe, settings, args.tips
-        )
+            every, args.frames, args.scale, args.hand_length, args.seed, probe, settings, args.tips,
+            args.breakdown,
+        )  # fmt: skip
         what = f"keypoints every {every:>2}" if every else "no keypoints      "
         print(
             f"  {what}: {r['frames']} frames | PCK@0.2 withheld {r['pck_withheld']:.3f}, "
@@ -212,6 +252,25 @@ def main() -> None:
             f"silhouettes {r['silhouette_ms']:.0f} ms/frame"
         )
         print(f"    IoU < 0.8 at {r['iou_below_0.8_frames'][:20]}; lost at {r['lost_frames'][:20]}")
+        parts = r["parts"]
+        if parts:
+            heel = np.median([p["observed_heel"] / p["observed"] for p in parts.values()])
+            print(
+                f"    misfit, all frames: observed-only in the heel band {heel:.3f} of the "
+                f"observed (median); IoU mean without the heel band "
+                f"{np.mean([p['iou_without_heel'] for p in parts.values()]):.3f}, without the "
+                f"tips {np.mean([p['iou_without_tips'] for p in parts.values()]):.3f}"
+            )
+        for t in r["iou_below_0.8_frames"]:
+            if t in parts:
+                p = parts[t]
+                print(
+                    f"    frame {t}: IoU {p['iou']:.3f}; observed-only / model-only px: heel "
+                    f"{p['observed_heel']} / {p['model_heel']}, tips {p['observed_tips']} / "
+                    f"{p['model_tips']}, rest {p['observed_rest']} / {p['model_rest']}; IoU "
+                    f"without the heel band {p['iou_without_heel']:.3f}, without the tips "
+                    f"{p['iou_without_tips']:.3f}"
+                )
         for t, fits in r["probes"].items():
             text = "; ".join(
                 f"{a}: IoU {b:.3f}, joints {c:.3f}, PCK {d:.2f}" for a, b, c, d in fits
