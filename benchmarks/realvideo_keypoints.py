@@ -127,8 +127,11 @@ def run(
         "iou_min": float(q.iou[~q.empty].min()),
         "iou_min_frame": int(np.flatnonzero(~q.empty)[q.iou[~q.empty].argmin()]),
         "iou_mean": float(q.iou[~q.empty].mean()),
+        "iou_mean_keypoints": float(np.nanmean(q.iou[~q.empty & q.keypoints])),
+        "iou_mean_withheld": float(np.nanmean(q.iou[~q.empty & ~q.keypoints])),
         "frames_iou_below_0.8": int(np.sum(q.iou[~q.empty] < 0.8)),
         "iou_below_0.8_frames": np.flatnonzero(q.iou < 0.8).tolist(),
+        "iou": q.iou,
         "lost": int(q.lost.sum()),
         "lost_frames": np.flatnonzero(q.lost).tolist(),
         "reinit": int(q.reinit.sum()),
@@ -223,6 +226,7 @@ def main() -> None:
                         help="refine frames without keypoints for their IoU too")  # fmt: skip
     parser.add_argument("--tips", choices=("end", "pad"), default="end",
                         help="model point of a detected fingertip (design §14.5)")  # fmt: skip
+    parser.add_argument("--iou-at", default="", help="frames (comma-separated) to print the IoU of")
     parser.add_argument("--breakdown", action="store_true",
                         help="split each frame's misfit: heel band, fingertips, rest")  # fmt: skip
     args = parser.parse_args()
@@ -252,6 +256,16 @@ def main() -> None:
             f"silhouettes {r['silhouette_ms']:.0f} ms/frame"
         )
         print(f"    IoU < 0.8 at {r['iou_below_0.8_frames'][:20]}; lost at {r['lost_frames'][:20]}")
+        if every:
+            print(
+                f"    IoU mean on the frames with keypoints {r['iou_mean_keypoints']:.3f}, "
+                f"without {r['iou_mean_withheld']:.3f}"
+            )
+        at = [int(t) for t in args.iou_at.split(",") if t]
+        if at:
+            print(
+                "    IoU at " + ", ".join(f"{t} {r['iou'][t]:.3f}" for t in at if t < r["frames"])
+            )
         parts = r["parts"]
         if parts:
             heel = np.median([p["observed_heel"] / p["observed"] for p in parts.values()])
