@@ -121,14 +121,14 @@ def run(
         "probes": probes,
         "every": every,
         "frames": n,
-        "pck_withheld": float(np.nanmean(scores[withheld])),
+        "pck_withheld": mean(scores[withheld]),
         "pck_all": float(np.nanmean(scores)),
         "frames_pck_below_0.5": int(np.sum(scores < 0.5)),
         "iou_min": float(q.iou[~q.empty].min()),
         "iou_min_frame": int(np.flatnonzero(~q.empty)[q.iou[~q.empty].argmin()]),
         "iou_mean": float(q.iou[~q.empty].mean()),
-        "iou_mean_keypoints": float(np.nanmean(q.iou[~q.empty & q.keypoints])),
-        "iou_mean_withheld": float(np.nanmean(q.iou[~q.empty & ~q.keypoints])),
+        "iou_mean_keypoints": mean(q.iou[~q.empty & q.keypoints]),
+        "iou_mean_withheld": mean(q.iou[~q.empty & ~q.keypoints]),
         "frames_iou_below_0.8": int(np.sum(q.iou[~q.empty] < 0.8)),
         "iou_below_0.8_frames": np.flatnonzero(q.iou < 0.8).tolist(),
         "iou": q.iou,
@@ -141,6 +141,13 @@ def run(
         "track_ms": track_ms,
         "silhouette_ms": sil_ms,
     }
+
+
+def mean(values) -> float:
+    """Mean of the finite values; NaN if there are none."""
+    values = np.asarray(values, dtype=float)
+    values = values[np.isfinite(values)]
+    return float(values.mean()) if values.size else float("nan")
 
 
 def misfit(pose, mask, hand, rig, band: float = 0.2) -> dict:
@@ -256,7 +263,7 @@ def main() -> None:
             f"silhouettes {r['silhouette_ms']:.0f} ms/frame"
         )
         print(f"    IoU < 0.8 at {r['iou_below_0.8_frames'][:20]}; lost at {r['lost_frames'][:20]}")
-        if every:
+        if every > 1:
             print(
                 f"    IoU mean on the frames with keypoints {r['iou_mean_keypoints']:.3f}, "
                 f"without {r['iou_mean_withheld']:.3f}"
