@@ -18,11 +18,13 @@ digit in its hand sizes (`HandShape.radii`, tip column, over |G_0 − G_9|): a
 correspondence that puts the detected tip at the centre of the model's fingertip pad
 expects an overshoot of one tip radius.
 
-Run: ``PYTHONPATH=src .venv/bin/python benchmarks/fingertips.py``.
+Run: ``PYTHONPATH=src .venv/bin/python benchmarks/fingertips.py`` (``--at 555,565`` also
+prints the overshoot of every digit in those frames, straight or not).
 """
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 import cv2
@@ -64,6 +66,9 @@ def edge(gray: np.ndarray, tip: np.ndarray, u: np.ndarray, end: float) -> float:
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--at", default="", help="frames (comma-separated) to print per digit")
+    at = {int(t) for t in parser.parse_args().at.split(",") if t}
     source = open_source(VIDEO, scale=0.5)
     truth = source.scaled_keypoints([read_keypoints(KEYPOINTS)])[0]
     rows, edges = [], []
@@ -72,6 +77,13 @@ def main() -> None:
         if k is None or not m.any() or not np.all(k[:, 2] > 0):
             continue
         size = float(np.linalg.norm(k[9, :2] - k[0, :2]))
+        if t in at:
+            each = [
+                overshoot(m, k[TIP[d], :2], (k[TIP[d], :2] - k[DIP[d], :2])
+                          / np.linalg.norm(k[TIP[d], :2] - k[DIP[d], :2]))
+                for d in range(5)
+            ]  # fmt: skip
+            print(f"  frame {t}: px beyond the detected tip, thumb to little {np.round(each, 1)}")
         gray = None
         for d in range(5):
             tip, dip = k[TIP[d], :2], k[DIP[d], :2]
