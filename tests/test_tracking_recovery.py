@@ -347,6 +347,30 @@ def test_track_with_keypoints_writes_the_quality(tmp_path):
         assert npz["with_keypoints"].tolist() == table[:, 7].astype(bool).tolist()
 
 
+def test_track_compares_the_fingertip_pads_when_asked(tmp_path):
+    """`--keypoint-tips pad` reaches the tracker: its keypoint error is the pads' (§14.5)."""
+    from handvar.tracking.keypoint_cost import hand_length, keypoint_points, reprojection_error
+
+    out = tmp_path / "pad"
+    res = CliRunner().invoke(
+        main,
+        ["track", str(VIDEO), "--scale", "0.5", "--frames", "1", "--keypoints", str(KEYPOINTS),
+         "--keypoint-tips", "pad", "--out", str(out), "--no-video"],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    error = np.loadtxt(out / "quality.csv", delimiter=",", skiprows=1)[2]
+    pose = np.loadtxt(out / "poses.csv", delimiter=",", skiprows=1)
+    source = open_source(VIDEO, scale=0.5)
+    kp = source.scaled_keypoints([read_keypoints(KEYPOINTS)])[0].frame(0)[None]
+    hand = HandModel()
+    pad, end = (
+        reprojection_error(keypoint_points(hand, pose, tips), source.rig, kp, hand_length(hand))
+        for tips in ("pad", "end")
+    )
+    assert error == pytest.approx(pad, abs=1e-4)  # the csv's rounding
+    assert abs(end - pad) > 1e-3
+
+
 def test_keypoint_every_needs_keypoints(tmp_path):
     res = CliRunner().invoke(
         main, ["track", str(VIDEO), "--keypoint-every", "5", "--out", str(tmp_path / "o")]
