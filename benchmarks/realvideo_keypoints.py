@@ -21,8 +21,11 @@ Run: ``PYTHONPATH=src .venv/bin/python benchmarks/realvideo_keypoints.py``
 (``--every 5`` for one setting; ``--frames N`` for the first N frames only; ``--seed S``
 for the optimiser's seed; ``--no-carry`` to leave the frames between detections without
 keypoints; ``--probe 555,565`` to refit those frames from the track with the keypoint
-weight lowered and without keypoints: how far silhouette and keypoints
-can be matched together, `refit`).
+weight lowered and without keypoints: how far silhouette and keypoints can be matched
+together, `refit`; ``--breakdown`` to split the misfit of every frame under IoU 0.8 into
+the heel band, the fingertips and the rest, `misfit`; ``--tips pad`` to compare the
+detected fingertips with the centres of the model's fingertip pads, design §14.6).  PCK
+is that of G(x) either way.
 """
 
 from __future__ import annotations
@@ -65,12 +68,15 @@ def run(
     probe: tuple[int, ...] = (),
     settings: RecoverySettings = RECOVERY_DEFAULTS,
     carry: bool = True,
+    tips: str = "end",
+    breakdown: bool = False,
 ) -> dict:
     """Track with keypoints on every `every`-th frame (0: none) and score the track.
 
     With `carry` the keypoints are carried by optical flow over the frames between
     (`VideoSource.carried_keypoints`, §14.5).  For each frame in `probe`, the tracked
-    fit is also refitted (`refit`).
+    fit is also refitted (`refit`); with `breakdown`, every frame's misfit is split by
+    `misfit`.
     """
     source = open_source(VIDEO, scale=scale)
     detected = read_keypoints(KEYPOINTS)
@@ -101,12 +107,18 @@ def run(
         carried_error = float(np.mean(d[both]))
         carried_kept = float(both.sum() / truth.present[t].sum())
     hand = HandModel(HandShape.from_size(hand_length))
-    tracker = Tracker(source.rig, hand, make_predictor("rvar"), np.random.default_rng(seed))
+    tracker_settings = TrackerSettings(cost=CostSettings(keypoint_tips=tips))
+    tracker = Tracker(
+        source.rig, hand, make_predictor("rvar"), np.random.default_rng(seed), tracker_settings
+    )
     tracked = {}  # the silhouettes fitted in the probed frames (cut while tracking)
+    parts = {}  # frame: `misfit` of the fit
 
     def keep(i, pose, quality, m):
         if i in probe:
             tracked[i] = m
+        if breakdown and m[0].any() and np.all(np.isfinite(pose)):
+            parts[i] = misfit(pose, m[0], hand, source.rig)
 
     t0 = time.perf_counter()
     result = track_with_recovery(
@@ -124,22 +136,26 @@ def run(
     )
     withheld = ~with_detection
     probes = {
-        t: refit(result.track.poses[t], tracked[t], hand, source.rig, truth.frame(t))
+        t: refit(result.track.poses[t], tracked[t], hand, source.rig, truth.frame(t), tips=tips)
         for t in probe
         if t in tracked
     }
     return {
+        "parts": parts,
         "probes": probes,
         "every": every,
         "frames": n,
-        "pck_withheld": float(np.nanmean(scores[withheld])),
+        "pck_withheld": mean(scores[withheld]),
         "pck_all": float(np.nanmean(scores)),
         "frames_pck_below_0.5": int(np.sum(scores < 0.5)),
         "iou_min": float(q.iou[~q.empty].min()),
         "iou_min_frame": int(np.flatnonzero(~q.empty)[q.iou[~q.empty].argmin()]),
         "iou_mean": float(q.iou[~q.empty].mean()),
+        "iou_mean_keypoints": mean(q.iou[~q.empty & q.keypoints]),
+        "iou_mean_withheld": mean(q.iou[~q.empty & ~q.keypoints]),
         "frames_iou_below_0.8": int(np.sum(q.iou[~q.empty] < 0.8)),
         "iou_below_0.8_frames": np.flatnonzero(q.iou < 0.8).tolist(),
+        "iou": q.iou,
         "lost": int(q.lost.sum()),
         "lost_frames": np.flatnonzero(q.lost).tolist(),
         "reinit": int(q.reinit.sum()),
@@ -155,8 +171,52 @@ def run(
     }
 
 
+def mean(values) -> float:
+    """Mean of the finite values; NaN if there are none."""
+    values = np.asarray(values, dtype=float)
+    values = values[np.isfinite(values)]
+    return float(values.mean()) if values.size else float("nan")
+
+
+def misfit(pose, mask, hand, rig, band: float = 0.2) -> dict:
+    """Where the fitted model and the (cut) silhouette of camera 0 disagree.
+
+    Pixels are split into the *heel band* (closer to the model's wrist than `band` hand
+    sizes along its wrist → middle-MCP line, beyond which the silhouette is cut), the
+    *tips* (outside the band, nearest to a projected fingertip of G(x) among its 21
+    points) and the *rest*.  Returns the IoU, the observed-only and model-only pixels of
+    each part, and the IoU with the heel band or the tips left out of both masks.
+    """
+    from handvar.render import silhouettes
+
+    model = silhouettes(hand, pose, rig)[0]
+    G = rig[0].project(hand.joints(pose))
+    size = float(np.linalg.norm(G[9] - G[0]))
+    ys, xs = np.nonzero(mask | model)
+    p = np.column_stack([xs, ys]).astype(float)
+    along = (p - G[0]) @ (G[9] - G[0]) / size**2
+    nearest = np.argmin(((p[:, None, :] - G[None]) ** 2).sum(axis=2), axis=1)
+    heel = along < band
+    tips = ~heel & np.isin(nearest, [4, 8, 12, 16, 20])
+    obs, mod = mask[ys, xs], model[ys, xs]
+    out = {"iou": float((obs & mod).sum() / (obs | mod).sum())}
+    for name, part in (("heel", heel), ("tips", tips), ("rest", ~heel & ~tips)):
+        out[f"observed_{name}"] = int((obs & ~mod & part).sum())
+        out[f"model_{name}"] = int((mod & ~obs & part).sum())
+        out[f"iou_without_{name}"] = float((obs & mod & ~part).sum() / ((obs | mod) & ~part).sum())
+    out["observed"] = int(obs.sum())
+    return out
+
+
 def refit(
-    pose, masks, hand, rig, keypoints, iterations: int = 200, weights=(100.0, 30.0, 10.0, None)
+    pose,
+    masks,
+    hand,
+    rig,
+    keypoints,
+    iterations: int = 200,
+    weights=(100.0, 30.0, 10.0, None),
+    tips: str = "end",
 ) -> list[tuple]:
     """How far the silhouette and the keypoints of one frame can be matched together.
 
@@ -170,7 +230,9 @@ def refit(
     for weight in weights:
         label = "none" if weight is None else f"w_k {weight:g}"
         settings = TrackerSettings(
-            cost=CostSettings(weight_keypoints=100.0 if weight is None else weight),
+            cost=CostSettings(
+                weight_keypoints=100.0 if weight is None else weight, keypoint_tips=tips
+            ),
             smd=SMDSettings(max_iterations=iterations),
         )
         tracker = Tracker(rig, hand, NoMotion(), np.random.default_rng(0), settings)
@@ -199,6 +261,11 @@ def main() -> None:
                         help="refine frames without keypoints for their IoU too")  # fmt: skip
     parser.add_argument("--no-carry", dest="carry", action="store_false",
                         help="do not carry the keypoints between detections (§14.5)")  # fmt: skip
+    parser.add_argument("--tips", choices=("end", "pad"), default="end",
+                        help="model point of a detected fingertip (design §14.6)")  # fmt: skip
+    parser.add_argument("--iou-at", default="", help="frames (comma-separated) to print the IoU of")
+    parser.add_argument("--breakdown", action="store_true",
+                        help="split each frame's misfit: heel band, fingertips, rest")  # fmt: skip
     args = parser.parse_args()
     settings = RecoverySettings(
         refine_iterations=args.refine_iterations,
@@ -206,14 +273,15 @@ def main() -> None:
     )
     print(
         f"example video, scale {args.scale:g}, hand {args.hand_length:g} mm, RVAR, "
-        f"seed {args.seed}; PCK@0.2 against the detector on every frame; {settings}; "
-        f"keypoints {'carried' if args.carry else 'not carried'} between detections"
+        f"seed {args.seed}, fingertips at the {args.tips}; PCK@0.2 of G(x) against the "
+        f"detector on every frame; {settings}; keypoints "
+        f"{'carried' if args.carry else 'not carried'} between detections"
     )
     for every in args.every or [5, 10, 0]:
         probe = tuple(int(t) for t in args.probe.split(",") if t)
         r = run(
             every, args.frames, args.scale, args.hand_length, args.seed, probe, settings,
-            args.carry,
+            args.carry, args.tips, args.breakdown,
         )  # fmt: skip
         what = f"keypoints every {every:>2}" if every else "no keypoints      "
         print(
@@ -233,6 +301,35 @@ def main() -> None:
             )
         )
         print(f"    IoU < 0.8 at {r['iou_below_0.8_frames'][:20]}; lost at {r['lost_frames'][:20]}")
+        if every > 1:
+            print(
+                f"    IoU mean on the frames with keypoints {r['iou_mean_keypoints']:.3f}, "
+                f"without {r['iou_mean_withheld']:.3f}"
+            )
+        at = [int(t) for t in args.iou_at.split(",") if t]
+        if at:
+            print(
+                "    IoU at " + ", ".join(f"{t} {r['iou'][t]:.3f}" for t in at if t < r["frames"])
+            )
+        parts = r["parts"]
+        if parts:
+            heel = np.median([p["observed_heel"] / p["observed"] for p in parts.values()])
+            print(
+                f"    misfit, all frames: observed-only in the heel band {heel:.3f} of the "
+                f"observed (median); IoU mean without the heel band "
+                f"{np.mean([p['iou_without_heel'] for p in parts.values()]):.3f}, without the "
+                f"tips {np.mean([p['iou_without_tips'] for p in parts.values()]):.3f}"
+            )
+        for t in r["iou_below_0.8_frames"]:
+            if t in parts:
+                p = parts[t]
+                print(
+                    f"    frame {t}: IoU {p['iou']:.3f}; observed-only / model-only px: heel "
+                    f"{p['observed_heel']} / {p['model_heel']}, tips {p['observed_tips']} / "
+                    f"{p['model_tips']}, rest {p['observed_rest']} / {p['model_rest']}; IoU "
+                    f"without the heel band {p['iou_without_heel']:.3f}, without the tips "
+                    f"{p['iou_without_tips']:.3f}"
+                )
         for t, fits in r["probes"].items():
             text = "; ".join(
                 f"{a}: IoU {b:.3f}, joints {c:.3f}, PCK {d:.2f}" for a, b, c, d in fits

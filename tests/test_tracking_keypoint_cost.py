@@ -15,6 +15,8 @@ from handvar.tracking import CostSettings, SilhouetteCost
 from handvar.tracking.keypoint_cost import (
     frame_keypoints,
     hand_length,
+    keypoint_attachment,
+    keypoint_points,
     reprojection_error,
     sequence_keypoints,
 )
@@ -169,3 +171,84 @@ def test_synthetic_keypoints_noise_and_outliers():
     clean = synthetic_keypoints(seq, 0.0, 0.0)
     np.testing.assert_allclose(clean[:, 0, :, :2], seq.rig.cameras[0].project(
         G.reshape(-1, 3)).reshape(40, 21, 2))  # fmt: skip
+
+
+# --- where a detected fingertip is compared (design §14.6) ---------------------------------
+
+TIPS_AT = [4, 8, 12, 16, 20]
+
+
+def pad_keypoints(hand, rig, x):
+    """Exact keypoints with the fingertips at the pads' centres, as MediaPipe marks them."""
+    P = keypoint_points(hand, x, "pad")
+    return np.stack([np.column_stack([cam.project(P), np.ones(21)]) for cam in rig])
+
+
+def test_pad_points_lie_one_tip_radius_inside_the_fingertips_on_the_distal_bones():
+    hand = HandModel()
+    rng = np.random.default_rng(11)
+    for _ in range(5):
+        x = named_pose("open") + rng.normal(0.0, 10.0, 26)
+        G, P = hand.joints(x), keypoint_points(hand, x, "pad")
+        others = np.setdiff1d(np.arange(21), TIPS_AT)
+        np.testing.assert_array_equal(P[others], G[others])  # the other 16: G(x)'s
+        along = G[TIPS_AT] - P[TIPS_AT]
+        np.testing.assert_allclose(np.linalg.norm(along, axis=1), hand.shape.radii[:, 3])
+        dip = G[[t - 1 for t in TIPS_AT]]
+        bone = (G[TIPS_AT] - dip) / np.linalg.norm(G[TIPS_AT] - dip, axis=1)[:, None]
+        np.testing.assert_allclose(along / hand.shape.radii[:, 3, None], bone, atol=1e-12)
+    # the pad's centre is the centre of the distal cone-sphere's last sphere
+    prim = hand.primitives
+    _, local = keypoint_attachment(hand, "pad")
+    for k, joint in enumerate(TIPS_AT):
+        on_bone = prim.bone == 3 + 3 * k  # the distal bone of digit k
+        centres = prim.centres[on_bone].reshape(-1, 3)
+        radii = prim.radii[on_bone].ravel()
+        last = np.argmax(centres[:, 1])
+        np.testing.assert_allclose(centres[last], local[joint], atol=1e-12)
+        assert radii[last] == pytest.approx(hand.shape.radii[k, 3])
+    assert keypoint_points(hand, x, "end") is not None
+    np.testing.assert_array_equal(keypoint_points(hand, x), hand.joints(x))
+
+
+@pytest.mark.parametrize("loss", ["huber", "tukey"])
+def test_gradient_with_pad_tips_matches_central_differences(setup, loss):
+    hand, rig, x, frame = setup
+    rng = np.random.default_rng(6)
+    s = dataclasses.replace(ONLY_JOINTS, keypoint_loss=loss, keypoint_tips="pad")
+    cost = SilhouetteCost(hand, rig, s)
+    samples = cost.draw(frame, rng)
+    kp = noisy_keypoints(hand, rig, x, rng)
+    y = x + rng.normal(0.0, 3.0, 26)
+    terms = cost.evaluate(y, frame, samples, residuals=True, keypoints=kp)
+    fd = central_differences(lambda z: cost.evaluate(z, frame, samples, keypoints=kp).cost, y)
+    np.testing.assert_allclose(terms.gradient, fd, rtol=1e-5, atol=1e-8 * np.abs(fd).max())
+    np.testing.assert_allclose(terms.jacobian.T @ terms.residuals, terms.gradient, atol=1e-12)
+
+
+def test_the_keypoint_term_compares_the_tips_chosen(setup):
+    hand, rig, x, frame = setup
+    kp = pad_keypoints(hand, rig, x)
+    rng = np.random.default_rng(7)
+    pad = SilhouetteCost(hand, rig, dataclasses.replace(ONLY_JOINTS, keypoint_tips="pad"))
+    end = SilhouetteCost(hand, rig, ONLY_JOINTS)
+    at_pad = pad.evaluate(x, frame, pad.draw(frame, rng), keypoints=kp).keypoints
+    at_end = end.evaluate(x, frame, end.draw(frame, rng), keypoints=kp).keypoints
+    assert at_pad < 1e-20
+    # reference: G(x)'s five tips one tip radius off the keypoints, Huber's loss
+    G, L = hand.joints(x), hand_length(hand)
+    total = 0.0
+    for j, cam in enumerate(rig):
+        z = cam.camera_from_world(0.5 * (G[0] + G[9])[None])[0, 2]
+        d = np.linalg.norm(cam.project(G) - kp[j, :, :2], axis=1) / (cam.fx * L / z)
+        assert np.count_nonzero(d) == 5
+        total += np.sum(huber(d, 0.1))
+    assert at_end == pytest.approx(total / (21 * 2), rel=1e-10)
+    assert at_end > 1e-6
+
+
+def test_tips_are_checked():
+    with pytest.raises(ValueError, match="keypoint_tips: expected one of"):
+        CostSettings(keypoint_tips="tip")
+    with pytest.raises(ValueError, match="tips: expected one of"):
+        keypoint_attachment(HandModel(), "nail")

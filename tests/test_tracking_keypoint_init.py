@@ -14,7 +14,13 @@ from handvar.hand import HandModel, named_pose
 from handvar.hand.kinematics import world_from_hand_rotation
 from handvar.render import silhouettes
 from handvar.tracking.init import InitSettings, initial_pose
-from handvar.tracking.keypoint_fit import fit_keypoints, keypoint_error, palm_candidates
+from handvar.tracking.keypoint_cost import keypoint_points
+from handvar.tracking.keypoint_fit import (
+    KeypointFitSettings,
+    fit_keypoints,
+    keypoint_error,
+    palm_candidates,
+)
 
 DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
 HAND = HandModel()
@@ -70,6 +76,22 @@ def test_monocular_fit_recovers_the_pose_from_noisy_keypoints(name, rotation):
     nz_fit = world_from_hand_rotation(fit.pose[3:6])[0][:, 2] @ view
     nz_true = world_from_hand_rotation(x[3:6])[0][:, 2] @ view
     assert np.sign(nz_fit) == np.sign(nz_true)
+
+
+def test_fingertips_marked_at_the_pads_are_fitted_with_pad_tips():
+    """Keypoints with the tips at the pads' centres (MediaPipe's, §14.6), exact, stereo."""
+    x = named_pose("point")
+    P = keypoint_points(HAND, x, "pad")
+    kps = [cam.project(P) for cam in RIG]
+    pad = fit_keypoints(kps, RIG, HAND, settings=KeypointFitSettings(tips="pad"))
+    end = fit_keypoints(kps, RIG, HAND)
+    assert pad.error < 0.1 < end.error  # pixels, each against its own model points
+    assert keypoint_error(pad.pose, HAND, RIG, kps, tips="pad") == pytest.approx(pad.error)
+    truth = HAND.joints(x)
+    assert np.abs(HAND.joints(pad.pose) - truth).max() < 0.5  # mm
+    assert np.abs(HAND.joints(end.pose) - truth).max() > 1.0
+    with pytest.raises(ValueError, match="tips: expected one of"):
+        KeypointFitSettings(tips="nail")
 
 
 def test_the_two_sides_of_the_hand_are_told_apart():

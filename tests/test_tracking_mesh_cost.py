@@ -72,3 +72,28 @@ def test_tracker_uses_the_mesh_cost_and_recovers_a_pose(setup):
 def test_needs_a_mesh_model():
     with pytest.raises(ValueError, match="hand: expected a HandModel"):
         MeshSilhouetteCost(HandModel(), Rig.default())
+
+
+def test_pad_tips_on_the_mesh_match_the_sphere_mesh_cost(setup):
+    """C_k with the fingertips at the pads (§14.6): the same on both surfaces, which share
+    the bones; zero for keypoints at the pads, not for G(x)'s tips."""
+    from handvar.tracking import CostSettings, SilhouetteCost
+    from handvar.tracking.keypoint_cost import keypoint_points
+
+    hand, rig, x, _, frame = setup
+    P = keypoint_points(hand, x, "pad")
+    kp = np.stack([np.column_stack([cam.project(P), np.ones(21)]) for cam in rig])
+    y = x + np.random.default_rng(3).normal(0.0, 2.0, 26)
+    for tips, zero in (("pad", True), ("end", False)):
+        s = CostSettings(weight_silhouette=0.0, weight_filling=0.0, keypoint_tips=tips)
+        mesh = MeshSilhouetteCost(hand, rig, s)
+        spheres = SilhouetteCost(HandModel(), rig, s)
+        at_x = mesh.evaluate(x, frame, mesh.draw(frame, np.random.default_rng(0)), keypoints=kp)
+        assert (at_x.keypoints < 1e-20) == zero
+        a = mesh.evaluate(y, frame, mesh.draw(frame, np.random.default_rng(0)), keypoints=kp)
+        b = spheres.evaluate(
+            y, spheres.prepare(silhouettes(hand, x, rig)),
+            spheres.draw(frame, np.random.default_rng(0)), keypoints=kp,
+        )  # fmt: skip
+        assert a.keypoints == pytest.approx(b.keypoints, rel=1e-10)
+        np.testing.assert_allclose(a.gradient, b.gradient, rtol=1e-8, atol=1e-12)

@@ -72,6 +72,36 @@ def test_pck_counts_the_points_within_the_threshold():
     assert np.isnan(pck(x, hand, rig1, [None]))
 
 
+def test_with_pad_tips_the_fit_and_its_measures_compare_the_pads():
+    """Keypoints at the fingertips' pads (§14.6): the pad correspondence fits them exactly."""
+    from handvar.render import silhouettes
+    from handvar.tracking.costs import CostSettings
+    from handvar.tracking.keypoint_cost import keypoint_points
+
+    hand, rig, x = HandModel(), Rig.default(), named_pose("open")
+    P = keypoint_points(hand, x, "pad")
+    kps = [np.column_stack([cam.project(P), np.ones(21)]) for cam in rig]
+    # measures: zero at the pads; G(x)'s tips lie one tip radius beyond them
+    assert np.nanmax(joint_distances(x, hand, rig, kps, tips="pad")) == pytest.approx(0, abs=1e-9)
+    d = joint_distances(x, hand, rig, kps)
+    size = np.linalg.norm(kps[0][9, :2] - kps[0][0, :2])
+    tip_px = np.linalg.norm(rig.cameras[0].project(hand.joints(x)[[4, 8, 12, 16, 20]])
+                            - kps[0][[4, 8, 12, 16, 20], :2], axis=1)  # fmt: skip
+    np.testing.assert_allclose(d[0, [4, 8, 12, 16, 20]], tip_px / size, rtol=1e-9)
+    assert np.all(tip_px > 2.0)
+    # the tracker from a start 2 mm / 2° off: the pad fit ends nearer the truth
+    masks = silhouettes(hand, x, rig)
+    errors = {}
+    for tips in ("end", "pad"):
+        settings = TrackerSettings(cost=CostSettings(keypoint_tips=tips))
+        tracker = Tracker(rig, hand, NoMotion(), np.random.default_rng(3), settings)
+        tracker.reset(x + np.random.default_rng(4).choice([-2.0, 2.0], 26))
+        r = tracker.step(masks, keypoints=kps)
+        errors[tips] = (r.keypoint_error, np.abs(hand.joints(r.pose) - hand.joints(x)).max())
+    assert errors["pad"][0] < 0.01 < errors["end"][0]  # hand sizes, the tracker's own measure
+    assert errors["pad"][1] < errors["end"][1]  # mm, against the truth
+
+
 def test_captions_name_the_quality_and_the_flags():
     q = type("Q", (), {})()
     q.iou, q.keypoint_error = np.array([0.9, 0.2, 0.0]), np.array([0.1, np.nan, np.nan])
@@ -339,6 +369,30 @@ def test_carry_needs_a_recording_with_keypoints(tmp_path):
         res.output
     )
     assert len(res.output.strip().splitlines()) == 1
+
+
+def test_track_compares_the_fingertip_pads_when_asked(tmp_path):
+    """`--keypoint-tips pad` reaches the tracker: its keypoint error is the pads' (§14.6)."""
+    from handvar.tracking.keypoint_cost import hand_length, keypoint_points, reprojection_error
+
+    out = tmp_path / "pad"
+    res = CliRunner().invoke(
+        main,
+        ["track", str(VIDEO), "--scale", "0.5", "--frames", "1", "--keypoints", str(KEYPOINTS),
+         "--keypoint-tips", "pad", "--out", str(out), "--no-video"],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    error = np.loadtxt(out / "quality.csv", delimiter=",", skiprows=1)[2]
+    pose = np.loadtxt(out / "poses.csv", delimiter=",", skiprows=1)
+    source = open_source(VIDEO, scale=0.5)
+    kp = source.scaled_keypoints([read_keypoints(KEYPOINTS)])[0].frame(0)[None]
+    hand = HandModel()
+    pad, end = (
+        reprojection_error(keypoint_points(hand, pose, tips), source.rig, kp, hand_length(hand))
+        for tips in ("pad", "end")
+    )
+    assert error == pytest.approx(pad, abs=1e-4)  # the csv's rounding
+    assert abs(end - pad) > 1e-3
 
 
 def test_keypoint_every_needs_keypoints(tmp_path):

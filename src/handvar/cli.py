@@ -713,6 +713,10 @@ def _recording_options(func):
 @click.option("--carry/--no-carry", default=None,
               help="Carry the keypoints by optical flow over the frames without any "
               "[default: on for recordings with --keypoints].")  # fmt: skip
+@click.option("--keypoint-tips", type=click.Choice(("end", "pad")), default="end",
+              show_default=True, help="Model point a detected fingertip is compared with: "
+              "the end of the finger or the centre of its pad (where MediaPipe marks "
+              "it; design §14.6).")  # fmt: skip
 @click.option("--recover/--no-recover", default=None,
               help="Refine poor fits, detect lost frames and search the pose again there "
               "[default: on for recordings and with --keypoints].")  # fmt: skip
@@ -720,7 +724,7 @@ def _recording_options(func):
 @_one_line_errors
 def track_command(
     seq, predictor, init, seed, n_frames, out, video, hand_length, model, keypoint_files,
-    keypoint_every, carry, recover, calib, fov, scale,
+    keypoint_every, carry, keypoint_tips, recover, calib, fov, scale,
 ) -> None:  # fmt: skip
     """Track the hand through the sequence SEQ (a sequence directory or a synthetic name).
 
@@ -754,7 +758,7 @@ def track_command(
     from handvar.hand.kinematics import HandModel
     from handvar.io import read_sequence, resolve_sequence
     from handvar.synth.sequences import SEQUENCE_NAMES, make_sequence
-    from handvar.tracking import Tracker
+    from handvar.tracking import CostSettings, Tracker, TrackerSettings
     from handvar.tracking.outputs import recording_backgrounds, write_track_outputs
 
     check_output_dir(out, "--out")  # before any work
@@ -803,7 +807,10 @@ def track_command(
     hand = HandModel(HandShape.from_size(hand_length), surface=model)
     if x0 is not None:
         check_in_front(hand.joints(x0), sequence.rig, "--init" if init is not None else seq)
-    tracker = Tracker(sequence.rig, hand, make_predictor(predictor), np.random.default_rng(seed))
+    settings = TrackerSettings(cost=CostSettings(keypoint_tips=keypoint_tips))
+    tracker = Tracker(
+        sequence.rig, hand, make_predictor(predictor), np.random.default_rng(seed), settings
+    )
     quality = None
     if recover:
         from handvar.tracking.recovery import track_with_recovery

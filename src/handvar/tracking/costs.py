@@ -70,7 +70,13 @@ from handvar.camera import Rig
 from handvar.geometry.distortion import project_point as _project
 from handvar.geometry.projected import closest_point_on_union, union_axes
 from handvar.params import N_PARAMS, check_pose
-from handvar.tracking.keypoint_cost import LOSSES, hand_length, joint_terms
+from handvar.tracking.keypoint_cost import (
+    LOSSES,
+    TIPS,
+    hand_length,
+    joint_terms,
+    keypoint_attachment,
+)
 from handvar.validate import as_float, as_instance, as_int, one_of
 
 __all__ = [
@@ -114,6 +120,11 @@ class CostSettings:
         C_k's loss ρ: Huber's (convex; a wrong detection pulls with bounded force) or
         Tukey's biweight (redescending; a point farther than c pulls not at all). The
         tracker's refinement after SMD uses its own (`RefineSettings`, design §14.2).
+    keypoint_tips : {"end", "pad"}
+        Which model point a detected fingertip is compared with: G(x)'s tip, the end
+        of the finger's surface ("end"), or the centre of the fingertip's pad, one tip
+        radius short of it ("pad", where MediaPipe marks it; design §14.6).  The tracker's
+        keypoint error and the pose search from keypoints use the same points.
     near : float
         Depth (mm) in front of every camera below which a joint is penalised by C_z
         (design §13); also the floor of the depth in C_k's hand size.
@@ -140,6 +151,7 @@ class CostSettings:
     weight_keypoints: float = 100.0
     keypoint_huber: float = 0.1
     keypoint_loss: str = "huber"
+    keypoint_tips: str = "end"
     near: float = 100.0
     weight_front: float = 1.0
     front_scale: float = 10.0
@@ -154,6 +166,7 @@ class CostSettings:
         as_float(self.pixel_scale, "pixel_scale", minimum=0.0, exclusive_minimum=True)
         as_int(self.roi_margin, "roi_margin", minimum=0)
         one_of(self.keypoint_loss, LOSSES, "keypoint_loss")
+        one_of(self.keypoint_tips, TIPS, "keypoint_tips")
 
     def total(self, c_s: float, c_f: float, c_k: float, c_z: float) -> float:
         """C = w_s C_s + w_f C_f + w_k C_k + w_z C_z of the unweighted terms."""
@@ -467,7 +480,7 @@ class SilhouetteCost:
         self._ref_bone = np.repeat(np.arange(n_bones), 4)
         self._ref_local = np.tile(_REFERENCE, (n_bones, 1))
         self._cams = rig.packed()
-        bone, local = hand.joint_attachment()
+        bone, local = keypoint_attachment(hand, settings.keypoint_tips)  # G(x) by default
         self._joint_bone = np.ascontiguousarray(bone, dtype=np.int64)
         self._joint_local = np.ascontiguousarray(local, dtype=float)
         self.length = hand_length(hand)  # L of C_k, mm

@@ -558,10 +558,11 @@ def _keypoint_pose(m, rig, hand, keypoints, settings, rng, tracker_settings):
     """The pose from keypoints, refined on the silhouettes (module notes); None if none."""
     from handvar.predictors import NoMotion
     from handvar.render import silhouettes
-    from handvar.tracking.keypoint_fit import fit_keypoints, keypoint_error
+    from handvar.tracking.keypoint_fit import KeypointFitSettings, fit_keypoints, keypoint_error
     from handvar.tracking.tracker import Tracker
 
-    fit = fit_keypoints(keypoints, rig, hand)
+    tips = "end" if tracker_settings is None else tracker_settings.cost.keypoint_tips
+    fit = fit_keypoints(keypoints, rig, hand, settings=KeypointFitSettings(tips=tips))
     if fit is None:
         return None
     pose, error = fit.pose, fit.error
@@ -572,7 +573,7 @@ def _keypoint_pose(m, rig, hand, keypoints, settings, rng, tracker_settings):
         tracker.reset(pose)
         for _ in range(settings.refine_passes):
             refined = tracker.step(m).pose
-        refined_error = keypoint_error(refined, hand, rig, keypoints)
+        refined_error = keypoint_error(refined, hand, rig, keypoints, tips=tips)
         refined_iou = silhouette_iou(silhouettes(hand, refined, rig), m)
         if refined_error <= error + settings.keypoint_slack and refined_iou > iou:
             pose, error, iou = refined, refined_error, refined_iou

@@ -31,6 +31,16 @@ A hinge on the depth of every joint in every camera::
 Points behind a camera project nowhere, so the silhouette terms ignore them; without C_z
 a hand behind every camera fits perfectly (zero cost). C_z does not depend on the
 frame and is always on.
+
+Where a detector's fingertip sits (design §14.6)
+------------------------------------------------
+G(x)'s fingertips are the ends of the distal bones, where the finger's surface ends.
+A detector need not mark that point: MediaPipe marks the fingertip about one pad
+radius inside it.  ``tips="pad"`` (`CostSettings.keypoint_tips`) compares the detected
+tips with the centre of each distal cone-sphere's last sphere instead, one tip radius
+(`HandShape.radii`) short of G(x)'s tip on the distal bone (`HandShape.tip_offsets`);
+the other 16 points are G(x)'s.  `keypoint_attachment` and `keypoint_points` give these
+points; ``tips="end"`` (the default) gives G(x) itself.
 """
 
 from __future__ import annotations
@@ -40,13 +50,16 @@ from numba import njit
 
 from handvar.geometry.distortion import project_point
 from handvar.hand.anthropometry import MIDDLE_MCP, WRIST  # the hand size L: their distance
-from handvar.validate import as_array
+from handvar.validate import as_array, one_of
 
 __all__ = [
     "LOSSES",
+    "TIPS",
     "frame_keypoints",
     "hand_length",
     "joint_terms",
+    "keypoint_attachment",
+    "keypoint_points",
     "reprojection_error",
     "sequence_keypoints",
 ]
@@ -56,6 +69,57 @@ def hand_length(hand) -> float:
     """L = |G_0 − G_9|, wrist to middle MCP of the model, mm (rigid, pose independent)."""
     G = hand.joints(np.zeros(26))
     return float(np.linalg.norm(G[WRIST] - G[MIDDLE_MCP]))
+
+
+#: Where the detected fingertips are compared with the model (module notes): the end of
+#: the distal bone, G(x)'s tip ("end"), or the centre of the fingertip's pad ("pad").
+TIPS = ("end", "pad")
+
+
+def keypoint_attachment(hand, tips: str = "end") -> tuple[np.ndarray, np.ndarray]:
+    """Where the 21 points compared with keypoints sit on the hand's bones.
+
+    Parameters
+    ----------
+    hand : HandModel
+    tips : {"end", "pad"}
+        The fingertips at the end of the distal bones (G(x), `HandModel.joint_attachment`)
+        or one tip radius short of it, at the centre of the fingertip's last sphere
+        (``HandShape.tip_offsets``; module notes).
+
+    Returns
+    -------
+    bone : (21,) int ndarray
+        Each point's bone (index into `BONES`).
+    local : (21, 3) ndarray
+        Its position in that bone's frame, mm.
+
+    Examples
+    --------
+    >>> from handvar.hand import HandModel
+    >>> hand = HandModel()
+    >>> _, end = keypoint_attachment(hand)
+    >>> _, pad = keypoint_attachment(hand, "pad")
+    >>> [round(float(d), 1) for d in end[4::4, 1] - pad[4::4, 1]]  # the tip radii, mm
+    [8.0, 6.6, 6.8, 6.5, 5.9]
+    """
+    one_of(tips, TIPS, "tips")
+    bone, local = hand.joint_attachment()
+    if tips == "pad":
+        local[4::4, 1] = hand.shape.tip_offsets  # fingertips: the thumb's and each finger's
+    return bone, local
+
+
+def keypoint_points(hand, x, tips: str = "end") -> np.ndarray:
+    """The 21 points of pose `x` compared with keypoints, (21, 3) mm, world.
+
+    ``tips="end"``: G(x) (`HandModel.joints`); ``"pad"``: the same with the fingertips
+    at the centres of their pads (`keypoint_attachment`).
+    """
+    one_of(tips, TIPS, "tips")
+    if tips == "end":
+        return hand.joints(x)
+    return hand.points(x, *keypoint_attachment(hand, tips))
 
 
 def frame_keypoints(keypoints, n_cameras: int, name: str = "keypoints") -> np.ndarray | None:

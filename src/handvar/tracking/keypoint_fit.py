@@ -21,6 +21,9 @@ front of the palm; 2D keypoints of the 21 points of `G(x)` can.
    posture (λ = `KeypointFitSettings.prior`², pixels per degree) that settles what 2D
    points leave open (a finger's flexion towards or away from the camera).
 3. The candidate with the lowest cost wins.
+
+With ``KeypointFitSettings.tips="pad"`` the detected fingertips are fitted to the
+centres of the model's fingertip pads instead of G(x)'s tips (design §14.6).
 """
 
 from __future__ import annotations
@@ -32,7 +35,8 @@ import numpy as np
 
 from handvar.camera import Camera, Rig
 from handvar.params import LOWER, N_PARAMS, UPPER, clamp
-from handvar.validate import as_float, as_instance
+from handvar.tracking.keypoint_cost import TIPS, keypoint_attachment, keypoint_points
+from handvar.validate import as_float, as_instance, one_of
 from handvar.vision.keypoints import PALM, as_frame_keypoints
 
 __all__ = [
@@ -61,12 +65,19 @@ class KeypointFitSettings:
         Points of lower confidence are ignored.
     max_nfev : int
         Function evaluations per least-squares run.
+    tips : {"end", "pad"}
+        The model point a detected fingertip is fitted to: G(x)'s tip or the centre
+        of the fingertip's pad (`CostSettings.keypoint_tips`, design §14.6).
     """
 
     shapes: tuple[str, ...] = ("open", "fist", "point")
     prior: float = 0.1
     min_confidence: float = 0.05
     max_nfev: int = 200
+    tips: str = "end"
+
+    def __post_init__(self) -> None:
+        one_of(self.tips, TIPS, "tips")
 
 
 KEYPOINT_FIT_DEFAULTS = KeypointFitSettings()
@@ -111,7 +122,7 @@ def _frames(keypoints, rig: Rig) -> list[np.ndarray | None]:
     ]
 
 
-def keypoint_error(x, hand, rig: Rig, keypoints) -> float:
+def keypoint_error(x, hand, rig: Rig, keypoints, *, tips: str = "end") -> float:
     """Mean pixel distance between the projected joints G(x) and the present keypoints.
 
     Parameters
@@ -122,6 +133,8 @@ def keypoint_error(x, hand, rig: Rig, keypoints) -> float:
     rig : Rig
     keypoints : sequence of (21, 2|3) array_like or None
         One per camera (None: no keypoints there), pixels of that camera's images.
+    tips : {"end", "pad"}, keyword-only
+        The fingertips of G(x) or the centres of their pads (`keypoint_points`).
 
     Returns
     -------
@@ -129,7 +142,7 @@ def keypoint_error(x, hand, rig: Rig, keypoints) -> float:
         Pixels, unweighted, over every present point of every camera; NaN if none.
     """
     frames = _frames(keypoints, rig)
-    G = hand.joints(x)
+    G = keypoint_points(hand, x, tips)
     d = []
     for cam, k in zip(rig, frames, strict=True):
         if k is None:
@@ -180,10 +193,13 @@ def palm_candidates(keypoints, camera: Camera, hand) -> np.ndarray:
     return np.asarray(out)
 
 
-def _residuals(x, hand, rig, frames, x_prior, prior):
+def _residuals(x, hand, rig, frames, x_prior, prior, tips="end"):
     """Weighted pixel residuals and their Jacobian (module notes, step 2)."""
-    G = hand.joints(x)
-    JG = hand.joints_jacobian(x)
+    if tips == "end":
+        G = hand.joints(x)
+        JG = hand.joints_jacobian(x)
+    else:
+        G, JG = hand.points(x, *keypoint_attachment(hand, tips), jacobian=True)
     res, jac = [], []
     for cam, k in zip(rig, frames, strict=True):
         if k is None:
@@ -242,6 +258,7 @@ def fit_keypoints(
     as_instance(settings, KeypointFitSettings, "settings")
     as_float(settings.prior, "settings.prior", minimum=0.0)
     hand = HandModel() if hand is None else hand
+    tips = settings.tips
     frames = _frames(keypoints, rig)
     for j, k in enumerate(frames):
         if k is not None:
@@ -268,9 +285,9 @@ def fit_keypoints(
             x0[:6] = p
             x0 = np.clip(clamp(x0), lo + margin, hi - margin)
             sol = least_squares(
-                lambda x, x0=x0: _residuals(x, hand, rig, frames, x0, settings.prior)[0],
+                lambda x, x0=x0: _residuals(x, hand, rig, frames, x0, settings.prior, tips)[0],
                 x0,
-                jac=lambda x, x0=x0: _residuals(x, hand, rig, frames, x0, settings.prior)[1],
+                jac=lambda x, x0=x0: _residuals(x, hand, rig, frames, x0, settings.prior, tips)[1],
                 bounds=(lo, hi),
                 method="trf",
                 x_scale="jac",
@@ -283,7 +300,7 @@ def fit_keypoints(
     cost, pose = best
     return KeypointFit(
         pose=pose,
-        error=keypoint_error(pose, hand, rig, frames),
+        error=keypoint_error(pose, hand, rig, frames, tips=tips),
         cost=cost,
         n_candidates=n,
     )

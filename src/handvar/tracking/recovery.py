@@ -46,6 +46,7 @@ from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
 from handvar.params import N_PARAMS
 from handvar.predictors import NoMotion
 from handvar.tracking.init import InitSettings, initial_pose
+from handvar.tracking.keypoint_cost import keypoint_points
 from handvar.tracking.tracker import Tracker, TrackResult
 from handvar.validate import as_float, as_instance, as_int
 
@@ -144,7 +145,7 @@ def _present(kps) -> bool:
     return kps is not None and any(k is not None and np.any(np.asarray(k)[:, 2] > 0) for k in kps)
 
 
-def joint_distances(x, hand, rig, keypoints) -> np.ndarray:
+def joint_distances(x, hand, rig, keypoints, *, tips: str = "end") -> np.ndarray:
     """Distances of the projected joints G(x) to the keypoints, in hand sizes.
 
     Parameters
@@ -155,6 +156,8 @@ def joint_distances(x, hand, rig, keypoints) -> np.ndarray:
     rig : Rig
     keypoints : sequence of (21, 3) array_like or None
         One per camera (None: none there): x, y in that camera's pixels, confidence.
+    tips : {"end", "pad"}, keyword-only
+        G(x)'s fingertips, or the centres of their pads (`keypoint_points`, §14.6).
 
     Returns
     -------
@@ -174,7 +177,7 @@ def joint_distances(x, hand, rig, keypoints) -> np.ndarray:
     out = np.full((len(rig), 21), np.nan)
     if not np.all(np.isfinite(x)):
         return out
-    G = hand.joints(x)
+    G = keypoint_points(hand, x, tips)
     for j, cam in enumerate(rig):
         k = None if keypoints is None else keypoints[j]
         if k is None:
@@ -190,13 +193,14 @@ def joint_distances(x, hand, rig, keypoints) -> np.ndarray:
     return out
 
 
-def pck(x, hand, rig, keypoints, threshold: float = 0.2) -> float:
+def pck(x, hand, rig, keypoints, threshold: float = 0.2, *, tips: str = "end") -> float:
     """Fraction of the present keypoints within `threshold` hand sizes of G(x)'s image.
 
     PCK@`threshold` (percentage of correct keypoints) against the detector, over every
-    camera; NaN when no camera has keypoints with a hand size.
+    camera; NaN when no camera has keypoints with a hand size.  `tips` as in
+    `joint_distances`.
     """
-    d = joint_distances(x, hand, rig, keypoints)
+    d = joint_distances(x, hand, rig, keypoints, tips=tips)
     d = d[~np.isnan(d)]
     return float(np.mean(d <= threshold)) if d.size else math.nan
 

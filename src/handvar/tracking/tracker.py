@@ -54,6 +54,7 @@ from handvar.tracking.costs import CostSettings, FrameData, SilhouetteCost
 from handvar.tracking.keypoint_cost import (
     frame_keypoints,
     hand_length,
+    keypoint_points,
     reprojection_error,
     sequence_keypoints,
 )
@@ -510,7 +511,7 @@ class Tracker:
             iou = silhouette_iou(silhouettes(self.hand, x, self.rig), masks)
         kp_err = np.nan  # no keypoints: no G(x) to compare
         if kp is not None:
-            G = self.hand.joints(x)
+            G = keypoint_points(self.hand, x, s.cost.keypoint_tips)  # G(x) by default
             kp_err = reprojection_error(G, self.rig, kp, self._length, near=s.cost.near)
         mean_iou = _nanmean(iou)
         lost = bool(
