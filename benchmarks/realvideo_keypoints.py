@@ -19,13 +19,14 @@ those frames are withheld from the tracker.  Printed:
 
 Run: ``PYTHONPATH=src .venv/bin/python benchmarks/realvideo_keypoints.py``
 (``--every 5`` for one setting; ``--frames N`` for the first N frames only; ``--seed S``
-for the optimiser's seed; ``--no-carry`` to leave the frames between detections without
-keypoints; ``--probe 555,565`` to refit those frames from the track with the keypoint
-weight lowered and without keypoints: how far silhouette and keypoints can be matched
-together, `refit`; ``--breakdown`` to split the misfit of every frame under IoU 0.8 into
-the heel band, the fingertips and the rest, `misfit`; ``--tips pad`` to compare the
-detected fingertips with the centres of the model's fingertip pads, design §14.6).  PCK
-is that of G(x) either way.
+for the optimiser's seed; ``--carry both`` to carry each detection backwards too,
+``--carry none`` to leave the frames between detections without keypoints; ``--probe
+555,565`` to refit those frames from the track with the keypoint weight lowered and
+without keypoints: how far silhouette and keypoints can be matched together, `refit`;
+``--breakdown`` to split the misfit of every frame under IoU 0.8 into the heel band, the
+fingertips and the rest, `misfit`; ``--tips end`` to compare the detected fingertips
+with the ends of the model's fingers instead of the centres of their pads, design
+§14.6).  PCK is that of G(x) either way.
 """
 
 from __future__ import annotations
@@ -67,14 +68,14 @@ def run(
     seed: int = 0,
     probe: tuple[int, ...] = (),
     settings: RecoverySettings = RECOVERY_DEFAULTS,
-    carry: bool = True,
-    tips: str = "end",
+    carry: str = "forward",
+    tips: str = "pad",
     breakdown: bool = False,
 ) -> dict:
     """Track with keypoints on every `every`-th frame (0: none) and score the track.
 
-    With `carry` the keypoints are carried by optical flow over the frames between
-    (`VideoSource.carried_keypoints`, §14.5).  For each frame in `probe`, the tracked
+    With `carry` "forward" or "both" the keypoints are carried by optical flow over the
+    frames between (`VideoSource.carried_keypoints`, §14.5).  For each frame in `probe`, the tracked
     fit is also refitted (`refit`); with `breakdown`, every frame's misfit is split by
     `misfit`.
     """
@@ -91,15 +92,15 @@ def run(
     truth = source.scaled_keypoints([detected])[0]
     used = source.scaled_keypoints(given)[0] if every else None
     carry_ms = 0.0
-    if every and carry:
+    if every and carry != "none":
         t0 = time.perf_counter()
-        used = source.carried_keypoints(given, stop=n)[0]
+        used = source.carried_keypoints(given, stop=n, both=carry == "both")[0]
         carry_ms = 1e3 * (time.perf_counter() - t0) / n  # frames read again, and the flow
     with_detection = np.zeros(n, dtype=bool)  # frames whose detections the tracker was given
     if every:
         with_detection = given[0].present[:n].any(axis=1)
     carried_error = carried_kept = math.nan
-    if every and carry:  # the carried points against the withheld detections
+    if every and carry != "none":  # the carried points against the withheld detections
         t = np.flatnonzero(~with_detection & truth.present[:n].any(axis=1))
         size = np.linalg.norm(truth.xy[t, MIDDLE_MCP] - truth.xy[t, WRIST], axis=1)
         d = np.linalg.norm(used.xy[t] - truth.xy[t], axis=2) / size[:, None]
@@ -259,9 +260,9 @@ def main() -> None:
                         help="iterations of the refinement of a poor fit (0: none)")  # fmt: skip
     parser.add_argument("--refine-without-keypoints", action="store_true",
                         help="refine frames without keypoints for their IoU too")  # fmt: skip
-    parser.add_argument("--no-carry", dest="carry", action="store_false",
-                        help="do not carry the keypoints between detections (§14.5)")  # fmt: skip
-    parser.add_argument("--tips", choices=("end", "pad"), default="end",
+    parser.add_argument("--carry", choices=("forward", "both", "none"), default="forward",
+                        help="carry the keypoints between detections (§14.5)")  # fmt: skip
+    parser.add_argument("--tips", choices=("end", "pad"), default="pad",
                         help="model point of a detected fingertip (design §14.6)")  # fmt: skip
     parser.add_argument("--iou-at", default="", help="frames (comma-separated) to print the IoU of")
     parser.add_argument("--breakdown", action="store_true",
@@ -275,7 +276,7 @@ def main() -> None:
         f"example video, scale {args.scale:g}, hand {args.hand_length:g} mm, RVAR, "
         f"seed {args.seed}, fingertips at the {args.tips}; PCK@0.2 of G(x) against the "
         f"detector on every frame; {settings}; keypoints "
-        f"{'carried' if args.carry else 'not carried'} between detections"
+        f"carried between detections: {args.carry}"
     )
     for every in args.every or [5, 10, 0]:
         probe = tuple(int(t) for t in args.probe.split(",") if t)

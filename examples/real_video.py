@@ -50,8 +50,9 @@ from handvar.params import NAMES
 from handvar.predictors import RVAR
 from handvar.render import silhouettes
 from handvar.render.overlay import OverlayWriter, overlay_frame
+from handvar.tracking.costs import CostSettings
 from handvar.tracking.recovery import track_with_recovery
-from handvar.tracking.tracker import Tracker
+from handvar.tracking.tracker import Tracker, TrackerSettings
 from handvar.vision.keypoints import read_keypoints
 from handvar.vision.sources import open_source
 
@@ -127,8 +128,10 @@ def main() -> None:
                         help="2D keypoints of the video (.npy or .csv)")  # fmt: skip
     parser.add_argument("--keypoint-every", type=int, default=5,
                         help="use the keypoints of every K-th frame (0: none)")  # fmt: skip
-    parser.add_argument("--no-carry", dest="carry", action="store_false",
-                        help="do not carry the keypoints between detections")  # fmt: skip
+    parser.add_argument("--carry", choices=("forward", "both", "none"), default="forward",
+                        help="carry the keypoints between detections (design §14.5)")  # fmt: skip
+    parser.add_argument("--tips", choices=("end", "pad"), default="pad",
+                        help="model point of a detected fingertip (design §14.6)")  # fmt: skip
     parser.add_argument("--frames", type=int, default=None, help="frames to track [all]")
     parser.add_argument("--scale", type=float, default=0.5, help="resize factor of the frames")
     parser.add_argument("--seed", type=int, default=0, help="seed of the optimiser")
@@ -150,13 +153,15 @@ def main() -> None:
     if args.keypoint_every:
         given = [read_keypoints(args.keypoints).every(args.keypoint_every)]
         with_detection = given[0].present[:n].any(axis=1)
-        if args.carry:
-            scaled = source.carried_keypoints(given, stop=n)[0]
+        if args.carry != "none":
+            scaled = source.carried_keypoints(given, stop=n, both=args.carry == "both")[0]
         else:
             scaled = source.scaled_keypoints(given)[0]
     hand = HandModel()
     rng = np.random.default_rng(args.seed)
-    tracker = Tracker(source.rig, hand, RVAR(gamma=0.8, cutoff=8), rng)
+    # a detector's fingertip is compared with the model's fingertip pad (design §14.6)
+    settings = TrackerSettings(cost=CostSettings(keypoint_tips=args.tips))
+    tracker = Tracker(source.rig, hand, RVAR(gamma=0.8, cutoff=8), rng, settings)
 
     picks = set(np.linspace(0, n - 1, args.strip).round().astype(int).tolist())
     hard = {int(t) for t in args.hard.split(",") if t and int(t) < n}

@@ -20,6 +20,7 @@ from handvar.cli import main
 from handvar.hand import HandModel, named_pose
 from handvar.predictors import RVAR, Decelerating, NoMotion
 from handvar.synth.sequences import make_sequence
+from handvar.tracking.costs import CostSettings
 from handvar.tracking.outputs import quality_captions
 from handvar.tracking.recovery import (
     RecoverySettings,
@@ -75,7 +76,6 @@ def test_pck_counts_the_points_within_the_threshold():
 def test_with_pad_tips_the_fit_and_its_measures_compare_the_pads():
     """Keypoints at the fingertips' pads (§14.6): the pad correspondence fits them exactly."""
     from handvar.render import silhouettes
-    from handvar.tracking.costs import CostSettings
     from handvar.tracking.keypoint_cost import keypoint_points
 
     hand, rig, x = HandModel(), Rig.default(), named_pose("open")
@@ -273,7 +273,9 @@ def test_an_empty_camera_raises_unless_allowed(tmp_path):
 
 
 def track_video(n_frames: int | None, every: int):
-    """The track with keypoints on every `every`-th frame, carried between (as the CLI).
+    """The track with keypoints on every `every`-th frame, as the CLI tracks a recording.
+
+    Keypoints carried forwards between detections (§14.5), fingertips at the pads (§14.6).
 
     Returns the recovered track, PCK@0.2 per frame against the detector, and which
     frames had a detection.
@@ -285,7 +287,8 @@ def track_video(n_frames: int | None, every: int):
     used = source.carried_keypoints(given, stop=n_frames)[0]
     truth = source.scaled_keypoints([detected])[0]
     hand = HandModel()
-    tracker = Tracker(source.rig, hand, RVAR(), np.random.default_rng(0))
+    settings = TrackerSettings(cost=CostSettings(keypoint_tips="pad"))
+    tracker = Tracker(source.rig, hand, RVAR(), np.random.default_rng(0), settings)
     result = track_with_recovery(
         tracker, masks, keypoints=lambda i: [used.frame(i)], cut_wrist=True
     )
@@ -341,7 +344,7 @@ def test_track_with_keypoints_writes_the_quality(tmp_path, carry):
         main,
         ["track", str(VIDEO), "--scale", "0.5", "--frames", "6", "--keypoints", str(KEYPOINTS),
          "--keypoint-every", "5", "--out", str(out), "--no-video"]
-        + ([] if carry else ["--no-carry"]),
+        + ([] if carry else ["--carry", "none"]),
     )  # fmt: skip
     assert res.exit_code == 0, res.output
     assert "0 lost, 0 re-initialised, 0 empty" in res.output
@@ -361,14 +364,19 @@ def test_track_with_keypoints_writes_the_quality(tmp_path, carry):
 
 
 def test_carry_needs_a_recording_with_keypoints(tmp_path):
-    res = CliRunner().invoke(
-        main, ["track", "benchmark", "--frames", "3", "--carry", "--out", str(tmp_path / "o")]
-    )
-    assert res.exit_code != 0
-    assert "--carry: expected a recording (a video file or an image folder) with --keypoints" in (
-        res.output
-    )
-    assert len(res.output.strip().splitlines()) == 1
+    for args, got in (
+        (["benchmark", "--carry", "both"], "got the synthetic sequence 'benchmark'"),
+        ([str(VIDEO), "--carry", "forward"], "got no --keypoints"),
+    ):
+        res = CliRunner().invoke(
+            main, ["track", *args, "--frames", "3", "--out", str(tmp_path / "o")]
+        )
+        assert res.exit_code != 0
+        assert "--carry: expected a recording (a video file or an image folder) with " in (
+            res.output
+        )
+        assert got in res.output
+        assert len(res.output.strip().splitlines()) == 1
 
 
 def test_track_compares_the_fingertip_pads_when_asked(tmp_path):

@@ -710,13 +710,14 @@ def _recording_options(func):
               "camera in order, pixels of the full-resolution frames.")  # fmt: skip
 @click.option("--keypoint-every", type=click.IntRange(min=1), default=1, show_default=True,
               help="Use the keypoints of every K-th frame only (a slower detector).")  # fmt: skip
-@click.option("--carry/--no-carry", default=None,
-              help="Carry the keypoints by optical flow over the frames without any "
-              "[default: on for recordings with --keypoints].")  # fmt: skip
-@click.option("--keypoint-tips", type=click.Choice(("end", "pad")), default="end",
-              show_default=True, help="Model point a detected fingertip is compared with: "
-              "the end of the finger or the centre of its pad (where MediaPipe marks "
-              "it; design §14.6).")  # fmt: skip
+@click.option("--carry", type=click.Choice(("forward", "both", "none")), default=None,
+              help="Carry the detected keypoints by optical flow over the frames without "
+              "any: from the last detection (online), also back from the next one (waits "
+              "for it), or not [default: forward for recordings with --keypoints].")  # fmt: skip
+@click.option("--keypoint-tips", type=click.Choice(("end", "pad")), default=None,
+              help="Model point a detected fingertip is compared with: the end of the "
+              "finger or the centre of its pad (where MediaPipe marks it; design §14.6) "
+              "[default: pad for recordings, end for sequences].")  # fmt: skip
 @click.option("--recover/--no-recover", default=None,
               help="Refine poor fits, detect lost frames and search the pose again there "
               "[default: on for recordings and with --keypoints].")  # fmt: skip
@@ -735,11 +736,11 @@ def track_command(
 
     With --keypoints (one file per camera), every K-th frame's keypoints
     (--keypoint-every) place the wrist cut and pull the fit. On a recording the
-    detected points are carried by optical flow over the frames between (--carry), and
-    the tracker and the motion predictor carry the rest. With recovery (--recover)
-    each frame's fit is checked (silhouette IoU, distance to the keypoints), a poor fit
-    is refined, and a lost frame is searched again (from its keypoints when it has
-    them); the summary says how many.
+    detected points are carried by optical flow over the frames between (--carry
+    forward, or both ways), and the tracker and the motion predictor carry the rest.
+    With recovery (--recover) each frame's fit is checked (silhouette IoU, distance to
+    the keypoints), a poor fit is refined, and a lost frame is searched again (from its
+    keypoints when it has them); the summary says how many.
 
     OUT receives poses.csv (T × 26, mm and degrees), joints.csv (T × 63, mm),
     track.npz (the track and its fit quality), overlay.png (a
@@ -765,11 +766,14 @@ def track_command(
     spec = resolve_sequence(seq, names=SEQUENCE_NAMES, argument="SEQ")
     source = None  # a real recording: its colour frames go under the overlays
     keypoints = _track_keypoints(keypoint_files, spec, keypoint_every)
-    if carry and (keypoints is None or spec.kind != "recording"):
+    if carry not in (None, "none") and (keypoints is None or spec.kind != "recording"):
+        got = "no --keypoints" if spec.kind == "recording" else f"the {spec.kind} sequence {seq!r}"
         raise ValueError(
-            "--carry: expected a recording (a video file or an image folder) with --keypoints"
+            f"--carry: expected a recording (a video file or an image folder) with "
+            f"--keypoints for {carry}; got {got}"
         )
-    carry = carry is not False and keypoints is not None and spec.kind == "recording"
+    if carry is None:
+        carry = "forward" if keypoints is not None and spec.kind == "recording" else "none"
     detected = keypoints
     if recover is None:
         recover = spec.kind == "recording" or keypoints is not None
@@ -780,8 +784,8 @@ def track_command(
             spec.paths, calib, fov, scale, n_frames, allow_empty=recover,
             **({"wrist": False} if recover and keypoints is not None else {"keypoints": keypoints}),
         )  # fmt: skip
-        if carry:
-            keypoints = source.carried_keypoints(keypoints, stop=n_frames)
+        if carry != "none":
+            keypoints = source.carried_keypoints(keypoints, stop=n_frames, both=carry == "both")
         elif keypoints is not None:
             keypoints = source.scaled_keypoints(keypoints)
     elif calib is not None or fov is not None:
@@ -807,6 +811,8 @@ def track_command(
     hand = HandModel(HandShape.from_size(hand_length), surface=model)
     if x0 is not None:
         check_in_front(hand.joints(x0), sequence.rig, "--init" if init is not None else seq)
+    if keypoint_tips is None:  # a detector's keypoints on a recording, else G(x) projected
+        keypoint_tips = "pad" if spec.kind == "recording" else "end"
     settings = TrackerSettings(cost=CostSettings(keypoint_tips=keypoint_tips))
     tracker = Tracker(
         sequence.rig, hand, make_predictor(predictor), np.random.default_rng(seed), settings
@@ -850,7 +856,7 @@ def track_command(
         text = f"fit quality: {quality.summary()}"
         if keypoints is not None:
             text += f"; keypoints on {with_kp} frames"
-        if carry:
+        if carry != "none":
             seen = np.zeros(T, dtype=bool)
             for k in detected:
                 seen[: min(T, k.n_frames)] |= k.present[:T].any(axis=1)

@@ -184,7 +184,11 @@ class KeypointCarrier:
 
 
 def carry_keypoints(
-    images: Iterable, keypoints: Keypoints2D, settings: CarrySettings = CARRY_SETTINGS
+    images: Iterable,
+    keypoints: Keypoints2D,
+    settings: CarrySettings = CARRY_SETTINGS,
+    *,
+    both: bool = False,
 ) -> Keypoints2D:
     """One camera's keypoints carried by optical flow over the frames without a detection.
 
@@ -196,6 +200,9 @@ def carry_keypoints(
     keypoints : Keypoints2D
         The detections (`Keypoints2D.every` for a detector at a lower rate).
     settings : CarrySettings, optional
+    both : bool, keyword-only
+        Also carry the next detection backwards, and blend (module notes, §14.5): not
+        causal, a frame's keypoints wait for the next detection.
 
     Returns
     -------
@@ -203,12 +210,47 @@ def carry_keypoints(
         The detections where there are any, the carried points elsewhere (module notes).
     """
     as_instance(keypoints, Keypoints2D, "keypoints")
+    as_instance(both, bool, "both")
     carrier = KeypointCarrier(settings)
     out = keypoints.to_array()
+    last = None  # the frame of the last detection
+    gap: list[tuple[int, np.ndarray]] = []  # the grey frames since, at most max_frames
     for t, image in enumerate(images):
         if t >= keypoints.n_frames:
             break
-        k = carrier.step(image, keypoints.frame(t))
+        grey = _grey(image, "images")
+        detection = keypoints.frame(t)
+        k = carrier.step(grey, detection)
         if k is not None:
             out[t] = k
+        if not both:
+            continue
+        if np.any(detection[:, 2] > 0):
+            if gap:
+                _blend_backwards(out, gap, last, t, grey, detection, settings)
+            last, gap = t, []
+        else:
+            gap = [*gap[-settings.max_frames + 1 :], (t, grey)]
     return Keypoints2D.from_array(out, name=keypoints.name)
+
+
+def _blend_backwards(out, gap, last, t_next, grey, detection, settings) -> None:
+    """Carry `detection` of frame `t_next` back over the frames of `gap`; blend into `out`.
+
+    A point carried both ways is the mean of the two weighted by the nearness of each
+    detection, w_f = k_b / (k_f + k_b) on the forward point, which is k_f frames after
+    its detection (at frame `last`, None before any), and 1 − w_f on the backward one,
+    k_b frames before `t_next`; a point carried one way only is that one.
+    """
+    back = KeypointCarrier(settings)
+    back.step(grey, detection)
+    for t, g in reversed(gap):
+        b = back.step(g)
+        if b is None:
+            return  # nothing left to carry further back
+        f = out[t]
+        fwd, bwd = f[:, 2] > 0, b[:, 2] > 0
+        k_b = t_next - t
+        w = 0.0 if last is None else k_b / ((t - last) + k_b)
+        mixed = w * f + (1.0 - w) * b
+        out[t] = np.where((fwd & bwd)[:, None], mixed, np.where(bwd[:, None], b, f))

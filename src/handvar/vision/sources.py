@@ -323,7 +323,9 @@ class VideoSource:
             out.append(k)
         return out
 
-    def carried_keypoints(self, keypoints, stop: int | None = None, settings=None):
+    def carried_keypoints(
+        self, keypoints, stop: int | None = None, settings=None, *, both: bool = False
+    ):
         """Per-camera keypoints carried by optical flow between detections (§14.5).
 
         Parameters
@@ -334,33 +336,29 @@ class VideoSource:
         stop : int, optional
             Carry over frames 0 to ``stop - 1`` only (the frames tracked).
         settings : handvar.vision.carry.CarrySettings, optional
+        both : bool, keyword-only
+            Carry each detection backwards too, and blend (not causal;
+            `handvar.vision.carry.carry_keypoints`).
 
         Returns
         -------
         list of Keypoints2D or None
             Per camera, in the pixels of the delivered (scaled) frames
-            (`scaled_keypoints`): the detections, and between them the carried points
-            (`handvar.vision.carry.KeypointCarrier`).
+            (`scaled_keypoints`): the detections, and between them the carried points.
         """
-        from handvar.vision.carry import CARRY_SETTINGS, KeypointCarrier
-        from handvar.vision.keypoints import Keypoints2D
+        from handvar.vision.carry import CARRY_SETTINGS, carry_keypoints
 
         scaled = self.scaled_keypoints(keypoints)
         if scaled is None:
             return None
         settings = CARRY_SETTINGS if settings is None else settings
-        carriers = [None if k is None else KeypointCarrier(settings) for k in scaled]
-        arrays = [None if k is None else k.to_array() for k in scaled]
-        for index, images in self.frames(0, stop):
-            for k, carrier, out, image in zip(scaled, carriers, arrays, images, strict=True):
-                if k is None or index >= k.n_frames:
-                    continue
-                carried = carrier.step(image, k.frame(index))
-                if carried is not None:
-                    out[index] = carried
         return [
-            None if a is None else Keypoints2D.from_array(a, name=k.name)
-            for k, a in zip(scaled, arrays, strict=True)
+            None
+            if k is None
+            else carry_keypoints(
+                (images[j] for _, images in self.frames(0, stop)), k, settings, both=both
+            )
+            for j, k in enumerate(scaled)
         ]
 
     def to_sequence(
