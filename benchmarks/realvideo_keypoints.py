@@ -107,6 +107,8 @@ def run(
         both = used.present[t] & truth.present[t]
         carried_error = float(np.mean(d[both]))
         carried_kept = float(both.sum() / truth.present[t].sum())
+    # frames between detections that the carrying reached with no point left
+    bare = np.flatnonzero(~with_detection & ~used.present[:n].any(axis=1)) if every else []
     hand = HandModel(HandShape.from_size(hand_length))
     tracker_settings = TrackerSettings(cost=CostSettings(keypoint_tips=tips))
     tracker = Tracker(
@@ -168,6 +170,7 @@ def run(
         "carry_ms": carry_ms,
         "carried_error": carried_error,
         "carried_kept": carried_kept,
+        "without_keypoints": [int(t) for t in bare],
         "carried": int(np.sum(q.keypoints & ~with_detection)),
     }
 
@@ -302,6 +305,8 @@ def main() -> None:
             )
         )
         print(f"    IoU < 0.8 at {r['iou_below_0.8_frames'][:20]}; lost at {r['lost_frames'][:20]}")
+        if r["without_keypoints"] and r["carried"]:
+            print(f"    the carrying left no point at {r['without_keypoints'][:20]}")
         if every > 1:
             print(
                 f"    IoU mean on the frames with keypoints {r['iou_mean_keypoints']:.3f}, "

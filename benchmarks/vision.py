@@ -1,8 +1,10 @@
-"""Speed of skin masks and silhouette clean-up on 1280×720 frames.
+"""Speed of skin masks, silhouette clean-up and keypoint carrying on 1280×720 frames.
 
 Prints medians (milliseconds) over repeated runs on frames of the example video
 (``examples/data/dex-human-hand-video.mp4``); falls back to random frames if it cannot
-be read.  Target (§10 and the vision part): skin mask of a 1280×720 frame
+be read.  The carrying of the 21 keypoints by optical flow (`handvar.vision.carry`,
+design §14.5) is timed on 60 consecutive frames, at full and half resolution, from the
+detected keypoints of the first.  Target (§10 and the vision part): skin mask of a 1280×720 frame
 ≤ 10 ms; the one-off table build is printed separately.
 
 Run: ``.venv/bin/python benchmarks/vision.py``
@@ -17,8 +19,35 @@ import cv2
 import numpy as np
 
 from handvar.vision import SkinModel, clean_mask, cut_wrist, silhouettes_from_frames
+from handvar.vision.carry import KeypointCarrier
+from handvar.vision.keypoints import read_keypoints
 
-VIDEO = Path(__file__).resolve().parents[1] / "examples" / "data" / "dex-human-hand-video.mp4"
+DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
+VIDEO = DATA / "dex-human-hand-video.mp4"
+KEYPOINTS = DATA / "dex-human-hand-video-keypoints.npy"
+
+
+def carry_ms(scale: float, n: int = 60) -> float:
+    """Median ms of `KeypointCarrier.step` over `n` consecutive frames (frame 0 detected)."""
+    cap = cv2.VideoCapture(str(VIDEO))
+    frames = []
+    while len(frames) < n:
+        ok, frame = cap.read()
+        if not ok:
+            break
+        frames.append(cv2.resize(frame, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA))
+    cap.release()
+    detected = read_keypoints(KEYPOINTS)
+    first = detected.scaled(scale, (1280, 720)).frame(0)
+    times = []
+    for _ in range(5):
+        carrier = KeypointCarrier()
+        carrier.step(frames[0], first)
+        for f in frames[1:]:
+            t0 = time.perf_counter()
+            carrier.step(f)
+            times.append(time.perf_counter() - t0)
+    return 1e3 * float(np.median(times))
 
 
 def load_frames(n: int = 20) -> list[np.ndarray]:
@@ -75,6 +104,10 @@ def main() -> None:
     print(
         "640×480 (paper's cameras) mask + clean median "
         f"{median_ms(lambda f: clean_mask(model.mask(f)), small):6.2f} ms"
+    )
+    print(
+        f"keypoints carried by optical flow, per frame: 1280×720 median {carry_ms(1.0):.2f} ms, "
+        f"640×360 median {carry_ms(0.5):.2f} ms"
     )
 
 
