@@ -1,0 +1,171 @@
+"""`handvar init`: the first frame's pose from real video (or a sequence)."""
+
+from __future__ import annotations
+
+import click
+
+from handvar.cli.common import _FiniteRange, _one_line_errors, _open_recordings, _recording_options
+
+
+def _frame_silhouettes(sources, calib, fov, scale, frame, wrist, threshold):
+    """Rig, BGR images (or None) and masks of frame `frame` of a sequence or recordings."""
+    import os
+
+    if len(sources) == 1 and os.path.isfile(os.path.join(sources[0], "sequence.json")):
+        if calib is not None or fov is not None:
+            raise ValueError("--calib, --fov: a sequence directory has its own rig; got one")
+        rig, masks = _sequence_frame_masks(sources[0], frame)
+        return rig, None, masks
+    source = _open_recordings(sources, calib, fov, scale)
+    for _, images, masks in source.silhouettes(frame, frame + 1, wrist=wrist, threshold=threshold):
+        return source.rig, images, masks
+    raise ValueError(
+        f"--frame: expected a frame of the recording ({source.n_frames} frames); got {frame}"
+    )
+
+
+def _sequence_frame_masks(path: str, frame: int):
+    """Rig and masks (n_cams, H, W) of frame `frame` of the sequence directory `path`."""
+    import numpy as np
+
+    from handvar.io import read_sequence
+
+    seq = read_sequence(path, lazy=True)
+    if frame >= seq.n_frames:
+        raise ValueError(f"--frame: expected a frame below {seq.n_frames}; got {frame}")
+    return seq.rig, np.asarray(seq.masks[frame])
+
+
+#: Lowest silhouette IoU of the best initial pose that `init` accepts (design §13.4):
+#: good initialisations measure 0.70-0.92 on the example video
+#: (``benchmarks/keypoint_init.py``), a 3x3 blob 0.001.
+INIT_MIN_IOU = 0.3
+
+
+@click.command("init")
+@click.argument("sources", nargs=-1, required=True)
+@_recording_options
+@click.option("--frame", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Frame to fit.")  # fmt: skip
+@click.option("--wrist/--no-wrist", default=True, show_default=True,
+              help="Cut a visible forearm off the silhouettes at the wrist.")  # fmt: skip
+@click.option("--threshold", type=_FiniteRange(min=0.0, min_open=True), default=None,
+              help="Skin likelihood-ratio threshold [default: 0.5].")  # fmt: skip
+@click.option("--hand-length", type=_FiniteRange(min=50.0, max=400.0), default=185.0,
+              show_default=True, help="Hand length (wrist to middle fingertip), mm.")  # fmt: skip
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Seed of the refinement's random samples.")  # fmt: skip
+@click.option("--out", type=click.Path(dir_okay=False), default="init_pose.txt",
+              show_default=True,
+              help="Pose file to write (26 numbers, for track --init).")  # fmt: skip
+@click.option("--overlay", type=click.Path(dir_okay=False), default=None,
+              help="Also write a PNG of the fitted model over the frame.")  # fmt: skip
+@click.option("--keypoints", "keypoint_files", multiple=True, type=click.Path(dir_okay=False),
+              help="2D keypoints (.npy or .csv, see `handvar keypoints`), one file per "
+              "source in order: the pose and the wrist cut come from them.")  # fmt: skip
+@_one_line_errors
+def init_command(
+    sources,
+    calib,
+    fov,
+    scale,
+    frame,
+    wrist,
+    threshold,
+    hand_length,
+    seed,
+    out,
+    overlay,
+    keypoint_files,
+) -> None:
+    """Find the hand's pose in one frame of SOURCES and write it as a pose file.
+
+    SOURCES are video files or image folders, one per camera of --calib (a single
+    video may go without calibration: its depth is then only as good as --fov and
+    --hand-length), or one sequence directory. The search tries named hand shapes over
+    a grid of palm orientations, places each by the silhouette's centroid and size,
+    scores it by silhouette IoU and refines the best with the tracker. With --keypoints
+    (pixels of the full-resolution frames) the palm's orientation, the side of the hand
+    facing the camera and its position come from the keypoints instead, and the
+    forearm is cut at the detected wrist; the search is the fallback for a frame
+    without them.
+    """
+    import os
+
+    import cv2
+    import numpy as np
+
+    from handvar.atomic import OutputSet, check_output_file
+    from handvar.hand.anthropometry import HandShape
+    from handvar.hand.kinematics import HandModel
+    from handvar.tracking.init import initial_pose
+
+    check_output_file(out, "--out")  # before any work
+    if overlay is not None:
+        check_output_file(overlay, "--overlay", suffixes=(".png",))
+    kps = _frame_keypoints(keypoint_files, sources, frame, scale)
+    cut_here = wrist and kps is None
+    rig, images, masks = _frame_silhouettes(sources, calib, fov, scale, frame, cut_here, threshold)
+    if kps is not None:
+        from handvar.vision.silhouette import cut_wrist
+
+        if wrist:
+            masks = np.stack([cut_wrist(m, k) for m, k in zip(masks, kps, strict=True)])
+    hand = HandModel(HandShape.from_size(hand_length))
+    result = initial_pose(masks, rig, hand, keypoints=kps, rng=np.random.default_rng(seed))
+    if not result.iou >= INIT_MIN_IOU:
+        raise ValueError(
+            f"SOURCES: expected a silhouette the hand model fits (IoU >= {INIT_MIN_IOU:g}); "
+            f"the best fit of frame {frame} has IoU {result.iou:.3f}; nothing written"
+        )
+    line = " ".join(f"{v:.6f}" for v in result.pose) + "\n"
+
+    def write_text(path):
+        with open(path, "w", encoding="utf-8") as fh:
+            fh.write(line)
+
+    with OutputSet() as outputs:  # both files, or neither (§13.1)
+        outputs.add(out, write_text)
+        if overlay is not None:
+            from handvar.render.overlay import overlay_frame
+
+            if images is None:  # a sequence directory: draw over its masks
+                images = [
+                    np.repeat((np.asarray(m, np.uint8) * 160)[:, :, None], 3, 2) for m in masks
+                ]
+            picture = overlay_frame(images, rig, hand, result.pose, masks)
+
+            def write_png(path):
+                if not cv2.imwrite(path, picture):
+                    raise OSError(f"{overlay}: cannot write the PNG")
+
+            outputs.add(overlay, write_png)
+    where = os.path.basename(sources[0].rstrip(os.sep)) + ("" if len(sources) == 1 else ", ...")
+    click.echo(
+        f"{where} frame {frame}: IoU {result.iou:.3f} (shape {result.shape}, "
+        f"{result.n_candidates} candidates"
+        + (f", keypoint error {result.keypoint_error:.1f} px" if kps is not None else "")
+        + f") -> {out}"
+        + (f", {overlay}" if overlay else "")
+    )
+
+
+def _frame_keypoints(files, sources, frame, scale):
+    """Per-camera (21, 3) keypoints of frame `frame` in the pixels of the scaled frames."""
+    if not files:
+        return None
+    from handvar.vision.keypoints import read_keypoints
+
+    if len(files) != len(sources):
+        raise ValueError(
+            f"--keypoints: expected one file per source ({len(sources)}); got {len(files)}"
+        )
+    out = []
+    for path in files:
+        kp = read_keypoints(path)
+        if frame >= kp.n_frames:
+            raise ValueError(
+                f"{path}: expected keypoints of frame {frame}; got {kp.n_frames} frames"
+            )
+        out.append(kp.scaled(scale).frame(frame) if scale != 1.0 else kp.frame(frame))
+    return out
