@@ -201,6 +201,10 @@ CASES = [
     _c("track-other-dir", "track {r}/adir --out {r}/track_out", "adir"),
     _c("track-scale-zero", "track {r}/seq --scale 0 --out {r}/t1", "--scale"),
     _c("track-no-out", "track {r}/seq", "--out"),
+    _c("track-carry-on-seq", "track {r}/seq --carry forward --out {r}/t1", "--carry"),
+    _c("track-carry-unknown", "track {r}/seq --carry sideways --out {r}/t1", "--carry"),
+    _c("track-tips-unknown", "track {r}/seq --keypoint-tips nail --out {r}/t1",
+       "--keypoint-tips"),
     # init
     _c("init-missing-source", "init {r}/nofile.mp4 --out {r}/existing.txt", "nofile.mp4"),
     _c("init-out-dir", "init {r}/seq --out {r}/adir", "adir"),

@@ -149,3 +149,21 @@ def test_predict_bad_paths_fail_before_computing(tmp_path):
     assert result.exit_code == 2 and "--predictor: expected one of" in result.output
     result = CliRunner().invoke(main, ["predict", rec, "--layout", "points", "--train", "x:a:b"])
     assert result.exit_code == 2 and "--train: expected FILE" in result.output
+
+
+def test_python_m_handvar_is_the_same_command():
+    """``python -m handvar`` runs `handvar.cli.main` (src/handvar/__main__.py)."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).parents[1] / "src")}
+    got = subprocess.run(
+        [sys.executable, "-m", "handvar", "--version"], capture_output=True, text=True, env=env
+    )
+    assert got.returncode == 0, got.stderr
+    import handvar
+
+    assert got.stdout == f"handvar, version {handvar.__version__}\n"
+    assert CliRunner().invoke(main, ["--version"]).output.endswith(got.stdout[len("handvar") :])
