@@ -28,6 +28,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("tracking",),
     ("evaluation",),
     ("cli",),
+    ("__main__",),  # python -m handvar: the command line, nothing else
 )
 LAYER_OF = {part: level for level, parts in enumerate(LAYERS) for part in parts}
 
