@@ -29,14 +29,8 @@ KEYPOINTS = DATA / "dex-human-hand-video-keypoints.npy"
 
 def carry_ms(scale: float, n: int = 60) -> float:
     """Median ms of `KeypointCarrier.step` over `n` consecutive frames (frame 0 detected)."""
-    cap = cv2.VideoCapture(str(VIDEO))
-    frames = []
-    while len(frames) < n:
-        ok, frame = cap.read()
-        if not ok:
-            break
-        frames.append(cv2.resize(frame, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA))
-    cap.release()
+    frames = load_frames(n, skip=0)
+    frames = [cv2.resize(f, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA) for f in frames]
     detected = read_keypoints(KEYPOINTS)
     first = detected.scaled(scale, (1280, 720)).frame(0)
     times = []
@@ -50,7 +44,8 @@ def carry_ms(scale: float, n: int = 60) -> float:
     return 1e3 * float(np.median(times))
 
 
-def load_frames(n: int = 20) -> list[np.ndarray]:
+def load_frames(n: int = 20, skip: int = 25) -> list[np.ndarray]:
+    """`n` frames of the example video, `skip` frames apart."""
     cap = cv2.VideoCapture(str(VIDEO))
     frames = []
     while len(frames) < n:
@@ -58,7 +53,7 @@ def load_frames(n: int = 20) -> list[np.ndarray]:
         if not ok:
             break
         frames.append(frame)
-        for _ in range(25):
+        for _ in range(skip):
             cap.grab()
     cap.release()
     if not frames:
