@@ -349,6 +349,7 @@ def test_track_with_keypoints_writes_the_quality(tmp_path, carry):
     )  # fmt: skip
     assert res.exit_code == 0, res.output
     assert "0 lost, 0 re-initialised, 0 empty" in res.output
+    assert "frames/s and 1 pose search in " in res.output  # frame 0's, timed apart
     table = np.loadtxt(out / "quality.csv", delimiter=",", skiprows=1)
     assert table.shape == (6, 8)
     if carry:  # the default on a recording: keypoints on every frame, 2 of them detected

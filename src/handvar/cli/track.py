@@ -196,9 +196,13 @@ def track_command(
         click.echo(f"handvar: note: no video ({written['video_error']})", err=True)
 
     fps = T / max(float(result.seconds.sum()), 1e-9)
+    searches = ""  # the pose searches of the recovery are not in the tracker's time
+    if recover and len(recovered.init_seconds):
+        n_search, s_search = len(recovered.init_seconds), float(recovered.init_seconds.sum())
+        searches = f" and {n_search} pose search{'es' * (n_search != 1)} in {s_search:.1f} s"
     click.echo(
         f"{sequence.name}: {T} frames, predictor {predictor}, seed {seed}: "
-        f"{result.iterations.mean():.1f} iterations/frame, {fps:.1f} frames/s -> {out}"
+        f"{result.iterations.mean():.1f} iterations/frame, {fps:.1f} frames/s{searches} -> {out}"
         + (f" (with {written['video'].name})" if "video" in written else "")
     )
     if quality is not None:
