@@ -433,3 +433,24 @@ def test_track_without_recovery_still_uses_the_keypoints(tmp_path):
     assert "fit quality" not in res.output
     with np.load(out / "track.npz") as npz:
         assert np.isfinite(npz["keypoint_error"]).all()  # measured: the tracker had them
+
+
+def test_a_fit_not_lost_is_searched_again_only_from_keypoints_that_give_a_pose(short_sequence):
+    # refine_iou = 1: every keypoint frame counts as poor; the fit itself is not lost
+    seq = short_sequence
+    hand, x = HandModel(), seq.truth.poses[0]
+    frames = [np.asarray(seq.masks[0])]
+    settings = RecoverySettings(refine_iou=1.0, refine_iterations=1)
+    full = projected_keypoints(hand, seq.rig, x)
+    no_palm = [k.copy() for k in full]
+    for k in no_palm:
+        k[13, 2] = 0.0  # the ring MCP missing: no camera shows the whole palm
+
+    def reinit(kps):
+        tracker = Tracker(seq.rig, hand, NoMotion(), np.random.default_rng(0))
+        q = track_with_recovery(tracker, frames, x, keypoints=[kps], settings=settings).quality
+        assert not q.lost[0]
+        return bool(q.reinit[0])
+
+    # without the palm the search would be the silhouette's, which ignores the keypoints
+    assert reinit(full) and not reinit(no_palm)

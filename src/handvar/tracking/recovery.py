@@ -145,6 +145,21 @@ def _present(kps) -> bool:
     return kps is not None and any(k is not None and np.any(np.asarray(k)[:, 2] > 0) for k in kps)
 
 
+def _palm_seen(kps) -> bool:
+    """Some camera's keypoints show the wrist and the four MCPs (a pose search from them).
+
+    Without them `initial_pose` falls back to the silhouette search, which ignores the
+    keypoints (`handvar.tracking.keypoint_fit.fit_keypoints`).
+    """
+    from handvar.tracking.keypoint_fit import KEYPOINT_FIT_DEFAULTS
+    from handvar.vision.keypoints import PALM
+
+    if kps is None:
+        return False
+    least = KEYPOINT_FIT_DEFAULTS.min_confidence
+    return any(k is not None and bool((np.asarray(k)[list(PALM), 2] >= least).all()) for k in kps)
+
+
 def joint_distances(x, hand, rig, keypoints, *, tips: str = "end") -> np.ndarray:
     """Distances of the projected joints G(x) to the keypoints, in hand sizes.
 
@@ -444,10 +459,9 @@ def track_with_recovery(
             and (
                 best is None
                 or best.lost
-                or drifting(best, kps)
-                or (kps is not None and poor(best, kps))
+                or (_palm_seen(kps) and (drifting(best, kps) or poor(best, kps)))
             )
-        ):  # on a keypoint frame the search is from the keypoints: also for a poor fit
+        ):  # a fit not lost is searched again only from keypoints that give a pose
             init_seconds.append(search(masks, kps))
             again, learned = True, False
             restarted = copy.deepcopy(tracker.predictor)
