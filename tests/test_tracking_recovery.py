@@ -318,16 +318,15 @@ def test_the_whole_video_keeps_pck_and_is_never_lost_with_keypoints_every_5th(wh
     result, scores, with_detection = whole_video
     q = result.quality
     assert len(q.iou) == 621
-    assert scores[~with_detection].mean() >= 0.9  # measured 0.974 (§14.4)
+    assert scores[~with_detection].mean() >= 0.9  # measured 0.973 (§14.4)
     assert not q.lost.any(), np.flatnonzero(q.lost)
 
 
 @pytest.mark.slow
 @pytest.mark.xfail(
     strict=True,
-    reason="3 frames fit at IoU 0.75-0.80 (282, 555, 569): a motion-blurred frame where the "
-    "carried keypoints are lost, an edge-on keypoint frame and the thumb between detections "
-    "(§14.4)",
+    reason="4 frames fit at IoU 0.77-0.80 (282, 565, 566, 569): a motion-blurred frame where "
+    "the carried keypoints are lost, the hand edge-on and the thumb between detections (§14.4)",
 )
 def test_the_whole_video_keeps_iou(whole_video):
     result, _, _ = whole_video
