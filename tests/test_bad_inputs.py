@@ -205,6 +205,8 @@ CASES = [
     _c("track-carry-unknown", "track {r}/seq --carry sideways --out {r}/t1", "--carry"),
     _c("track-tips-unknown", "track {r}/seq --keypoint-tips nail --out {r}/t1",
        "--keypoint-tips"),
+    _c("track-hand-unknown", "track {r}/seq --hand middle --out {r}/t1", "--hand"),
+    _c("track-left-mesh", "track {r}/seq --hand left --model mesh --out {r}/t1", "--model"),
     # init
     _c("init-missing-source", "init {r}/nofile.mp4 --out {r}/existing.txt", "nofile.mp4"),
     _c("init-out-dir", "init {r}/seq --out {r}/adir", "adir"),

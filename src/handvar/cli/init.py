@@ -53,6 +53,8 @@ INIT_MIN_IOU = 0.3
               help="Skin likelihood-ratio threshold [default: 0.5].")  # fmt: skip
 @click.option("--hand-length", type=_FiniteRange(min=50.0, max=400.0), default=185.0,
               show_default=True, help="Hand length (wrist to middle fingertip), mm.")  # fmt: skip
+@click.option("--hand", "side", type=click.Choice(("right", "left")), default="right",
+              show_default=True, help="Which hand is filmed.")  # fmt: skip
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Seed of the refinement's random samples.")  # fmt: skip
 @click.option("--out", type=click.Path(dir_okay=False), default="init_pose.txt",
@@ -73,6 +75,7 @@ def init_command(
     wrist,
     threshold,
     hand_length,
+    side,
     seed,
     out,
     overlay,
@@ -111,7 +114,7 @@ def init_command(
 
         if wrist:
             masks = np.stack([cut_wrist(m, k) for m, k in zip(masks, kps, strict=True)])
-    hand = HandModel(HandShape.from_size(hand_length))
+    hand = HandModel(HandShape.from_size(hand_length, side=side))
     result = initial_pose(masks, rig, hand, keypoints=kps, rng=np.random.default_rng(seed))
     if not result.iou >= INIT_MIN_IOU:
         raise ValueError(

@@ -53,6 +53,8 @@ def _check_predictor(ctx, param, value: str) -> str:
               help="Also write overlay.mp4.")  # fmt: skip
 @click.option("--hand-length", type=_FiniteRange(min=50.0, max=400.0), default=185.0,
               show_default=True, help="Hand length of the model, mm (as for `init`).")  # fmt: skip
+@click.option("--hand", "side", type=click.Choice(("right", "left")), default="right",
+              show_default=True, help="Which hand is tracked (as for `init`).")  # fmt: skip
 @click.option("--model", type=click.Choice(("spheres", "mesh")), default="spheres",
               show_default=True, help="Surface of the tracked hand model.")  # fmt: skip
 @click.option("--keypoints", "keypoint_files", multiple=True, type=click.Path(dir_okay=False),
@@ -74,7 +76,7 @@ def _check_predictor(ctx, param, value: str) -> str:
 @_recording_options
 @_one_line_errors
 def track_command(
-    seq, predictor, init, seed, n_frames, out, video, hand_length, model, keypoint_files,
+    seq, predictor, init, seed, n_frames, out, video, hand_length, side, model, keypoint_files,
     keypoint_every, carry, keypoint_tips, recover, calib, fov, scale,
 ) -> None:  # fmt: skip
     """Track the hand through the sequence SEQ (a sequence directory or a synthetic name).
@@ -158,7 +160,11 @@ def track_command(
         raise ValueError(
             f"{seq}: the sequence has no ground truth; give the first pose with --init"
         )
-    hand = HandModel(HandShape.from_size(hand_length), surface=model)
+    if side == "left" and model == "mesh":
+        raise ValueError(
+            "--model: expected spheres for a left hand (the skinned mesh is a right hand); got mesh"
+        )
+    hand = HandModel(HandShape.from_size(hand_length, side=side), surface=model)
     if x0 is not None:
         check_in_front(hand.joints(x0), sequence.rig, "--init" if init is not None else seq)
     if keypoint_tips is None:  # a detector's keypoints on a recording, else G(x) projected

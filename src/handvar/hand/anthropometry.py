@@ -20,7 +20,10 @@ adult anthropometric surveys.
 
 Hand frame (millimetres): origin at the wrist, x towards the thumb (radial) side,
 y from the wrist towards the middle finger, z out of the palm (palmar side); a right
-hand. See :mod:`handvar.params` for the signs of the joint angles.
+hand. A left hand (`HandShape.mirrored`, ``from_size(side="left")``) is its mirror image
+in the hand frame's y–z plane, with the same parameters: x still points to the thumb
+side, which for a left hand is −x of the right hand's frame (design §2). See
+:mod:`handvar.params` for the signs of the joint angles.
 """
 
 from __future__ import annotations
@@ -32,7 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from handvar.params import DIGITS
-from handvar.validate import as_array, as_instance, readonly
+from handvar.validate import as_array, as_instance, one_of, readonly
 
 #: The 16 bones, in the order used by `HandModel.bone_frames` and by
 #: `SurfaceSamples.bone`: the palm, then three bones per digit, proximal first.
@@ -64,6 +67,10 @@ WRIST, MIDDLE_MCP = JOINTS.index("wrist"), JOINTS.index("middle_mcp")
 #: towards +x (the thumb side) and the ring and little fingers towards −x.
 ABDUCTION_SIGN = np.array([-1.0, -1.0, -1.0, 1.0, 1.0])
 ABDUCTION_SIGN.flags.writeable = False
+_LEFT_ABDUCTION_SIGN = readonly(-ABDUCTION_SIGN)
+
+#: The sides a hand may be (`HandShape.side`).
+SIDES: tuple[str, ...] = ("right", "left")
 
 
 def bone_index(digit: int, level: int) -> int:
@@ -209,6 +216,8 @@ class HandShape:
         Their radii, mm.
     length, breadth : float
         The hand length and breadth this shape was made for, mm (informative).
+    side : {"right", "left"}
+        Which hand: a left hand is the mirror image of a right one (`mirrored`).
 
     Examples
     --------
@@ -225,6 +234,7 @@ class HandShape:
     palm_radii: np.ndarray
     length: float = 185.0
     breadth: float = 85.1
+    side: str = "right"
     tip_offsets: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -247,12 +257,47 @@ class HandShape:
         set_(self, "palm_radii", _check(self.palm_radii, (q, 2), "palm_radii", positive=True))
         for name in ("length", "breadth"):
             set_(self, name, _positive_mm(getattr(self, name), name))
+        one_of(self.side, SIDES, "side")
         # The distal cone-sphere's last sphere touches the fingertip: its centre lies one
         # tip radius short of the end of the bone.
         tip = self.segments[:, 2] - self.radii[:, 3]
         if np.any(tip <= 0):
             raise ValueError("radii: expected tip radii shorter than the distal bones")
         set_(self, "tip_offsets", readonly(tip))
+
+    @property
+    def abduction_sign(self) -> np.ndarray:
+        """(5,) abduction signs of this hand (`ABDUCTION_SIGN`, negated for a left hand)."""
+        return ABDUCTION_SIGN if self.side == "right" else _LEFT_ABDUCTION_SIGN
+
+    def mirrored(self) -> HandShape:
+        """The same hand of the other side: its mirror image in the hand frame's y–z plane.
+
+        With M = diag(−1, 1, 1): the digit bases and the palm's cone-sphere centres
+        become M b, the digits' rest orientations M B M (rotations again: a reflection
+        on both sides), and the abduction signs flip (M Rz(θ) M = Rz(−θ)); flexion,
+        about a bone's x axis, keeps its sign (M Rx(θ) M = Rx(θ)). At any pose x every
+        point of the mirrored hand is then the mirror image, in the plane of the hand's
+        y and z axes, of the same point of this one (`tests/test_hand_side.py`).
+
+        Examples
+        --------
+        >>> left = HandShape.from_size().mirrored()
+        >>> left.side, left.mirrored().side
+        ('left', 'right')
+        """
+        m = np.array([-1.0, 1.0, 1.0])
+        return HandShape(
+            segments=self.segments,
+            bases=self.bases * m,
+            base_rotations=self.base_rotations * m[None, :, None] * m[None, None, :],
+            radii=self.radii,
+            palm_centres=self.palm_centres * m,
+            palm_radii=self.palm_radii,
+            length=self.length,
+            breadth=self.breadth,
+            side="left" if self.side == "right" else "right",
+        )
 
     @classmethod
     def from_size(
@@ -261,6 +306,7 @@ class HandShape:
         breadth: float | None = None,
         *,
         proportions: HandProportions | None = None,
+        side: str = "right",
     ) -> HandShape:
         """A hand of the given length and breadth with Buchholz et al. (1992) proportions.
 
@@ -273,6 +319,8 @@ class HandShape:
             length`` (85 mm for the default length) when omitted.
         proportions : HandProportions, optional
             The ratios; the published adult averages by default.
+        side : {"right", "left"}, keyword-only
+            Which hand (a left hand is the right one `mirrored`).
 
         Returns
         -------
@@ -315,7 +363,8 @@ class HandShape:
         thenar = np.stack([th[:, 0] * hb, th[:, 1] * hl, th[:, 2] * hb], axis=1)
         palm_centres = np.concatenate([rays, thenar[None]], axis=0)
         palm_radii = np.concatenate([ray_radii, th[None, :, 3] * hb], axis=0)
-        return cls(
+        one_of(side, SIDES, "side")
+        right = cls(
             segments=segments,
             bases=bases,
             base_rotations=rotations,
@@ -325,6 +374,7 @@ class HandShape:
             length=hl,
             breadth=hb,
         )
+        return right if side == "right" else right.mirrored()
 
 
 __all__ = [
@@ -332,6 +382,7 @@ __all__ = [
     "BONES",
     "DIGITS",
     "JOINTS",
+    "SIDES",
     "HandProportions",
     "HandShape",
     "bone_index",

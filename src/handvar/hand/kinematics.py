@@ -23,8 +23,9 @@ Frames and conventions (see also :mod:`handvar.params`):
       tip             = origin(bone3) + L3 · y(bone3)
 
   ``B_k`` is the digit's rest orientation (`HandShape.base_rotations`), ``s_k`` its
-  abduction sign (`ABDUCTION_SIGN`: −1 for thumb, index, middle, so that positive
-  abduction moves them towards +x, +1 for ring and little). Abduction is a rotation
+  abduction sign (`HandShape.abduction_sign`: for a right hand −1 for thumb, index,
+  middle, so that positive abduction moves them towards +x, +1 for ring and little;
+  negated for a left hand, `HandShape.mirrored`). Abduction is a rotation
   about the palm normal (hand z) through the base joint; the three flexions are
   rotations about one and the same axis, the local x axis of the proximal bone, which
   for the fingers is (about) the hand's x axis so that flexion turns the finger towards
@@ -51,7 +52,7 @@ import threading
 import numpy as np
 from numba import njit
 
-from handvar.hand.anthropometry import ABDUCTION_SIGN, BONES, JOINTS, HandShape, bone_index
+from handvar.hand.anthropometry import BONES, JOINTS, HandShape, bone_index
 from handvar.params import N_PARAMS, check_pose
 from handvar.validate import as_instance, as_int
 
@@ -167,7 +168,7 @@ class _Pose:
             self.joints = np.empty((N_JOINTS, 3))
             self._euler_axes = np.empty((3, 3))
             _fk_kernel(
-                x, shape.bases, shape.base_rotations, shape.segments, ABDUCTION_SIGN,
+                x, shape.bases, shape.base_rotations, shape.segments, shape.abduction_sign,
                 self.rotations, self.origins, self.axes, self.anchors, self.joints,
                 self._euler_axes,
             )  # fmt: skip
@@ -176,7 +177,8 @@ class _Pose:
         R = _euler_matrix(x[3:6])
         ang = x[6:26] * DEG
         cos, sin = np.cos(ang), np.sin(ang)
-        ca, sa = cos[:5], sin[:5] * ABDUCTION_SIGN  # Rz(s_k a_k)
+        sign = shape.abduction_sign
+        ca, sa = cos[:5], sin[:5] * sign  # Rz(s_k a_k)
         # base_k = R · Rz(s_k a_k) · B_k, (5, 3, 3)
         B = shape.base_rotations
         rzb = np.empty((5, 3, 3))
@@ -206,7 +208,7 @@ class _Pose:
         # Revolute joints of each digit (world): abduction about s_k · (R z) through o1;
         # the three flexions about b_x through o1, o2, o3.
         axes = np.empty((5, 4, 3))
-        axes[:, 0] = ABDUCTION_SIGN[:, None] * R[:, 2]
+        axes[:, 0] = sign[:, None] * R[:, 2]
         axes[:, 1:] = bx[:, None]
         anchors = np.empty((5, 4, 3))
         anchors[:, 0] = o1
@@ -603,6 +605,11 @@ class HandModel:
     def _init_surface(self, surface: str) -> None:
         if surface not in SURFACES:
             raise ValueError(f"surface: expected one of {', '.join(SURFACES)}; got {surface!r}")
+        if surface == "mesh" and self.shape.side != "right":
+            raise ValueError(
+                f"surface: expected 'spheres' for a {self.shape.side} hand (the skinned mesh "
+                f"is a right hand); got 'mesh'"
+            )
         self.surface = surface
         self._mesh = None
 
