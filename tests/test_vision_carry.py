@@ -157,3 +157,32 @@ def test_both_ways_recovers_a_point_lost_forwards():
     assert not forward.present[1:4, 0].any()  # dropped at the occlusion, not recovered
     assert both.present[2:4, 0].all() and not both.present[1, 0]
     np.testing.assert_allclose(both.xy[2:4, 0], 80.0, atol=0.05)
+
+
+def test_a_stereo_source_carries_each_cameras_keypoints_in_its_scaled_pixels(tmp_path):
+    from handvar.camera import Rig
+    from tests.test_vision_sources import write_folder
+
+    # camera 0 sees a texture move 2 px right a frame, camera 1 2 px left (full size)
+    base = texture(size=512)
+    folders = []
+    for j, step in enumerate((2.0, -2.0)):
+        frames = [
+            cv2.cvtColor(shifted(base, step * t, 0.0)[16:496, :], cv2.COLOR_GRAY2BGR)
+            for t in range(4)
+        ]
+        frames = [np.pad(f, ((0, 0), (64, 64), (0, 0)), mode="reflect") for f in frames]
+        folders.append(write_folder(tmp_path / f"cam{j}", frames))
+    calib = tmp_path / "stereo.yml"
+    Rig.default().save(calib)
+    source = open_source(folders, calib, scale=0.5)
+    detected = np.full((4, 21, 3), np.nan)
+    detected[0, :3] = [[300.0, 200.0, 1.0], [320.0, 240.0, 1.0], [340.0, 260.0, 1.0]]
+    kp = Keypoints2D.from_array(detected)
+    left, right = source.carried_keypoints([kp, kp])
+    none = source.carried_keypoints([kp, None])[1]
+    assert none is None
+    start = kp.scaled(0.5, (640, 480)).xy[0, :3]
+    for t in range(1, 4):
+        np.testing.assert_allclose(left.xy[t, :3], start + np.array([t, 0.0]), atol=0.1)
+        np.testing.assert_allclose(right.xy[t, :3], start - np.array([t, 0.0]), atol=0.1)
