@@ -110,16 +110,17 @@ def keypoint_attachment(hand, tips: str = "end") -> tuple[np.ndarray, np.ndarray
     return bone, local
 
 
-def keypoint_points(hand, x, tips: str = "end") -> np.ndarray:
+def keypoint_points(hand, x, tips: str = "end", *, jacobian: bool = False):
     """The 21 points of pose `x` compared with keypoints, (21, 3) mm, world.
 
     ``tips="end"``: G(x) (`HandModel.joints`); ``"pad"``: the same with the fingertips
-    at the centres of their pads (`keypoint_attachment`).
+    at the centres of their pads (`keypoint_attachment`).  With `jacobian`, also their
+    Jacobian (21, 3, 26), as ``(points, jacobian)``.
     """
     one_of(tips, TIPS, "tips")
     if tips == "end":
-        return hand.joints(x)
-    return hand.points(x, *keypoint_attachment(hand, tips))
+        return hand.joints_with_jacobian(x) if jacobian else hand.joints(x)
+    return hand.points(x, *keypoint_attachment(hand, tips), jacobian=jacobian)
 
 
 def frame_keypoints(keypoints, n_cameras: int, name: str = "keypoints") -> np.ndarray | None:

@@ -35,7 +35,7 @@ import numpy as np
 
 from handvar.camera import Camera, Rig
 from handvar.params import LOWER, N_PARAMS, UPPER, clamp
-from handvar.tracking.keypoint_cost import TIPS, keypoint_attachment, keypoint_points
+from handvar.tracking.keypoint_cost import TIPS, keypoint_points
 from handvar.validate import as_float, as_instance, one_of
 from handvar.vision.keypoints import PALM, as_frame_keypoints
 
@@ -46,6 +46,7 @@ __all__ = [
     "fit_keypoints",
     "keypoint_error",
     "palm_candidates",
+    "palm_seen",
 ]
 
 
@@ -153,6 +154,24 @@ def keypoint_error(x, hand, rig: Rig, keypoints, *, tips: str = "end") -> float:
     return float(d.mean()) if d.size else float("nan")
 
 
+def palm_seen(keypoints, settings: KeypointFitSettings = KEYPOINT_FIT_DEFAULTS) -> bool:
+    """Whether some camera shows the wrist and the four MCPs, so that `fit_keypoints`
+    can start (it returns None otherwise).
+
+    Parameters
+    ----------
+    keypoints : sequence of (21, 3) array_like or None, or None
+        One per camera (None: no keypoints there): x, y, confidence.
+    settings : KeypointFitSettings, optional
+        Its `min_confidence`: points below it do not count, as in `fit_keypoints`.
+    """
+    if keypoints is None:
+        return False
+    palm = list(PALM)
+    least = settings.min_confidence
+    return any(k is not None and bool((np.asarray(k)[palm, 2] >= least).all()) for k in keypoints)
+
+
 def palm_candidates(keypoints, camera: Camera, hand) -> np.ndarray:
     """Palm poses (module notes, step 1) from one camera's keypoints.
 
@@ -195,11 +214,7 @@ def palm_candidates(keypoints, camera: Camera, hand) -> np.ndarray:
 
 def _residuals(x, hand, rig, frames, x_prior, prior, tips="end"):
     """Weighted pixel residuals and their Jacobian (module notes, step 2)."""
-    if tips == "end":
-        G = hand.joints(x)
-        JG = hand.joints_jacobian(x)
-    else:
-        G, JG = hand.points(x, *keypoint_attachment(hand, tips), jacobian=True)
+    G, JG = keypoint_points(hand, x, tips, jacobian=True)
     res, jac = [], []
     for cam, k in zip(rig, frames, strict=True):
         if k is None:

@@ -26,7 +26,7 @@ import numpy as np
 from handvar.camera import Rig
 from handvar.params import N_PARAMS, check_pose
 from handvar.tracking.costs import CostSettings, CostTerms, FrameData, prepare_frame
-from handvar.tracking.keypoint_cost import hand_length, keypoint_attachment
+from handvar.tracking.keypoint_cost import hand_length, keypoint_points
 
 __all__ = ["MeshSamplesDrawn", "MeshSilhouetteCost"]
 
@@ -164,12 +164,7 @@ class MeshSilhouetteCost:
             parts[1] += np.sum(res_f * res_f)
             r[base + 2 * N : base + 2 * (N + M)] = (a_f * res_f).ravel()
             J[base + 2 * N : base + 2 * (N + M)] = (a_f * dh).reshape(2 * M, N_PARAMS)
-        if s.keypoint_tips == "end":
-            P, JP = self.hand.joints_with_jacobian(x)
-        else:
-            P, JP = self.hand.points(
-                x, *keypoint_attachment(self.hand, s.keypoint_tips), jacobian=True
-            )
+        P, JP = keypoint_points(self.hand, x, s.keypoint_tips, jacobian=True)
         c_k, c_z, _, _, r_j, J_j = s.joint_terms(
             P, JP, self._cams, keypoints, length=self.length, residuals=True
         )

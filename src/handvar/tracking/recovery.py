@@ -47,6 +47,7 @@ from handvar.params import N_PARAMS
 from handvar.predictors import NoMotion
 from handvar.tracking.init import InitSettings, initial_pose
 from handvar.tracking.keypoint_cost import keypoint_points
+from handvar.tracking.keypoint_fit import palm_seen
 from handvar.tracking.tracker import Tracker, TrackResult
 from handvar.validate import as_float, as_instance, as_int
 
@@ -143,21 +144,6 @@ class RecoveredTrack:
 
 def _present(kps) -> bool:
     return kps is not None and any(k is not None and np.any(np.asarray(k)[:, 2] > 0) for k in kps)
-
-
-def _palm_seen(kps) -> bool:
-    """Some camera's keypoints show the wrist and the four MCPs (a pose search from them).
-
-    Without them `initial_pose` falls back to the silhouette search, which ignores the
-    keypoints (`handvar.tracking.keypoint_fit.fit_keypoints`).
-    """
-    from handvar.tracking.keypoint_fit import KEYPOINT_FIT_DEFAULTS
-    from handvar.vision.keypoints import PALM
-
-    if kps is None:
-        return False
-    least = KEYPOINT_FIT_DEFAULTS.min_confidence
-    return any(k is not None and bool((np.asarray(k)[list(PALM), 2] >= least).all()) for k in kps)
 
 
 def joint_distances(x, hand, rig, keypoints, *, tips: str = "end") -> np.ndarray:
@@ -459,7 +445,7 @@ def track_with_recovery(
             and (
                 best is None
                 or best.lost
-                or (_palm_seen(kps) and (drifting(best, kps) or poor(best, kps)))
+                or (palm_seen(kps) and (drifting(best, kps) or poor(best, kps)))
             )
         ):  # a fit not lost is searched again only from keypoints that give a pose
             init_seconds.append(search(masks, kps))
