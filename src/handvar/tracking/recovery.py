@@ -57,6 +57,7 @@ __all__ = [
     "RecoveredTrack",
     "RecoverySettings",
     "TrackQuality",
+    "digit_reseeds",
     "joint_distances",
     "model_wrist_keypoints",
     "pck",
@@ -264,6 +265,18 @@ class RecoverySettings:
     refine_without_keypoints : bool
         Refine frames without keypoints for their IoU too; False (§14.3 says what it
         did on the example video).
+    reseed_digits : int
+        A fit whose mean silhouette IoU is still below `refine_iou` after the
+        refinement and the search, with or without keypoints, is tried again with one
+        digit at a time set to a named hand shape's (`digit_reseeds`): this many of
+        those starts, the best by their silhouette IoU before any fit, are refined, and
+        one is kept if better by the order of `_score` (§14.3 step 5); 4.  0 turns it
+        off.  The silhouette cost cannot move a digit that lies inside the silhouette
+        (a thumb across the palm) to where the silhouette shows it.
+    reseed_margin : float
+        On a frame without keypoints a re-seeded fit must raise the IoU by at least
+        this much to be kept, 0.02: there the IoU is the only judge, and a digit moved
+        for a smaller gain is as likely to be wrong as right.
     refine_keypoint_weight : float
         On a frame with keypoints whose fit is still poor after that (and after the
         search), one more refinement with the keypoint term's weight scaled by this
@@ -279,6 +292,8 @@ class RecoverySettings:
     refine_iou: float = 0.8
     refine_iterations: int = 100
     refine_without_keypoints: bool = False
+    reseed_digits: int = 4
+    reseed_margin: float = 0.02
     refine_keypoint_weight: float = 0.3
 
     def __post_init__(self) -> None:
@@ -288,6 +303,8 @@ class RecoverySettings:
         as_float(self.refine_iou, "refine_iou", minimum=0.0, maximum=1.0)
         as_int(self.refine_iterations, "refine_iterations", minimum=0)
         as_instance(self.refine_without_keypoints, bool, "refine_without_keypoints")
+        as_int(self.reseed_digits, "reseed_digits", minimum=0)
+        as_float(self.reseed_margin, "reseed_margin", minimum=0.0, maximum=1.0)
         as_float(self.refine_keypoint_weight, "refine_keypoint_weight", minimum=0.0,
                  maximum=1.0, exclusive_minimum=True)  # fmt: skip
 
@@ -458,6 +475,22 @@ def track_with_recovery(
                 refined = refine(r2, masks, kps)
                 if better(refined, best):
                     best, base, learned = refined, restarted, False
+        if (
+            settings.reseed_digits
+            and settings.refine_iterations
+            and not empty
+            and best is not None
+            and best.mean_iou < settings.refine_iou
+        ):  # a digit the silhouette cannot move: start it elsewhere (§14.3 step 5)
+            gain = settings.reseed_margin if kps is None else 0.0
+            for start in digit_reseeds(best.pose, hand, rig, masks, settings.reseed_digits):
+                refined = refine(dataclasses.replace(best, pose=start), masks, kps)
+                if (
+                    refined is not None
+                    and refined.mean_iou >= best.mean_iou + gain
+                    and better(refined, best)
+                ):
+                    best, learned = refined, False
         w = settings.refine_keypoint_weight
         if kps is not None and w < 1.0 and poor(best, kps):  # silhouette and keypoints disagree
             refined = refine(best, masks, kps, w)
@@ -483,6 +516,56 @@ def track_with_recovery(
     if not results:
         raise ValueError("frames: expected at least one frame; got none")
     return _assemble(results, flags, hand, len(rig), max_it, init_seconds)
+
+
+def digit_reseeds(x, hand, rig, masks, n: int) -> list[np.ndarray]:
+    """Starts for a new fit: `x` with one digit set to a named hand shape's (§14.3).
+
+    For each digit and each named shape (`handvar.hand.kinematics.POSE_NAMES`), the
+    digit's abduction and three flexions are set to that shape's; a setting within 10°
+    of `x`'s in every angle, or of one already made, is skipped.  Each start's model is
+    rendered and scored by its silhouette IoU against `masks`, and the `n` best are
+    returned, best first.  The silhouette cost pulls a model's outline towards the
+    silhouette's but cannot move a digit lying inside it; set elsewhere, the digit
+    starts where the silhouette's own terms can place it.
+
+    Parameters
+    ----------
+    x : (26,) array_like
+        The fitted pose.
+    hand : HandModel
+    rig : Rig
+    masks : (n_cams, H, W) bool array_like
+        The frame's silhouettes, as the fit saw them.
+    n : int
+        How many starts to return.
+
+    Returns
+    -------
+    list of (26,) ndarray
+        At most `n` poses, each differing from `x` in one digit's four angles.
+    """
+    from handvar.hand.kinematics import POSE_NAMES, named_pose
+    from handvar.params import ABDUCTION, DIGITS, FLEXION
+    from handvar.render import silhouettes
+    from handvar.tracking.init import silhouette_iou
+
+    x = np.asarray(x, dtype=float)
+    shapes = np.stack([named_pose(name) for name in POSE_NAMES])
+    flexion = np.arange(FLEXION.start, FLEXION.stop).reshape(len(DIGITS), 3)
+    scored = []
+    for d in range(len(DIGITS)):
+        angles = [ABDUCTION.start + d, *flexion[d]]
+        made = [x[angles]]
+        for values in shapes[:, angles]:
+            if any(np.all(np.abs(values - m) <= 10.0) for m in made):
+                continue
+            made.append(values)
+            start = x.copy()
+            start[angles] = values
+            scored.append((silhouette_iou(silhouettes(hand, start, rig), masks), start))
+    scored.sort(key=lambda t: -t[0])
+    return [start for _, start in scored[:n]]
 
 
 def model_wrist_keypoints(x, hand, camera) -> np.ndarray | None:
