@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from handvar.predictors import (
@@ -54,15 +54,17 @@ PREDICTORS = {
 @pytest.mark.parametrize("name", list(PREDICTORS))
 @FEW
 @given(seed=seeds, offset=st.floats(-1e6, 1e6), T=st.integers(2, 70))
+@example(seed=115, offset=16384.0, T=34)  # once off by 3e-5 against 1e-6 · scale alone
 def test_every_predictor_moves_with_a_constant_offset(name, seed, offset, T):
     make, d = PREDICTORS[name]
     X = walk(seed, T, d)
     base = one_step_predictions(make(), X)
     moved = one_step_predictions(make(), X + offset) - offset
     # The input itself is rounded to ε·|c|; the predictors may amplify that by the
-    # conditioning of their fits, never by the level of the data.
+    # conditioning of their fits (up to 1e8 for a full VAR on 30 frames of a smooth
+    # walk: seed 115, c = 16384, T = 34 was off by 3e-5), never by the level of the data.
     scale = 1.0 + np.abs(X).max()
-    np.testing.assert_allclose(moved, base, rtol=0, atol=1e-6 * scale)
+    np.testing.assert_allclose(moved, base, rtol=0, atol=1e-6 * scale + 1e8 * EPS * abs(offset))
 
 
 @pytest.mark.parametrize("mode", ["absolute", "relative"])

@@ -18,13 +18,17 @@ from click.testing import CliRunner
 from handvar.camera import Rig
 from handvar.cli import main
 from handvar.hand import HandModel, named_pose
+from handvar.hand.kinematics import POSE_NAMES
+from handvar.params import ABDUCTION, DIGITS, FLEXION
 from handvar.predictors import RVAR, Decelerating, NoMotion
+from handvar.render import silhouettes
 from handvar.synth.sequences import make_sequence
 from handvar.tracking.costs import CostSettings
 from handvar.tracking.outputs import quality_captions
 from handvar.tracking.recovery import (
     RecoverySettings,
     _score,
+    digit_reseeds,
     joint_distances,
     pck,
     track_with_recovery,
@@ -228,6 +232,57 @@ def test_fits_are_ordered_by_lost_then_keypoints_down_to_the_band_then_iou():
     assert _score(fit(False, np.nan, 0.9), band) > _score(fit(False, np.nan, 0.8), band)
 
 
+def digit_angles(d):
+    return [ABDUCTION.start + d, *range(FLEXION.start + 3 * d, FLEXION.start + 3 * d + 3)]
+
+
+def test_digit_reseeds_change_one_digit_to_a_named_shape_best_iou_first():
+    hand, rig = HandModel(), Rig.default()
+    x = named_pose("open")
+    x[digit_angles(0)] = named_pose("thumb_across")[digit_angles(0)]
+    masks = silhouettes(hand, named_pose("open"), rig)
+    starts = digit_reseeds(x, hand, rig, masks, 6)
+    assert len(starts) == 6
+    shapes = np.stack([named_pose(n) for n in POSE_NAMES])
+    for start in starts:
+        changed = np.flatnonzero(start != x)
+        digit = [d for d in range(len(DIGITS)) if set(changed) <= set(digit_angles(d))]
+        assert len(digit) == 1, changed  # one digit's angles, nothing else
+        angles = digit_angles(digit[0])
+        assert np.any(np.all(shapes[:, angles] == start[angles], axis=1))  # a named shape's
+    # best first, by the IoU computed here from the rendered and observed pixels
+    ious = []
+    for start in starts:
+        a = silhouettes(hand, start, rig)
+        ious.append(np.mean([(a[j] & masks[j]).sum() / (a[j] | masks[j]).sum() for j in range(2)]))
+    assert ious == sorted(ious, reverse=True)
+    # the thumb put back out (the open hand's thumb) explains the silhouettes best
+    np.testing.assert_array_equal(starts[0], named_pose("open"))
+
+
+@pytest.mark.parametrize("digit", [1, 2, 3])
+def test_a_finger_folded_inside_the_silhouette_is_found_by_reseeding(digit):
+    # the frame shows an open hand; the fit starts with one finger folded into the palm,
+    # where the silhouette cost cannot see it: only a new start brings it out
+    hand, rig, truth = HandModel(), Rig.default(), named_pose("open")
+    x0 = truth.copy()
+    x0[digit_angles(digit)] = named_pose("fist")[digit_angles(digit)]
+    masks = silhouettes(hand, truth, rig)
+    tip = 4 * digit + 4
+
+    def run(n):
+        tracker = Tracker(rig, hand, NoMotion(), np.random.default_rng(0))
+        settings = RecoverySettings(reseed_digits=n)
+        return track_with_recovery(tracker, [masks], x0, settings=settings)
+
+    plain, reseeded = run(0), run(4)
+    off = [
+        np.linalg.norm(r.track.joints[0, tip] - hand.joints(truth)[tip]) for r in (plain, reseeded)
+    ]
+    assert plain.quality.iou[0] < 0.8 < reseeded.quality.iou[0]
+    assert off[0] > 100.0 and off[1] < 10.0, off  # mm; measured 124-139 and 0.8-1.3
+
+
 def test_recovery_settings_are_checked():
     with pytest.raises(ValueError, match="refine_iou"):
         RecoverySettings(refine_iou=1.5)
@@ -239,6 +294,10 @@ def test_recovery_settings_are_checked():
         RecoverySettings(refine_without_keypoints=1)
     with pytest.raises(TypeError, match="refine_iterations"):
         RecoverySettings(refine_iterations=2.5)
+    with pytest.raises(ValueError, match="reseed_digits"):
+        RecoverySettings(reseed_digits=-1)
+    with pytest.raises(ValueError, match="reseed_margin"):
+        RecoverySettings(reseed_margin=2.0)
 
 
 # --- keypoints through the source --------------------------------------------------------
@@ -325,8 +384,8 @@ def test_the_whole_video_keeps_pck_and_is_never_lost_with_keypoints_every_5th(wh
 @pytest.mark.slow
 @pytest.mark.xfail(
     strict=True,
-    reason="4 frames fit at IoU 0.77-0.80 (282, 565, 566, 569): a motion-blurred frame where "
-    "the carried keypoints are lost, the hand edge-on and the thumb between detections (§14.4)",
+    reason="2 frames fit at IoU 0.79-0.80 (556, 565): the hand edge-on, where the detected "
+    "MCPs and the silhouette disagree by more than the keypoint band allows (§14.4)",
 )
 def test_the_whole_video_keeps_iou(whole_video):
     result, _, _ = whole_video

@@ -14,8 +14,12 @@ there (which resets the motion predictor) and tracks the frame again.  A fit of 
 quality (lost, drifting, or on a frame with keypoints a silhouette IoU below
 `RecoverySettings.refine_iou`) is first *refined*: the optimiser continues from it, with
 fresh gains, for `RecoverySettings.refine_iterations` more iterations; on a frame with
-keypoints a fit still poor after that is searched again from the keypoints, and then
-refined once more with the keypoint term's weight lowered
+keypoints a fit still poor after that is searched again from the keypoints.  A fit
+whose silhouette IoU is still below `RecoverySettings.refine_iou`, with or without
+keypoints, is then started again with one digit at a time set to a named hand shape's
+(`digit_reseeds`, `RecoverySettings.reseed_digits`): the silhouette cost cannot bring
+out a finger folded inside the silhouette.  On a frame with keypoints a fit still poor
+is refined once more with the keypoint term's weight lowered
 (`RecoverySettings.refine_keypoint_weight`).  Of all the fits of a frame the best by
 its own quality is kept (`_score`: not lost, then the keypoint error down to the re-fit
 threshold, then the higher IoU), and the motion predictor learns that one (its state
