@@ -214,6 +214,32 @@ def test_where_keypoints_and_silhouette_disagree_a_lighter_keypoint_term_may_win
     assert run(1.0, 2).iou[0] >= lighter.iou[0] - 0.01
 
 
+@pytest.mark.parametrize("shift", [0.14, 0.16])
+def test_a_detector_offset_within_the_band_is_left_to_the_silhouette(short_sequence, shift):
+    # every point but the wrist detected `shift` hand sizes sideways of the truth, the
+    # silhouettes true: the lighter keypoint term's fit sits between the two, off the
+    # keypoints by more than the re-fit threshold (0.1) but within the band (0.15)
+    seq = short_sequence
+    hand, x = HandModel(), seq.truth.poses[0]
+    kps = projected_keypoints(hand, seq.rig, x)
+    for k in kps:
+        along = k[9, :2] - k[0, :2]
+        k[1:, :2] += shift * np.array([-along[1], along[0]])
+
+    def run(band):
+        tracker = Tracker(seq.rig, hand, NoMotion(), np.random.default_rng(0))
+        settings = RecoverySettings(reinit=False, refine_iou=1.0, refine_keypoint_band=band)
+        frames = [np.asarray(seq.masks[0])]
+        return track_with_recovery(tracker, frames, x, keypoints=[kps], settings=settings)
+
+    strict, banded = run(0.1), run(RecoverySettings().refine_keypoint_band)
+    assert 0.1 < banded.quality.keypoint_error[0] <= 0.15
+    assert banded.quality.iou[0] > strict.quality.iou[0] + 0.02  # measured 0.93 vs 0.90
+    off = [np.linalg.norm(r.track.joints[0] - seq.truth.joints[0], axis=1).mean()
+           for r in (strict, banded)]  # fmt: skip
+    assert off[1] < 0.7 * off[0], off  # mm; measured 2.3 vs 4.2 and 2.9 vs 4.9
+
+
 def test_fits_are_ordered_by_lost_then_keypoints_down_to_the_band_then_iou():
     def fit(lost, error, iou):
         return type("F", (), {"lost": lost, "keypoint_error": error, "mean_iou": iou})()
@@ -298,6 +324,8 @@ def test_recovery_settings_are_checked():
         RecoverySettings(reseed_digits=-1)
     with pytest.raises(ValueError, match="reseed_margin"):
         RecoverySettings(reseed_margin=2.0)
+    with pytest.raises(ValueError, match="refine_keypoint_band"):
+        RecoverySettings(refine_keypoint_band=-0.1)
 
 
 # --- keypoints through the source --------------------------------------------------------
@@ -382,12 +410,9 @@ def test_the_whole_video_keeps_pck_and_is_never_lost_with_keypoints_every_5th(wh
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="2 frames fit at IoU 0.79-0.80 (556, 565): the hand edge-on, where the detected "
-    "MCPs and the silhouette disagree by more than the keypoint band allows (§14.4)",
-)
 def test_the_whole_video_keeps_iou(whole_video):
+    # measured 0.8002 (frame 478) on seed 0: frames sit near 0.8, and over seeds 0-11 one
+    # seed (8) has a frame under it (§14.4)
     result, _, _ = whole_video
     q = result.quality
     assert q.iou.min() >= 0.8, (q.iou.min(), int(q.iou.argmin()))

@@ -286,9 +286,19 @@ class RecoverySettings:
         search), one more refinement with the keypoint term's weight scaled by this
         (0.3: w_k = 30 for the tracker's 100, §14.2): where the detector and the
         silhouette disagree, the silhouette gets a larger say, and the fit is kept
-        only if better by the order of `_score` (its joints within
-        `refit_keypoint_error` of the keypoints, or a lost fit no longer lost; its
-        recorded cost is that of the scaled weight).  1 turns it off.
+        if better by the order of `_score` (its joints within `refit_keypoint_error`
+        of the keypoints, or a lost fit no longer lost), or under
+        `refine_keypoint_band` (its recorded cost is that of the scaled weight).  1
+        turns it off.
+    refine_keypoint_band : float
+        That last refinement is also kept when it raises the silhouette IoU, is not
+        lost and its joints stay within this many hand sizes of the keypoints (mean
+        over the points); 0.15, three quarters of the PCK@0.2 radius.  It runs only on a
+        frame still under `refine_iou` after every other fit: there the detector and
+        the silhouette disagree (on the hand edge-on the detected MCPs lie 0.2 hand
+        sizes from where the silhouette puts them, §14.4), and the silhouette may
+        decide what the keypoints leave within this band.  Set it to
+        `refit_keypoint_error` to keep only fits by `_score`'s order.
     """
 
     reinit: bool = True
@@ -299,6 +309,7 @@ class RecoverySettings:
     reseed_digits: int = 4
     reseed_margin: float = 0.02
     refine_keypoint_weight: float = 0.3
+    refine_keypoint_band: float = 0.15
 
     def __post_init__(self) -> None:
         as_instance(self.reinit, bool, "reinit")
@@ -311,6 +322,7 @@ class RecoverySettings:
         as_float(self.reseed_margin, "reseed_margin", minimum=0.0, maximum=1.0)
         as_float(self.refine_keypoint_weight, "refine_keypoint_weight", minimum=0.0,
                  maximum=1.0, exclusive_minimum=True)  # fmt: skip
+        as_float(self.refine_keypoint_band, "refine_keypoint_band", minimum=0.0)
 
 
 RECOVERY_DEFAULTS = RecoverySettings()
@@ -498,7 +510,12 @@ def track_with_recovery(
         w = settings.refine_keypoint_weight
         if kps is not None and w < 1.0 and poor(best, kps):  # silhouette and keypoints disagree
             refined = refine(best, masks, kps, w)
-            if better(refined, best):
+            if better(refined, best) or (
+                refined is not None
+                and not refined.lost
+                and refined.keypoint_error <= settings.refine_keypoint_band
+                and refined.mean_iou > best.mean_iou
+            ):  # a better silhouette fit, the joints within the band (§14.3 step 6)
                 best, learned = refined, False
         if best is not None and not learned:  # the predictor learns the fit kept
             if tracker.frames_tracked == 0:  # the restart's step diverged
