@@ -21,7 +21,8 @@ Run: ``PYTHONPATH=src .venv/bin/python benchmarks/realvideo_keypoints.py``
 (``--every 5`` for one setting; ``--frames N`` for the first N frames only; ``--seed S``
 for the optimiser's seed; ``--carry both`` to carry each detection backwards too,
 ``--carry none`` to leave the frames between detections without keypoints; ``--probe
-555,565`` to refit those frames from the track with the keypoint weight lowered and
+555,565`` to print how far the tracked fit's MCPs and fingertips lie from the detector's
+in those frames, and to refit them from the track with the keypoint weight lowered and
 without keypoints: how far silhouette and keypoints can be matched together, `refit`;
 ``--breakdown`` to split the misfit of every frame under IoU 0.8 into the heel band, the
 fingertips and the rest, `misfit`; ``--tips end`` to compare the detected fingertips
@@ -138,6 +139,11 @@ def run(
         [pck(result.track.poses[t], hand, source.rig, [truth.frame(t)]) for t in range(n)]
     )
     withheld = ~with_detection
+    points = {  # the tracked fit's distance to each detected point, hand sizes
+        t: joint_distances(result.track.poses[t], hand, source.rig, [truth.frame(t)], tips=tips)[0]
+        for t in probe
+        if t < n
+    }
     probes = {
         t: refit(result.track.poses[t], tracked[t], hand, source.rig, truth.frame(t), tips=tips)
         for t in probe
@@ -145,6 +151,7 @@ def run(
     }
     return {
         "parts": parts,
+        "points": points,
         "probes": probes,
         "every": every,
         "frames": n,
@@ -336,6 +343,12 @@ def main() -> None:
                     f"without the heel band {p['iou_without_heel']:.3f}, without the tips "
                     f"{p['iou_without_tips']:.3f}"
                 )
+        for t, d in r["points"].items():
+            print(
+                f"    frame {t} as tracked: MCPs {np.round(d[[5, 9, 13, 17]], 2).tolist()}, "
+                f"fingertips {np.round(d[[4, 8, 12, 16, 20]], 2).tolist()} hand sizes from the "
+                f"detector's (mean of all 21: {np.nanmean(d):.3f})"
+            )
         for t, fits in r["probes"].items():
             text = "; ".join(
                 f"{a}: IoU {b:.3f}, joints {c:.3f}, PCK {d:.2f}" for a, b, c, d in fits

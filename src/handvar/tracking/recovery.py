@@ -295,8 +295,8 @@ class RecoverySettings:
         lost and its joints stay within this many hand sizes of the keypoints (mean
         over the points); 0.15, three quarters of the PCK@0.2 radius.  It runs only on a
         frame still under `refine_iou` after every other fit: there the detector and
-        the silhouette disagree (on the hand edge-on the detected MCPs lie 0.2 hand
-        sizes from where the silhouette puts them, §14.4), and the silhouette may
+        the silhouette disagree (on the hand edge-on the detected MCPs lie up to 0.27
+        hand sizes from where the silhouette puts them, §14.4), and the silhouette may
         decide what the keypoints leave within this band.  Set it to
         `refit_keypoint_error` to keep only fits by `_score`'s order.
     """
