@@ -21,18 +21,13 @@ import numpy as np
 
 from handvar.camera import Rig
 from handvar.hand import HandModel, named_pose
-from handvar.params import ABDUCTION, DIGITS, FLEXION
+from handvar.params import DIGITS, digit_angles
 from handvar.predictors import NoMotion
 from handvar.render import silhouettes
 from handvar.tracking.recovery import RecoverySettings, digit_reseeds, track_with_recovery
 from handvar.tracking.tracker import Tracker
 
 TIPS = (4, 8, 12, 16, 20)
-
-
-def angles(d: int) -> list[int]:
-    """The abduction and three flexions of digit `d`."""
-    return [ABDUCTION.start + d, *range(FLEXION.start + 3 * d, FLEXION.start + 3 * d + 3)]
 
 
 def main() -> None:
@@ -48,7 +43,7 @@ def main() -> None:
             for d in range(len(DIGITS)):
                 for wrong in ("fist", "thumb_across", "pinch"):
                     x0 = truth.copy()
-                    x0[angles(d)] = named_pose(wrong)[angles(d)]
+                    x0[digit_angles(d)] = named_pose(wrong)[digit_angles(d)]
                     if np.allclose(x0, truth):
                         continue
                     t0 = time.perf_counter()

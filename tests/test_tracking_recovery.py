@@ -19,7 +19,7 @@ from handvar.camera import Rig
 from handvar.cli import main
 from handvar.hand import HandModel, named_pose
 from handvar.hand.kinematics import POSE_NAMES
-from handvar.params import ABDUCTION, DIGITS, FLEXION
+from handvar.params import DIGITS, digit_angles
 from handvar.predictors import RVAR, Decelerating, NoMotion
 from handvar.render import silhouettes
 from handvar.synth.sequences import make_sequence
@@ -256,10 +256,6 @@ def test_fits_are_ordered_by_lost_then_keypoints_down_to_the_band_then_iou():
     scores = [_score(f, band) for f in order]
     assert scores == sorted(scores) and len(set(scores)) == len(scores)
     assert _score(fit(False, np.nan, 0.9), band) > _score(fit(False, np.nan, 0.8), band)
-
-
-def digit_angles(d):
-    return [ABDUCTION.start + d, *range(FLEXION.start + 3 * d, FLEXION.start + 3 * d + 3)]
 
 
 def test_digit_reseeds_change_one_digit_to_a_named_shape_best_iou_first():

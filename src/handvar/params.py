@@ -74,6 +74,20 @@ def index(name: str) -> int:
         raise ValueError(f"name: expected one of {', '.join(NAMES)}; got {name!r}") from None
 
 
+def digit_angles(digit: int) -> list[int]:
+    """Indices of the abduction and the three flexions of `digit` (0 thumb … 4 little).
+
+    Examples
+    --------
+    >>> digit_angles(0), digit_angles(4)
+    ([6, 11, 12, 13], [10, 23, 24, 25])
+    """
+    if not 0 <= digit < len(DIGITS):
+        raise ValueError(f"digit: expected 0 to {len(DIGITS) - 1}; got {digit!r}")
+    first = FLEXION.start + 3 * digit
+    return [ABDUCTION.start + digit, first, first + 1, first + 2]
+
+
 def hand_blocks() -> list[list[int]]:
     """The kinematic block structure of eq. 25 as a partition of parameter indices.
 

@@ -567,16 +567,15 @@ def digit_reseeds(x, hand, rig, masks, n: int) -> list[np.ndarray]:
         At most `n` poses, each differing from `x` in one digit's four angles.
     """
     from handvar.hand.kinematics import POSE_NAMES, named_pose
-    from handvar.params import ABDUCTION, DIGITS, FLEXION
+    from handvar.params import DIGITS, digit_angles
     from handvar.render import silhouettes
     from handvar.tracking.init import silhouette_iou
 
     x = np.asarray(x, dtype=float)
     shapes = np.stack([named_pose(name) for name in POSE_NAMES])
-    flexion = np.arange(FLEXION.start, FLEXION.stop).reshape(len(DIGITS), 3)
     scored = []
     for d in range(len(DIGITS)):
-        angles = [ABDUCTION.start + d, *flexion[d]]
+        angles = digit_angles(d)
         made = [x[angles]]
         for values in shapes[:, angles]:
             if any(np.all(np.abs(values - m) <= 10.0) for m in made):
