@@ -100,9 +100,7 @@ def specs(quick: bool) -> list[Spec]:
     skins = tuple(SKIN_TONES)
     out = []
     k = 0
-    combos = (
-        [(1, "right"), (2, "left"), (1, "left"), (2, "right")] if not quick else [(1, "right")]
-    )
+    combos = [(1, "right"), (2, "left"), (1, "left"), (2, "right")] if not quick else [(1, "right")]
     for m, motion in enumerate(("benchmark", "flip", "flexion", "counting")):
         for c, (cameras, side) in enumerate(combos):
             if quick:
@@ -295,8 +293,12 @@ def main() -> None:
                         row = {"frames": case.n_frames, "lost": float(case.n_frames),
                                "failed": True}  # fmt: skip
                     rows.append((label, f"fit every {every}", row))
-            print(f"# {spec.name}: generated in {gen:.1f} s; "
-                  f"{time.perf_counter() - started:.0f} s so far", file=sys.stderr, flush=True)
+            print(
+                f"# {spec.name}: generated in {gen:.1f} s; "
+                f"{time.perf_counter() - started:.0f} s so far",
+                file=sys.stderr,
+                flush=True,
+            )
         rows += overall(rows, "mono", lambda c: "-mono-" in c)
         rows += overall(rows, "stereo", lambda c: "-stereo-" in c)
         rows += overall([r for r in rows if not r[0].startswith("**")], "all", lambda c: True)

@@ -832,8 +832,9 @@ def realistic_case(
         for j in range(n_cams):
             img = acc[j] / np.float32(len(subs)) * cast * np.float32(gain[t])
             img = cv2.GaussianBlur(img, (0, 0), 0.7)
-            img += np.float32(settings.noise_sigma) * rng.standard_normal(img.shape,
-                                                                          dtype=np.float32)
+            img += np.float32(settings.noise_sigma) * rng.standard_normal(
+                img.shape, dtype=np.float32
+            )
             images[j, t] = np.clip(np.rint(img), 0, 255).astype(np.uint8)
 
     kps = np.empty((n_cams, T, 21, 2))
