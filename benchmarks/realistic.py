@@ -1,6 +1,6 @@
 """The realistic benchmark: generated recordings with ground truth, tracked as a user would.
 
-Each case is a recording made by `handvar.synth.realistic.realistic_case` (the skinned
+Each case is a recording made by `handvar.evaluation.realistic.realistic_case` (the skinned
 mesh hand with a forearm, in a skin tone, over a real or generated background, with a
 skin-coloured distractor, motion blur and brightness changes; detector-like keypoints
 with AR(1) noise, gross errors and missed frames; docs/realistic-benchmark.md), written
@@ -55,9 +55,9 @@ from handvar.evaluation.metrics import (
     mean_point_error,
     pck_2d,
 )
+from handvar.evaluation.realistic import SKIN_TONES, read_case, realistic_case
 from handvar.hand import HandModel
 from handvar.hand.anthropometry import HandShape
-from handvar.synth.realistic import SKIN_TONES, read_case, realistic_case
 from handvar.tracking.keypoint_cost import keypoint_points
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -1,4 +1,4 @@
-"""Realistic recordings (`handvar.synth.realistic`) and the benchmark's measures.
+"""Realistic recordings (`handvar.evaluation.realistic`) and the benchmark's measures.
 
 The generator against its own ground truth (the truth's points land on the rendered
 hand, a left hand is the mirror image of the right one, the same seed gives the same
@@ -25,14 +25,14 @@ from handvar.evaluation.metrics import (
     pck_2d,
     similarity_align,
 )
-from handvar.hand.kinematics import world_from_hand_rotation
-from handvar.synth.realistic import (
+from handvar.evaluation.realistic import (
     GROSS_KINDS,
     DetectorErrors,
     detector_keypoints,
     read_case,
     realistic_case,
 )
+from handvar.hand.kinematics import world_from_hand_rotation
 
 SMALL = (320, 180)
 
@@ -83,9 +83,9 @@ def test_a_left_hand_is_the_mirror_image_of_the_right_hand():
 
 
 def test_the_left_masks_mirror_the_right_masks_in_a_camera_on_the_mirror_plane():
+    from handvar.evaluation.realistic import _HandScene, _render_view
     from handvar.hand.anthropometry import HandShape
     from handvar.hand.kinematics import named_pose
-    from handvar.synth.realistic import _HandScene, _render_view
 
     x = named_pose("spread")
     x[:6] = (0.0, -60.0, 0.0, 180.0, 0.0, 0.0)
