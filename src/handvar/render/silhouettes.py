@@ -42,7 +42,8 @@ import numpy as np
 from handvar.camera import Camera, Rig
 from handvar.geometry.distortion import distort_normalized
 from handvar.params import check_pose
-from handvar.validate import as_array, as_instance, one_of
+from handvar.render.common import check_rig
+from handvar.validate import as_array, one_of
 
 __all__ = [
     "SphereMeshModel",
@@ -353,16 +354,6 @@ def silhouette_of_spheres(
     return _rasterize(verts, verts[nxt], sign, camera.size)
 
 
-def _check_rig(rig: Rig) -> tuple[int, int]:
-    as_instance(rig, Rig, "rig", what="a handvar.camera.Rig")
-    sizes = {cam.size for cam in rig}
-    if len(sizes) != 1:
-        raise ValueError(
-            f"rig: expected cameras of one image size to stack; got sizes {sorted(sizes)}"
-        )
-    return sizes.pop()
-
-
 def silhouettes(
     hand: SphereMeshModel, x, rig: Rig, *, coverage: str = "touch", tol: float = 0.02
 ) -> np.ndarray:
@@ -397,7 +388,7 @@ def silhouettes(
 
         return mesh_silhouettes(hand, x, rig, coverage=coverage)
     x = check_pose(x, "x")
-    w, h = _check_rig(rig)
+    w, h = check_rig(rig)
     centres, radii = hand.world_spheres(x)
     out = np.empty((len(rig), h, w), dtype=bool)
     for k, cam in enumerate(rig):
