@@ -1,4 +1,4 @@
-"""Evaluation measures of the paper (§3.3): R̃² (eq. 18 and 21) and the mean joint error."""
+"""Evaluation measures of paper §3.3: R̃² (eq. 18 and 21) and the mean joint error."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Rendering of the sphere-mesh hand model (§2, §3).
+"""Rendering of the sphere-mesh hand model (design §2, §3).
 
 - :mod:`~handvar.render.silhouettes`: exact silhouettes, one camera
   (`silhouette_of_spheres`) or a whole rig (`silhouettes`);

@@ -38,7 +38,7 @@ def check_rig(rig: Rig) -> tuple[int, int]:
 class Shading:
     """Lambert shading of the hand and the synthetic camera noise.
 
-    The paper's set-up (§2, figure 1) lights the hand strongly from above and behind
+    The paper's set-up (paper §2, figure 1) lights the hand strongly from above and behind
     one of the cameras; ``light`` is the world direction towards that light (world −y
     is up, the cameras are on the −z side).
     """

@@ -1,4 +1,4 @@
-"""Silhouette and colour rendering of the skinned mesh hand (§15).
+"""Silhouette and colour rendering of the skinned mesh hand (design §15).
 
 The mesh counterparts of :func:`handvar.render.silhouettes` and
 :func:`handvar.render.render_rgb`, which call these for a ``HandModel(surface="mesh")``.

@@ -58,7 +58,7 @@ def render_rgb(
     (n_cams, H, W, 3) uint8 ndarray
         RGB images.
     """
-    if getattr(hand, "surface", "spheres") == "mesh":  # the skinned mesh (§15)
+    if getattr(hand, "surface", "spheres") == "mesh":  # the skinned mesh (design §15)
         from handvar.render.mesh import render_mesh_rgb
 
         return render_mesh_rgb(hand, x, rig, background=background, rng=rng, shading=shading)

@@ -1,4 +1,4 @@
-"""Exact silhouettes of the sphere-mesh hand model (§2, §3).
+"""Exact silhouettes of the sphere-mesh hand model (design §2, §3).
 
 The hand surface is a union of cone-spheres, each the convex hull of two spheres. Under
 perspective projection segments map to segments, so the image of a cone-sphere is the
@@ -364,7 +364,7 @@ def silhouettes(
     hand : HandModel
         Anything with ``world_spheres(x) -> (centres (P, 2, 3), radii (P, 2))``.
     x : (26,) array_like
-        Pose (§2).
+        Pose (design §2).
     rig : Rig
         Cameras, all with the same image size.
     coverage : {"touch", "centre"}, optional
@@ -383,7 +383,7 @@ def silhouettes(
     >>> masks.shape, masks.dtype
     ((2, 480, 640), dtype('bool'))
     """
-    if getattr(hand, "surface", "spheres") == "mesh":  # the skinned mesh (§15)
+    if getattr(hand, "surface", "spheres") == "mesh":  # the skinned mesh (design §15)
         from handvar.render.mesh import mesh_silhouettes
 
         return mesh_silhouettes(hand, x, rig, coverage=coverage)

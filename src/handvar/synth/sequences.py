@@ -1,13 +1,13 @@
-"""The paper's three synthetic sequences, with ground truth (§8).
+"""The paper's three synthetic sequences, with ground truth (design §8).
 
-- :func:`benchmark` — the 175-frame, 25 fps stereo test sequence of the paper's §4:
+- :func:`benchmark` — the 175-frame, 25 fps stereo test sequence of paper §4:
   finger articulation replayed from a real recording (htrack ``fingerfist``, see
   :mod:`handvar.synth.motion`), palm rotations, a fast little-finger movement near
   frame 73, a global rotation near frame 100 and the thumb crossing the palm near
   frame 150 — the three error peaks of the paper's figure 4.
-- :func:`flexion` — 280 frames like the first real sequence of §6: each digit
+- :func:`flexion` — 280 frames like the first real sequence of paper §6: each digit
   flexes alone, then the fingers flex together, some of them fast.
-- :func:`flip` — 80 frames like the second real sequence of §6: the palm turns
+- :func:`flip` — 80 frames like the second real sequence of paper §6: the palm turns
   fully away from the cameras (its normal more than 150° from the direction to
   them) and back.
 
@@ -57,12 +57,12 @@ _FINGERS = ("index", "middle", "ring", "little")
 
 @dataclasses.dataclass(frozen=True)
 class BenchmarkSettings:
-    """The synthetic benchmark sequence of the paper's §4 (figure 4: error peaks).
+    """The synthetic benchmark sequence of paper §4 (figure 4: error peaks).
 
     Attributes
     ----------
     n_frames, fps : int, float
-        175 frames at 25 fps (§4: "175 frames, 640×480 pixels").
+        175 frames at 25 fps (paper §4: "175 frames, 640×480 pixels").
     little_frame, rotation_frame, thumb_frame : int
         Frames of the fastest moment of the three events behind the error peaks of
         figure 4: a misfit of the little finger (73), a global rotation (100), the
@@ -92,7 +92,7 @@ class BenchmarkSettings:
 
 @dataclasses.dataclass(frozen=True)
 class FlexionSettings:
-    """The finger-flexion sequence of the paper's §6 (first real sequence, figure 7).
+    """The finger-flexion sequence of paper §6 (first real sequence, figure 7).
 
     280 frames at 25 fps: individual flexions of the five digits, then simultaneous
     ones, some fast (the paper's tracker lost accuracy in the fast flexions near
@@ -105,7 +105,7 @@ class FlexionSettings:
 
 @dataclasses.dataclass(frozen=True)
 class FlipSettings:
-    """The palm-flip sequence of the paper's §6 (second real sequence, figure 8).
+    """The palm-flip sequence of paper §6 (second real sequence, figure 8).
 
     80 frames at 25 fps in which the palm turns completely away from the cameras
     and back: a rotation of `turn_deg` (drawn from the range by the seed) about the
