@@ -54,6 +54,40 @@ def test_every_relative_link_resolves():
     assert broken == []
 
 
+def slug(heading: str) -> str:
+    """GitHub's anchor of a Markdown heading: lower case, punctuation dropped, spaces to -."""
+    text = re.sub(r"[`*_]", "", heading.strip().lower())
+    return re.sub(r"[^\w\- ]", "", text).replace(" ", "-")
+
+
+def anchors(page: Path) -> set[str]:
+    """The anchors of a page's headings (outside code blocks)."""
+    text = FENCE.sub("", page.read_text(encoding="utf-8"))
+    return {slug(h) for h in re.findall(r"^#{1,6} (.+)$", text, flags=re.MULTILINE)}
+
+
+def test_slug_is_githubs():
+    assert slug("6. Motion predictors (sections 3–5 of the paper)") == (
+        "6-motion-predictors-sections-35-of-the-paper"
+    )
+    assert slug("RVAR's origin") == "rvars-origin"
+
+
+def test_every_anchor_resolves():
+    broken = []
+    for page in pages():
+        for _, target in links(page):
+            if not local(target) and not target.startswith("#"):
+                continue
+            path, _, anchor = target.partition("#")
+            if not anchor:
+                continue
+            dest = resolve(page, path) if path else page
+            if dest.suffix == ".md" and dest.exists() and anchor not in anchors(dest):
+                broken.append(f"{page.relative_to(ROOT)}: {target}")
+    assert broken == []
+
+
 def test_every_figure_is_shown_once():
     shown = Counter(
         resolve(page, target)

@@ -17,8 +17,10 @@ README = ROOT / "README.md"
 
 
 def python_blocks(text: str) -> list[str]:
-    """The bodies of the ```python fenced blocks of a Markdown text, in order."""
-    return re.findall(r"^```python\n(.*?)^```", text, flags=re.MULTILINE | re.DOTALL)
+    """The bodies of the ```python fenced blocks of a Markdown text, in order, each
+    preceded by blank lines so that its line numbers are the text's."""
+    pattern = re.compile(r"^```python\n(.*?)^```", flags=re.MULTILINE | re.DOTALL)
+    return ["\n" * text.count("\n", 0, m.start(1)) + m.group(1) for m in pattern.finditer(text)]
 
 
 BLOCKS = python_blocks(README.read_text(encoding="utf-8"))
@@ -32,7 +34,9 @@ def test_readme_has_the_two_examples():
 
 def test_python_blocks_are_found():
     text = "a\n```python\nx = 1\n```\n```sh\nls\n```\n```python\ny = 2\n```\n"
-    assert python_blocks(text) == ["x = 1\n", "y = 2\n"]
+    assert [b.strip() for b in python_blocks(text)] == ["x = 1", "y = 2"]
+    block = python_blocks(text)[1]
+    assert len(block) - len(block.lstrip("\n")) == 8  # y = 2 is line 9
 
 
 @pytest.mark.parametrize("block", BLOCKS, ids=["track", "predictor"][: len(BLOCKS)])
