@@ -622,7 +622,7 @@ def _cut_at_joint(k: np.ndarray) -> np.ndarray:
 
 def _cut(masks: np.ndarray, kps, previous, hand, rig) -> np.ndarray:
     """Each camera's silhouette cut at the wrist (`track_with_recovery`'s cut_wrist)."""
-    from handvar.vision.silhouette import cut_wrist
+    from handvar.vision.wrist import cut_wrist
 
     out = []
     for j, (m, cam) in enumerate(zip(masks, rig, strict=True)):

@@ -335,7 +335,7 @@ class Tracker:
         self.predictor = predictor
         self.rng = rng
         self.settings = settings
-        if hand.surface == "mesh":  # the skinned mesh (§15)
+        if hand.surface == "mesh":  # the skinned mesh (design §15)
             from handvar.tracking.mesh_cost import MeshSilhouetteCost
 
             self.cost = MeshSilhouetteCost(hand, rig, settings.cost)
