@@ -26,6 +26,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("render", "io"),
     ("synth", "vision", "predictors"),
     ("tracking",),
+    ("pipeline",),  # handvar.track: the whole pipeline, one call
     ("evaluation",),
     ("cli",),
     ("__main__",),  # python -m handvar: the command line, nothing else
