@@ -20,6 +20,7 @@ from handvar.cli import main
 from handvar.hand import HandModel, named_pose
 from handvar.hand.kinematics import POSE_NAMES
 from handvar.params import DIGITS, digit_angles
+from handvar.pipeline import track
 from handvar.predictors import RVAR, Decelerating, NoMotion
 from handvar.render import silhouettes
 from handvar.synth.sequences import make_sequence
@@ -358,27 +359,17 @@ def test_an_empty_camera_raises_unless_allowed(tmp_path):
 def track_video(n_frames: int | None, every: int):
     """The track with keypoints on every `every`-th frame, as the CLI tracks a recording.
 
-    Keypoints carried forwards between detections (§14.5), fingertips at the pads (§14.6).
+    `handvar.track`'s defaults on a recording: keypoints carried forwards between
+    detections (§14.5), fingertips at the pads (§14.6), recovery.
 
-    Returns the recovered track, PCK@0.2 per frame against the detector, and which
-    frames had a detection.
+    Returns the track, PCK@0.2 per frame against the detector, and which frames had a
+    detection.
     """
-    source = open_source(VIDEO, scale=0.5)
-    detected = read_keypoints(KEYPOINTS)
-    given = [detected.every(every)]
-    masks = [m for _, _, m in source.silhouettes(stop=n_frames, wrist=False)]
-    used = source.carried_keypoints(given, stop=n_frames)[0]
-    truth = source.scaled_keypoints([detected])[0]
-    hand = HandModel()
-    settings = TrackerSettings(cost=CostSettings(keypoint_tips="pad"))
-    tracker = Tracker(source.rig, hand, RVAR(), np.random.default_rng(0), settings)
-    result = track_with_recovery(
-        tracker, masks, keypoints=lambda i: [used.frame(i)], cut_wrist=True
-    )
-    scores = np.array(
-        [pck(x, hand, source.rig, [truth.frame(t)]) for t, x in enumerate(result.track.poses)]
-    )
-    return result, scores, given[0].present[: len(scores)].any(axis=1)
+    result = track(VIDEO, keypoints=KEYPOINTS, keypoint_every=every, scale=0.5, frames=n_frames)
+    truth = result.source.scaled_keypoints([read_keypoints(KEYPOINTS)])[0]
+    hand, rig = result.hand, result.sequence.rig
+    scores = np.array([pck(x, hand, rig, [truth.frame(t)]) for t, x in enumerate(result.poses)])
+    return result, scores, result.detections
 
 
 def test_the_first_30_frames_hold_with_keypoints_every_5th():

@@ -433,7 +433,6 @@ def track(
     bar = _progress_bar if progress else None
 
     opened, full_rig, used = None, None, detected  # the recording; its rig; the keypoints
-    clock = time.perf_counter()
     stage_seconds = {}
     if recording:
         from handvar.vision.sources import open_source
@@ -441,6 +440,7 @@ def track(
         opened = open_source(list(spec.paths), calib, fov=fov, scale=scale)
         full_rig = opened.rig if scale == 1.0 else open_source(list(spec.paths), calib, fov=fov).rig
         total = opened.n_frames if frames is None else min(frames, opened.n_frames)
+        clock = time.perf_counter()
         # With keypoints and recovery the wrist is cut while tracking (at the detected
         # wrist, else at the tracked model's); otherwise here.
         sequence = opened.to_sequence(
