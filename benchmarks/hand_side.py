@@ -28,7 +28,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from handvar.pipeline import track
+import handvar
 from handvar.vision.keypoints import Keypoints2D, read_keypoints
 
 DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
@@ -61,7 +61,7 @@ def mirror(folder: Path, frames: int | None) -> tuple[Path, Keypoints2D]:
 
 def track_side(video: Path, keypoints: Keypoints2D, side: str, frames: int | None):
     """Joints (T, 21, 3) and `TrackQuality` of `handvar track`'s run on a recording."""
-    result = track(
+    result = handvar.track(
         video, keypoints=keypoints, keypoint_every=5, hand=side, scale=0.5, frames=frames
     )
     return result.joints, result.quality

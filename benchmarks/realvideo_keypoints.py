@@ -38,8 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
+import handvar
 from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
-from handvar.pipeline import track
 from handvar.predictors import NoMotion
 from handvar.tracking.costs import CostSettings
 from handvar.tracking.recovery import RECOVERY_DEFAULTS, RecoverySettings, joint_distances, pck
@@ -81,7 +81,7 @@ def run(
         if breakdown and m[0].any() and np.all(np.isfinite(pose)):
             fitted[i] = (pose, m[0])
 
-    result = track(
+    result = handvar.track(
         VIDEO, keypoints=KEYPOINTS if every else None, keypoint_every=max(every, 1),
         carry=carry if every else None, keypoint_tips=tips, scale=scale,
         hand_length=hand_length, seed=seed, frames=frames, recovery=settings, on_frame=keep,

@@ -47,7 +47,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from handvar.pipeline import track as track_recording
+import handvar
 from handvar.render import silhouettes
 from handvar.render.overlay import overlay_frame
 from handvar.vision.sources import open_source
@@ -144,7 +144,7 @@ def main() -> None:
             picked[t] = masks[0]
 
     clock = time.perf_counter()
-    track = track_recording(
+    track = handvar.track(
         args.video, keypoints=args.keypoints if args.keypoint_every else None,
         keypoint_every=max(args.keypoint_every, 1),
         carry=args.carry if args.keypoint_every else None, keypoint_tips=args.tips,

@@ -15,12 +15,12 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+import handvar
 from handvar.camera import Rig
 from handvar.cli import main
 from handvar.hand import HandModel, named_pose
 from handvar.hand.kinematics import POSE_NAMES
 from handvar.params import DIGITS, digit_angles
-from handvar.pipeline import track
 from handvar.predictors import RVAR, Decelerating, NoMotion
 from handvar.render import silhouettes
 from handvar.synth.sequences import make_sequence
@@ -365,7 +365,9 @@ def track_video(n_frames: int | None, every: int):
     Returns the track, PCK@0.2 per frame against the detector, and which frames had a
     detection.
     """
-    result = track(VIDEO, keypoints=KEYPOINTS, keypoint_every=every, scale=0.5, frames=n_frames)
+    result = handvar.track(
+        VIDEO, keypoints=KEYPOINTS, keypoint_every=every, scale=0.5, frames=n_frames
+    )
     truth = result.source.scaled_keypoints([read_keypoints(KEYPOINTS)])[0]
     hand, rig = result.hand, result.sequence.rig
     scores = np.array([pck(x, hand, rig, [truth.frame(t)]) for t, x in enumerate(result.poses)])
