@@ -48,13 +48,14 @@ import cv2
 import numpy as np
 
 import handvar
+from handvar.data import example_path
 from handvar.render import silhouettes
 from handvar.render.overlay import overlay_frame
 from handvar.vision.sources import open_source
 
 ROOT = Path(__file__).resolve().parent.parent
-VIDEO = ROOT / "examples" / "data" / "dex-human-hand-video.mp4"
-KEYPOINTS = ROOT / "examples" / "data" / "dex-human-hand-video-keypoints.npy"
+VIDEO = example_path("video")
+KEYPOINTS = example_path("video-keypoints")
 
 
 def crop_box(masks: list[np.ndarray], pad: int) -> tuple[int, int, int, int]:

@@ -19,7 +19,7 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "handvar"
 
 # docs/design.md §12, from the bottom.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("validate",),
+    ("validate", "data"),
     ("atomic", "geometry"),
     ("camera", "params"),
     ("hand",),

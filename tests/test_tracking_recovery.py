@@ -8,8 +8,6 @@ detector's keypoints on the frames withheld from the tracker (PCK@0.2, §14.4).
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import cv2
 import numpy as np
 import pytest
@@ -18,6 +16,7 @@ from click.testing import CliRunner
 import handvar
 from handvar.camera import Rig
 from handvar.cli import main
+from handvar.data import example_path
 from handvar.hand import HandModel, named_pose
 from handvar.hand.kinematics import POSE_NAMES
 from handvar.params import DIGITS, digit_angles
@@ -41,9 +40,8 @@ from handvar.vision.keypoints import read_keypoints
 from handvar.vision.silhouette import EmptySilhouetteError, cut_wrist, silhouettes_from_frames
 from handvar.vision.sources import open_source
 
-DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
-VIDEO = DATA / "dex-human-hand-video.mp4"
-KEYPOINTS = DATA / "dex-human-hand-video-keypoints.npy"
+VIDEO = example_path("video")
+KEYPOINTS = example_path("video-keypoints")
 
 
 def projected_keypoints(hand, rig, x):

@@ -22,7 +22,7 @@ the arm.  `handvar.vision.silhouette.cut_wrist` removes it along a line found he
   narrower.
 
 Both return a `WristCut` (palm centre and radius, the direction towards the forearm,
-the cut point, the width there).  `benchmarks/wrist.py` measures both against the
+the cut point, the width there).  `studies/wrist.py` measures both against the
 detected wrists of the example video.
 """
 

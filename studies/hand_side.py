@@ -15,7 +15,7 @@ RVAR, seed 0, keypoints on every 5th frame carried between (§14.5), fingertips 
 pads (§14.6), recovery.
 The mirrored video is written as Motion-JPEG at quality 100 into a temporary folder.
 
-Run: ``PYTHONPATH=src .venv/bin/python benchmarks/hand_side.py`` (``--frames N`` for the
+Run: ``PYTHONPATH=src .venv/bin/python studies/hand_side.py`` (``--frames N`` for the
 first N frames only).
 """
 
@@ -29,11 +29,11 @@ import cv2
 import numpy as np
 
 import handvar
+from handvar.data import example_path
 from handvar.vision.keypoints import Keypoints2D, read_keypoints
 
-DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
-VIDEO = DATA / "dex-human-hand-video.mp4"
-KEYPOINTS = DATA / "dex-human-hand-video-keypoints.npy"
+VIDEO = example_path("video")
+KEYPOINTS = example_path("video-keypoints")
 
 
 def mirror(folder: Path, frames: int | None) -> tuple[Path, Keypoints2D]:

@@ -17,7 +17,7 @@ those frames are withheld from the tracker.  Printed:
 - ms per frame: tracking with its quality checks and re-initialisations (not the
   silhouettes, which are timed apart).
 
-Run: ``PYTHONPATH=src .venv/bin/python benchmarks/realvideo_keypoints.py``
+Run: ``PYTHONPATH=src .venv/bin/python studies/realvideo_keypoints.py``
 (``--every 5`` for one setting; ``--frames N`` for the first N frames only; ``--seed S``
 for the optimiser's seed; ``--carry both`` to carry each detection backwards too,
 ``--carry none`` to leave the frames between detections without keypoints; ``--probe
@@ -34,11 +34,11 @@ from __future__ import annotations
 
 import argparse
 import math
-from pathlib import Path
 
 import numpy as np
 
 import handvar
+from handvar.data import example_path
 from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
 from handvar.predictors import NoMotion
 from handvar.tracking.costs import CostSettings
@@ -47,9 +47,8 @@ from handvar.tracking.smd import SMDSettings
 from handvar.tracking.tracker import Tracker, TrackerSettings
 from handvar.vision.keypoints import read_keypoints
 
-DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
-VIDEO = DATA / "dex-human-hand-video.mp4"
-KEYPOINTS = DATA / "dex-human-hand-video-keypoints.npy"
+VIDEO = example_path("video")
+KEYPOINTS = example_path("video-keypoints")
 
 
 def run(
