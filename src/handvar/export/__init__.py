@@ -1,0 +1,17 @@
+"""What a track is exported to: standard keypoint files, BVH, glTF 2.0 and a 3D viewer.
+
+Every function here takes arrays and model objects (poses (T, 26), a `HandShape`, a
+`Rig`, per-frame confidences), never a track directory, so it works on any track:
+
+- :mod:`~handvar.export.keypoints`: the 21 keypoints per frame in 2D per camera and in
+  3D (each camera's frame and the world frame), per-joint visibility, the fit's
+  confidence; handvar's own JSON and OpenPose's per-frame layout;
+- :mod:`~handvar.export.bvh`: the 26 parameters as a BVH skeleton and motion;
+- :mod:`~handvar.export.gltf`: the skinned mesh hand and its animation as glTF 2.0
+  binary (.glb);
+- :mod:`~handvar.export.viewer`: one self-contained HTML page with the 3D skeleton over
+  time, the cameras and the quality curve.
+
+The formats, frames, units and conventions are described in docs/outputs.md.
+"""
+
