@@ -7,6 +7,8 @@ forward kinematics. Neither uses handvar's writers or kinematics.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 _DTYPES = {5126: np.float32, 5125: np.uint32, 5123: np.uint16, 5121: np.uint8}
@@ -108,7 +110,9 @@ def gltf_skinned_vertices(path, frames) -> dict[int, np.ndarray]:
 def bvh_world_joints(path, names) -> np.ndarray:
     """World positions (T, len(names), 3) of BVH joints by bvhio's forward kinematics;
     a name ``<joint>_end`` is the end site below ``<joint>``."""
-    import bvhio
+    with warnings.catch_warnings():  # its glm binding warns of a deprecation on import
+        warnings.simplefilter("ignore", PendingDeprecationWarning)
+        import bvhio
 
     ends = {j.Name: j.EndSite for j, *_ in bvhio.readAsBvh(str(path)).Root.layout()
             if j.EndSite is not None}  # fmt: skip

@@ -15,3 +15,30 @@ Every function here takes arrays and model objects (poses (T, 26), a `HandShape`
 The formats, frames, units and conventions are described in docs/outputs.md.
 """
 
+from handvar.export.bvh import bvh_text, write_bvh
+from handvar.export.gltf import glb_bytes, mesh_vertices, write_glb
+from handvar.export.keypoints import (
+    fit_confidence,
+    joint_visibility,
+    keypoint_frames,
+    openpose_frames,
+    write_keypoints_json,
+    write_openpose,
+)
+from handvar.export.viewer import viewer_html, write_viewer
+
+__all__ = [
+    "bvh_text",
+    "fit_confidence",
+    "glb_bytes",
+    "joint_visibility",
+    "keypoint_frames",
+    "mesh_vertices",
+    "openpose_frames",
+    "viewer_html",
+    "write_bvh",
+    "write_glb",
+    "write_keypoints_json",
+    "write_openpose",
+    "write_viewer",
+]

@@ -15,9 +15,8 @@ The keypoints are G(x) (`HandModel.joints`) in the order of `JOINTS`, which is t
 
 Visibility: a keypoint is hidden from a camera when the model's own sphere-mesh
 surface lies in front of it along the ray from the camera's optical centre by more
-than the hand's thickness at that joint (`joint_radii`) plus a tolerance; the first
-surface point in front of a keypoint inside the hand is its own flesh, at most one
-joint radius away.
+than its own flesh can reach (`joint_reach`) plus a tolerance: the
+first surface point in front of a keypoint inside the hand is then its own flesh.
 """
 
 from __future__ import annotations
@@ -29,12 +28,12 @@ from pathlib import Path
 import numpy as np
 
 from handvar.atomic import OutputSet, check_output_dir, write_atomic
-from handvar.hand.anthropometry import JOINTS, HandShape
+from handvar.hand.anthropometry import JOINTS
 from handvar.validate import as_array, as_instance
 
 __all__ = [
     "fit_confidence",
-    "joint_radii",
+    "joint_reach",
     "joint_visibility",
     "keypoint_frames",
     "openpose_frames",
@@ -48,31 +47,44 @@ VISIBILITY_TOLERANCE = 1.0
 _N_JOINTS = len(JOINTS)
 
 
-def joint_radii(shape: HandShape) -> np.ndarray:
-    """(21,) thickness of the hand at each keypoint, mm: the radius of its sphere.
+def joint_reach(hand) -> np.ndarray:
+    """(21,) how far in front of each keypoint its own flesh can reach, mm.
 
-    The digits' keypoints take the radii of `HandShape.radii` (base joint, the next two
-    joints, the tip); the wrist the mean radius of the palm's cone-spheres at the heel.
+    A keypoint lies in (or on) some cone-spheres of the sphere-mesh; in one whose
+    radius at the keypoint's closest axis point is r and whose axis is e away from the
+    keypoint (e ≤ r), a ray reaching the keypoint has entered that cone-sphere at most
+    r + e in front of it. The largest such r + e over the cone-spheres holding the
+    keypoint, at the rest pose (all 26 parameters 0): a joint on its finger's axis gets
+    the finger's radius, a fingertip (on the surface) the tip's diameter, a knuckle
+    inside the palm the palm's thickness there.
 
     Examples
     --------
-    >>> r = joint_radii(HandShape.from_size())
-    >>> r.shape, bool(r.min() > 0)
+    >>> from handvar.hand.kinematics import HandModel
+    >>> reach = joint_reach(HandModel())
+    >>> reach.shape, bool(reach.min() > 0)
     ((21,), True)
     """
-    as_instance(shape, HandShape, "shape")
-    radii = np.empty(_N_JOINTS)
-    radii[0] = float(np.mean(shape.palm_radii[:, 0]))
-    radii[1:] = shape.radii.reshape(-1)
-    return radii
+    x = np.zeros(26)
+    centres, radii = hand.world_spheres(x)  # (P, 2, 3), (P, 2)
+    joints = hand.joints(x)
+    a, b = centres[:, 0], centres[:, 1]  # (P, 3)
+    axis = b - a
+    length2 = np.maximum(np.sum(axis * axis, axis=1), 1e-12)
+    s = np.clip(np.einsum("jpc,pc->jp", joints[:, None] - a, axis) / length2, 0.0, 1.0)
+    closest = a + s[..., None] * axis  # (21, P, 3)
+    radius = (1.0 - s) * radii[:, 0] + s * radii[:, 1]
+    e = np.linalg.norm(joints[:, None] - closest, axis=2)
+    holding = e <= radius + VISIBILITY_TOLERANCE
+    return np.where(holding, radius + e, 0.0).max(axis=1)
 
 
 def joint_visibility(hand, x, camera, *, tolerance: float = VISIBILITY_TOLERANCE):
     """Whether each of the 21 keypoints at pose `x` is seen by `camera`, (21,) bool.
 
     A keypoint is hidden when the first point of the model's sphere-mesh surface on
-    the ray from the camera's optical centre to it lies more than its joint radius
-    (`joint_radii`) plus `tolerance` mm in front of it, or when it is behind the
+    the ray from the camera's optical centre to it lies more than the reach of its own
+    flesh (`joint_reach`) plus `tolerance` mm in front of it, or when it is behind the
     camera. Whether it falls inside the image is a separate question (`Camera.in_image`).
 
     Parameters
@@ -92,7 +104,7 @@ def joint_visibility(hand, x, camera, *, tolerance: float = VISIBILITY_TOLERANCE
     in_front = np.isfinite(depth) & (depth < 1.0)
     gap = np.where(in_front, (1.0 - depth) * length, 0.0)  # surface in front of it, mm
     ahead = camera.camera_from_world(joints)[:, 2] > 0
-    return ahead & (gap <= joint_radii(hand.shape) + tolerance)
+    return ahead & (gap <= joint_reach(hand) + tolerance)
 
 
 def fit_confidence(iou, lost) -> np.ndarray:
