@@ -48,6 +48,23 @@ def _quat_matrix(q) -> np.ndarray:
     ])  # fmt: skip
 
 
+def _world_matrices(local_t: dict, local_r: dict, parent: dict) -> dict:
+    """Each node's global matrix: its parent's times its own T · R."""
+    world: dict = {}
+
+    def global_(i):
+        if i not in world:
+            m = np.eye(4)
+            m[:3, :3] = _quat_matrix(local_r[i])
+            m[:3, 3] = local_t[i]
+            world[i] = m if i not in parent else global_(parent[i]) @ m
+        return world[i]
+
+    for i in local_t:
+        global_(i)
+    return world
+
+
 def gltf_skinned_vertices(path, frames) -> dict[int, np.ndarray]:
     """Skinned vertex positions (V, 3), in the file's units, at the animation's keys
     `frames`: node transforms from the animation, then v = Σ w_j (N_j · IBM_j) (p + Σ
@@ -85,17 +102,8 @@ def gltf_skinned_vertices(path, frames) -> dict[int, np.ndarray]:
                 local_r[node] = values[f]
             elif path_ == "weights" and node == mesh_node:
                 morph = values.reshape(-1, len(targets))[f]
-        world = {}
-
-        def global_(i):
-            if i not in world:
-                m = np.eye(4)
-                m[:3, :3] = _quat_matrix(local_r[i])
-                m[:3, 3] = local_t[i]
-                world[i] = m if i not in parent else global_(parent[i]) @ m
-            return world[i]
-
-        skinning = np.stack([global_(j) @ ibm[k] for k, j in enumerate(skin.joints)])
+        world = _world_matrices(local_t, local_r, parent)
+        skinning = np.stack([world[j] @ ibm[k] for k, j in enumerate(skin.joints)])
         p = position + sum((m * d for m, d in zip(morph, targets, strict=True)),
                            np.zeros_like(position))  # fmt: skip
         ph = np.column_stack([p, np.ones(len(p))])

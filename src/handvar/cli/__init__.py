@@ -7,8 +7,8 @@ written all-or-nothing (design §13).
 
 The command group lives here; each command is a thin module calling the library:
 `synth` (synth, show), `predict`, `experiment` (experiment, report), `track`, `init`,
-`keypoints` and `export` (export, view); what several of them share is in `common`. Importing the package
-loads none of the heavy parts (each command imports them when it runs).
+`keypoints` and `export` (export, view); what several of them share is in `common`.
+Importing the package loads none of the heavy parts (each command imports them when it runs).
 """
 
 from __future__ import annotations

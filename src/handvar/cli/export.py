@@ -45,8 +45,11 @@ def read_track(directory) -> SimpleNamespace:
         raise ValueError(f"TRACK_DIR: expected poses and joints in {npz_path}; got {sorted(data)}")
     poses = np.asarray(data["poses"], dtype=float)
     joints = np.asarray(data["joints"], dtype=float)
-    if poses.ndim != 2 or poses.shape[1] != 26 or len(poses) < 1 or joints.shape != (
-        len(poses), 21, 3
+    if (
+        poses.ndim != 2
+        or poses.shape[1] != 26
+        or len(poses) < 1
+        or joints.shape != (len(poses), 21, 3)
     ):
         raise ValueError(f"TRACK_DIR: expected T × 26 poses and T × 21 × 3 joints in {npz_path}")
     # The hand: its size follows from the wrist → middle MCP distance at any pose.

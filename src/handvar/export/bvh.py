@@ -94,8 +94,8 @@ def bvh_text(poses, shape: HandShape, *, fps: float | None = None) -> str:
         raise ValueError(f"fps: expected a positive frame rate; got {fps}")
     rest = _euler_zxy(shape.base_rotations)  # (5, 3): γ, α, β
     sign = shape.abduction_sign
-    lines = ["HIERARCHY", f"ROOT {_ROOT}", "{", "  OFFSET 0.000000 0.000000 0.000000",
-             "  CHANNELS 6 Xposition Yposition Zposition Xrotation Yrotation Zrotation"]  # fmt: skip
+    root = "CHANNELS 6 Xposition Yposition Zposition Xrotation Yrotation Zrotation"
+    lines = ["HIERARCHY", f"ROOT {_ROOT}", "{", "  OFFSET 0.000000 0.000000 0.000000", f"  {root}"]
     rot = "CHANNELS 3 Zrotation Xrotation Yrotation"
     for k in range(5):
         lines += ["  JOINT " + _base_name(k), "  {", f"    OFFSET {_fmt(shape.bases[k])}",
@@ -108,8 +108,8 @@ def bvh_text(poses, shape: HandShape, *, fps: float | None = None) -> str:
                       f"{pad}  OFFSET {_fmt((0.0, offset, 0.0))}", f"{pad}  {rot}"]  # fmt: skip
             depth += 1
         pad = "  " * depth
-        lines += [f"{pad}End Site", pad + "{", f"{pad}  OFFSET {_fmt((0.0, shape.segments[k, 2], 0.0))}",
-                  pad + "}"]  # fmt: skip
+        tip = _fmt((0.0, shape.segments[k, 2], 0.0))
+        lines += [f"{pad}End Site", pad + "{", f"{pad}  OFFSET {tip}", pad + "}"]
         for level in range(3, -1, -1):
             lines.append("  " * (level + 1) + "}")
     lines.append("}")

@@ -105,11 +105,11 @@ def _local_rotations(poses: np.ndarray, shape: HandShape) -> np.ndarray:
     rot = np.empty((n, len(BONES), 3, 3))
     rot[:, 0] = Rotation.from_euler("XYZ", poses[:, 3:6], degrees=True).as_matrix()
     for k in range(5):
-        abd = Rotation.from_euler("z", shape.abduction_sign[k] * poses[:, 6 + k, None],
-                                 degrees=True)
+        abd = Rotation.from_euler(
+            "z", shape.abduction_sign[k] * poses[:, 6 + k, None], degrees=True
+        )
         for level in range(3):
-            flex = Rotation.from_euler("x", poses[:, 11 + 3 * k + level, None],
-                                      degrees=True)
+            flex = Rotation.from_euler("x", poses[:, 11 + 3 * k + level, None], degrees=True)
             b = bone_index(k, level)
             if level == 0:
                 rot[:, b] = (abd.as_matrix() @ shape.base_rotations[k]) @ flex.as_matrix()
@@ -184,7 +184,8 @@ class _Buffer:
                "min": full_min, "max": full_max,
                "sparse": {"count": int(values.shape[0]),
                           "indices": {"bufferView": indices_view, "componentType": _UINT},
-                          "values": {"bufferView": self.view(values.astype(np.float32))}}}  # fmt: skip
+                          "values": {"bufferView": self.view(values.astype(np.float32))}},
+               }  # fmt: skip
         self.accessors.append(acc)
         return len(self.accessors) - 1
 

@@ -29,7 +29,7 @@ import numpy as np
 
 from handvar.atomic import OutputSet, check_output_dir, write_atomic
 from handvar.hand.anthropometry import JOINTS
-from handvar.validate import as_array, as_instance
+from handvar.validate import as_array
 
 __all__ = [
     "fit_confidence",
