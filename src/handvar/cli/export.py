@@ -108,9 +108,12 @@ _calib_option = click.option(
 @click.option("--out", default=None,
               help="Output file (a directory for openpose) [default: in TRACK_DIR: "
               + ", ".join(f"{k} → {v}" for k, v in FORMATS.items()) + "].")  # fmt: skip
+@click.option("--corrective/--no-corrective", default=True, show_default=True,
+              help="gltf: per-frame morph targets that make the skinned mesh exactly the "
+              "model's (the file grows as frames squared; see docs/outputs.md).")  # fmt: skip
 @_calib_option
 @_one_line_errors
-def export_command(track_dir, fmt, out, calib):
+def export_command(track_dir, fmt, out, corrective, calib):
     """Export the track saved in TRACK_DIR (by `handvar track --out`) to a standard format.
 
     Formats, frames, units and conventions: docs/outputs.md.
@@ -147,7 +150,7 @@ def export_command(track_dir, fmt, out, calib):
     else:
         from handvar.export.gltf import write_glb
 
-        write_glb(out, track.poses, track.shape, fps=track.fps)
+        write_glb(out, track.poses, track.shape, fps=track.fps, corrective=corrective)
     click.echo(f"{track.name}: {len(track.poses)} frames, {track.shape.side} hand -> {out}")
 
 
