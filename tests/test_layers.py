@@ -23,7 +23,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("atomic", "geometry"),
     ("camera", "params"),
     ("hand",),
-    ("render", "io"),
+    ("render", "io", "export"),
     ("synth", "vision", "predictors"),
     ("tracking",),
     ("evaluation",),
