@@ -46,7 +46,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("atomic", "geometry"),
     ("camera", "params"),
     ("hand",),
-    ("render", "io"),
+    ("render", "io", "export"),
     ("synth", "vision", "predictors"),
     ("tracking",),
     ("pipeline",),  # handvar.track: the whole pipeline, one call

@@ -6,9 +6,9 @@ path and exit status 2, never a traceback; its outputs are checked before any wo
 written all-or-nothing (design §13).
 
 The command group lives here; each command is a thin module calling the library:
-`synth` (synth, show), `predict`, `experiment` (experiment, report), `track`, `init`
-and `keypoints`; what several of them share is in `common`. Importing the package
-loads none of the heavy parts (each command imports them when it runs).
+`synth` (synth, show), `predict`, `experiment` (experiment, report), `track`, `init`,
+`keypoints` and `export` (export, view); what several of them share is in `common`.
+Importing the package loads none of the heavy parts (each command imports them when it runs).
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ from handvar.cli.common import _FiniteRange as _FiniteRange
 from handvar.cli.common import _one_line_errors as _one_line_errors
 from handvar.cli.common import _recording_options as _recording_options
 from handvar.cli.experiment import experiment_command, report_command
+from handvar.cli.export import export_command, view_command
 from handvar.cli.init import INIT_MIN_IOU, init_command
 from handvar.cli.keypoints import keypoints_command
 from handvar.cli.predict import predict_command
@@ -31,6 +32,7 @@ __all__ = [
     "INIT_MIN_IOU",
     "check_limits",
     "experiment_command",
+    "export_command",
     "init_command",
     "keypoints_command",
     "load_pose",
@@ -41,6 +43,7 @@ __all__ = [
     "show_command",
     "synth_command",
     "track_command",
+    "view_command",
 ]
 
 
@@ -90,6 +93,8 @@ for _command in (
     track_command,
     init_command,
     keypoints_command,
+    export_command,
+    view_command,
 ):
     main.add_command(_command)
 del _command

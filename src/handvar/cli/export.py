@@ -1,0 +1,182 @@
+"""`handvar export` and `handvar view`: a saved track as standard files and a 3D page."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from types import SimpleNamespace
+
+import click
+
+from handvar.cli.common import _one_line_errors
+
+#: Formats of `handvar export` and the default output beside the track.
+FORMATS = {
+    "json": "keypoints.json",
+    "openpose": "openpose",
+    "bvh": "track.bvh",
+    "gltf": "track.glb",
+}
+_SUFFIXES = {"json": (".json",), "bvh": (".bvh",), "gltf": (".glb",)}
+_SHAPE_TOLERANCE = 1e-3  # mm: the stored joints must be G(poses) of the shape found
+
+
+def read_track(directory) -> SimpleNamespace:
+    """The track saved in `directory`: poses, joints, shape, rig, quality, fps, name.
+
+    Reads `track.npz` as `handvar track --out` writes it. A track saved without its hand
+    shape gets the `HandShape.from_size` hand (either side, any length) whose G(poses)
+    reproduces the stored joints; one saved without its cameras has ``rig`` None.
+    """
+    import numpy as np
+
+    from handvar.hand.anthropometry import MIDDLE_MCP, WRIST, HandShape
+    from handvar.hand.kinematics import HandModel
+
+    path = Path(directory)
+    npz_path = path / "track.npz"
+    if not path.is_dir() or not npz_path.is_file():
+        raise ValueError(f"TRACK_DIR: expected a track directory with track.npz; got {directory}")
+    try:
+        with np.load(npz_path, allow_pickle=False) as npz:
+            data = {k: npz[k] for k in npz.files}
+    except (OSError, ValueError, EOFError) as exc:
+        raise ValueError(f"TRACK_DIR: cannot read {npz_path}: {exc}") from None
+    if "poses" not in data or "joints" not in data:
+        raise ValueError(f"TRACK_DIR: expected poses and joints in {npz_path}; got {sorted(data)}")
+    poses = np.asarray(data["poses"], dtype=float)
+    joints = np.asarray(data["joints"], dtype=float)
+    if (
+        poses.ndim != 2
+        or poses.shape[1] != 26
+        or len(poses) < 1
+        or joints.shape != (len(poses), 21, 3)
+    ):
+        raise ValueError(f"TRACK_DIR: expected T × 26 poses and T × 21 × 3 joints in {npz_path}")
+    # The hand: its size follows from the wrist → middle MCP distance at any pose.
+    unit = HandShape.from_size(1.0)
+    ratio = np.linalg.norm(unit.bases[2])
+    length = float(np.linalg.norm(joints[0, MIDDLE_MCP] - joints[0, WRIST]) / ratio)
+    shape = None
+    for side in ("right", "left"):
+        candidate = HandShape.from_size(length, side=side)
+        model = HandModel(candidate)
+        picks = np.unique(np.linspace(0, len(poses) - 1, 5).round().astype(int))
+        if all(np.abs(model.joints(poses[t]) - joints[t]).max() < _SHAPE_TOLERANCE for t in picks):
+            shape = candidate
+            break
+    if shape is None:
+        raise ValueError(
+            f"TRACK_DIR: the joints in {npz_path} are not those of a standard hand; "
+            "cannot tell the hand's shape"
+        )
+    quality = None
+    if "iou" in data and "lost" in data:
+        quality = {"iou": np.asarray(data["iou"], float), "lost": np.asarray(data["lost"], bool)}
+    return SimpleNamespace(poses=poses, joints=joints, shape=shape, rig=None, quality=quality,
+                           fps=None, name=path.resolve().name)  # fmt: skip
+
+
+def _load(track_dir, calib):
+    track = read_track(track_dir)
+    if calib is not None:
+        from handvar.camera import Rig
+
+        track.rig = Rig.load(calib)
+    return track
+
+
+def _confidence(track):
+    from handvar.export.keypoints import fit_confidence
+
+    if track.quality is None:
+        return None
+    return fit_confidence(track.quality["iou"], track.quality["lost"])
+
+
+_calib_option = click.option(
+    "--calib", type=click.Path(dir_okay=False), default=None,
+    help="OpenCV calibration file of the cameras to project into [default: the track's].",
+)  # fmt: skip
+
+
+@click.command("export")
+@click.argument("track_dir")
+@click.option("--format", "fmt", type=click.Choice(tuple(FORMATS)), required=True,
+              help="json: keypoints per frame (2D, 3D, visibility, confidence); openpose: "
+              "OpenPose's per-frame JSON files in a directory; bvh: skeleton and motion; "
+              "gltf: skinned mesh and animation (.glb).")  # fmt: skip
+@click.option("--out", default=None,
+              help="Output file (a directory for openpose) [default: in TRACK_DIR: "
+              + ", ".join(f"{k} → {v}" for k, v in FORMATS.items()) + "].")  # fmt: skip
+@click.option("--corrective/--no-corrective", default=True, show_default=True,
+              help="gltf: per-frame morph targets that make the skinned mesh exactly the "
+              "model's (the file grows as frames squared; see docs/outputs.md).")  # fmt: skip
+@_calib_option
+@_one_line_errors
+def export_command(track_dir, fmt, out, corrective, calib):
+    """Export the track saved in TRACK_DIR (by `handvar track --out`) to a standard format.
+
+    Formats, frames, units and conventions: docs/outputs.md.
+    """
+    from handvar.atomic import check_output_dir, check_output_file
+    from handvar.hand.kinematics import HandModel
+
+    if not Path(track_dir).is_dir():
+        raise ValueError(f"TRACK_DIR: expected a track directory; got {track_dir}")
+    out = str(Path(track_dir) / FORMATS[fmt]) if out is None else out
+    if fmt == "openpose":
+        check_output_dir(out, "--out", parents=False)
+    else:
+        check_output_file(out, "--out", suffixes=_SUFFIXES[fmt])
+    track = _load(track_dir, calib)
+    if fmt == "json":
+        from handvar.export.keypoints import keypoint_frames, write_keypoints_json
+
+        doc = keypoint_frames(track.poses, HandModel(track.shape), track.rig,
+                              confidence=_confidence(track))  # fmt: skip
+        write_keypoints_json(out, doc)
+    elif fmt == "openpose":
+        from handvar.export.keypoints import openpose_frames, write_openpose
+
+        if track.rig is None:
+            raise ValueError("--calib: expected the cameras (the track holds none); got none")
+        frames = openpose_frames(track.poses, HandModel(track.shape), track.rig,
+                                 confidence=_confidence(track))  # fmt: skip
+        write_openpose(out, frames, track.rig.names)
+    elif fmt == "bvh":
+        from handvar.export.bvh import write_bvh
+
+        write_bvh(out, track.poses, track.shape, fps=track.fps)
+    else:
+        from handvar.export.gltf import write_glb
+
+        write_glb(out, track.poses, track.shape, fps=track.fps, corrective=corrective)
+    click.echo(f"{track.name}: {len(track.poses)} frames, {track.shape.side} hand -> {out}")
+
+
+@click.command("view")
+@click.argument("track_dir")
+@click.option("--out", default=None, help="Output page (.html) [default: TRACK_DIR/view.html].")
+@_calib_option
+@_one_line_errors
+def view_command(track_dir, out, calib):
+    """Write a self-contained HTML page showing the track saved in TRACK_DIR in 3D.
+
+    The hand's skeleton over time (play, scrub, turn with the mouse), the cameras and
+    the per-frame fit quality (silhouette IoU) linked to the time slider; the page
+    needs no network.
+    """
+    from handvar.atomic import check_output_file
+
+    if not Path(track_dir).is_dir():
+        raise ValueError(f"TRACK_DIR: expected a track directory; got {track_dir}")
+    out = str(Path(track_dir) / "view.html") if out is None else out
+    check_output_file(out, "--out", suffixes=(".html",))
+    track = _load(track_dir, calib)
+    from handvar.export.viewer import write_viewer
+
+    conf = _confidence(track)
+    write_viewer(out, track.joints, rig=track.rig, quality=conf,
+                 quality_label="fit confidence (IoU)", fps=track.fps,
+                 title=f"handvar track: {track.name}")  # fmt: skip
+    click.echo(f"{track.name}: {len(track.poses)} frames -> {out}")

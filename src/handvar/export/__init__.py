@@ -1,0 +1,44 @@
+"""What a track is exported to: standard keypoint files, BVH, glTF 2.0 and a 3D viewer.
+
+Every function here takes arrays and model objects (poses (T, 26), a `HandShape`, a
+`Rig`, per-frame confidences), never a track directory, so it works on any track:
+
+- :mod:`~handvar.export.keypoints`: the 21 keypoints per frame in 2D per camera and in
+  3D (each camera's frame and the world frame), per-joint visibility, the fit's
+  confidence; handvar's own JSON and OpenPose's per-frame layout;
+- :mod:`~handvar.export.bvh`: the 26 parameters as a BVH skeleton and motion;
+- :mod:`~handvar.export.gltf`: the skinned mesh hand and its animation as glTF 2.0
+  binary (.glb);
+- :mod:`~handvar.export.viewer`: one self-contained HTML page with the 3D skeleton over
+  time, the cameras and the quality curve.
+
+The formats, frames, units and conventions are described in docs/outputs.md.
+"""
+
+from handvar.export.bvh import bvh_text, write_bvh
+from handvar.export.gltf import glb_bytes, mesh_vertices, write_glb
+from handvar.export.keypoints import (
+    fit_confidence,
+    joint_visibility,
+    keypoint_frames,
+    openpose_frames,
+    write_keypoints_json,
+    write_openpose,
+)
+from handvar.export.viewer import viewer_html, write_viewer
+
+__all__ = [
+    "bvh_text",
+    "fit_confidence",
+    "glb_bytes",
+    "joint_visibility",
+    "keypoint_frames",
+    "mesh_vertices",
+    "openpose_frames",
+    "viewer_html",
+    "write_bvh",
+    "write_glb",
+    "write_keypoints_json",
+    "write_openpose",
+    "write_viewer",
+]

@@ -1,0 +1,211 @@
+"""Exported formats read back by independent readers and compared with the model.
+
+- keypoint JSON and OpenPose JSON: read with the standard `json` module, compared with
+  G(x) (`HandModel.joints`) and the cameras' projections;
+- BVH: read with bvhio, whose forward kinematics must give G(x) within 0.1 mm over the
+  whole synthetic track (float32 inside bvhio: about 2e-4 mm);
+- glTF: read with pygltflib, skinned with the specification's linear blend formula in
+  `tests/export_readers.py`, compared with the model's mesh within 0.5 mm;
+- the viewer page: rendered by headless Chromium, no console message, not blank.
+
+`benchmarks/export_roundtrip.py` prints the same round-trip errors.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+from handvar.camera import Camera, Rig
+from handvar.export import (
+    bvh_text,
+    fit_confidence,
+    glb_bytes,
+    joint_visibility,
+    keypoint_frames,
+    mesh_vertices,
+    openpose_frames,
+    viewer_html,
+    write_openpose,
+)
+from handvar.export.bvh import bvh_joint_order
+from handvar.export.keypoints import openpose_name
+from handvar.hand.anthropometry import JOINTS, HandShape
+from handvar.hand.kinematics import HandModel, named_pose
+from handvar.synth.sequences import sequence_poses
+from tests.export_readers import bvh_world_joints, gltf_skinned_vertices
+
+SIDES = ("right", "left")
+
+
+@pytest.fixture(scope="module")
+def poses() -> np.ndarray:
+    """The whole synthetic benchmark track (175 frames)."""
+    return sequence_poses("benchmark")
+
+
+@pytest.mark.parametrize("side", SIDES)
+def test_keypoint_json_round_trip(poses, side):
+    hand = HandModel(HandShape.from_size(185.0, side=side))
+    rig = Rig.default()
+    sub = poses[::25]
+    conf = np.linspace(0.2, 0.9, len(sub))
+    doc = json.loads(json.dumps(keypoint_frames(sub, hand, rig, confidence=conf)))
+    assert doc["joints"] == list(JOINTS) and doc["hand"] == side
+    assert len(doc["frames"]) == len(sub)
+    for t, x in enumerate(sub):
+        frame = doc["frames"][t]
+        G = hand.joints(x)
+        np.testing.assert_allclose(frame["world"], G, atol=1e-4)
+        assert frame["confidence"] == pytest.approx(conf[t])
+        for view, camera, cam in zip(frame["views"], rig.cameras, doc["cameras"], strict=True):
+            np.testing.assert_allclose(view["keypoints_2d"], camera.project(G), atol=1e-3)
+            # the camera-frame 3D, and back to the world with the written R, t
+            p_cam = np.array(view["keypoints_3d"])
+            np.testing.assert_allclose(p_cam, G @ camera.R.T + camera.t, atol=1e-4)
+            back = (p_cam - np.array(cam["t"])) @ np.array(cam["R"])
+            np.testing.assert_allclose(back, G, atol=1e-3)
+            assert len(view["visible"]) == 21 and all(view["in_image"])
+
+
+@pytest.mark.parametrize("side", SIDES)
+def test_openpose_round_trip(poses, side, tmp_path):
+    hand = HandModel(HandShape.from_size(185.0, side=side))
+    rig = Rig.default()
+    sub = poses[:3]
+    conf = np.array([0.9, 0.5, 0.0])
+    write_openpose(tmp_path / "op", openpose_frames(sub, hand, rig, confidence=conf), rig.names)
+    for j, camera in enumerate(rig.cameras):
+        for t, x in enumerate(sub):
+            data = json.loads((tmp_path / "op" / openpose_name(rig.names[j], t)).read_text())
+            person = data["people"][0]
+            other = "left" if side == "right" else "right"
+            assert person[f"hand_{other}_keypoints_2d"] == []
+            kp = np.array(person[f"hand_{side}_keypoints_2d"]).reshape(21, 3)
+            np.testing.assert_allclose(kp[:, :2], camera.project(hand.joints(x)), atol=1e-3)
+            visible = joint_visibility(hand, x, camera)
+            np.testing.assert_allclose(kp[:, 2], np.where(visible, conf[t], 0.0), atol=1e-4)
+            kp3 = np.array(person[f"hand_{side}_keypoints_3d"]).reshape(21, 4)
+            np.testing.assert_allclose(kp3[:, :3], hand.joints(x), atol=1e-3)
+
+
+def test_visibility_of_open_hand_and_fist():
+    """A flat open hand hides none of its keypoints from either side; a fist seen from
+    the back of the hand hides the four fingertips curled under the knuckles."""
+    hand = HandModel()
+    front = Rig.default().cameras[0]  # the palm faces the default cameras
+    back = Camera.look_at(front.center * np.array([1.0, 1.0, -1.0]), target=[0.0, 90.0, 0.0])
+    open_, fist = named_pose("open"), named_pose("fist")
+    assert joint_visibility(hand, open_, front).all()
+    assert joint_visibility(hand, open_, back).all()
+    tips = [JOINTS.index(f"{d}_tip") for d in ("index", "middle", "ring", "little")]
+    assert not joint_visibility(hand, fist, back)[tips].any()
+    assert joint_visibility(hand, fist, back)[JOINTS.index("wrist")]
+
+
+def test_fit_confidence_is_iou_and_zero_when_lost():
+    conf = fit_confidence([[0.8, 0.6], [np.nan, np.nan], [1.2, 1.0]], [False, False, True])
+    np.testing.assert_allclose(conf, [0.7, 0.0, 0.0])
+
+
+@pytest.mark.parametrize("side", SIDES)
+def test_bvh_forward_kinematics_is_g_of_x(poses, side, tmp_path):
+    shape = HandShape.from_size(170.0, side=side)
+    path = tmp_path / "track.bvh"
+    path.write_text(bvh_text(poses, shape, fps=25.0))
+    got = bvh_world_joints(path, bvh_joint_order())
+    hand = HandModel(shape)
+    want = np.stack([hand.joints(x) for x in poses])
+    assert got.shape == want.shape
+    assert np.abs(got - want).max() <= 0.1
+
+
+@pytest.mark.parametrize("side", SIDES)
+def test_gltf_skinned_vertices_are_the_mesh(poses, side, tmp_path):
+    import pygltflib
+
+    shape = HandShape.from_size(185.0, side=side)
+    sub = poses[::7]
+    path = tmp_path / "track.glb"
+    path.write_bytes(glb_bytes(sub, shape, fps=25.0))
+    gltf = pygltflib.GLTF2().load(str(path))
+    assert gltf.asset.version == "2.0" and len(gltf.skins[0].joints) == 16
+    assert gltf.meshes[0].primitives[0].attributes.JOINTS_0 is not None
+    frames = [0, len(sub) // 2, len(sub) - 1]
+    got = gltf_skinned_vertices(path, frames)
+    want = mesh_vertices(shape, sub[frames])
+    for i, f in enumerate(frames):
+        assert np.abs(got[f] * 1000.0 - want[i]).max() <= 0.5  # metres in the file
+
+
+def test_left_mesh_fits_the_left_skeleton():
+    """The exported left mesh is a mesh of the left hand: its distances to the left
+    model's keypoints G(x) are the right mesh's distances to the right model's, and it
+    is not the right mesh."""
+    from scipy.spatial import cKDTree
+
+    x = named_pose("pinch")
+    dist = {}
+    for side in SIDES:
+        shape = HandShape.from_size(side=side)
+        vertices = mesh_vertices(shape, x[None])[0]
+        dist[side] = cKDTree(vertices).query(HandModel(shape).joints(x))[0]
+    np.testing.assert_allclose(dist["left"], dist["right"], atol=1e-6)
+    right = mesh_vertices(HandShape.from_size(), x[None])[0]
+    left = mesh_vertices(HandShape.from_size(side="left"), x[None])[0]
+    assert np.abs(left - right).max() > 50.0
+
+
+def _chromium() -> str | None:
+    return shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+@pytest.mark.skipif(_chromium() is None, reason="headless Chromium is not installed "
+                    "(apt-get install chromium)")  # fmt: skip
+def test_viewer_renders_in_headless_chromium(poses, tmp_path):
+    hand = HandModel()
+    joints = np.stack([hand.joints(x) for x in poses[:20]])
+    page = tmp_path / "view.html"
+    page.write_text(viewer_html(joints, rig=Rig.default(), quality=np.linspace(0.7, 0.9, 20)))
+    text = page.read_text()
+    assert "Plotly.newPlot" in text and not re.search(r"<script[^>]*\bsrc=", text)  # embedded
+    # a copy that records console errors and uncaught exceptions into the page's title
+    capture = (
+        "<script>window.__errors = [];"
+        "window.addEventListener('error', function (e) { __errors.push(String(e.message)); });"
+        "var __ce = console.error; console.error = function () {"
+        " __errors.push(Array.prototype.join.call(arguments, ' '));"
+        " __ce.apply(console, arguments); };"
+        "window.addEventListener('load', function () { setTimeout(function () {"
+        " document.title = 'errors:' + JSON.stringify(__errors)"
+        " + ' canvases:' + document.querySelectorAll('canvas').length; }, 500); });</script>"
+    )
+    probe = tmp_path / "probe.html"
+    probe.write_text(text.replace("<head>", "<head>" + capture, 1))
+    common = [_chromium(), "--headless", "--no-sandbox", "--disable-gpu",
+              "--disable-background-networking", "--window-size=1000,850",
+              "--virtual-time-budget=5000"]  # fmt: skip
+    dom = subprocess.run([*common, "--dump-dom", probe.as_uri()], capture_output=True,
+                         text=True, timeout=120)  # fmt: skip
+    assert dom.returncode == 0, dom.stderr[-2000:]
+    title = re.search(r"<title>(.*?)</title>", dom.stdout)
+    assert title is not None, "the page's scripts did not run"
+    assert title.group(1).startswith("errors:[] canvases:"), title.group(1)
+    assert int(title.group(1).rsplit(":", 1)[1]) > 0  # plotly made its canvases
+    shot = tmp_path / "shot.png"
+    run = subprocess.run([*common, f"--screenshot={shot}", page.as_uri()],
+                         capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert run.returncode == 0, run.stderr[-2000:]
+    import cv2
+
+    image = cv2.imread(str(shot))
+    assert image is not None and image.shape[0] > 100
+    # drawn: not one flat colour, and the WebGL scene shows the bones' red (#d62728)
+    assert image.std() > 10.0
+    b, g, r = (image[..., i].astype(int) for i in range(3))
+    assert np.sum((r > 150) & (g < 90) & (b < 90)) > 200

@@ -1,0 +1,165 @@
+"""`handvar export` and `handvar view` on a saved track, and their bad inputs.
+
+A track directory is written by `write_track_outputs` (as `handvar track --out` does)
+from a short synthetic sequence and its true poses; the exports are read back with the
+standard `json` module, bvhio and pygltflib. Every bad input gives one line on standard
+error, exit status 2, and leaves what existed byte-identical.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from handvar.cli import main
+from handvar.export.bvh import bvh_joint_order
+from handvar.hand.anthropometry import HandShape
+from handvar.hand.kinematics import HandModel
+from tests.export_readers import bvh_world_joints, gltf_skinned_vertices
+
+KNOWN = b"known bytes that must survive\n"
+
+
+def _saved_track(root: Path, side: str, length: float = 175.0) -> Path:
+    from handvar.synth.sequences import make_sequence
+    from handvar.tracking.outputs import write_track_outputs
+    from handvar.tracking.tracker import TrackResult
+
+    hand = HandModel(HandShape.from_size(length, side=side))
+    seq = make_sequence("benchmark", n_frames=4, hand=hand)
+    poses, joints = seq.truth.poses, seq.truth.joints
+    n, n_cams = len(poses), len(seq.rig)
+    result = TrackResult(
+        poses=poses, joints=joints, starts=poses, costs=np.zeros((n, 1)),
+        iterations=np.ones(n, dtype=int), seconds=np.zeros((n, 3)),
+        iou=np.full((n, n_cams), 0.9), cost=np.zeros(n), keypoint_error=np.full(n, np.nan),
+        lost=np.array([False, False, True, False]), empty=np.zeros((n, n_cams), dtype=bool),
+    )  # fmt: skip
+    out = root / f"track_{side}"
+    write_track_outputs(out, result, seq, hand, predictor="rvar", seed=0, video=False)
+    seq.rig.save(root / "rig.yml")
+    return out
+
+
+@pytest.fixture(scope="module")
+def tracks(tmp_path_factory) -> dict[str, Path]:
+    root = tmp_path_factory.mktemp("tracks")
+    return {side: _saved_track(root, side) for side in ("right", "left")}
+
+
+def _run(*args: str):
+    return CliRunner().invoke(main, list(args), catch_exceptions=False)
+
+
+@pytest.mark.parametrize("side", ["right", "left"])
+def test_export_every_format_reads_back(tracks, side, tmp_path):
+    track = tracks[side]
+    rig = str(track.parent / "rig.yml")
+    poses = np.load(track / "track.npz")["poses"]
+    shape = HandShape.from_size(175.0, side=side)
+    hand = HandModel(shape)
+
+    res = _run("export", str(track), "--format", "json", "--out", str(tmp_path / "k.json"),
+               "--calib", rig)  # fmt: skip
+    assert res.exit_code == 0, res.output
+    doc = json.loads((tmp_path / "k.json").read_text())
+    assert doc["hand"] == side and len(doc["frames"]) == len(poses)
+    for t, frame in enumerate(doc["frames"]):
+        np.testing.assert_allclose(frame["world"], hand.joints(poses[t]), atol=1e-3)
+        assert frame["confidence"] == pytest.approx(0.0 if t == 2 else 0.9)
+        assert len(frame["views"]) == 2
+
+    res = _run("export", str(track), "--format", "openpose", "--out", str(tmp_path / "op"),
+               "--calib", rig)  # fmt: skip
+    assert res.exit_code == 0, res.output
+    files = sorted(os.listdir(tmp_path / "op"))
+    assert len(files) == 2 * len(poses)
+    person = json.loads((tmp_path / "op" / files[0]).read_text())["people"][0]
+    assert len(person[f"hand_{side}_keypoints_2d"]) == 63
+
+    res = _run("export", str(track), "--format", "bvh", "--out", str(tmp_path / "t.bvh"))
+    assert res.exit_code == 0, res.output
+    got = bvh_world_joints(tmp_path / "t.bvh", bvh_joint_order())
+    want = np.stack([hand.joints(x) for x in poses])
+    assert np.abs(got - want).max() <= 0.1
+
+    res = _run("export", str(track), "--format", "gltf")  # default: into the track
+    assert res.exit_code == 0, res.output
+    from handvar.export.gltf import mesh_vertices
+
+    got = gltf_skinned_vertices(track / "track.glb", [0, 3])
+    want = mesh_vertices(shape, poses[[0, 3]])
+    assert np.abs(got[3] * 1000.0 - want[1]).max() <= 0.5
+
+    res = _run("view", str(track), "--out", str(tmp_path / "v.html"), "--calib", rig)
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "v.html").read_text().count("Plotly.newPlot") == 1
+
+
+def _snapshot(root: Path) -> dict[str, bytes]:
+    return {str(p): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+def _bad_cases(track: Path, root: Path) -> list[tuple[list[str], str]]:
+    missing = str(root / "no_such_track")
+    return [
+        (["export", missing, "--format", "bvh"], "TRACK_DIR"),
+        (["export", str(root / "existing.txt"), "--format", "bvh"], "TRACK_DIR"),
+        (["export", str(root / "not_a_track"), "--format", "json"], "TRACK_DIR"),
+        (["export", str(track), "--format", "fbx"], "fbx"),
+        (["export", str(track), "--format", "bvh", "--out", str(root / "nowhere" / "t.bvh")],
+         "--out"),
+        (["export", str(track), "--format", "bvh", "--out", str(root / "locked" / "t.bvh")],
+         "--out"),
+        (["export", str(track), "--format", "gltf", "--out", str(root / "existing.txt")],
+         "--out"),
+        (["export", str(track), "--format", "openpose", "--out", str(root / "existing.txt")],
+         "--out"),
+        (["export", str(track), "--format", "openpose"], "--calib"),
+        (["export", str(track), "--format", "json", "--calib", str(root / "existing.txt")],
+         "existing.txt"),
+        (["view", missing], "TRACK_DIR"),
+        (["view", str(track), "--out", str(root / "nowhere" / "v.html")], "--out"),
+        (["view", str(track), "--out", str(root / "locked" / "v.html")], "--out"),
+        (["view", str(track), "--out", str(root / "adir")], "--out"),
+    ]  # fmt: skip
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes into read-only folders")
+def test_unwritable_folder_is_refused_for_non_root(tracks, tmp_path):
+    locked = tmp_path / "locked"
+    locked.mkdir(mode=0o500)
+    res = CliRunner().invoke(main, ["view", str(tracks["right"]), "--out", str(locked / "v.html")])
+    assert res.exit_code == 2 and "--out" in res.output
+
+
+def test_bad_inputs_one_line_exit_2_nothing_damaged(tracks, tmp_path):
+    track = tracks["right"]
+    root = tmp_path
+    (root / "existing.txt").write_bytes(KNOWN)
+    (root / "adir").mkdir()
+    (root / "adir" / "keep.txt").write_bytes(KNOWN)
+    (root / "not_a_track").mkdir()
+    (root / "not_a_track" / "track.npz").write_bytes(KNOWN)
+    (root / "locked").mkdir()
+    (root / "locked").chmod(0o500)
+    before_root, before_track = _snapshot(root), _snapshot(track)
+    try:
+        for args, named in _bad_cases(track, root):
+            if "locked" in " ".join(args) and os.geteuid() == 0:
+                continue  # root may write anywhere; covered by the test above otherwise
+            res = CliRunner().invoke(main, args)
+            lines = res.output.strip().splitlines()
+            assert res.exit_code == 2, (args, res.output)
+            assert len(lines) == 1 and lines[0].startswith("handvar: error:"), (args, lines)
+            assert named in lines[0], (args, lines)
+            assert "Traceback" not in res.output and ".handvar-" not in res.output
+    finally:
+        (root / "locked").chmod(0o700)
+    assert _snapshot(root) == before_root
+    assert _snapshot(track) == before_track
