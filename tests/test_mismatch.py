@@ -136,7 +136,9 @@ def tiny_store(tmp_path_factory):
     )
     path = tmp_path_factory.mktemp("mismatch") / "flip.zarr"
     with (
-        LocalCluster(n_workers=1, threads_per_worker=1, processes=False) as cluster,
+        LocalCluster(
+            n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0"
+        ) as cluster,
         Client(cluster) as client,
     ):
         summary = run_experiment(cfg, path, client=client, progress=False)
