@@ -66,6 +66,7 @@ def make_inputs(root: Path) -> Path:
     np.savetxt(root / "series.txt", rng.normal(size=(30, 26)))
     np.savetxt(root / "series_huge.txt", 1e200 * rng.normal(size=(30, 26)))
     np.savetxt(root / "series_cols.txt", rng.normal(size=(30, 5)))
+    np.savetxt(root / "series_25.txt", rng.normal(size=(30, 25)))
     series_nan = rng.normal(size=(30, 26))
     series_nan[4, 4] = np.nan
     np.savetxt(root / "series_nan.txt", series_nan)
@@ -148,6 +149,11 @@ CASES = [
     _c("synth-seed-negative", "synth flip {r}/s1 --seed -1", "--seed"),
     _c("synth-seed-text", "synth flip {r}/s1 --seed abc", "--seed"),
     _c("synth-model-unknown", "synth flip {r}/s1 --model cubes", "--model"),
+    _c("synth-size-zero", "synth flip {r}/s1 --size 0 0", "--size"),
+    _c("synth-size-negative", "synth flip {r}/s1 --size -1 1", "--size"),
+    _c("synth-size-nan", "synth flip {r}/s1 --size nan 1", "--size"),
+    _c("synth-size-huge", "synth flip {r}/s1 --size 1e9 1e9", "--size"),
+    _c("synth-noise-nan", "synth flip {r}/s1 --noise nan", "--noise"),
     # show
     _c("show-unknown-pose", "show nonesuch --out {r}/existing.png", "POSE"),
     _c("show-short-file", "show {r}/short.txt --out {r}/existing.png", "short.txt"),
@@ -185,6 +191,10 @@ CASES = [
     _c("predict-csv-suffix", "predict {r}/series.txt --csv {r}/x.png", "--csv"),
     _c("predict-csv-empty", "predict {r}/series.txt --csv=", "--csv"),
     _c("predict-corrupt-npy", "predict {r}/noise.npy", "noise.npy"),
+    _c("predict-fps-nan", "predict {r}/series.txt --fps nan", "--fps"),
+    _c("predict-fps-inf", "predict {r}/series.txt --fps inf", "--fps"),
+    _c("predict-train-columns", "predict {r}/series.txt --train {r}/series_25.txt",
+       "--train: {r}/series_25.txt"),
     # track
     _c("track-unknown-seq", "track nonesuch --out {r}/t1", "SEQ"),
     _c("track-out-is-file", "track {r}/seq --out {r}/existing.txt", "existing.txt"),

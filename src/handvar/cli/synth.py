@@ -13,6 +13,17 @@ from handvar.cli.common import _FiniteRange, _one_line_errors
 # --- synth: render a synthetic sequence with ground truth ------------------------------
 
 
+def _check_size(ctx, param, value):
+    """Click callback: both factors of --size within `synth.mismatch.SIZE_RANGE`."""
+    from handvar.synth.mismatch import SIZE_RANGE
+
+    low, high = SIZE_RANGE
+    for factor in value:
+        if not low <= factor <= high:
+            raise click.BadParameter(f"expected factors in [{low:g}, {high:g}]; got {factor:g}")
+    return value
+
+
 @click.command("synth")
 @click.argument("name")
 @click.argument("out", type=click.Path())
@@ -33,12 +44,13 @@ from handvar.cli.common import _FiniteRange, _one_line_errors
     default=None,
     help="Keep only the first N frames (a quick preview).",
 )
-@click.option("--size", nargs=2, type=float, default=(1.0, 1.0), show_default=True,
+@click.option("--size", nargs=2, type=_FiniteRange(), default=(1.0, 1.0),
+              show_default=True, callback=_check_size,
               metavar="LENGTH BREADTH",
               help="Hand length and breadth as factors of the default 185 mm hand.")  # fmt: skip
 @click.option("--speed", type=click.FloatRange(min=1.0), default=1.0, show_default=True,
               help="Replay the motion this many times faster (fewer frames).")  # fmt: skip
-@click.option("--noise", type=click.FloatRange(min=0.0, max=50.0), default=0.0,
+@click.option("--noise", type=_FiniteRange(min=0.0, max=50.0), default=0.0,
               show_default=True, help="Segmentation errors, px.")  # fmt: skip
 @_one_line_errors
 def synth_command(
