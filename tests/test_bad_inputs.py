@@ -76,6 +76,24 @@ def make_inputs(root: Path) -> Path:
     (root / "header.mp4").write_bytes(
         b"\x00\x00\x00\x18ftypmp42\x00\x00\x00\x00mp42isom" + bytes(3000)
     )
+    # a 12-frame MJPG video cut in half: the container still claims 12 frames, 5 decode
+    import cv2
+
+    writer = cv2.VideoWriter(str(root / "short.avi"), cv2.VideoWriter_fourcc(*"MJPG"), 25, (64, 48))
+    for _ in range(12):
+        writer.write(rng.integers(0, 256, (48, 64, 3), dtype=np.uint8))
+    writer.release()
+    whole = (root / "short.avi").read_bytes()
+    (root / "short.avi").write_bytes(whole[: len(whole) // 2])
+    # calibrations of that video the pinhole model cannot hold: K[2][2] = 0, a skew
+    for name, (i, j, value) in {"k22.yml": (2, 2, 0.0), "skew.yml": (0, 1, 500.0)}.items():
+        K = np.array([[60.0, 0, 31.5], [0, 60.0, 23.5], [0, 0, 1]])
+        K[i, j] = value
+        fs = cv2.FileStorage(str(root / name), cv2.FILE_STORAGE_WRITE)
+        fs.write("camera_matrix", K)
+        fs.write("image_width", 64)
+        fs.write("image_height", 48)
+        fs.release()
     # a sequence of 2 frames, and damaged copies of it
     seq = make_sequence("benchmark", n_frames=2)
     write_sequence(seq, root / "seq")
@@ -241,6 +259,14 @@ CASES = [
        subprocess=True),
     _c("track-header-only-video", "track {r}/header.mp4 --init open --out {r}/track_out",
        "header.mp4", subprocess=True),
+    _c("track-short-video", "track {r}/short.avi --init open --out {r}/track_out",
+       "short.avi: decoding stopped after 5 of the 12 frames", subprocess=True),
+    _c("init-short-video", "init {r}/short.avi --frame 8 --out {r}/existing.txt",
+       "short.avi: decoding stopped after 5 of the 12 frames", subprocess=True),
+    _c("track-calib-k22", "track {r}/short.avi --calib {r}/k22.yml --init open --out {r}/t1",
+       "k22.yml: key 'camera_matrix': expected a pinhole matrix (K[2][2] = 1", subprocess=True),
+    _c("init-calib-skew", "init {r}/short.avi --calib {r}/skew.yml --out {r}/existing.txt",
+       "skew.yml: key 'camera_matrix': expected no skew (K[0][1] = 0", subprocess=True),
     # experiment
     _c("experiment-set-unknown", "experiment --out {r}/e.zarr --set nothing=1", "--set"),
     _c("experiment-set-trials-zero", "experiment --out {r}/e.zarr --set trials=0", "trials"),
@@ -326,12 +352,11 @@ def run_case(case: Case, root: Path) -> Outcome:
     if case.subprocess:
         proc = subprocess.run(
             [sys.executable, "-c", "from handvar.cli import main; main()", *args],
-            capture_output=True,
-            text=True,
+            capture_output=True,  # bytes: text mode would turn "\r" into "\n"
             env={**os.environ, "PYTHONPATH": str(Path(__file__).parents[1] / "src")},
             timeout=300,
         )
-        status, output = proc.returncode, proc.stdout + proc.stderr
+        status, output = proc.returncode, (proc.stdout + proc.stderr).decode(errors="replace")
     else:
         result = CliRunner().invoke(main, args)
         status, output = result.exit_code, result.output
@@ -339,7 +364,9 @@ def run_case(case: Case, root: Path) -> Outcome:
             import traceback
 
             output += "".join(traceback.format_exception(result.exception))
-    lines = [line for line in output.splitlines() if line.strip()]
+    # What a terminal shows: a progress bar erased with carriage returns is gone
+    lines = [line.rsplit("\r", 1)[-1] for line in output.split("\n")]
+    lines = [line for line in lines if line.strip()]
     return Outcome(status, lines, before, snapshot(root))
 
 

@@ -792,10 +792,18 @@ class _NodeReader:
 
 
 def _camera_from_params(
-    K: np.ndarray, dist, R, T, size: tuple[int, int], where: str, prefix: str = ""
+    K: np.ndarray,
+    dist,
+    R,
+    T,
+    size: tuple[int, int],
+    where: str,
+    prefix: str = "",
+    key: str = "camera_matrix",
 ) -> Camera:
     if K.shape != (3, 3):
-        raise ValueError(f"{where}: key {prefix}'camera_matrix' expected 3x3; got {K.shape}")
+        raise ValueError(f"{where}: key {prefix}{key!r} expected 3x3; got {K.shape}")
+    _check_pinhole(K, f"{where}: key {prefix}{key!r}")
     try:
         return Camera(
             fx=K[0, 0],
@@ -809,6 +817,25 @@ def _camera_from_params(
         )
     except (TypeError, ValueError) as exc:
         raise type(exc)(f"{where}: {prefix}{exc}") from None
+
+
+def _check_pinhole(K: np.ndarray, where: str) -> None:
+    """Raise unless the 3x3 `K` is a pinhole matrix [[fx, 0, cx], [0, fy, cy], [0, 0, 1]].
+
+    The camera model holds fx, fy, cx and cy only: a skew K[0][1], a bottom row other
+    than (0, 0, 1) or a nonzero K[1][0] cannot be represented, and reading just the
+    four entries would silently project elsewhere than the file says.
+    """
+    expected = {(0, 1): 0.0, (1, 0): 0.0, (2, 0): 0.0, (2, 1): 0.0, (2, 2): 1.0}
+    scale = max(abs(float(K[0, 0])), abs(float(K[1, 1])), 1.0)
+    for (i, j), value in expected.items():
+        tol = 1e-9 if i == 2 else 1e-9 * scale  # the bottom row is unitless
+        if not abs(float(K[i, j]) - value) <= tol:  # also NaN
+            what = "no skew" if (i, j) == (0, 1) else "a pinhole matrix"
+            raise ValueError(
+                f"{where}: expected {what} (K[{i}][{j}] = {value:g}, the camera model holds "
+                f"fx, fy, cx, cy only); got K[{i}][{j}] = {float(K[i, j]):g}"
+            )
 
 
 def _camera_from_node(reader: _NodeReader, size, where: str) -> Camera:
@@ -843,6 +870,6 @@ def _rig_from_stereo(reader: _NodeReader, size) -> Rig:
     D2 = reader.matrix("D2", required=False)
     R = reader.matrix("R")
     T = reader.matrix("T")
-    cam1 = _camera_from_params(K1, D1, None, None, wh, where)
-    cam2 = _camera_from_params(K2, D2, R, T, wh, where)
+    cam1 = _camera_from_params(K1, D1, None, None, wh, where, key="K1")
+    cam2 = _camera_from_params(K2, D2, R, T, wh, where, key="K2")
     return Rig((cam1, cam2), ("left", "right"))

@@ -432,6 +432,7 @@ def open_source(
     fov: float | None = None,
     scale: float = 1.0,
     fps: float | None = None,
+    allow_short: bool = False,
 ) -> VideoSource:
     """Open synchronised recordings, one per camera, with their calibration.
 
@@ -452,6 +453,11 @@ def open_source(
         the skin model and the tracker); the rig is scaled to match.
     fps : float, keyword-only, optional
         Frame rate; by default the first video's, else `SourceSettings.fps`.
+    allow_short : bool, keyword-only
+        Read a video that stops decoding before the frame count its container states
+        (truncated or damaged) to where it stops, with a
+        `handvar.vision.frames.ShortVideoWarning`; by default reading it raises
+        `ValueError` naming the file, the frames read and the frames claimed.
 
     Returns
     -------
@@ -473,7 +479,7 @@ def open_source(
     if not paths:
         raise ValueError("paths: expected one video file or image folder per camera; got none")
     scale = as_float(scale, "scale", minimum=0.0, maximum=4.0, exclusive_minimum=True)
-    readers = tuple(open_frames(p) for p in paths)
+    readers = tuple(open_frames(p, allow_short=allow_short) for p in paths)
     if calibration is None:
         if len(readers) != 1:
             raise ValueError(
