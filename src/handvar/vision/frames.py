@@ -153,7 +153,6 @@ class FrameReader:
         finally:
             cap.release()
 
-
     def _ended(self, index: int, stop: int | None) -> None:
         """Decoding stopped at frame `index`: refuse (or warn) if the container says more."""
         wanted = self.n_frames if stop is None else min(stop, self.n_frames)
