@@ -85,6 +85,12 @@ def make_inputs(root: Path) -> Path:
     writer.release()
     whole = (root / "short.avi").read_bytes()
     (root / "short.avi").write_bytes(whole[: len(whole) // 2])
+    # 4 frames of skin colour wall to wall: no hand in view
+    writer = cv2.VideoWriter(str(root / "skin.avi"), cv2.VideoWriter_fourcc(*"MJPG"), 25, (64, 48))
+    for _ in range(4):
+        skin = np.array([120.0, 150.0, 210.0]) + rng.normal(0.0, 4.0, (48, 64, 3))
+        writer.write(np.clip(skin, 0, 255).astype(np.uint8))
+    writer.release()
     # calibrations of that video the pinhole model cannot hold: K[2][2] = 0, a skew
     for name, (i, j, value) in {"k22.yml": (2, 2, 0.0), "skew.yml": (0, 1, 500.0)}.items():
         K = np.array([[60.0, 0, 31.5], [0, 60.0, 23.5], [0, 0, 1]])
@@ -263,6 +269,10 @@ CASES = [
        "short.avi: decoding stopped after 5 of the 12 frames", subprocess=True),
     _c("init-short-video", "init {r}/short.avi --frame 8 --out {r}/existing.txt",
        "short.avi: decoding stopped after 5 of the 12 frames", subprocess=True),
+    _c("track-skin-video", "track {r}/skin.avi --out {r}/track_out",
+       "skin.avi: expected a hand in some frame", subprocess=True),
+    _c("init-skin-video", "init {r}/skin.avi --out {r}/existing.txt",
+       "camera 'skin.avi', frame 0: not a hand", subprocess=True),
     _c("track-calib-k22", "track {r}/short.avi --calib {r}/k22.yml --init open --out {r}/t1",
        "k22.yml: key 'camera_matrix': expected a pinhole matrix (K[2][2] = 1", subprocess=True),
     _c("init-calib-skew", "init {r}/short.avi --calib {r}/skew.yml --out {r}/existing.txt",

@@ -392,8 +392,15 @@ class VideoSource:
         handvar.io.Sequence
             Without ground truth; the provenance names the files, the frame range, the
             scale and whether the camera was assumed.
+
+        Raises
+        ------
+        EmptySilhouetteError
+            A frame's silhouette is empty (unless ``allow_empty``), or no frame read
+            shows a hand at all (also with ``allow_empty``).
         """
         from handvar.io import Sequence
+        from handvar.vision.silhouette import EmptySilhouetteError
 
         it = self.silhouettes(start, stop, step, **kwargs)
         if progress is not None:
@@ -408,6 +415,14 @@ class VideoSource:
             raise ValueError(
                 f"start: expected a frame range inside the recording "
                 f"({self.n_frames} frames); got start={start}, stop={stop}"
+            )
+        if not any(m.any() for m in masks):  # allow_empty, and nothing anywhere
+            raise EmptySilhouetteError(
+                f"{', '.join(self.names)}: expected a hand in some frame; none of the "
+                f"{len(masks)} frames read shows one (every silhouette is empty, or skin "
+                "colour touching all four borders of the image)",
+                camera=self.names[0],
+                frame=None,
             )
         provenance = {
             "source": [str(r.path) for r in self.readers],
