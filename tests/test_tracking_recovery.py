@@ -166,7 +166,7 @@ def test_without_a_first_pose_every_frame_empty_is_refused(short_sequence):
     seq = short_sequence
     frames = [np.zeros_like(np.asarray(seq.masks[t])) for t in range(3)]
     tracker = Tracker(seq.rig, HandModel(), RVAR(), np.random.default_rng(0))
-    with pytest.raises(ValueError, match="frames: expected a frame with a silhouette .* all 3"):
+    with pytest.raises(ValueError, match=r"frames: expected a frame with a silhouette .* all 3"):
         track_with_recovery(tracker, frames)
     kept = track_with_recovery(tracker, frames, seq.truth.poses[0])  # given: flagged empty
     assert kept.quality.empty.all() and np.all(kept.track.poses == seq.truth.poses[0])

@@ -259,7 +259,7 @@ def test_silhouettes_from_frames_for_several_cameras(model):
 def test_skin_colour_touching_every_border_is_not_a_hand(model):
     from handvar.vision import NotAHandError
 
-    a, truth = _skin_scene()
+    a, _ = _skin_scene()
     everywhere = np.full_like(a, (110, 140, 200))  # the scene's skin tone, wall to wall
     with pytest.raises(NotAHandError, match=r"camera 'right', frame 3: not a hand .* 100%"):
         silhouettes_from_frames([a, everywhere], model, frame=3, cameras=["left", "right"])
