@@ -106,6 +106,10 @@ def make_inputs(root: Path) -> Path:
     write_sequence(seq, root / "seq_trunc")
     png = root / "seq_trunc" / "cam0" / "mask_00001.png"
     png.write_bytes(png.read_bytes()[:50])
+    write_sequence(seq, root / "seq_far")  # ground truth 1e12 mm away
+    truth = dict(np.load(root / "seq_far" / "truth.npz"))
+    truth["poses"][1, 2] = 1e12
+    np.savez_compressed(root / "seq_far" / "truth.npz", **truth)
     write_sequence(seq, root / "seq_json")
     (root / "seq_json" / "sequence.json").write_text("{not json")
     # a 3x3 blob in both cameras: nothing the hand model can fit
@@ -231,6 +235,9 @@ CASES = [
     _c("track-hand-length", "track {r}/seq --hand-length 10 --out {r}/t1", "--hand-length"),
     _c("track-calib-on-seq", "track {r}/seq --calib {r}/existing.txt --out {r}/t1", "--calib"),
     _c("track-truncated-png", "track {r}/seq_trunc --out {r}/track_out", "mask_00001.png"),
+    _c("track-far-truth", "track {r}/seq_far --out {r}/track_out",
+       "truth.npz: poses: expected a pose within the parameter limits; tz = 1e+12 at frame 1"),
+    _c("show-far-truth", "show {r}/seq_far --frame 1 --out {r}/existing.png", "truth.npz: poses"),
     _c("track-bad-json", "track {r}/seq_json --out {r}/track_out", "sequence.json"),
     _c("track-other-dir", "track {r}/adir --out {r}/track_out", "adir"),
     _c("track-scale-zero", "track {r}/seq --scale 0 --out {r}/t1", "--scale"),

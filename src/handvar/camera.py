@@ -63,7 +63,7 @@ from handvar.geometry.distortion import (
 )
 from handvar.validate import as_array, as_float, as_instance, readonly
 
-__all__ = ["Camera", "PackedRig", "Rig"]
+__all__ = ["IN_FRONT_DEPTH", "Camera", "PackedRig", "Rig", "check_in_front"]
 
 
 # --- Camera --------------------------------------------------------------------------
@@ -723,6 +723,41 @@ class Rig:
     def scaled(self, factor: float) -> Rig:
         """Every camera through :meth:`Camera.scaled` (same names)."""
         return Rig(tuple(c.scaled(factor) for c in self), self.names)
+
+
+#: Depth (mm) a joint must exceed in every camera to count as in front of it (design §13.5).
+IN_FRONT_DEPTH = 1.0
+
+
+def check_in_front(joints, rig: Rig, name: str) -> None:
+    """Raise unless every joint lies in front of every camera of `rig` (design §13.5).
+
+    Parameters
+    ----------
+    joints : (..., 21, 3) array_like
+        Joints in the world frame, mm: one hand, or a track of them (frames first).
+    rig : Rig
+    name : str
+        What the joints came from, named in the message.
+
+    Raises
+    ------
+    ValueError
+        Naming `name`, the camera, the nearest depth and, for a track, the frame.
+    """
+    joints = np.asarray(joints, dtype=float)
+    for cam_name, cam in zip(rig.names, rig.cameras, strict=True):
+        depth = np.asarray(cam.camera_from_world(joints.reshape(-1, 3)))[:, 2]
+        depth = depth.reshape(joints.shape[:-1])
+        if not np.all(depth > IN_FRONT_DEPTH):
+            frame = ""
+            if depth.ndim > 1:
+                nearest = depth.reshape(len(depth), -1).min(axis=1)
+                frame = f" at frame {int(np.argmax(~(nearest > IN_FRONT_DEPTH)))}"
+            raise ValueError(
+                f"{name}: expected the hand in front of every camera; it is behind or at "
+                f"camera {cam_name!r}{frame} (nearest depth {np.nanmin(depth):.0f} mm)"
+            )
 
 
 class _NodeReader:

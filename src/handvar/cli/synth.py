@@ -133,31 +133,16 @@ def load_pose(spec: str):
 
 def check_limits(x, name: str):
     """`x` if every parameter lies within the joint limits of `handvar.params`, else raise."""
-    import numpy as np
+    from handvar.params import check_limits as check
 
-    from handvar.params import LOWER, NAMES, UPPER
-
-    outside = np.flatnonzero((x < LOWER) | (x > UPPER))
-    if outside.size:
-        i = int(outside[0])
-        raise ValueError(
-            f"{name}: expected a pose within the parameter limits; {NAMES[i]} = {x[i]:g} "
-            f"is outside [{LOWER[i]:g}, {UPPER[i]:g}]"
-        )
-    return x
+    return check(x, name)
 
 
 def check_in_front(joints, rig, name: str) -> None:
     """Raise unless every joint (21, 3), mm, lies in front of every camera of `rig`."""
-    import numpy as np
+    from handvar.camera import check_in_front as check
 
-    for cam_name, cam in zip(rig.names, rig.cameras, strict=True):
-        depth = np.asarray(cam.camera_from_world(joints))[:, 2]
-        if not np.all(depth > 1.0):
-            raise ValueError(
-                f"{name}: expected the hand in front of every camera; it is behind or at "
-                f"camera {cam_name!r} (nearest depth {depth.min():.0f} mm)"
-            )
+    check(joints, rig, name)
 
 
 @click.command("show")
