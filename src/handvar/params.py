@@ -126,10 +126,10 @@ def check_limits(x, name: str = "x") -> np.ndarray:
 
     Examples
     --------
-    >>> check_limits(np.r_[0.0, 0.0, 5e3, np.zeros(23)], "pose")
+    >>> check_limits(np.r_[0.0, 0.0, 5e3, np.zeros(23)], "x")
     Traceback (most recent call last):
     ...
-    ValueError: pose: expected a pose within the parameter limits; tz = 5000 is outside [-2000, 2000]
+    ValueError: x: expected a pose within the parameter limits; tz = 5000 is outside [-2000, 2000]
     """
     x = np.asarray(x, dtype=float)
     outside = np.argwhere((x < LOWER) | (x > UPPER))
