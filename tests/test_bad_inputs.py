@@ -132,6 +132,14 @@ def make_inputs(root: Path) -> Path:
     (root / "corrupt.zarr" / "error" / "2.0.0").write_bytes(b"garbage")
     shutil.copytree(store, root / "deleted.zarr")
     (root / "deleted.zarr" / "poses" / "1.0.0.0").unlink()
+    for name, chunks in {  # chunks whose fill value would be read as data
+        "no_r2.zarr": ["r2_joints/1.0.0"],
+        "no_timings.zarr": ["timings/2.0.0.0"],
+        "no_masks.zarr": ["masks/3.0.0.0", "poses/1.0.0.0"],
+    }.items():
+        shutil.copytree(store, root / name)
+        for chunk in chunks:
+            (root / name / chunk).unlink()
     shutil.copytree(store, root / "nanned.zarr")
     # NaN where a finished trial must have numbers: rewrite one trial's errors
     from handvar.evaluation.store import _write_region
@@ -309,6 +317,13 @@ CASES = [
     _c("report-not-a-store", "report {r}/adir --out {r}/report_out", "adir"),
     _c("report-corrupt-chunk", "report {r}/corrupt.zarr --out {r}/report_out", "trial 0"),
     _c("report-deleted-chunk", "report {r}/deleted.zarr --out {r}/report_out", "trial 0"),
+    _c("report-deleted-r2", "report {r}/no_r2.zarr --out {r}/report_out",
+       "trial 0 of predictor 'decelerating' (r2_joints: chunk file 1.0.0 missing)"),
+    _c("report-deleted-timings", "report {r}/no_timings.zarr --out {r}/report_out",
+       "(timings: chunk file 2.0.0.0 missing)"),
+    _c("experiment-deleted-masks",
+       "experiment --out {r}/no_masks.zarr --set trials=1 --set frames=6 "
+       "--set trial_kind=openloop", "masks: chunk file 3.0.0.0 missing"),
     _c("report-nan-trial", "report {r}/nanned.zarr --out {r}/report_out", "trial 0"),
     _c("report-out-is-file", "report {r}/store.zarr --out {r}/existing.txt", "existing.txt"),
     # keypoints
