@@ -11,7 +11,9 @@ checked before any work (:func:`check_output_file`, :func:`check_output_dir`), w
 aside, and all are renamed into place only once every one of them was written
 (design §13.1). A directory is replaced by :func:`replace_directory`, which leaves a
 marked copy of the old one that :func:`recover_directory` restores should the swap be
-killed half-way (§13.2).
+killed half-way (§13.2). A directory that one run writes is locked against a second
+run at the same time (:func:`lock_directory`, an advisory ``flock`` on the directory
+itself, so no lock file is left behind).
 
 This module is a leaf: it imports nothing from handvar.
 """
@@ -23,6 +25,7 @@ import os
 import re
 import shutil
 import tempfile
+import warnings
 from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
@@ -30,10 +33,13 @@ from typing import Any
 __all__ = [
     "OLD_MARK",
     "TMP_MARK",
+    "BusyWarning",
+    "DirectoryLock",
     "OutputSet",
     "check_output_dir",
     "check_output_file",
     "file_mode",
+    "lock_directory",
     "recover_directory",
     "remove_stale_temporaries",
     "replace_directory",
@@ -252,6 +258,7 @@ class OutputSet:
     def __init__(self) -> None:
         self._temporaries: list[str] = []
         self._moves: list[tuple[str, str, bool]] = []  # (tmp, destination, is_dir)
+        self._removals: list[str] = []  # earlier outputs this set replaces by nothing
         self.committed = False
 
     def __enter__(self) -> OutputSet:
@@ -283,6 +290,10 @@ class OutputSet:
         if tmp not in self._temporaries:
             self._temporaries.append(tmp)
         self._moves.append((tmp, os.fspath(path), directory))
+
+    def remove(self, path: str | os.PathLike) -> None:
+        """Remove `path` (a file or folder of an earlier run) on :meth:`commit`, last."""
+        self._removals.append(os.fspath(path))
 
     def add(
         self, path: str | os.PathLike, write: Callable[[str], Any], *, directory: bool = False
@@ -336,8 +347,13 @@ class OutputSet:
         for backup, _ in backups:
             with contextlib.suppress(OSError):
                 os.unlink(backup)
+        placed = {path for _, path, _ in self._moves}
+        for path in self._removals:
+            if path not in placed:
+                _remove(path)
         self._temporaries.clear()
         self._moves.clear()
+        self._removals.clear()
         self.committed = True
 
     def abort(self) -> None:
@@ -346,6 +362,7 @@ class OutputSet:
             _remove(tmp)
         self._temporaries.clear()
         self._moves.clear()
+        self._removals.clear()
 
 
 # --- replacing a directory ---------------------------------------------------------------
@@ -420,3 +437,114 @@ def _glob_escape(name: str) -> str:
     import glob
 
     return glob.escape(name)
+
+
+# --- one writer per directory -------------------------------------------------------------
+
+_HELD: dict[str, DirectoryLock] = {}  # directories this process holds, by real path
+
+
+class BusyWarning(UserWarning):
+    """Another process holds the directory: :func:`lock_directory` waits for it."""
+
+
+class DirectoryLock:
+    """An advisory lock on a directory held by this process (see :func:`lock_directory`).
+
+    Re-entrant within the process: locking a directory this process already holds
+    counts one more holder. :meth:`release` (or leaving the ``with`` block) lets it go;
+    a directory the lock created is removed again if it is still empty.
+    """
+
+    def __init__(self, path: str, fd: int | None, made: bool) -> None:
+        self.path = path
+        self._fd = fd
+        self._made = made
+        self._count = 1
+
+    def __enter__(self) -> DirectoryLock:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        self.release()
+
+    def release(self) -> None:
+        """Let one holder go; the last one unlocks (and removes an empty made folder)."""
+        if self._count == 0:
+            return
+        self._count -= 1
+        if self._count:
+            return
+        _HELD.pop(os.path.realpath(self.path), None)
+        if self._fd is not None:
+            os.close(self._fd)  # closing the descriptor releases the flock
+            self._fd = None
+        if self._made:
+            with contextlib.suppress(OSError):
+                os.rmdir(self.path)  # only if empty: nothing was written into it
+
+
+def lock_directory(path: str | os.PathLike, argument: str, *, wait: bool = False) -> DirectoryLock:
+    """Lock the directory `path` (made if missing) against another process writing it.
+
+    Two runs writing the same outputs at once would remove each other's temporaries
+    (:func:`remove_stale_temporaries`) and mix their files. The lock is an advisory
+    ``flock`` on the directory, released when the holder ends, however it ends.
+
+    Parameters
+    ----------
+    path : path-like
+        The directory; made (with its parents) if missing.
+    argument : str
+        The option it came from, named in the message.
+    wait : bool, keyword-only
+        Wait for the other run to finish instead of raising (saying so first with a
+        `BusyWarning`).
+
+    Returns
+    -------
+    DirectoryLock
+        Use as a context manager, or call ``release()``.
+
+    Raises
+    ------
+    ValueError
+        ``ARGUMENT: another run is writing PATH`` (without `wait`).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = tempfile.mkdtemp()
+    >>> with lock_directory(folder, "--out"):
+    ...     pass
+    """
+    path = os.fspath(path)
+    key = os.path.realpath(path)
+    held = _HELD.get(key)
+    if held is not None:
+        held._count += 1
+        return held
+    made = not os.path.exists(path)
+    os.makedirs(path, exist_ok=True)
+    try:
+        import fcntl
+    except ImportError:  # no flock on this platform: no lock
+        lock = DirectoryLock(path, None, made)
+        _HELD[key] = lock
+        return lock
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            busy = f"{argument}: another run is writing {path}"
+            if not wait:
+                raise ValueError(f"{busy}; wait for it to end") from None
+            warnings.warn(f"{busy}; waiting for it to end", BusyWarning, stacklevel=2)
+            fcntl.flock(fd, fcntl.LOCK_EX)
+    except BaseException:
+        os.close(fd)
+        raise
+    lock = DirectoryLock(path, fd, made)
+    _HELD[key] = lock
+    return lock

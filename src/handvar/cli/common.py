@@ -39,6 +39,21 @@ def _one_line_errors(func):
     return wrapper
 
 
+def _locks_out(func):
+    """The command writes the directory --out: checked, then locked for the whole run, so
+    a second run into it stops before any work ("another run is writing OUT")."""
+
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        from handvar.atomic import check_output_dir, lock_directory
+
+        check_output_dir(kwargs["out"], "--out")
+        with lock_directory(kwargs["out"], "--out"):
+            return func(*args, **kwargs)
+
+    return wrapper
+
+
 def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """`warnings.showwarning` of the commands: one line on standard error, no source."""
     from handvar.atomic import user_paths

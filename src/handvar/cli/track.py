@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import click
 
-from handvar.cli.common import _FiniteRange, _one_line_errors, _open_recordings, _recording_options
+from handvar.cli.common import (
+    _FiniteRange,
+    _locks_out,
+    _one_line_errors,
+    _open_recordings,
+    _recording_options,
+)
 from handvar.cli.synth import check_in_front, load_pose
 from handvar.predictors.catalogue import CATALOGUE
 
@@ -75,6 +81,7 @@ def _check_predictor(ctx, param, value: str) -> str:
               "[default: on for recordings and with --keypoints].")  # fmt: skip
 @_recording_options
 @_one_line_errors
+@_locks_out
 def track_command(
     seq, predictor, init, seed, n_frames, out, video, hand_length, side, model, keypoint_files,
     keypoint_every, carry, keypoint_tips, recover, calib, fov, scale,
