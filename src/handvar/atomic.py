@@ -21,6 +21,7 @@ This module is a leaf: it imports nothing from handvar.
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import re
 import shutil
@@ -35,9 +36,11 @@ __all__ = [
     "TMP_MARK",
     "BusyWarning",
     "DirectoryLock",
+    "DiskFullError",
     "OutputSet",
     "check_output_dir",
     "check_output_file",
+    "disk_full",
     "file_mode",
     "lock_directory",
     "recover_directory",
@@ -46,6 +49,7 @@ __all__ = [
     "temporary_name",
     "user_paths",
     "write_atomic",
+    "write_png",
 ]
 
 #: Part of the name of every temporary this package makes (files and directories).
@@ -110,9 +114,11 @@ def _translated(exc: BaseException) -> BaseException:
     """`exc` again, its message naming the user's paths instead of our temporaries."""
     text = str(exc)
     fixed = user_paths(text)
-    if fixed == text:
+    if fixed == text and not isinstance(exc, DiskFullError):
         return exc
     kind = type(exc)
+    if isinstance(exc, DiskFullError):
+        return DiskFullError(exc.errno, exc.strerror, user_paths(exc.filename))
     if isinstance(exc, OSError):
         kind = OSError
     elif not isinstance(exc, ValueError | TypeError):
@@ -121,6 +127,45 @@ def _translated(exc: BaseException) -> BaseException:
         return kind(fixed)
     except Exception:  # an exception type with another signature
         return ValueError(fixed)
+
+
+#: Error numbers of a write that failed for want of space (a full disk, a quota).
+_NO_SPACE = (errno.ENOSPC, errno.EDQUOT)
+
+
+class DiskFullError(OSError):
+    """A write failed because the disk (or the user's quota) is full; names the path."""
+
+    def __str__(self) -> str:
+        return f"{self.filename}: cannot write, the disk is full ({os.strerror(self.errno)})"
+
+
+def disk_full(exc: BaseException, path: str | os.PathLike) -> BaseException:
+    """`exc` as a `DiskFullError` naming `path` if it is a write that found no space."""
+    if isinstance(exc, OSError) and exc.errno in _NO_SPACE and not isinstance(exc, DiskFullError):
+        return DiskFullError(exc.errno, os.strerror(exc.errno), os.fspath(path))
+    return exc
+
+
+def write_png(path: str | os.PathLike, image, params=()) -> None:
+    """Write the (H, W) or (H, W, 3) BGR uint8 `image` to `path` as a PNG.
+
+    Encoded in memory and written by Python, so a failed write raises `OSError` (a
+    `DiskFullError` on a full disk) instead of libpng printing its own message.
+    """
+    import cv2
+
+    ok, data = cv2.imencode(".png", image, list(params))
+    if not ok:
+        raise ValueError(f"{path}: cannot encode the image as a PNG")
+    try:
+        with open(path, "wb") as fh:
+            fh.write(data.tobytes())
+    except OSError as exc:
+        new = disk_full(exc, path)
+        if new is exc:
+            raise
+        raise new from None
 
 
 def write_atomic(path: str | os.PathLike, write: Callable[[str], Any]) -> None:
@@ -306,7 +351,7 @@ class OutputSet:
         try:
             write(tmp)
         except Exception as exc:
-            new = _translated(exc)
+            new = _translated(disk_full(exc, path))
             if new is exc:
                 raise
             raise new from None

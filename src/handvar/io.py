@@ -43,6 +43,7 @@ from handvar.atomic import (
     recover_directory,
     remove_stale_temporaries,
     write_atomic,
+    write_png,
 )
 from handvar.atomic import check_output_dir as _check_writable_dir
 from handvar.camera import Rig, check_in_front
@@ -318,8 +319,7 @@ class Sequence:
 
 
 def _write_png(path: Path, image: np.ndarray, params: list[int]) -> None:
-    if not cv2.imwrite(str(path), image, params):
-        raise OSError(f"{path}: could not write the PNG image")
+    write_png(path, image, params)
 
 
 def _is_sequence_dir(path: Path) -> bool:

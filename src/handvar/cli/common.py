@@ -23,13 +23,15 @@ def _one_line_errors(func):
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
-        from handvar.atomic import user_paths
+        from handvar.atomic import disk_full, user_paths
 
         try:
             with warnings.catch_warnings():
                 warnings.showwarning = _one_line_warning
                 return func(*args, **kwargs)
         except (ValueError, TypeError, OSError) as exc:
+            if isinstance(exc, OSError) and exc.filename is not None:
+                exc = disk_full(exc, exc.filename)  # "PATH: ... the disk is full"
             msg = user_paths(" ".join(str(exc).split()))
             if isinstance(exc, OSError) and exc.filename is not None and not msg:
                 msg = f"{exc.filename}: cannot be written"

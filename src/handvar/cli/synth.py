@@ -193,7 +193,7 @@ def show_command(
     import cv2
     import numpy as np
 
-    from handvar.atomic import OutputSet, check_output_file
+    from handvar.atomic import OutputSet, check_output_file, write_png
     from handvar.camera import Rig
     from handvar.hand.anthropometry import HandShape
     from handvar.hand.kinematics import HandModel
@@ -222,12 +222,11 @@ def show_command(
     titles = [f"{label} - {name} camera" for name in rig.names]
     image = side_by_side(views, titles)
 
-    def write_png(tmp: str) -> None:
-        if not cv2.imwrite(tmp, cv2.cvtColor(image, cv2.COLOR_RGB2BGR)):
-            raise OSError(f"{out}: cannot write the PNG")
+    def write_view(tmp: str) -> None:
+        write_png(tmp, cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
 
     with OutputSet() as outputs:
-        outputs.add(out, write_png)
+        outputs.add(out, write_view)
     click.echo(f"{label}: {len(rig)} views -> {out}")
 
 

@@ -45,7 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from handvar import params
-from handvar.atomic import remove_stale_temporaries, temporary_name
+from handvar.atomic import disk_full, remove_stale_temporaries, temporary_name
 from handvar.evaluation.config import ExperimentConfig
 from handvar.evaluation.metrics import mean_joint_error, r2_tilde_acceleration, r2_tilde_joints
 from handvar.evaluation.trials import TIMING_PARTS, TrialResult
@@ -362,6 +362,11 @@ def create_store(path: str | os.PathLike, config: ExperimentConfig, sequence) ->
     try:
         ds.to_zarr(tmp / "store.zarr", mode="w-", encoding=encoding, zarr_format=2)
         os.replace(tmp / "store.zarr", path)
+    except OSError as exc:  # a full disk: say so, naming the store
+        new = disk_full(exc, path)
+        if new is exc:
+            raise
+        raise new from None
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return path
@@ -375,7 +380,13 @@ def _write_region(path: Path, variables: dict, p: int | slice, t: int):
         "trial": slice(t, t + 1),
     }
     ds = xr.Dataset(variables)
-    ds.to_zarr(path, region=region, consolidated=False)
+    try:
+        ds.to_zarr(path, region=region, consolidated=False)
+    except OSError as exc:  # a full disk: say so, naming the store
+        new = disk_full(exc, path)
+        if new is exc:
+            raise
+        raise new from None
 
 
 def write_trial(path: Path, p: int, t: int, result: TrialResult, truth_joints, writes: int):

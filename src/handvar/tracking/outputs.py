@@ -38,7 +38,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from handvar.atomic import OutputSet, lock_directory, user_paths
+from handvar.atomic import OutputSet, lock_directory, user_paths, write_png
 from handvar.io import Sequence
 from handvar.params import NAMES
 from handvar.render import overlay_views, side_by_side, write_overlay_video
@@ -263,10 +263,9 @@ def _write_track_outputs(
         with open(path, "wb") as fh:
             np.savez_compressed(fh, **arrays, predictor=predictor, seed=seed)
 
-    def write_png(path: str) -> None:
+    def write_strip(path: str) -> None:
         strip = overlay_strip(result, sequence, hand, backgrounds=backgrounds)
-        if not cv2.imwrite(path, cv2.cvtColor(strip, cv2.COLOR_RGB2BGR)):
-            raise OSError(f"{path}: cannot write the PNG")
+        write_png(path, cv2.cvtColor(strip, cv2.COLOR_RGB2BGR))
 
     with OutputSet() as outputs:
         outputs.add(written["poses"], lambda p: np.savetxt(
@@ -276,7 +275,7 @@ def _write_track_outputs(
             p, result.joints.reshape(n_frames, -1), delimiter=",", header=jheader,
             comments="", fmt="%.4f"))  # fmt: skip
         outputs.add(written["track"], write_npz)
-        outputs.add(written["overlay"], write_png)
+        outputs.add(written["overlay"], write_strip)
         if quality is not None:
             outputs.add(written["quality"], write_quality)
         if video:
