@@ -130,7 +130,8 @@ def test_a_full_disk_is_named_in_one_line(name, full, inputs):
 
 def test_experiment_its_resume_and_report_on_a_full_disk(full, tmp_path):
     from handvar.evaluation.config import ExperimentConfig
-    from handvar.evaluation.store import create_store, damaged_trials
+    from handvar.evaluation.store import create_store, damaged_trials, write_scores, write_trial
+    from handvar.evaluation.trials import TrialRunner
     from handvar.synth.sequences import make_sequence
 
     folder, run = full
@@ -146,7 +147,8 @@ def test_experiment_its_resume_and_report_on_a_full_disk(full, tmp_path):
     mounted = (folder / "ballast").exists()
     if mounted:
         (folder / "ballast").unlink()  # room for the store, then full again
-    create_store(folder / "r.zarr", config, make_sequence("benchmark", n_frames=4))
+    sequence = make_sequence("benchmark", n_frames=4)
+    create_store(folder / "r.zarr", config, sequence)
     if mounted:
         fill(folder)
     status, lines = run("experiment", "--out", f"{folder}/r.zarr", *settings)
@@ -156,9 +158,11 @@ def test_experiment_its_resume_and_report_on_a_full_disk(full, tmp_path):
     if mounted:
         fill(folder)  # what the store took is free again
     # a finished store elsewhere, reported onto the full disk
-    store = tmp_path / "e.zarr"
-    status, lines = run("experiment", "--out", str(store), *settings)
-    assert status == 0, lines
+    store = create_store(tmp_path / "e.zarr", config, sequence)
+    runner = TrialRunner(sequence)
+    for p, spec in enumerate(config.predictors):
+        write_trial(store, p, 0, runner.run(config, spec.key, 0), sequence.truth.joints, 1)
+    write_scores(store, config, 0)
     status, lines = run("report", str(store), "--out", f"{folder}/r")
     assert status == 2 and len(lines) == 1, lines
     assert lines[0].startswith(f"handvar: error: {folder}/r/") and lines[0].endswith(FULL)
