@@ -66,6 +66,7 @@ def make_inputs(root: Path) -> Path:
     np.savetxt(root / "series.txt", rng.normal(size=(30, 26)))
     np.savetxt(root / "series_huge.txt", 1e200 * rng.normal(size=(30, 26)))
     np.savetxt(root / "series_cols.txt", rng.normal(size=(30, 5)))
+    np.savetxt(root / "series_25.txt", rng.normal(size=(30, 25)))
     series_nan = rng.normal(size=(30, 26))
     series_nan[4, 4] = np.nan
     np.savetxt(root / "series_nan.txt", series_nan)
@@ -75,12 +76,40 @@ def make_inputs(root: Path) -> Path:
     (root / "header.mp4").write_bytes(
         b"\x00\x00\x00\x18ftypmp42\x00\x00\x00\x00mp42isom" + bytes(3000)
     )
+    # a 12-frame MJPG video cut in half: the container still claims 12 frames, 5 decode
+    import cv2
+
+    writer = cv2.VideoWriter(str(root / "short.avi"), cv2.VideoWriter_fourcc(*"MJPG"), 25, (64, 48))
+    for _ in range(12):
+        writer.write(rng.integers(0, 256, (48, 64, 3), dtype=np.uint8))
+    writer.release()
+    whole = (root / "short.avi").read_bytes()
+    (root / "short.avi").write_bytes(whole[: len(whole) // 2])
+    # 4 frames of skin colour wall to wall: no hand in view
+    writer = cv2.VideoWriter(str(root / "skin.avi"), cv2.VideoWriter_fourcc(*"MJPG"), 25, (64, 48))
+    for _ in range(4):
+        skin = np.array([120.0, 150.0, 210.0]) + rng.normal(0.0, 4.0, (48, 64, 3))
+        writer.write(np.clip(skin, 0, 255).astype(np.uint8))
+    writer.release()
+    # calibrations of that video the pinhole model cannot hold: K[2][2] = 0, a skew
+    for name, (i, j, value) in {"k22.yml": (2, 2, 0.0), "skew.yml": (0, 1, 500.0)}.items():
+        K = np.array([[60.0, 0, 31.5], [0, 60.0, 23.5], [0, 0, 1]])
+        K[i, j] = value
+        fs = cv2.FileStorage(str(root / name), cv2.FILE_STORAGE_WRITE)
+        fs.write("camera_matrix", K)
+        fs.write("image_width", 64)
+        fs.write("image_height", 48)
+        fs.release()
     # a sequence of 2 frames, and damaged copies of it
     seq = make_sequence("benchmark", n_frames=2)
     write_sequence(seq, root / "seq")
     write_sequence(seq, root / "seq_trunc")
     png = root / "seq_trunc" / "cam0" / "mask_00001.png"
     png.write_bytes(png.read_bytes()[:50])
+    write_sequence(seq, root / "seq_far")  # ground truth 1e12 mm away
+    truth = dict(np.load(root / "seq_far" / "truth.npz"))
+    truth["poses"][1, 2] = 1e12
+    np.savez_compressed(root / "seq_far" / "truth.npz", **truth)
     write_sequence(seq, root / "seq_json")
     (root / "seq_json" / "sequence.json").write_text("{not json")
     # a 3x3 blob in both cameras: nothing the hand model can fit
@@ -103,6 +132,14 @@ def make_inputs(root: Path) -> Path:
     (root / "corrupt.zarr" / "error" / "2.0.0").write_bytes(b"garbage")
     shutil.copytree(store, root / "deleted.zarr")
     (root / "deleted.zarr" / "poses" / "1.0.0.0").unlink()
+    for name, chunks in {  # chunks whose fill value would be read as data
+        "no_r2.zarr": ["r2_joints/1.0.0"],
+        "no_timings.zarr": ["timings/2.0.0.0"],
+        "no_masks.zarr": ["masks/3.0.0.0", "poses/1.0.0.0"],
+    }.items():
+        shutil.copytree(store, root / name)
+        for chunk in chunks:
+            (root / name / chunk).unlink()
     shutil.copytree(store, root / "nanned.zarr")
     # NaN where a finished trial must have numbers: rewrite one trial's errors
     from handvar.evaluation.store import _write_region
@@ -148,6 +185,11 @@ CASES = [
     _c("synth-seed-negative", "synth flip {r}/s1 --seed -1", "--seed"),
     _c("synth-seed-text", "synth flip {r}/s1 --seed abc", "--seed"),
     _c("synth-model-unknown", "synth flip {r}/s1 --model cubes", "--model"),
+    _c("synth-size-zero", "synth flip {r}/s1 --size 0 0", "--size"),
+    _c("synth-size-negative", "synth flip {r}/s1 --size -1 1", "--size"),
+    _c("synth-size-nan", "synth flip {r}/s1 --size nan 1", "--size"),
+    _c("synth-size-huge", "synth flip {r}/s1 --size 1e9 1e9", "--size"),
+    _c("synth-noise-nan", "synth flip {r}/s1 --noise nan", "--noise"),
     # show
     _c("show-unknown-pose", "show nonesuch --out {r}/existing.png", "POSE"),
     _c("show-short-file", "show {r}/short.txt --out {r}/existing.png", "short.txt"),
@@ -185,6 +227,10 @@ CASES = [
     _c("predict-csv-suffix", "predict {r}/series.txt --csv {r}/x.png", "--csv"),
     _c("predict-csv-empty", "predict {r}/series.txt --csv=", "--csv"),
     _c("predict-corrupt-npy", "predict {r}/noise.npy", "noise.npy"),
+    _c("predict-fps-nan", "predict {r}/series.txt --fps nan", "--fps"),
+    _c("predict-fps-inf", "predict {r}/series.txt --fps inf", "--fps"),
+    _c("predict-train-columns", "predict {r}/series.txt --train {r}/series_25.txt",
+       "--train: {r}/series_25.txt"),
     # track
     _c("track-unknown-seq", "track nonesuch --out {r}/t1", "SEQ"),
     _c("track-out-is-file", "track {r}/seq --out {r}/existing.txt", "existing.txt"),
@@ -197,6 +243,9 @@ CASES = [
     _c("track-hand-length", "track {r}/seq --hand-length 10 --out {r}/t1", "--hand-length"),
     _c("track-calib-on-seq", "track {r}/seq --calib {r}/existing.txt --out {r}/t1", "--calib"),
     _c("track-truncated-png", "track {r}/seq_trunc --out {r}/track_out", "mask_00001.png"),
+    _c("track-far-truth", "track {r}/seq_far --out {r}/track_out",
+       "truth.npz: poses: expected a pose within the parameter limits; tz = 1e+12 at frame 1"),
+    _c("show-far-truth", "show {r}/seq_far --frame 1 --out {r}/existing.png", "truth.npz: poses"),
     _c("track-bad-json", "track {r}/seq_json --out {r}/track_out", "sequence.json"),
     _c("track-other-dir", "track {r}/adir --out {r}/track_out", "adir"),
     _c("track-scale-zero", "track {r}/seq --scale 0 --out {r}/t1", "--scale"),
@@ -231,6 +280,18 @@ CASES = [
        subprocess=True),
     _c("track-header-only-video", "track {r}/header.mp4 --init open --out {r}/track_out",
        "header.mp4", subprocess=True),
+    _c("track-short-video", "track {r}/short.avi --init open --out {r}/track_out",
+       "short.avi: decoding stopped after 5 of the 12 frames", subprocess=True),
+    _c("init-short-video", "init {r}/short.avi --frame 8 --out {r}/existing.txt",
+       "short.avi: decoding stopped after 5 of the 12 frames", subprocess=True),
+    _c("track-skin-video", "track {r}/skin.avi --out {r}/track_out",
+       "skin.avi: expected a hand in some frame", subprocess=True),
+    _c("init-skin-video", "init {r}/skin.avi --out {r}/existing.txt",
+       "camera 'skin.avi', frame 0: not a hand", subprocess=True),
+    _c("track-calib-k22", "track {r}/short.avi --calib {r}/k22.yml --init open --out {r}/t1",
+       "k22.yml: key 'camera_matrix': expected a pinhole matrix (K[2][2] = 1", subprocess=True),
+    _c("init-calib-skew", "init {r}/short.avi --calib {r}/skew.yml --out {r}/existing.txt",
+       "skew.yml: key 'camera_matrix': expected no skew (K[0][1] = 0", subprocess=True),
     # experiment
     _c("experiment-set-unknown", "experiment --out {r}/e.zarr --set nothing=1", "--set"),
     _c("experiment-set-trials-zero", "experiment --out {r}/e.zarr --set trials=0", "trials"),
@@ -256,6 +317,13 @@ CASES = [
     _c("report-not-a-store", "report {r}/adir --out {r}/report_out", "adir"),
     _c("report-corrupt-chunk", "report {r}/corrupt.zarr --out {r}/report_out", "trial 0"),
     _c("report-deleted-chunk", "report {r}/deleted.zarr --out {r}/report_out", "trial 0"),
+    _c("report-deleted-r2", "report {r}/no_r2.zarr --out {r}/report_out",
+       "trial 0 of predictor 'decelerating' (r2_joints: chunk file 1.0.0 missing)"),
+    _c("report-deleted-timings", "report {r}/no_timings.zarr --out {r}/report_out",
+       "(timings: chunk file 2.0.0.0 missing)"),
+    _c("experiment-deleted-masks",
+       "experiment --out {r}/no_masks.zarr --set trials=1 --set frames=6 "
+       "--set trial_kind=openloop", "masks: chunk file 3.0.0.0 missing"),
     _c("report-nan-trial", "report {r}/nanned.zarr --out {r}/report_out", "trial 0"),
     _c("report-out-is-file", "report {r}/store.zarr --out {r}/existing.txt", "existing.txt"),
     # keypoints
@@ -316,12 +384,11 @@ def run_case(case: Case, root: Path) -> Outcome:
     if case.subprocess:
         proc = subprocess.run(
             [sys.executable, "-c", "from handvar.cli import main; main()", *args],
-            capture_output=True,
-            text=True,
+            capture_output=True,  # bytes: text mode would turn "\r" into "\n"
             env={**os.environ, "PYTHONPATH": str(Path(__file__).parents[1] / "src")},
             timeout=300,
         )
-        status, output = proc.returncode, proc.stdout + proc.stderr
+        status, output = proc.returncode, (proc.stdout + proc.stderr).decode(errors="replace")
     else:
         result = CliRunner().invoke(main, args)
         status, output = result.exit_code, result.output
@@ -329,7 +396,9 @@ def run_case(case: Case, root: Path) -> Outcome:
             import traceback
 
             output += "".join(traceback.format_exception(result.exception))
-    lines = [line for line in output.splitlines() if line.strip()]
+    # What a terminal shows: a progress bar erased with carriage returns is gone
+    lines = [line.rsplit("\r", 1)[-1] for line in output.split("\n")]
+    lines = [line for line in lines if line.strip()]
     return Outcome(status, lines, before, snapshot(root))
 
 

@@ -253,7 +253,7 @@ def test_calibration_errors_name_file_and_key(tmp_path):
         Rig.load(garbage)
     nosize = tmp_path / "nosize.yml"
     fs = cv2.FileStorage(str(nosize), cv2.FILE_STORAGE_WRITE)
-    fs.write("camera_matrix", np.eye(3) * 600)
+    fs.write("camera_matrix", np.diag([600.0, 600.0, 1.0]))
     fs.release()
     with pytest.raises(ValueError, match=r"nosize\.yml: missing key 'image_width'"):
         Rig.load(nosize)

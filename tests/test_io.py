@@ -280,3 +280,26 @@ def test_sequence_rejects_inconsistent_arrays():
         Sequence("x", 25.0, _rig(), masks, provenance={"rng": rng})
     with pytest.raises(TypeError, match=r"seq: expected a handvar\.io\.Sequence"):
         write_sequence(masks, "/nonexistent")
+
+
+def test_ground_truth_is_checked_like_a_pose(tmp_path):
+    from handvar.synth.sequences import make_sequence
+
+    seq = make_sequence("benchmark", n_frames=2)
+    write_sequence(seq, tmp_path / "s")
+    truth = dict(np.load(tmp_path / "s" / "truth.npz"))
+    cases = [
+        ("poses", (1, 2), 1e12, r"poses: expected a pose within the parameter limits; tz = "
+         r"1e\+12 at frame 1 is outside \[-2000, 2000\]"),
+        ("poses", (0, 5), 1e6, r"poses: .*rz = 1e\+06 at frame 0"),
+        ("joints", (1, slice(None), 2), -1e4, r"joints: expected the hand in front of every "
+         r"camera; it is behind or at camera 'left' at frame 1"),
+    ]  # fmt: skip
+    for key, entry, value, message in cases:
+        bad = {k: v.copy() for k, v in truth.items()}
+        bad[key][entry] = value
+        np.savez(tmp_path / "s" / "truth.npz", **bad)
+        with pytest.raises(SequenceError, match=r"truth\.npz: " + message):
+            read_sequence(tmp_path / "s")
+    np.savez(tmp_path / "s" / "truth.npz", **truth)
+    np.testing.assert_array_equal(read_sequence(tmp_path / "s").truth.poses, seq.truth.poses)

@@ -151,7 +151,6 @@ def test_outputs_respect_the_umask(tmp_path, tiny):
 
 
 def test_failed_overlay_leaves_earlier_track_files_as_they_were(tmp_path, tiny, monkeypatch):
-    import cv2
 
     from handvar.tracking import outputs
 
@@ -160,10 +159,14 @@ def test_failed_overlay_leaves_earlier_track_files_as_they_were(tmp_path, tiny, 
     out.mkdir()
     for name in ("poses.csv", "joints.csv", "track.npz"):
         (out / name).write_bytes(b"old " + name.encode())
-    real = cv2.imwrite
-    monkeypatch.setattr(
-        outputs.cv2, "imwrite", lambda path, *a: False if "overlay" in path else real(path, *a)
-    )
+    real = outputs.write_png
+
+    def failing(path, *args):
+        if "overlay" in str(path):
+            raise OSError(f"{path}: cannot write the PNG")
+        real(path, *args)
+
+    monkeypatch.setattr(outputs, "write_png", failing)
     res = CliRunner().invoke(main, ["track", str(tmp_path / "seq"), "--out", str(out),
                                     "--no-video"])  # fmt: skip
     assert res.exit_code == 2

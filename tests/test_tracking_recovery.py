@@ -163,6 +163,16 @@ def test_an_empty_frame_is_flagged_and_keeps_the_previous_pose(short_sequence):
     assert "1 empty" in q.summary()
 
 
+def test_without_a_first_pose_every_frame_empty_is_refused(short_sequence):
+    seq = short_sequence
+    frames = [np.zeros_like(np.asarray(seq.masks[t])) for t in range(3)]
+    tracker = Tracker(seq.rig, HandModel(), RVAR(), np.random.default_rng(0))
+    with pytest.raises(ValueError, match=r"frames: expected a frame with a silhouette .* all 3"):
+        track_with_recovery(tracker, frames)
+    kept = track_with_recovery(tracker, frames, seq.truth.poses[0])  # given: flagged empty
+    assert kept.quality.empty.all() and np.all(kept.track.poses == seq.truth.poses[0])
+
+
 def test_a_poor_fit_is_refined_and_the_predictor_learns_the_refined_pose(short_sequence):
     seq = short_sequence
     frames = [np.asarray(seq.masks[t]) for t in range(3)]

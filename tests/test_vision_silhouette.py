@@ -255,6 +255,21 @@ def test_silhouettes_from_frames_for_several_cameras(model):
     np.testing.assert_array_equal(rgb[0], masks[0])
 
 
+def test_skin_colour_touching_every_border_is_not_a_hand(model):
+    from handvar.vision import NotAHandError
+
+    a, _ = _skin_scene()
+    everywhere = np.full_like(a, (110, 140, 200))  # the scene's skin tone, wall to wall
+    with pytest.raises(NotAHandError, match=r"camera 'right', frame 3: not a hand .* 100%"):
+        silhouettes_from_frames([a, everywhere], model, frame=3, cameras=["left", "right"])
+    # skin reaching three borders is kept: a hand close to the camera leaves one free
+    for free in (slice(0, 8), slice(-8, None)):  # the top rows, then the bottom ones
+        b = everywhere.copy()
+        b[free] = (150, 120, 90)
+        (mask,) = silhouettes_from_frames([b], model)
+        assert 0.85 < mask.mean() < 0.95
+
+
 def test_empty_silhouette_names_camera_and_frame(model):
     a, _ = _skin_scene()
     empty = np.full_like(a, (150, 120, 90))

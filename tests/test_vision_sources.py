@@ -130,6 +130,49 @@ def test_unreadable_inputs_name_the_file(tmp_path):
         list(open_frames(folder).frames())
 
 
+def test_a_truncated_video_is_refused_or_read_to_where_it_stops(tmp_path):
+    from handvar.vision.frames import ShortVideoWarning
+
+    video = write_video(tmp_path / "cut.avi", random_frames(12, seed=3))
+    whole = video.read_bytes()
+    video.write_bytes(whole[: len(whole) // 2])
+    cap = cv2.VideoCapture(str(video))  # what OpenCV itself claims and decodes
+    claimed, decoded = int(cap.get(cv2.CAP_PROP_FRAME_COUNT)), 0
+    while cap.read()[0]:
+        decoded += 1
+    cap.release()
+    assert 1 <= decoded < claimed == 12
+    expected = rf"cut\.avi: decoding stopped after {decoded} of the 12 frames the container"
+    with pytest.raises(ValueError, match=expected):
+        list(open_source(video).frames())
+    with pytest.raises(ValueError, match=expected):  # skipping to a frame beyond the end
+        list(open_frames(video).frames(decoded + 1, decoded + 2))
+    assert len(list(open_frames(video).frames(0, decoded))) == decoded  # all there: silent
+    with pytest.warns(ShortVideoWarning, match=expected):
+        frames = list(open_source(video, allow_short=True).frames())
+    assert [i for i, _ in frames] == list(range(decoded))
+
+
+def test_a_camera_matrix_the_model_cannot_hold_is_refused(tmp_path):
+    import re
+
+    good = tmp_path / "good.yml"
+    Rig.default().save(good)
+    assert Rig.load(good).allclose(Rig.default())
+    text = good.read_text()
+    for entry, value in [((2, 2), 0.0), ((0, 1), 500.0), ((2, 0), 0.1)]:
+        # K of the first camera, as the file lays it out (row-major "data: [...]")
+        data = re.search(r"camera_matrix: !!opencv-matrix.*?data: \[(.*?)\]", text, re.S)
+        numbers = data.group(1).split(",")
+        numbers[3 * entry[0] + entry[1]] = f" {value}"
+        bad = tmp_path / f"k{entry[0]}{entry[1]}.yml"
+        bad.write_text(text[: data.start(1)] + ",".join(numbers) + text[data.end(1) :])
+        i, j = entry
+        with pytest.raises(ValueError, match=rf"k{i}{j}\.yml: key cameras\[0\]\.'camera_matrix'"
+                           rf": expected .*; got K\[{i}\]\[{j}\] = {value:g}"):  # fmt: skip
+            Rig.load(bad)
+
+
 def test_calibration_that_does_not_fit(tmp_path):
     folder = write_folder(tmp_path / "cam", random_frames(2, size=(640, 480)))
     calib = tmp_path / "stereo.yml"

@@ -11,7 +11,9 @@ checked before any work (:func:`check_output_file`, :func:`check_output_dir`), w
 aside, and all are renamed into place only once every one of them was written
 (design §13.1). A directory is replaced by :func:`replace_directory`, which leaves a
 marked copy of the old one that :func:`recover_directory` restores should the swap be
-killed half-way (design §13.2).
+killed half-way (design §13.2). A directory that one run writes is locked against a second
+run at the same time (:func:`lock_directory`, an advisory ``flock`` on the directory
+itself, so no lock file is left behind).
 
 This module is a leaf: it imports nothing from handvar.
 """
@@ -19,10 +21,12 @@ This module is a leaf: it imports nothing from handvar.
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import re
 import shutil
 import tempfile
+import warnings
 from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
@@ -30,16 +34,22 @@ from typing import Any
 __all__ = [
     "OLD_MARK",
     "TMP_MARK",
+    "BusyWarning",
+    "DirectoryLock",
+    "DiskFullError",
     "OutputSet",
     "check_output_dir",
     "check_output_file",
+    "disk_full",
     "file_mode",
+    "lock_directory",
     "recover_directory",
     "remove_stale_temporaries",
     "replace_directory",
     "temporary_name",
     "user_paths",
     "write_atomic",
+    "write_png",
 ]
 
 #: Part of the name of every temporary this package makes (files and directories).
@@ -104,9 +114,11 @@ def _translated(exc: BaseException) -> BaseException:
     """`exc` again, its message naming the user's paths instead of our temporaries."""
     text = str(exc)
     fixed = user_paths(text)
-    if fixed == text:
+    if fixed == text and not isinstance(exc, DiskFullError):
         return exc
     kind = type(exc)
+    if isinstance(exc, DiskFullError):
+        return DiskFullError(exc.errno, exc.strerror, user_paths(exc.filename))
     if isinstance(exc, OSError):
         kind = OSError
     elif not isinstance(exc, ValueError | TypeError):
@@ -115,6 +127,45 @@ def _translated(exc: BaseException) -> BaseException:
         return kind(fixed)
     except Exception:  # an exception type with another signature
         return ValueError(fixed)
+
+
+#: Error numbers of a write that failed for want of space (a full disk, a quota).
+_NO_SPACE = (errno.ENOSPC, errno.EDQUOT)
+
+
+class DiskFullError(OSError):
+    """A write failed because the disk (or the user's quota) is full; names the path."""
+
+    def __str__(self) -> str:
+        return f"{self.filename}: cannot write, the disk is full ({os.strerror(self.errno)})"
+
+
+def disk_full(exc: BaseException, path: str | os.PathLike) -> BaseException:
+    """`exc` as a `DiskFullError` naming `path` if it is a write that found no space."""
+    if isinstance(exc, OSError) and exc.errno in _NO_SPACE and not isinstance(exc, DiskFullError):
+        return DiskFullError(exc.errno, os.strerror(exc.errno), os.fspath(path))
+    return exc
+
+
+def write_png(path: str | os.PathLike, image, params=()) -> None:
+    """Write the (H, W) or (H, W, 3) BGR uint8 `image` to `path` as a PNG.
+
+    Encoded in memory and written by Python, so a failed write raises `OSError` (a
+    `DiskFullError` on a full disk) instead of libpng printing its own message.
+    """
+    import cv2
+
+    ok, data = cv2.imencode(".png", image, list(params))
+    if not ok:
+        raise ValueError(f"{path}: cannot encode the image as a PNG")
+    try:
+        with open(path, "wb") as fh:
+            fh.write(data.tobytes())
+    except OSError as exc:
+        new = disk_full(exc, path)
+        if new is exc:
+            raise
+        raise new from None
 
 
 def write_atomic(path: str | os.PathLike, write: Callable[[str], Any]) -> None:
@@ -252,6 +303,7 @@ class OutputSet:
     def __init__(self) -> None:
         self._temporaries: list[str] = []
         self._moves: list[tuple[str, str, bool]] = []  # (tmp, destination, is_dir)
+        self._removals: list[str] = []  # earlier outputs this set replaces by nothing
         self.committed = False
 
     def __enter__(self) -> OutputSet:
@@ -284,6 +336,10 @@ class OutputSet:
             self._temporaries.append(tmp)
         self._moves.append((tmp, os.fspath(path), directory))
 
+    def remove(self, path: str | os.PathLike) -> None:
+        """Remove `path` (a file or folder of an earlier run) on :meth:`commit`, last."""
+        self._removals.append(os.fspath(path))
+
     def add(
         self, path: str | os.PathLike, write: Callable[[str], Any], *, directory: bool = False
     ) -> str:
@@ -295,7 +351,7 @@ class OutputSet:
         try:
             write(tmp)
         except Exception as exc:
-            new = _translated(exc)
+            new = _translated(disk_full(exc, path))
             if new is exc:
                 raise
             raise new from None
@@ -336,8 +392,13 @@ class OutputSet:
         for backup, _ in backups:
             with contextlib.suppress(OSError):
                 os.unlink(backup)
+        placed = {path for _, path, _ in self._moves}
+        for path in self._removals:
+            if path not in placed:
+                _remove(path)
         self._temporaries.clear()
         self._moves.clear()
+        self._removals.clear()
         self.committed = True
 
     def abort(self) -> None:
@@ -346,6 +407,7 @@ class OutputSet:
             _remove(tmp)
         self._temporaries.clear()
         self._moves.clear()
+        self._removals.clear()
 
 
 # --- replacing a directory ---------------------------------------------------------------
@@ -420,3 +482,114 @@ def _glob_escape(name: str) -> str:
     import glob
 
     return glob.escape(name)
+
+
+# --- one writer per directory -------------------------------------------------------------
+
+_HELD: dict[str, DirectoryLock] = {}  # directories this process holds, by real path
+
+
+class BusyWarning(UserWarning):
+    """Another process holds the directory: :func:`lock_directory` waits for it."""
+
+
+class DirectoryLock:
+    """An advisory lock on a directory held by this process (see :func:`lock_directory`).
+
+    Re-entrant within the process: locking a directory this process already holds
+    counts one more holder. :meth:`release` (or leaving the ``with`` block) lets it go;
+    a directory the lock created is removed again if it is still empty.
+    """
+
+    def __init__(self, path: str, fd: int | None, made: bool) -> None:
+        self.path = path
+        self._fd = fd
+        self._made = made
+        self._count = 1
+
+    def __enter__(self) -> DirectoryLock:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        self.release()
+
+    def release(self) -> None:
+        """Let one holder go; the last one unlocks (and removes an empty made folder)."""
+        if self._count == 0:
+            return
+        self._count -= 1
+        if self._count:
+            return
+        _HELD.pop(os.path.realpath(self.path), None)
+        if self._fd is not None:
+            os.close(self._fd)  # closing the descriptor releases the flock
+            self._fd = None
+        if self._made:
+            with contextlib.suppress(OSError):
+                os.rmdir(self.path)  # only if empty: nothing was written into it
+
+
+def lock_directory(path: str | os.PathLike, argument: str, *, wait: bool = False) -> DirectoryLock:
+    """Lock the directory `path` (made if missing) against another process writing it.
+
+    Two runs writing the same outputs at once would remove each other's temporaries
+    (:func:`remove_stale_temporaries`) and mix their files. The lock is an advisory
+    ``flock`` on the directory, released when the holder ends, however it ends.
+
+    Parameters
+    ----------
+    path : path-like
+        The directory; made (with its parents) if missing.
+    argument : str
+        The option it came from, named in the message.
+    wait : bool, keyword-only
+        Wait for the other run to finish instead of raising (saying so first with a
+        `BusyWarning`).
+
+    Returns
+    -------
+    DirectoryLock
+        Use as a context manager, or call ``release()``.
+
+    Raises
+    ------
+    ValueError
+        ``ARGUMENT: another run is writing PATH`` (without `wait`).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = tempfile.mkdtemp()
+    >>> with lock_directory(folder, "--out"):
+    ...     pass
+    """
+    path = os.fspath(path)
+    key = os.path.realpath(path)
+    held = _HELD.get(key)
+    if held is not None:
+        held._count += 1
+        return held
+    made = not os.path.exists(path)
+    os.makedirs(path, exist_ok=True)
+    try:
+        import fcntl
+    except ImportError:  # no flock on this platform: no lock
+        lock = DirectoryLock(path, None, made)
+        _HELD[key] = lock
+        return lock
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            busy = f"{argument}: another run is writing {path}"
+            if not wait:
+                raise ValueError(f"{busy}; wait for it to end") from None
+            warnings.warn(f"{busy}; waiting for it to end", BusyWarning, stacklevel=2)
+            fcntl.flock(fd, fcntl.LOCK_EX)
+    except BaseException:
+        os.close(fd)
+        raise
+    lock = DirectoryLock(path, fd, made)
+    _HELD[key] = lock
+    return lock

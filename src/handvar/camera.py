@@ -63,7 +63,7 @@ from handvar.geometry.distortion import (
 )
 from handvar.validate import as_array, as_float, as_instance, readonly
 
-__all__ = ["Camera", "PackedRig", "Rig", "check_in_front"]
+__all__ = ["IN_FRONT_DEPTH", "Camera", "PackedRig", "Rig", "check_in_front"]
 
 
 # --- Camera --------------------------------------------------------------------------
@@ -725,6 +725,41 @@ class Rig:
         return Rig(tuple(c.scaled(factor) for c in self), self.names)
 
 
+#: Depth (mm) a joint must exceed in every camera to count as in front of it (design §13.5).
+IN_FRONT_DEPTH = 1.0
+
+
+def check_in_front(joints, rig: Rig, name: str) -> None:
+    """Raise unless every joint lies in front of every camera of `rig` (design §13.5).
+
+    Parameters
+    ----------
+    joints : (..., 21, 3) array_like
+        Joints in the world frame, mm: one hand, or a track of them (frames first).
+    rig : Rig
+    name : str
+        What the joints came from, named in the message.
+
+    Raises
+    ------
+    ValueError
+        Naming `name`, the camera, the nearest depth and, for a track, the frame.
+    """
+    joints = np.asarray(joints, dtype=float)
+    for cam_name, cam in zip(rig.names, rig.cameras, strict=True):
+        depth = np.asarray(cam.camera_from_world(joints.reshape(-1, 3)))[:, 2]
+        depth = depth.reshape(joints.shape[:-1])
+        if not np.all(depth > IN_FRONT_DEPTH):
+            frame = ""
+            if depth.ndim > 1:
+                nearest = depth.reshape(len(depth), -1).min(axis=1)
+                frame = f" at frame {int(np.argmax(~(nearest > IN_FRONT_DEPTH)))}"
+            raise ValueError(
+                f"{name}: expected the hand in front of every camera; it is behind or at "
+                f"camera {cam_name!r}{frame} (nearest depth {np.nanmin(depth):.0f} mm)"
+            )
+
+
 class _NodeReader:
     """Typed access to a ``cv2.FileNode`` map with errors naming the file and the key."""
 
@@ -792,10 +827,18 @@ class _NodeReader:
 
 
 def _camera_from_params(
-    K: np.ndarray, dist, R, T, size: tuple[int, int], where: str, prefix: str = ""
+    K: np.ndarray,
+    dist,
+    R,
+    T,
+    size: tuple[int, int],
+    where: str,
+    prefix: str = "",
+    key: str = "camera_matrix",
 ) -> Camera:
     if K.shape != (3, 3):
-        raise ValueError(f"{where}: key {prefix}'camera_matrix' expected 3x3; got {K.shape}")
+        raise ValueError(f"{where}: key {prefix}{key!r} expected 3x3; got {K.shape}")
+    _check_pinhole(K, f"{where}: key {prefix}{key!r}")
     try:
         return Camera(
             fx=K[0, 0],
@@ -809,6 +852,25 @@ def _camera_from_params(
         )
     except (TypeError, ValueError) as exc:
         raise type(exc)(f"{where}: {prefix}{exc}") from None
+
+
+def _check_pinhole(K: np.ndarray, where: str) -> None:
+    """Raise unless the 3x3 `K` is a pinhole matrix [[fx, 0, cx], [0, fy, cy], [0, 0, 1]].
+
+    The camera model holds fx, fy, cx and cy only: a skew K[0][1], a bottom row other
+    than (0, 0, 1) or a nonzero K[1][0] cannot be represented, and reading just the
+    four entries would silently project elsewhere than the file says.
+    """
+    expected = {(0, 1): 0.0, (1, 0): 0.0, (2, 0): 0.0, (2, 1): 0.0, (2, 2): 1.0}
+    scale = max(abs(float(K[0, 0])), abs(float(K[1, 1])), 1.0)
+    for (i, j), value in expected.items():
+        tol = 1e-9 if i == 2 else 1e-9 * scale  # the bottom row is unitless
+        if not abs(float(K[i, j]) - value) <= tol:  # also NaN
+            what = "no skew" if (i, j) == (0, 1) else "a pinhole matrix"
+            raise ValueError(
+                f"{where}: expected {what} (K[{i}][{j}] = {value:g}, the camera model holds "
+                f"fx, fy, cx, cy only); got K[{i}][{j}] = {float(K[i, j]):g}"
+            )
 
 
 def _camera_from_node(reader: _NodeReader, size, where: str) -> Camera:
@@ -834,20 +896,6 @@ def _rig_from_cameras(seq, path: Path, size) -> Rig:
     return Rig(tuple(cams), tuple(names))
 
 
-def check_in_front(points, rig: Rig, name: str) -> None:
-    """Raise unless every point (N, 3), mm, lies in front of every camera of `rig`.
-
-    The message names `name` (the argument the points came from) and the camera.
-    """
-    for cam_name, cam in zip(rig.names, rig.cameras, strict=True):
-        depth = np.asarray(cam.camera_from_world(points))[:, 2]
-        if not np.all(depth > 1.0):
-            raise ValueError(
-                f"{name}: expected the hand in front of every camera; it is behind or at "
-                f"camera {cam_name!r} (nearest depth {depth.min():.0f} mm)"
-            )
-
-
 def _rig_from_stereo(reader: _NodeReader, size) -> Rig:
     where = str(reader.path)
     wh = reader.image_size(size)
@@ -857,6 +905,6 @@ def _rig_from_stereo(reader: _NodeReader, size) -> Rig:
     D2 = reader.matrix("D2", required=False)
     R = reader.matrix("R")
     T = reader.matrix("T")
-    cam1 = _camera_from_params(K1, D1, None, None, wh, where)
-    cam2 = _camera_from_params(K2, D2, R, T, wh, where)
+    cam1 = _camera_from_params(K1, D1, None, None, wh, where, key="K1")
+    cam2 = _camera_from_params(K2, D2, R, T, wh, where, key="K2")
     return Rig((cam1, cam2), ("left", "right"))

@@ -43,9 +43,11 @@ from handvar.atomic import (
     recover_directory,
     remove_stale_temporaries,
     write_atomic,
+    write_png,
 )
 from handvar.atomic import check_output_dir as _check_writable_dir
-from handvar.camera import Rig
+from handvar.camera import Rig, check_in_front
+from handvar.params import check_limits
 from handvar.validate import as_float, as_instance
 
 __all__ = [
@@ -317,8 +319,7 @@ class Sequence:
 
 
 def _write_png(path: Path, image: np.ndarray, params: list[int]) -> None:
-    if not cv2.imwrite(str(path), image, params):
-        raise OSError(f"{path}: could not write the PNG image")
+    write_png(path, image, params)
 
 
 def _is_sequence_dir(path: Path) -> bool:
@@ -528,7 +529,9 @@ def _read_meta(json_path: Path) -> dict:
     return meta
 
 
-def _read_truth(path: Path, n_frames: int) -> Truth:
+def _read_truth(path: Path, n_frames: int, rig: Rig) -> Truth:
+    """The ground truth in `path`, checked like a pose: shapes, finite values, every
+    pose within the parameter limits and every joint in front of every camera."""
     try:
         with np.load(path, allow_pickle=False) as data:
             missing = [k for k in ("poses", "joints") if k not in data.files]
@@ -553,9 +556,12 @@ def _read_truth(path: Path, n_frames: int) -> Truth:
             f"{path}: expected 'joints' of shape ({n_frames}, 21, 3); got shape {joints.shape}"
         )
     try:
-        return Truth(poses, joints)
+        truth = Truth(poses, joints)
+        check_limits(truth.poses, "poses")
+        check_in_front(truth.joints, rig, "joints")
     except ValueError as exc:
         raise SequenceError(f"{path}: {exc}") from None
+    return truth
 
 
 def read_sequence(path: str | os.PathLike, *, lazy: bool = False) -> Sequence:
@@ -632,7 +638,7 @@ def read_sequence(path: str | os.PathLike, *, lazy: bool = False) -> Sequence:
                     f"{extra}: unexpected frame; {json_path.name} says the sequence has "
                     f"{n_frames} frames"
                 )
-    truth = _read_truth(root / _TRUTH, n_frames) if meta["has_truth"] else None
+    truth = _read_truth(root / _TRUTH, n_frames, rig) if meta["has_truth"] else None
 
     masks: np.ndarray | FrameStack = FrameStack(paths["mask"], "mask", (width, height))
     if not lazy:

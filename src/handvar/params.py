@@ -115,6 +115,34 @@ def within_limits(x: np.ndarray, tol: float = 1e-9) -> np.ndarray:
     return np.all((x >= LOWER - tol) & (x <= UPPER + tol), axis=-1)
 
 
+def check_limits(x, name: str = "x") -> np.ndarray:
+    """`x` (a pose, or poses on the last axis) if every parameter lies within its limits.
+
+    Raises
+    ------
+    ValueError
+        Naming `name`, the first parameter outside (and its frame, for several poses),
+        its value and its limits.
+
+    Examples
+    --------
+    >>> check_limits(np.r_[0.0, 0.0, 5e3, np.zeros(23)], "x")
+    Traceback (most recent call last):
+    ...
+    ValueError: x: expected a pose within the parameter limits; tz = 5000 is outside [-2000, 2000]
+    """
+    x = np.asarray(x, dtype=float)
+    outside = np.argwhere((x < LOWER) | (x > UPPER))
+    if outside.size:
+        *frame, i = (int(k) for k in outside[0])
+        where = f" at frame {frame[0]}" if len(frame) == 1 else ""
+        raise ValueError(
+            f"{name}: expected a pose within the parameter limits; {NAMES[i]} = "
+            f"{x[(*frame, i)]:g}{where} is outside [{LOWER[i]:g}, {UPPER[i]:g}]"
+        )
+    return x
+
+
 def check_pose(x, name: str = "x") -> np.ndarray:
     """Return `x` as a float64 (26,) array, or raise ValueError naming `name`."""
     arr = np.asarray(x, dtype=float)

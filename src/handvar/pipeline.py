@@ -322,6 +322,7 @@ def track(
     seed: int = 0,
     frames: int | None = None,
     progress: bool = False,
+    allow_short: bool = False,
     recovery=None,
     on_frame: Callable | None = None,
 ) -> Track:
@@ -376,6 +377,9 @@ def track(
         Track only the first `frames` frames.
     progress : bool
         Show progress bars (tqdm) on standard error.
+    allow_short : bool
+        Recordings only: a video that stops decoding before its container's frame count
+        is used to where it stops, with a warning, instead of refused.
     recovery : RecoverySettings, optional
         Settings of the recovery (`handvar.tracking.recovery.RECOVERY_DEFAULTS`).
     on_frame : callable, optional
@@ -437,8 +441,12 @@ def track(
     if recording:
         from handvar.vision.sources import open_source
 
-        opened = open_source(list(spec.paths), calib, fov=fov, scale=scale)
-        full_rig = opened.rig if scale == 1.0 else open_source(list(spec.paths), calib, fov=fov).rig
+        opened = open_source(list(spec.paths), calib, fov=fov, scale=scale, allow_short=allow_short)
+        full_rig = (
+            opened.rig
+            if scale == 1.0
+            else open_source(list(spec.paths), calib, fov=fov, allow_short=allow_short).rig
+        )
         total = opened.n_frames if frames is None else min(frames, opened.n_frames)
         clock = time.perf_counter()
         # With keypoints and recovery the wrist is cut while tracking (at the detected

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import functools
 import sys
+import warnings
 
 import click
 
@@ -16,16 +17,21 @@ import click
 def _one_line_errors(func):
     """Report ValueError / TypeError / OSError as one line and exit with status 2.
 
-    The line names the user's paths, never a temporary of `handvar.atomic` (design §13.4).
+    The line names the user's paths, never a temporary of `handvar.atomic` (design §13.4). A
+    warning shown while the command runs is one line too (``handvar: warning: ...``).
     """
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
-        from handvar.atomic import user_paths
+        from handvar.atomic import disk_full, user_paths
 
         try:
-            return func(*args, **kwargs)
+            with warnings.catch_warnings():
+                warnings.showwarning = _one_line_warning
+                return func(*args, **kwargs)
         except (ValueError, TypeError, OSError) as exc:
+            if isinstance(exc, OSError) and exc.filename is not None:
+                exc = disk_full(exc, exc.filename)  # "PATH: ... the disk is full"
             msg = user_paths(" ".join(str(exc).split()))
             if isinstance(exc, OSError) and exc.filename is not None and not msg:
                 msg = f"{exc.filename}: cannot be written"
@@ -33,6 +39,28 @@ def _one_line_errors(func):
             sys.exit(2)
 
     return wrapper
+
+
+def _locks_out(func):
+    """The command writes the directory --out: checked, then locked for the whole run, so
+    a second run into it stops before any work ("another run is writing OUT")."""
+
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        from handvar.atomic import check_output_dir, lock_directory
+
+        check_output_dir(kwargs["out"], "--out")
+        with lock_directory(kwargs["out"], "--out"):
+            return func(*args, **kwargs)
+
+    return wrapper
+
+
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """`warnings.showwarning` of the commands: one line on standard error, no source."""
+    from handvar.atomic import user_paths
+
+    click.echo(f"handvar: warning: {user_paths(' '.join(str(message).split()))}", err=True)
 
 
 class _FiniteRange(click.FloatRange):
@@ -49,7 +77,7 @@ class _FiniteRange(click.FloatRange):
 
 
 def _recording_options(func):
-    """The options of a real recording: --calib, --fov and --scale."""
+    """The options of a real recording: --calib, --fov, --scale and --allow-short."""
     options = [
         click.option(
             "--calib", type=click.Path(dir_okay=False), default=None,
@@ -66,14 +94,30 @@ def _recording_options(func):
             help="Recordings only: resize the frames by this factor first (0.5 is about "
             "4x faster).",
         ),
+        click.option(
+            "--allow-short", is_flag=True,
+            help="Recordings only: a video that stops decoding before the frame count of "
+            "its container (truncated or damaged) is used to where it stops, with a "
+            "warning [default: refused].",
+        ),
     ]  # fmt: skip
+
+    @functools.wraps(func)
+    def wrapper(*args, allow_short=False, **kwargs):
+        # kept for `_open_recordings`, so the commands need no parameter of their own
+        click.get_current_context().meta["handvar.allow_short"] = allow_short
+        return func(*args, **kwargs)
+
     for option in reversed(options):
-        func = option(func)
-    return func
+        wrapper = option(wrapper)
+    return wrapper
 
 
 def _open_recordings(sources, calib, fov, scale):
-    """A `VideoSource` for the video files / image folders `sources` (one per camera)."""
+    """A `VideoSource` for the video files / image folders `sources` (one per camera),
+    with the command's --allow-short."""
     from handvar.vision.sources import open_source
 
-    return open_source(list(sources), calib, fov=fov, scale=scale)
+    ctx = click.get_current_context(silent=True)
+    allow_short = bool(ctx is not None and ctx.meta.get("handvar.allow_short"))
+    return open_source(list(sources), calib, fov=fov, scale=scale, allow_short=allow_short)

@@ -57,7 +57,7 @@ def experiment_command(store, scheduler, workers, assignments, sweeps, quick, ex
     from handvar.atomic import check_output_dir
     from handvar.evaluation.config import ExperimentConfig, tracker_settings
     from handvar.evaluation.experiment import run_experiment, summary_text
-    from handvar.evaluation.store import read_config
+    from handvar.evaluation.store import read_config, store_sequence
 
     check_output_dir(store, "--out")
     resume = os.path.exists(store)
@@ -81,6 +81,8 @@ def experiment_command(store, scheduler, workers, assignments, sweeps, quick, ex
             f"--out: {store} holds a different experiment; choose another --out or the "
             "same settings (or none, to resume it)"
         )
+    if resume:  # a store that cannot be resumed is refused before the heading
+        store_sequence(store)
     click.echo(
         f"{len(config.predictors)} predictors x {config.trials} trials x {config.frames} "
         f"frames of {config.sequence} ({config.trial_kind}) -> {store}"

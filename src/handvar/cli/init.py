@@ -95,10 +95,9 @@ def init_command(
     """
     import os
 
-    import cv2
     import numpy as np
 
-    from handvar.atomic import OutputSet, check_output_file
+    from handvar.atomic import OutputSet, check_output_file, write_png
     from handvar.hand.anthropometry import HandShape
     from handvar.hand.kinematics import HandModel
     from handvar.tracking.init import initial_pose
@@ -138,11 +137,10 @@ def init_command(
                 ]
             picture = overlay_frame(images, rig, hand, result.pose, masks)
 
-            def write_png(path):
-                if not cv2.imwrite(path, picture):
-                    raise OSError(f"{overlay}: cannot write the PNG")
+            def write_overlay(path):
+                write_png(path, picture)
 
-            outputs.add(overlay, write_png)
+            outputs.add(overlay, write_overlay)
     where = os.path.basename(sources[0].rstrip(os.sep)) + ("" if len(sources) == 1 else ", ...")
     click.echo(
         f"{where} frame {frame}: IoU {result.iou:.3f} (shape {result.shape}, "

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from handvar.cli.common import _one_line_errors
+from handvar.cli.common import _FiniteRange, _one_line_errors
 
 #: Largest magnitude `predict` accepts in a pose series (mm, degrees): far beyond any
 #: pose, far below where squares of the values overflow in the predictors' fits.
@@ -49,7 +49,7 @@ _MAX_SERIES_VALUE = 1e6
     help="Only these predictors besides the baselines (catalogue names); repeatable.",
 )  # fmt: skip
 @click.option(
-    "--fps", type=click.FloatRange(min=0, min_open=True), default=30.0, show_default=True,
+    "--fps", type=_FiniteRange(min=0, min_open=True), default=30.0, show_default=True,
     help="Frame rate of the recordings (One Euro and the adaptive bank).",
 )  # fmt: skip
 @_one_line_errors
@@ -157,7 +157,10 @@ def predict_command(
         from handvar.predictors import OfflineVAR
 
         Xt, rt = load(train, "--train")
-        _, blocks = layout_structure(inner, Xt.shape[1])
+        try:
+            _, blocks = layout_structure(inner, Xt.shape[1])
+        except ValueError as exc:  # the series' shape: name the option and the file
+            raise ValueError(f"--train: {train}: {str(exc).removeprefix('X: ')}") from None
         model = OfflineVAR(blocks=blocks).fit(Xt, resets=rt)
         click.echo(f"offline VAR: order {model.order_} (BIC), fitted on {train}, {len(Xt)} frames")
 

@@ -13,6 +13,17 @@ from handvar.cli.common import _FiniteRange, _one_line_errors
 # --- synth: render a synthetic sequence with ground truth ------------------------------
 
 
+def _check_size(ctx, param, value):
+    """Click callback: both factors of --size within `synth.mismatch.SIZE_RANGE`."""
+    from handvar.synth.mismatch import SIZE_RANGE
+
+    low, high = SIZE_RANGE
+    for factor in value:
+        if not low <= factor <= high:
+            raise click.BadParameter(f"expected factors in [{low:g}, {high:g}]; got {factor:g}")
+    return value
+
+
 @click.command("synth")
 @click.argument("name")
 @click.argument("out", type=click.Path())
@@ -33,12 +44,13 @@ from handvar.cli.common import _FiniteRange, _one_line_errors
     default=None,
     help="Keep only the first N frames (a quick preview).",
 )
-@click.option("--size", nargs=2, type=float, default=(1.0, 1.0), show_default=True,
+@click.option("--size", nargs=2, type=_FiniteRange(), default=(1.0, 1.0),
+              show_default=True, callback=_check_size,
               metavar="LENGTH BREADTH",
               help="Hand length and breadth as factors of the default 185 mm hand.")  # fmt: skip
 @click.option("--speed", type=click.FloatRange(min=1.0), default=1.0, show_default=True,
               help="Replay the motion this many times faster (fewer frames).")  # fmt: skip
-@click.option("--noise", type=click.FloatRange(min=0.0, max=50.0), default=0.0,
+@click.option("--noise", type=_FiniteRange(min=0.0, max=50.0), default=0.0,
               show_default=True, help="Segmentation errors, px.")  # fmt: skip
 @_one_line_errors
 def synth_command(
@@ -121,18 +133,9 @@ def load_pose(spec: str):
 
 def check_limits(x, name: str):
     """`x` if every parameter lies within the joint limits of `handvar.params`, else raise."""
-    import numpy as np
+    from handvar.params import check_limits as check
 
-    from handvar.params import LOWER, NAMES, UPPER
-
-    outside = np.flatnonzero((x < LOWER) | (x > UPPER))
-    if outside.size:
-        i = int(outside[0])
-        raise ValueError(
-            f"{name}: expected a pose within the parameter limits; {NAMES[i]} = {x[i]:g} "
-            f"is outside [{LOWER[i]:g}, {UPPER[i]:g}]"
-        )
-    return x
+    return check(x, name)
 
 
 @click.command("show")
@@ -183,7 +186,7 @@ def show_command(
     import cv2
     import numpy as np
 
-    from handvar.atomic import OutputSet, check_output_file
+    from handvar.atomic import OutputSet, check_output_file, write_png
     from handvar.camera import Rig, check_in_front
     from handvar.hand.anthropometry import HandShape
     from handvar.hand.kinematics import HandModel
@@ -212,12 +215,11 @@ def show_command(
     titles = [f"{label} - {name} camera" for name in rig.names]
     image = side_by_side(views, titles)
 
-    def write_png(tmp: str) -> None:
-        if not cv2.imwrite(tmp, cv2.cvtColor(image, cv2.COLOR_RGB2BGR)):
-            raise OSError(f"{out}: cannot write the PNG")
+    def write_view(tmp: str) -> None:
+        write_png(tmp, cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
 
     with OutputSet() as outputs:
-        outputs.add(out, write_png)
+        outputs.add(out, write_view)
     click.echo(f"{label}: {len(rig)} views -> {out}")
 
 

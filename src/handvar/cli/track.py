@@ -6,7 +6,7 @@ import contextlib
 
 import click
 
-from handvar.cli.common import _FiniteRange, _one_line_errors, _recording_options
+from handvar.cli.common import _FiniteRange, _locks_out, _one_line_errors, _recording_options
 from handvar.cli.synth import load_pose
 from handvar.predictors.catalogue import CATALOGUE
 
@@ -77,6 +77,7 @@ def _check_predictor(ctx, param, value: str) -> str:
               "[default: on for recordings and with --keypoints].")  # fmt: skip
 @_recording_options
 @_one_line_errors
+@_locks_out
 def track_command(
     seq, predictor, init, seed, n_frames, out, video, hand_length, side, model, keypoint_files,
     keypoint_every, carry, keypoint_tips, recover, calib, fov, scale,
@@ -102,7 +103,8 @@ def track_command(
     and, with --video, overlay.mp4 (numbered PNGs in overlay_frames/ when OpenCV has
     no mp4v codec); with recovery also quality.csv (per frame: IoU, keypoint error,
     final cost, lost, re-initialised, empty). Prints the mean joint error when the
-    sequence has ground truth.
+    sequence has ground truth. The files of an earlier track in OUT that this run does
+    not write go; other files stay. One run at a time writes OUT.
     """
 
     from handvar.atomic import check_output_dir
@@ -116,6 +118,7 @@ def track_command(
             predictor=predictor, init=None if init is None else load_pose(init),
             keypoint_every=keypoint_every, carry=carry, keypoint_tips=keypoint_tips,
             recover=recover, seed=seed, frames=n_frames, progress=True,
+            allow_short=click.get_current_context().meta.get("handvar.allow_short", False),
         )  # fmt: skip
     written = result.save(out, video=video)
     if "video_error" in written:

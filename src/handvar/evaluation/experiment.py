@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from handvar.atomic import lock_directory
 from handvar.evaluation.config import ExperimentConfig, tracker_settings
 from handvar.evaluation.store import (
     clear_done,
@@ -194,6 +195,13 @@ def run_experiment(
     -------
     RunSummary
         Trials already done, computed now, and still missing.
+
+    Notes
+    -----
+    One process at a time runs an experiment into a store (`handvar.atomic.lock_directory`):
+    a second one says so (a `handvar.atomic.BusyWarning`, ``store: another run is
+    writing STORE; waiting for it to end``), waits, then resumes the store, computing
+    what is still missing. Two runs creating the same new store at once create it once.
     """
     start = time.perf_counter()
     as_instance(config, ExperimentConfig, "config")
@@ -205,6 +213,19 @@ def run_experiment(
     for spec in config.predictors:
         spec.build()
     path = Path(store)
+    if not path.exists():  # one run at a time creates it; a second one finds it there
+        sequence = _render(config, progress)
+        with lock_directory(path.parent, "store", wait=True):
+            if not path.exists():
+                create_store(path, config, sequence)
+    with lock_directory(path, "store", wait=True):  # one run at a time writes trials
+        return _run_locked(
+            config, path, client, scheduler, workers, progress, rounds, on_written, start
+        )
+
+
+def _run_locked(config, path, client, scheduler, workers, progress, rounds, on_written, start):
+    """`run_experiment` on the existing store `path`, which this process has locked."""
     config, sequence, done, writes, damage = _open_or_create(path, config, progress)
     labels = config.labels
     P, N = done.shape

@@ -45,7 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from handvar import params
-from handvar.atomic import remove_stale_temporaries, temporary_name
+from handvar.atomic import disk_full, remove_stale_temporaries, temporary_name
 from handvar.evaluation.config import ExperimentConfig
 from handvar.evaluation.metrics import mean_joint_error, r2_tilde_acceleration, r2_tilde_joints
 from handvar.evaluation.trials import TIMING_PARTS, TrialResult
@@ -76,6 +76,12 @@ def store_sequence(store: str | os.PathLike):
     ds = open_store(store)
     config = ExperimentConfig.from_json(ds.attrs["config"])
     try:
+        for name in ("masks", "truth_poses", "truth_joints"):  # a chunk per frame / one
+            n_chunks = ds[name].shape[0] if name == "masks" else 1
+            for f in range(n_chunks):
+                chunk = ".".join([str(f)] + ["0"] * (ds[name].ndim - 1))
+                if not (Path(store) / name / chunk).is_file():  # read as zeros, not damage
+                    raise ValueError(f"{name}: chunk file {chunk} missing")
         masks = ds["masks"].values
         truth = Truth(ds["truth_poses"].values, ds["truth_joints"].values)
     except Exception as exc:  # a damaged chunk: blosc, zarr and numpy raise many kinds
@@ -137,8 +143,11 @@ def damaged_trials(store: str | os.PathLike) -> list[Damage]:
     """Every trial whose ``done`` flag cannot be trusted, with the reason.
 
     A trial is damaged if its ``done`` chunk cannot be read, or it is marked done and
-    one of its chunks is missing (poses, joints, error) or cannot be decoded, or its
-    poses, joints or errors are not all finite.
+    a chunk it must have is missing, or one of its chunks cannot be decoded, or its
+    poses, joints or errors are not all finite. Every finished trial has chunks of
+    poses, joints, error and timings, a tracker trial also of cost and iterations, and
+    a trial whose no-motion reference is done also of its scores (r2_joints,
+    r2_params): a missing one would be read as its fill value, as if it were data.
 
     Parameters
     ----------
@@ -157,18 +166,36 @@ def damaged_trials(store: str | os.PathLike) -> list[Damage]:
     labels = [str(v) for v in ds["predictor"].values]
     group = zarr.open_group(str(path), mode="r", zarr_format=2)
     arrays = {k: group[k] for k in ("done", *_TRIAL_VARS)}
+    config = ExperimentConfig.from_json(ds.attrs["config"])
+    always = {"poses", "joints", "error", "timings"}
+    if config.trial_kind == "tracker":
+        always |= {"cost", "iterations"}
+    reference = None if config.reference is None else config.predictors.index(config.reference)
     P, N = arrays["done"].shape
     damaged = []
     for t in range(N):
+        required = set(always)
+        if reference is not None and _is_done(arrays, reference, t):
+            required |= {"r2_joints", "r2_params"}
         for p in range(P):
-            reason = _trial_damage(path, arrays, p, t)
+            reason = _trial_damage(path, arrays, p, t, required)
             if reason:
                 damaged.append(Damage(p, t, labels[p], reason))
     return damaged
 
 
-def _trial_damage(path: Path, arrays: dict, p: int, t: int) -> str:
-    """Why trial (p, t) is damaged, or "" if it is sound or simply not done."""
+def _is_done(arrays: dict, p: int, t: int) -> bool:
+    try:
+        return bool(arrays["done"][p, t])
+    except Exception:  # unreadable: reported as damage of that trial
+        return False
+
+
+def _trial_damage(path: Path, arrays: dict, p: int, t: int, required: set) -> str:
+    """Why trial (p, t) is damaged, or "" if it is sound or simply not done.
+
+    `required`: the variables whose chunk of a finished trial must exist.
+    """
     try:
         done = bool(arrays["done"][p, t])
     except Exception as exc:
@@ -178,7 +205,7 @@ def _trial_damage(path: Path, arrays: dict, p: int, t: int) -> str:
     for name in _TRIAL_VARS:
         array = arrays[name]
         chunk = _chunk_name(array.ndim, p, t)
-        if name in _FINITE_VARS and not (path / name / chunk).is_file():
+        if name in required and not (path / name / chunk).is_file():
             return f"{name}: chunk file {chunk} missing"
         try:
             values = np.asarray(array[p, t])
@@ -335,6 +362,11 @@ def create_store(path: str | os.PathLike, config: ExperimentConfig, sequence) ->
     try:
         ds.to_zarr(tmp / "store.zarr", mode="w-", encoding=encoding, zarr_format=2)
         os.replace(tmp / "store.zarr", path)
+    except OSError as exc:  # a full disk: say so, naming the store
+        new = disk_full(exc, path)
+        if new is exc:
+            raise
+        raise new from None
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return path
@@ -348,7 +380,13 @@ def _write_region(path: Path, variables: dict, p: int | slice, t: int):
         "trial": slice(t, t + 1),
     }
     ds = xr.Dataset(variables)
-    ds.to_zarr(path, region=region, consolidated=False)
+    try:
+        ds.to_zarr(path, region=region, consolidated=False)
+    except OSError as exc:  # a full disk: say so, naming the store
+        new = disk_full(exc, path)
+        if new is exc:
+            raise
+        raise new from None
 
 
 def write_trial(path: Path, p: int, t: int, result: TrialResult, truth_joints, writes: int):

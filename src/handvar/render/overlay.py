@@ -23,7 +23,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from handvar.atomic import temporary_name
+from handvar.atomic import temporary_name, write_png
 from handvar.camera import Camera, Rig
 from handvar.render.silhouettes import silhouettes
 from handvar.validate import as_array, as_float, as_instance
@@ -351,8 +351,7 @@ class OverlayWriter:
             self._writer.write(np.ascontiguousarray(image))
         else:
             file = self._png_dir / f"frame_{self.n_frames:05d}.png"
-            if not cv2.imwrite(str(file), image):
-                raise OSError(f"{file}: cannot write the PNG frame")
+            write_png(file, image)
         self.n_frames += 1
 
     def close(self) -> Path | None:

@@ -42,6 +42,8 @@ __all__ = [
 #: The tracker's default hand length (mm): wrist crease to the middle fingertip.
 HAND_LENGTH = 185.0
 SURFACES = ("spheres", "mesh")
+#: Range of the size factors of `generator_hand` (length and breadth).
+SIZE_RANGE = (0.5, 2.0)
 
 
 def generator_hand(model: str = "spheres", length: float = 1.0, breadth: float = 1.0):
@@ -64,8 +66,8 @@ def generator_hand(model: str = "spheres", length: float = 1.0, breadth: float =
     from handvar.hand.kinematics import HandModel
 
     one_of(model, SURFACES, "model")
-    length = as_float(length, "length", minimum=0.5, maximum=2.0)
-    breadth = as_float(breadth, "breadth", minimum=0.5, maximum=2.0)
+    length = as_float(length, "length", minimum=SIZE_RANGE[0], maximum=SIZE_RANGE[1])
+    breadth = as_float(breadth, "breadth", minimum=SIZE_RANGE[0], maximum=SIZE_RANGE[1])
     shape = None
     if (length, breadth) != (1.0, 1.0):
         default_breadth = HandProportions().breadth_ratio * HAND_LENGTH  # ≈ 85 mm

@@ -18,15 +18,18 @@
 
 The files are all-or-nothing (design §13.1): each is written under a temporary name
 beside its destination, and all are renamed into place only once every one of them was
-written (`handvar.atomic.OutputSet`); a failure leaves the folder as it was.  The
-overlays are
+written (`handvar.atomic.OutputSet`); a failure leaves the folder as it was. The
+track owns its folder: the files of an earlier track there that this one does not
+write (`TRACK_FILES`: quality.csv of a run with recovery, overlay.mp4 of one with
+video) are removed in the same commit; other files are left alone. The folder is locked
+while it is written (`handvar.atomic.lock_directory`): a second run into it at the
+same time stops with "another run is writing OUT". The overlays are
 drawn over the sequence's masks or, for a real recording, over its colour frames
 (:func:`recording_backgrounds`).
 """
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import os
 from collections.abc import Callable, Iterable, Iterator
@@ -35,13 +38,14 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from handvar.atomic import OutputSet, user_paths
+from handvar.atomic import OutputSet, lock_directory, user_paths, write_png
 from handvar.io import Sequence
 from handvar.params import NAMES
 from handvar.render import overlay_views, side_by_side, write_overlay_video
 from handvar.tracking.tracker import TrackResult
 
 __all__ = [
+    "TRACK_FILES",
     "overlay_strip",
     "quality_captions",
     "recording_backgrounds",
@@ -54,6 +58,12 @@ _STRIP_FRAMES = 6  # frames in overlay.png, at most
 _STRIP_SHRINK = 2  # overlay.png tiles are 1/_STRIP_SHRINK of the camera's size
 
 #: The columns of quality.csv after the frame index (`TrackQuality`'s fields).
+#: Every file and folder `write_track_outputs` may write: a new track removes those of
+#: an earlier one that it does not write itself (a run without video or recovery).
+TRACK_FILES = (
+    "poses.csv", "joints.csv", "track.npz", "overlay.png", "quality.csv", "overlay.mp4",
+    "overlay_frames",
+)  # fmt: skip
 _QUALITY = ("iou", "keypoint_error", "cost", "lost", "reinit", "empty", "keypoints")
 
 Backgrounds = Callable[[list[int]], Iterable[tuple[int, list[np.ndarray] | np.ndarray]]]
@@ -228,8 +238,17 @@ def write_track_outputs(
         raise ValueError("sequence: expected the tracked sequence for the overlays; got None")
     n_frames = _check_result(result, sequence)
     out = Path(out_dir)
-    made = not out.exists()
-    out.mkdir(parents=True, exist_ok=True)
+    with lock_directory(out, "out_dir"):  # held already by a command that checked --out
+        return _write_track_outputs(
+            out, result, sequence, hand, n_frames, predictor, seed, video, backgrounds,
+            quality, overlays, extra,
+        )  # fmt: skip
+
+
+def _write_track_outputs(
+    out: Path, result, sequence, hand, n_frames, predictor, seed, video, backgrounds,
+    quality, overlays, extra,
+) -> dict[str, Path | str]:  # fmt: skip
     if backgrounds is None and overlays:
         backgrounds = sequence_backgrounds(sequence)
     written: dict[str, Path | str] = {
@@ -266,31 +285,26 @@ def write_track_outputs(
         with open(path, "wb") as fh:
             np.savez_compressed(fh, **arrays, predictor=predictor, seed=seed)
 
-    def write_png(path: str) -> None:
+    def write_strip(path: str) -> None:
         strip = overlay_strip(result, sequence, hand, backgrounds=backgrounds)
-        if not cv2.imwrite(path, cv2.cvtColor(strip, cv2.COLOR_RGB2BGR)):
-            raise OSError(f"{path}: cannot write the PNG")
+        write_png(path, cv2.cvtColor(strip, cv2.COLOR_RGB2BGR))
 
-    try:
-        with OutputSet() as outputs:
-            outputs.add(written["poses"], lambda p: np.savetxt(
-                p, result.poses, delimiter=",", header=header, comments="",
-                fmt="%.6f"))  # fmt: skip
-            outputs.add(written["joints"], lambda p: np.savetxt(
-                p, result.joints.reshape(n_frames, -1), delimiter=",", header=jheader,
-                comments="", fmt="%.4f"))  # fmt: skip
-            outputs.add(written["track"], write_npz)
-            if overlays:
-                outputs.add(written["overlay"], write_png)
-            if quality is not None:
-                outputs.add(written["quality"], write_quality)
-            if video and overlays:
-                _add_video(outputs, out, hand, sequence, result, backgrounds, written, quality)
-    except BaseException:
-        if made:
-            with contextlib.suppress(OSError):
-                out.rmdir()  # only if empty: nothing of ours is left in it
-        raise
+    with OutputSet() as outputs:
+        outputs.add(written["poses"], lambda p: np.savetxt(
+            p, result.poses, delimiter=",", header=header, comments="",
+            fmt="%.6f"))  # fmt: skip
+        outputs.add(written["joints"], lambda p: np.savetxt(
+            p, result.joints.reshape(n_frames, -1), delimiter=",", header=jheader,
+            comments="", fmt="%.4f"))  # fmt: skip
+        outputs.add(written["track"], write_npz)
+        if overlays:
+            outputs.add(written["overlay"], write_strip)
+        if quality is not None:
+            outputs.add(written["quality"], write_quality)
+        if video and overlays:
+            _add_video(outputs, out, hand, sequence, result, backgrounds, written, quality)
+        for name in TRACK_FILES:  # the output set owns its folder: no file of an
+            outputs.remove(out / name)  # earlier run stays beside the new ones
     return written
 
 

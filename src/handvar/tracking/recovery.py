@@ -375,6 +375,11 @@ def track_with_recovery(
     -------
     RecoveredTrack
         The track (`TrackResult`) and its `TrackQuality`.
+
+    Raises
+    ------
+    ValueError
+        No frame, or without `x0` no frame with a silhouette to search the pose in.
     """
     as_instance(tracker, Tracker, "tracker")
     as_instance(settings, RecoverySettings, "settings")
@@ -536,6 +541,11 @@ def track_with_recovery(
             on_frame(i, pose, _frame_quality(r, empty), masks)
     if not results:
         raise ValueError("frames: expected at least one frame; got none")
+    if not started and x0 is None:
+        raise ValueError(
+            f"frames: expected a frame with a silhouette to search the first pose in; "
+            f"all {len(results)} are empty"
+        )
     return _assemble(results, flags, hand, len(rig), max_it, init_seconds)
 
 

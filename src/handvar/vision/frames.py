@@ -2,7 +2,10 @@
 
 `open_frames` opens a video file (anything ``cv2.VideoCapture`` decodes) or a folder of
 numbered images as a `FrameReader`, which reads the frames lazily, one at a time, and
-checks each one (decodable, 8-bit colour, the size of the first).
+checks each one (decodable, 8-bit colour, the size of the first). A video whose
+decoding stops before the frame count its container states (truncated or damaged) is
+refused with the count read and the count claimed, or, opened with ``allow_short``,
+read to where it stops with a `ShortVideoWarning`.
 
 Frame indices count the frames of the recording from 0, whatever ``start`` and
 ``stop`` select.
@@ -12,6 +15,7 @@ from __future__ import annotations
 
 import os
 import re
+import warnings
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -21,7 +25,17 @@ import numpy as np
 from handvar.io import IMAGE_SUFFIXES
 from handvar.validate import as_int
 
-__all__ = ["IMAGE_SUFFIXES", "FrameReader", "check_frame_range", "open_frames"]
+__all__ = [
+    "IMAGE_SUFFIXES",
+    "FrameReader",
+    "ShortVideoWarning",
+    "check_frame_range",
+    "open_frames",
+]
+
+
+class ShortVideoWarning(UserWarning):
+    """A video ended before the frame count its container states (``allow_short``)."""
 
 
 class FrameReader:
@@ -41,6 +55,9 @@ class FrameReader:
         states (OpenCV's estimate; reading stops at the true end either way).
     fps : float or None
         Frame rate stated by the video; None for a folder or when it states none.
+    allow_short : bool
+        A video that stops decoding before `n_frames` warns (`ShortVideoWarning`)
+        instead of raising.
     """
 
     def __init__(
@@ -51,6 +68,7 @@ class FrameReader:
         n_frames: int,
         fps: float | None,
         files: tuple[Path, ...] = (),
+        allow_short: bool = False,
     ) -> None:
         self.path = path
         self.kind = kind
@@ -58,6 +76,7 @@ class FrameReader:
         self.n_frames = n_frames
         self.fps = fps
         self._files = files
+        self.allow_short = allow_short
 
     def __repr__(self) -> str:
         w, h = self.size
@@ -81,7 +100,8 @@ class FrameReader:
         Raises
         ------
         ValueError
-            If a frame cannot be decoded or has another size than the first; the
+            If a frame cannot be decoded or has another size than the first, or (unless
+            `allow_short`) a video stops before the frames its container states; the
             message names the file and the frame.
         """
         if self.kind == "folder":
@@ -120,16 +140,31 @@ class FrameReader:
             index = 0
             while index < start:  # skip without decoding where the backend allows
                 if not cap.grab():
+                    self._ended(index, stop)
                     return
                 index += 1
             while stop is None or index < stop:
                 ok, image = cap.read()
                 if not ok:
+                    self._ended(index, stop)
                     return
                 yield index, self._check_frame(image, index, self.path)
                 index += 1
         finally:
             cap.release()
+
+    def _ended(self, index: int, stop: int | None) -> None:
+        """Decoding stopped at frame `index`: refuse (or warn) if the container says more."""
+        wanted = self.n_frames if stop is None else min(stop, self.n_frames)
+        if index >= wanted:
+            return
+        msg = (
+            f"{self.path}: decoding stopped after {index} of the {self.n_frames} frames the "
+            "container claims (a truncated or damaged video)"
+        )
+        if not self.allow_short:
+            raise ValueError(f"{msg}; --allow-short (allow_short=True) uses the {index} read")
+        warnings.warn(f"{msg}; using the {index} read", ShortVideoWarning, stacklevel=3)
 
 
 def _natural_key(path: Path) -> tuple:
@@ -138,7 +173,7 @@ def _natural_key(path: Path) -> tuple:
     return tuple(int(p) if p.isdigit() else p.lower() for p in parts)
 
 
-def open_frames(path: str | os.PathLike) -> FrameReader:
+def open_frames(path: str | os.PathLike, *, allow_short: bool = False) -> FrameReader:
     """Open a video file or an image folder as one camera's frames.
 
     Parameters
@@ -147,6 +182,9 @@ def open_frames(path: str | os.PathLike) -> FrameReader:
         A video file (any format ``cv2.VideoCapture`` decodes), or a folder of images
         (`IMAGE_SUFFIXES`), taken in natural order of their names (``2`` before
         ``10``).
+    allow_short : bool, keyword-only
+        Read a video that stops before the frame count of its container to where it
+        stops, with a `ShortVideoWarning` (default: raise `ValueError`).
 
     Returns
     -------
@@ -189,7 +227,8 @@ def open_frames(path: str | os.PathLike) -> FrameReader:
     finally:
         cap.release()
     size = (first.shape[1], first.shape[0])
-    return FrameReader(p, "video", size, max(n, 1), fps if fps > 0 else None)
+    fps = fps if fps > 0 else None
+    return FrameReader(p, "video", size, max(n, 1), fps, allow_short=bool(allow_short))
 
 
 def check_frame_range(start, stop, step) -> tuple[int, int | None, int]:

@@ -11,7 +11,9 @@ turns it into one clean silhouette per camera:
    does not pull the hand model out of the image (at the detected wrist with keypoints,
    else where the forearm's width changes; see `handvar.vision.wrist`).
 3. `silhouettes_from_frames`: both steps for the frames of any number of cameras;
-   an empty silhouette raises `EmptySilhouetteError` naming the camera and frame.
+   an empty silhouette raises `EmptySilhouetteError` naming the camera and frame, and
+   so does one that touches all four borders of the image (`NotAHandError`): skin
+   colour everywhere (a wall, a close-up of skin) is not a hand in view.
 
 `nearest_silhouette_pixel` gives, for every pixel, the nearest silhouette pixel — the
 ``s*`` of the silhouette cost ``C_s`` (design §4).
@@ -42,10 +44,12 @@ __all__ = [
     "CLEANUP_SETTINGS",
     "CleanupSettings",
     "EmptySilhouetteError",
+    "NotAHandError",
     "clean_mask",
     "nearest_silhouette_pixel",
     "silhouettes_from_frames",
     "silhouettes_from_videos",
+    "touches_every_border",
 ]
 
 
@@ -100,6 +104,30 @@ class EmptySilhouetteError(ValueError):
         super().__init__(message)
         self.camera = camera
         self.frame = frame
+
+
+class NotAHandError(EmptySilhouetteError):
+    """A camera's silhouette touches all four borders of its image: not a hand in view.
+
+    A hand seen whole, or entering the image with its forearm, leaves at least one
+    border free; a silhouette reaching every border is skin colour filling the view.
+    Readers that accept empty silhouettes (``allow_empty``) take it as an empty one.
+    """
+
+
+def touches_every_border(mask: np.ndarray) -> bool:
+    """True if the (H, W) `mask` has a pixel in its first and last row and column.
+
+    Examples
+    --------
+    >>> touches_every_border(np.ones((4, 5), bool))
+    True
+    >>> m = np.zeros((4, 5), bool); m[1:, :] = True
+    >>> touches_every_border(m)
+    False
+    """
+    m = np.asarray(mask) != 0
+    return bool(m[0].any() and m[-1].any() and m[:, 0].any() and m[:, -1].any())
 
 
 # --- clean-up --------------------------------------------------------------------------
@@ -306,6 +334,9 @@ def silhouettes_from_frames(
     ------
     EmptySilhouetteError
         If a camera's silhouette is empty; the message names camera and frame.
+    NotAHandError
+        (an `EmptySilhouetteError`) if a camera's silhouette touches all four
+        borders of its image (`touches_every_border`).
     """
     if isinstance(frames, np.ndarray) and frames.ndim == 3:
         frames = [frames]
@@ -331,6 +362,13 @@ def silhouettes_from_frames(
         except ValueError as exc:
             raise ValueError(f"frames ({where}): {exc}") from exc
         sil = clean_mask(raw, **opts)
+        if touches_every_border(sil):
+            raise NotAHandError(
+                f"{where}: not a hand (expected a hand inside the image; the skin-coloured "
+                f"region touches all four borders and covers {sil.mean():.0%} of it)",
+                camera=cam,
+                frame=frame,
+            )
         if wrist and sil.any():
             sil = cut_wrist(sil, None if keypoints is None else keypoints[j])
         if not sil.any():

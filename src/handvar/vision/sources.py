@@ -392,8 +392,15 @@ class VideoSource:
         handvar.io.Sequence
             Without ground truth; the provenance names the files, the frame range, the
             scale and whether the camera was assumed.
+
+        Raises
+        ------
+        EmptySilhouetteError
+            A frame's silhouette is empty (unless ``allow_empty``), or no frame read
+            shows a hand at all (also with ``allow_empty``).
         """
         from handvar.io import Sequence
+        from handvar.vision.silhouette import EmptySilhouetteError
 
         it = self.silhouettes(start, stop, step, **kwargs)
         if progress is not None:
@@ -408,6 +415,14 @@ class VideoSource:
             raise ValueError(
                 f"start: expected a frame range inside the recording "
                 f"({self.n_frames} frames); got start={start}, stop={stop}"
+            )
+        if not any(m.any() for m in masks):  # allow_empty, and nothing anywhere
+            raise EmptySilhouetteError(
+                f"{', '.join(self.names)}: expected a hand in some frame; none of the "
+                f"{len(masks)} frames read shows one (every silhouette is empty, or skin "
+                "colour touching all four borders of the image)",
+                camera=self.names[0],
+                frame=None,
             )
         provenance = {
             "source": [str(r.path) for r in self.readers],
@@ -432,6 +447,7 @@ def open_source(
     fov: float | None = None,
     scale: float = 1.0,
     fps: float | None = None,
+    allow_short: bool = False,
 ) -> VideoSource:
     """Open synchronised recordings, one per camera, with their calibration.
 
@@ -452,6 +468,11 @@ def open_source(
         the skin model and the tracker); the rig is scaled to match.
     fps : float, keyword-only, optional
         Frame rate; by default the first video's, else `SourceSettings.fps`.
+    allow_short : bool, keyword-only
+        Read a video that stops decoding before the frame count its container states
+        (truncated or damaged) to where it stops, with a
+        `handvar.vision.frames.ShortVideoWarning`; by default reading it raises
+        `ValueError` naming the file, the frames read and the frames claimed.
 
     Returns
     -------
@@ -473,7 +494,7 @@ def open_source(
     if not paths:
         raise ValueError("paths: expected one video file or image folder per camera; got none")
     scale = as_float(scale, "scale", minimum=0.0, maximum=4.0, exclusive_minimum=True)
-    readers = tuple(open_frames(p) for p in paths)
+    readers = tuple(open_frames(p, allow_short=allow_short) for p in paths)
     if calibration is None:
         if len(readers) != 1:
             raise ValueError(
