@@ -26,11 +26,11 @@ All of it is one call, `handvar.track` (as ``handvar track`` makes it on a recor
 4. outputs in ``--out`` (`handvar.Track.save`, as ``handvar track --out``):
    ``poses.csv`` (T × 26, mm and degrees), ``joints.csv`` (T × 63, mm, camera frame),
    ``quality.csv`` (per frame: IoU, keypoint error, cost, lost, re-initialised, empty,
-   keypoints), ``track.npz``, ``overlay.png`` and ``overlay.mp4`` (the model over the
-   colour frames, the frame's quality in a line, red when lost); and in ``--images``
-   two PNG strips for the README: evenly spaced frames (``real-video-strip.png``) and
-   the hard frames ``--hard`` (``real-video-hard-frames.png``: the fist, the hand
-   edge-on).
+   keypoints), ``cameras.yml``, ``track.npz``, ``overlay.png`` and ``overlay.mp4`` (the
+   model over the colour frames, the frame's quality in a line, red when lost); and in
+   ``--images`` two PNG strips for the README: evenly spaced frames
+   (``real-video-strip.png``) and the hard frames ``--hard``
+   (``real-video-hard-frames.png``: the fist, the hand edge-on).
 
 Run from the repository root::
 

@@ -1,9 +1,10 @@
 """`handvar export` and `handvar view` on a saved track, and their bad inputs.
 
-A track directory is written by `write_track_outputs` (as `handvar track --out` does)
-from a short synthetic sequence and its true poses; the exports are read back with the
-standard `json` module, bvhio and pygltflib. Every bad input gives one line on standard
-error, exit status 2, and leaves what existed byte-identical.
+A track directory is written by `Track.save` (as `handvar track --out` does) from a
+short synthetic sequence and its true poses, without its cameras (they are given by
+``--calib``), or with them; the exports are read back with the standard `json` module,
+bvhio and pygltflib. Every bad input gives one line on standard error, exit status 2,
+and leaves what existed byte-identical.
 """
 
 from __future__ import annotations
@@ -25,9 +26,9 @@ from tests.export_readers import bvh_world_joints, gltf_skinned_vertices
 KNOWN = b"known bytes that must survive\n"
 
 
-def _saved_track(root: Path, side: str, length: float = 175.0) -> Path:
+def _saved_track(root: Path, side: str, length: float = 175.0, *, cameras=False) -> Path:
+    from handvar.pipeline import Track
     from handvar.synth.sequences import make_sequence
-    from handvar.tracking.outputs import write_track_outputs
     from handvar.tracking.tracker import TrackResult
 
     hand = HandModel(HandShape.from_size(length, side=side))
@@ -40,8 +41,15 @@ def _saved_track(root: Path, side: str, length: float = 175.0) -> Path:
         iou=np.full((n, n_cams), 0.9), cost=np.zeros(n), keypoint_error=np.full(n, np.nan),
         lost=np.array([False, False, True, False]), empty=np.zeros((n, n_cams), dtype=bool),
     )  # fmt: skip
-    out = root / f"track_{side}"
-    write_track_outputs(out, result, seq, hand, predictor="rvar", seed=0, video=False)
+    rig = seq.rig if cameras else None
+    projected = np.stack([c.project(joints.reshape(-1, 3)).reshape(n, 21, 2) for c in seq.rig])
+    track = Track(
+        poses=poses, joints=joints, projected=projected if cameras else projected[:0],
+        quality=None, rig=rig, shape=hand.shape, name=f"benchmark-{side}", predictor="rvar",
+        seed=0, fps=seq.fps, result=result,
+    )  # fmt: skip
+    out = root / (f"track_{side}" + ("_cameras" if cameras else ""))
+    track.save(out, video=False, overlays=False)
     seq.rig.save(root / "rig.yml")
     return out
 
@@ -99,6 +107,50 @@ def test_export_every_format_reads_back(tracks, side, tmp_path):
     res = _run("view", str(track), "--out", str(tmp_path / "v.html"), "--calib", rig)
     assert res.exit_code == 0, res.output
     assert (tmp_path / "v.html").read_text().count("Plotly.newPlot") == 1
+
+
+def test_the_stored_cameras_are_used_and_calib_overrides_them(tmp_path):
+    from handvar.camera import Rig
+
+    track = _saved_track(tmp_path, "left", cameras=True)
+    stored = Rig.load(track / "cameras.yml")
+    hand = HandModel(HandShape.from_size(175.0, side="left"))
+    poses = np.load(track / "track.npz")["poses"]
+    res = _run("export", str(track), "--format", "json", "--out", str(tmp_path / "k.json"))
+    assert res.exit_code == 0, res.output
+    doc = json.loads((tmp_path / "k.json").read_text())
+    for c, cam in enumerate(stored.cameras):  # pixels by the stored cameras
+        np.testing.assert_allclose(
+            doc["frames"][1]["views"][c]["keypoints_2d"],
+            cam.project(hand.joints(poses[1])),
+            atol=5e-4,  # the file's pixels have three decimals
+        )
+    other = Rig(stored.cameras[:1], ("only",))  # --calib: other cameras instead
+    other.save(tmp_path / "one.yml")
+    res = _run("export", str(track), "--format", "openpose", "--out", str(tmp_path / "op"),
+               "--calib", str(tmp_path / "one.yml"))  # fmt: skip
+    assert res.exit_code == 0, res.output
+    assert len(os.listdir(tmp_path / "op")) == len(poses)  # one camera, not the stored two
+    res = _run("view", str(track))
+    assert res.exit_code == 0 and (track / "view.html").is_file(), res.output
+
+
+def test_a_track_saved_without_its_shape_is_refused_unless_the_default_hand(tmp_path):
+    """Before the shape was kept, track.npz held only the tracker's record: the default
+    185 mm right hand is taken when it gives the stored joints, a left hand is refused."""
+    for side in ("right", "left"):
+        track = _saved_track(tmp_path, side, 185.0)
+        npz = track / "track.npz"
+        with np.load(npz) as z:  # what write_track_outputs alone used to write
+            kept = {k: z[k] for k in z.files if k != "meta" and not k.startswith("shape_")}
+        np.savez_compressed(npz, **kept)
+        res = _run("export", str(track), "--format", "bvh", "--out", str(tmp_path / "t.bvh"))
+        if side == "right":
+            assert res.exit_code == 0 and "right hand" in res.output, res.output
+        else:
+            lines = res.output.strip().splitlines()
+            assert res.exit_code == 2 and len(lines) == 1, res.output
+            assert "TRACK_DIR" in lines[0] and "no hand shape" in lines[0], lines
 
 
 def _snapshot(root: Path) -> dict[str, bytes]:

@@ -2,13 +2,23 @@
 
 from __future__ import annotations
 
+import dataclasses
+import json
+
+import cv2
 import numpy as np
 import pandas as pd
 import pytest
 
+from handvar.camera import Rig
 from handvar.hand import HandModel
+from handvar.hand.anthropometry import HandShape
 from handvar.params import NAMES
 from handvar.pipeline import Track, track
+from handvar.tracking.tracker import TrackResult
+
+#: What track.npz held before the track's shape and cameras were kept.
+RECORD = {f.name for f in dataclasses.fields(TrackResult)} | {"predictor", "seed"}
 
 
 @pytest.fixture(scope="module")
@@ -33,25 +43,133 @@ def test_a_track_holds_the_model_joints_and_their_projections(recovered):
     np.testing.assert_allclose(t.result.starts[0], t.sequence.truth.poses[0])
 
 
+@pytest.fixture(scope="module")
+def left_recording():
+    """Three frames of the example video tracked as a left hand, at half size, with its
+    keypoints: an assumed camera, the recording's frame rate and name."""
+    from handvar.data import example_path
+
+    return track(
+        example_path("video"), keypoints=example_path("video-keypoints"), hand="left",
+        hand_length=178.0, frames=3, scale=0.5,
+    )  # fmt: skip
+
+
+def _assert_same_track(back: Track, original: Track) -> None:
+    """Everything a saved track keeps, equal to the last bit."""
+    for name in ("poses", "joints", "projected", "search_seconds"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(original, name))
+    for f in dataclasses.fields(HandShape):  # every array the shape is built from
+        np.testing.assert_array_equal(getattr(back.shape, f.name), getattr(original.shape, f.name))
+    assert back.shape.side == original.shape.side
+    assert back.rig == original.rig  # names, K, distortion, R, t, image size
+    for a, b in zip(back.rig.cameras, original.rig.cameras, strict=True):
+        np.testing.assert_array_equal(a.K, b.K)
+    assert back.fps == original.fps and back.name == original.name
+    assert (back.predictor, back.seed) == (original.predictor, original.seed)
+    assert back.options == original.options
+    assert back.hand.surface == original.hand.surface  # the surface model
+
+
 def test_save_then_load_gives_the_track_back(recovered, tmp_path):
     written = recovered.save(tmp_path / "t", video=False)
-    assert {"poses", "joints", "track", "overlay", "quality"} <= set(written)
+    assert {"poses", "joints", "track", "overlay", "quality", "cameras"} <= set(written)
     back = Track.load(tmp_path / "t")
-    for name in ("poses", "joints", "projected", "search_seconds"):
-        np.testing.assert_array_equal(getattr(back, name), getattr(recovered, name))
+    _assert_same_track(back, recovered)
     for name in ("iou", "keypoint_error", "lost", "reinit", "empty", "keypoints"):
         np.testing.assert_array_equal(getattr(back.quality, name), getattr(recovered.quality, name))
-    np.testing.assert_array_equal(back.shape.segments, recovered.shape.segments)
-    assert back.shape.side == recovered.shape.side
-    assert back.rig.allclose(recovered.rig)
-    assert (back.name, back.predictor, back.seed) == ("benchmark", "rvar", 1)
-    assert back.options == recovered.options
+    assert (back.name, back.predictor, back.seed, back.fps) == ("benchmark", "rvar", 1, 25.0)
+    # cameras.yml, read by OpenCV itself: the camera matrices of the rig
+    fs = cv2.FileStorage(str(tmp_path / "t" / "cameras.yml"), cv2.FILE_STORAGE_READ)
+    for c, cam in enumerate(recovered.rig.cameras):
+        node = fs.getNode("cameras").at(c)
+        assert node.getNode("name").string() == recovered.rig.names[c]
+        np.testing.assert_array_equal(node.getNode("camera_matrix").mat(), cam.K)
+    fs.release()
     # a loaded track has no frames: saved again without overlays, the same numbers
     with pytest.raises(ValueError, match="overlays"):
         back.save(tmp_path / "again")
     back.save(tmp_path / "again", video=False, overlays=False)
-    for name in ("poses.csv", "joints.csv", "quality.csv"):
+    for name in ("poses.csv", "joints.csv", "quality.csv", "cameras.yml"):
         assert (tmp_path / "again" / name).read_bytes() == (tmp_path / "t" / name).read_bytes()
+    _assert_same_track(Track.load(tmp_path / "again"), recovered)
+
+
+def test_a_left_hand_recording_saved_and_loaded_is_the_same(left_recording, tmp_path):
+    left_recording.save(tmp_path / "t", video=False)
+    back = Track.load(tmp_path / "t")
+    _assert_same_track(back, left_recording)
+    assert back.shape.side == "left" and back.shape.length == 178.0
+    assert back.fps == 30.0 and back.name == "dex-human-hand-video"
+    np.testing.assert_array_equal(back.detections, left_recording.detections)
+    # G(x) of the loaded hand gives the stored joints: the shape, not only its size
+    np.testing.assert_allclose(back.hand.joints(back.poses[2]), back.joints[2], atol=1e-9)
+
+
+def test_the_surface_model_comes_back(recovered, tmp_path):
+    meshed = dataclasses.replace(recovered, options={**recovered.options, "model": "mesh"})
+    meshed.save(tmp_path / "t", video=False, overlays=False)
+    assert Track.load(tmp_path / "t").hand.surface == "mesh"
+
+
+def test_other_cameras_at_load_give_their_projections(recovered, tmp_path):
+    recovered.save(tmp_path / "t", video=False, overlays=False)
+    one = Rig(recovered.rig.cameras[1:], ("only",))
+    back = Track.load(tmp_path / "t", rig=one)
+    assert back.rig == one and back.projected.shape == (1, 3, 21, 2)
+    np.testing.assert_array_equal(back.projected[0], recovered.projected[1])
+
+
+def _strip_npz(path, drop) -> None:
+    """Rewrite track.npz without the arrays for which ``drop(name)`` holds."""
+    with np.load(path) as z:
+        kept = {k: z[k] for k in z.files if not drop(k)}
+    np.savez_compressed(path, **kept)
+
+
+def test_older_track_directories_load_without_guessing(recovered, tmp_path):
+    recovered.save(tmp_path / "t", video=False, overlays=False)
+    # cameras kept in track.npz's meta, before cameras.yml
+    with np.load(tmp_path / "t" / "track.npz") as z:
+        meta = json.loads(str(z["meta"]))
+    (tmp_path / "t" / "cameras.yml").unlink()
+    _strip_npz(tmp_path / "t" / "track.npz", lambda k: k == "meta")
+    with np.load(tmp_path / "t" / "track.npz") as z:
+        arrays = dict(z)
+    meta["rig"] = recovered.rig.to_dict()
+    np.savez_compressed(tmp_path / "t" / "track.npz", **arrays, meta=np.array(json.dumps(meta)))
+    _assert_same_track(Track.load(tmp_path / "t"), recovered)
+
+    # only the tracker's record, the predictor and the seed: the default hand, checked
+    _strip_npz(tmp_path / "t" / "track.npz", lambda k: k not in RECORD)
+    back = Track.load(tmp_path / "t")
+    np.testing.assert_array_equal(back.poses, recovered.poses)
+    np.testing.assert_array_equal(back.shape.segments, HandShape.from_size().segments)
+    assert back.shape.side == "right" and back.rig is None and back.fps is None
+    assert back.quality is None and back.options == {} and back.name == "t"
+    assert back.projected.shape == (0, 3, 21, 2)
+    back.save(tmp_path / "again", video=False, overlays=False)  # and saved again
+    assert not (tmp_path / "again" / "cameras.yml").exists()
+    assert Track.load(tmp_path / "again").rig is None
+
+    # joints that the default hand does not give: refused, nothing guessed
+    with np.load(tmp_path / "t" / "track.npz") as z:
+        arrays = dict(z)
+    arrays["joints"] = arrays["joints"] * 1.01
+    np.savez_compressed(tmp_path / "t" / "track.npz", **arrays)
+    with pytest.raises(ValueError, match=r"no hand shape .* cannot be rebuilt"):
+        Track.load(tmp_path / "t")
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [(None, "directory: expected a track directory"), (b"not a zip", "not a readable track")],
+)
+def test_load_refuses_what_is_not_a_track(tmp_path, content, message):
+    if content is not None:
+        (tmp_path / "track.npz").write_bytes(content)
+    with pytest.raises(ValueError, match=message):
+        Track.load(tmp_path)
 
 
 def test_the_wide_table_matches_the_csv_files_read_by_pandas(recovered, tmp_path):

@@ -53,3 +53,28 @@ def test_track_errors_are_one_line(tmp_path):
     res = runner.invoke(main, ["track", "benchmark", "--frames", "2", "--init", "nope",
                                "--out", str(tmp_path / "o")])  # fmt: skip
     assert res.exit_code == 2 and "POSE" in res.output
+
+
+def test_track_out_keeps_the_hand_cameras_and_frame_rate(tmp_path):
+    """What `handvar track --out` writes, `Track.load` rebuilds: the hand it was told,
+    the sequence's cameras (cameras.yml) and frame rate, its name."""
+    from handvar.camera import Rig
+    from handvar.hand.anthropometry import HandShape
+    from handvar.pipeline import Track
+
+    seq = make_sequence("benchmark", n_frames=2)
+    write_sequence(seq, tmp_path / "seq")
+    out = tmp_path / "out"
+    res = CliRunner().invoke(
+        main,
+        ["track", str(tmp_path / "seq"), "--hand", "left", "--hand-length", "170",
+         "--out", str(out), "--no-video"],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    back = Track.load(out)
+    want = HandShape.from_size(170.0, side="left")
+    assert back.shape.side == "left"
+    np.testing.assert_array_equal(back.shape.bases, want.bases)
+    np.testing.assert_array_equal(back.shape.radii, want.radii)
+    assert back.rig == seq.rig and Rig.load(out / "cameras.yml") == seq.rig
+    assert back.fps == seq.fps and back.name == seq.name

@@ -29,6 +29,7 @@ import dataclasses
 import json
 import os
 import time
+import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -53,6 +54,10 @@ MODELS: tuple[str, ...] = ("spheres", "mesh")
 #: The columns of a track's per-frame quality (`handvar.tracking.recovery.TrackQuality`).
 _QUALITY_PREFIX = "quality_"
 _SHAPE_PREFIX = "shape_"
+#: How far (mm) the stored joints of a track saved without its hand shape may be from
+#: those of the default hand for it to be taken: a micron, far above the rounding of
+#: float64 joints (they are stored as computed).
+_SHAPE_TOLERANCE = 1e-3
 
 
 @dataclass(eq=False)
@@ -67,13 +72,15 @@ class Track:
         The 21 joints G(x) of every frame, mm, world frame of the rig (the camera frame
         for one camera).
     projected : (n_cameras, T, 21, 2) ndarray
-        The joints projected into every camera, pixels of the full-resolution frames.
+        The joints projected into every camera, pixels of the full-resolution frames
+        (no camera, ``(0, T, 21, 2)``, when `rig` is None).
     quality : TrackQuality or None
         Per frame: silhouette IoU, keypoint error, cost, lost, re-initialised, empty,
         with keypoints (`handvar.tracking.recovery.TrackQuality`); None without
         recovery.
-    rig : Rig
-        The cameras, for the full-resolution frames.
+    rig : Rig or None
+        The cameras, for the full-resolution frames; None only for a track loaded from
+        a directory saved without them (`load`).
     shape : HandShape
         The tracked hand (``shape.side``: which hand).
     name : str
@@ -113,7 +120,7 @@ class Track:
     joints: np.ndarray
     projected: np.ndarray
     quality: Any
-    rig: Rig
+    rig: Rig | None
     shape: HandShape
     name: str
     predictor: str
@@ -152,9 +159,13 @@ class Track:
     ) -> dict[str, Path | str]:
         """Write the track into `directory`, as ``handvar track --out`` does.
 
-        poses.csv, joints.csv, track.npz (with what `Track.load` needs), quality.csv
+        poses.csv, joints.csv, track.npz (the tracker's record and everything `load`
+        rebuilds the track from: the hand shape, the options with the surface model,
+        the name, the frame rate, the projections, the quality), cameras.yml (the rig,
+        in `handvar.camera.Rig.save`'s format, which ``--calib`` reads), quality.csv
         with recovery, overlay.png and, with `video`, overlay.mp4
-        (`handvar.tracking.outputs.write_track_outputs`; all-or-nothing).
+        (`handvar.tracking.outputs.write_track_outputs`; all-or-nothing). The layout:
+        docs/conventions.md.
 
         Parameters
         ----------
@@ -188,6 +199,7 @@ class Track:
             directory, self.result, self.sequence, self.hand, predictor=self.predictor,
             seed=self.seed, video=video and overlays, backgrounds=backgrounds,
             quality=self.quality, overlays=overlays, extra=self._extra_arrays(),
+            rig=self.rig,
         )  # fmt: skip
 
     def _extra_arrays(self) -> dict[str, np.ndarray]:
@@ -196,61 +208,112 @@ class Track:
             "projected": self.projected,
             "search_seconds": np.asarray(self.search_seconds, dtype=float),
             "meta": np.array(json.dumps({
-                "name": self.name, "fps": self.fps, "rig": self.rig.to_dict(),
-                "options": self.options, "stage_seconds": self.stage_seconds,
+                "name": self.name, "fps": self.fps, "options": self.options,
+                "stage_seconds": self.stage_seconds,
             })),
         }  # fmt: skip
         if self.detections is not None:
             arrays["detections"] = np.asarray(self.detections, dtype=bool)
-        for f in dataclasses.fields(HandShape):
-            if f.init:
-                arrays[_SHAPE_PREFIX + f.name] = np.asarray(getattr(self.shape, f.name))
+        for name in _shape_fields():
+            arrays[_SHAPE_PREFIX + name] = np.asarray(getattr(self.shape, name))
         if self.quality is not None:
             for f in dataclasses.fields(self.quality):
                 arrays[_QUALITY_PREFIX + f.name] = np.asarray(getattr(self.quality, f.name))
         return arrays
 
     @classmethod
-    def load(cls, directory: str | os.PathLike) -> Track:
+    def load(cls, directory: str | os.PathLike, *, rig: Rig | None = None) -> Track:
         """Read a track written by `save` (or ``handvar track --out``) from `directory`.
 
-        The frames are not kept with a track: the loaded one has ``sequence`` and
-        ``source`` None.
+        Everything `save` stores comes back as it was: poses, joints, projections,
+        quality, the hand shape (every array of it, its side), the cameras
+        (cameras.yml), the name, frame rate, predictor, seed and options (with the
+        surface model). The frames are not kept with a track: the loaded one has
+        ``sequence``, ``source`` and ``keypoints`` None.
+
+        A directory written before the shape and the cameras were kept (track.npz with
+        only the tracker's record, the predictor and the seed) is read too, and nothing
+        is guessed for it: its hand is the default of `handvar.track`,
+        ``HandShape.from_size()`` (185 mm, right), accepted only when its G(x)
+        reproduces the stored joints at every frame, else a ValueError says the shape
+        cannot be rebuilt; its ``rig`` is None (no projections) unless `rig` is given;
+        ``fps`` and ``quality`` are None, ``options`` empty (so the spheres surface),
+        and its name is the directory's.
+
+        Parameters
+        ----------
+        directory : path-like
+            The track directory.
+        rig : Rig, keyword-only, optional
+            Cameras to use instead of the stored ones (the projections are computed
+            for them).
 
         Raises
         ------
         ValueError
-            If track.npz is missing what `save` writes.
+            If `directory` holds no readable track.npz, or it lacks the tracker's
+            record, or (older directories) the default hand does not give its joints.
         """
         from handvar.tracking.recovery import TrackQuality
         from handvar.tracking.tracker import TrackResult
 
-        path = Path(directory) / "track.npz"
-        with np.load(path, allow_pickle=False) as z:
-            stored = {name: z[name] for name in z.files}
-        missing = [n for n in ("meta", "projected", f"{_SHAPE_PREFIX}length") if n not in stored]
+        folder = Path(directory)
+        path = folder / "track.npz"
+        if not path.is_file():
+            raise ValueError(
+                f"directory: expected a track directory with track.npz; got {directory}"
+            )
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                stored = {name: z[name] for name in z.files}
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+            raise ValueError(f"{path}: not a readable track ({exc})") from None
+        record = [f.name for f in dataclasses.fields(TrackResult)] + ["predictor", "seed"]
+        missing = [name for name in record if name not in stored]
         if missing:
             raise ValueError(
                 f"{path}: expected a track saved by handvar.Track.save; missing {missing}"
             )
-        meta = json.loads(str(stored["meta"]))
         result = TrackResult(**{f.name: stored[f.name] for f in dataclasses.fields(TrackResult)})
-        shape = HandShape(**{
-            f.name: _scalar(stored[_SHAPE_PREFIX + f.name])
-            for f in dataclasses.fields(HandShape) if f.init
-        })  # fmt: skip
+        T = result.poses.shape[0] if result.poses.ndim == 2 else 0
+        if T < 1 or result.poses.shape != (T, len(NAMES)) or result.joints.shape != (T, 21, 3):
+            raise ValueError(
+                f"{path}: expected (T, 26) poses and (T, 21, 3) joints, T >= 1; got "
+                f"{result.poses.shape} and {result.joints.shape}"
+            )
+        meta = json.loads(str(stored["meta"])) if "meta" in stored else {}
+        if _SHAPE_PREFIX + "segments" in stored:
+            shape = HandShape(**{
+                name: _scalar(stored[_SHAPE_PREFIX + name]) for name in _shape_fields()
+            })  # fmt: skip
+        else:
+            shape = _default_shape(result.poses, result.joints, path)
+        if rig is not None:
+            rig = as_instance(rig, Rig, "rig", what="a Rig")
+            projected = _project(rig, result.joints)
+        else:
+            if (folder / "cameras.yml").is_file():
+                rig = Rig.load(folder / "cameras.yml")
+            elif "rig" in meta:  # saved when the cameras were kept in track.npz
+                rig = Rig.from_dict(meta["rig"])
+            if rig is None:
+                projected = np.zeros((0, T, len(JOINTS), 2))
+            elif "projected" in stored:
+                projected = stored["projected"]
+            else:
+                projected = _project(rig, result.joints)
         quality = None
         if f"{_QUALITY_PREFIX}iou" in stored:
             quality = TrackQuality(**{
                 f.name: stored[_QUALITY_PREFIX + f.name] for f in dataclasses.fields(TrackQuality)
             })  # fmt: skip
         return cls(
-            poses=result.poses, joints=result.joints, projected=stored["projected"],
-            quality=quality, rig=Rig.from_dict(meta["rig"]), shape=shape, name=meta["name"],
-            predictor=str(stored["predictor"]), seed=int(stored["seed"]), fps=meta["fps"],
-            result=result, search_seconds=stored["search_seconds"],
-            detections=stored.get("detections"), options=meta["options"],
-            stage_seconds=meta["stage_seconds"],
+            poses=result.poses, joints=result.joints, projected=projected, quality=quality,
+            rig=rig, shape=shape, name=meta.get("name", folder.resolve().name),
+            predictor=str(stored["predictor"]), seed=int(stored["seed"]), fps=meta.get("fps"),
+            result=result, search_seconds=stored.get("search_seconds", np.zeros(0)),
+            detections=stored.get("detections"), options=meta.get("options", {}),
+            stage_seconds=meta.get("stage_seconds", {}),
         )  # fmt: skip
 
     def to_dataframe(self, kind: str = "wide"):
@@ -284,7 +347,8 @@ class Track:
             }
             for i, c in enumerate("xyz"):
                 columns[c] = self.joints[:, :, i].ravel()
-            for cam, uv in zip(self.rig.names, self.projected, strict=True):
+            names = () if self.rig is None else self.rig.names
+            for cam, uv in zip(names, self.projected, strict=True):
                 columns[f"u_{cam}"] = uv[:, :, 0].ravel()
                 columns[f"v_{cam}"] = uv[:, :, 1].ravel()
             return pd.DataFrame(columns)
@@ -296,6 +360,42 @@ class Track:
             for f in dataclasses.fields(self.quality):
                 columns[f.name] = np.asarray(getattr(self.quality, f.name))[:T]
         return pd.DataFrame(columns, index=pd.RangeIndex(T, name="frame"))
+
+
+def _shape_fields() -> list[str]:
+    """The fields a `HandShape` is built from (its constructor's), as track.npz keeps them."""
+    return [f.name for f in dataclasses.fields(HandShape) if f.init]
+
+
+def _default_shape(poses: np.ndarray, joints: np.ndarray, path: Path) -> HandShape:
+    """The hand of a track saved without its shape: `track`'s default, if it fits.
+
+    ``HandShape.from_size()`` is accepted only when its G(x) gives the stored joints
+    (within `_SHAPE_TOLERANCE`) at every frame with a pose; otherwise the shape cannot
+    be rebuilt and the error says so.
+    """
+    from handvar.hand.kinematics import HandModel
+
+    shape = HandShape.from_size()
+    model = HandModel(shape)
+    worst = 0.0
+    for x, points in zip(poses, joints, strict=True):
+        if np.all(np.isfinite(x)):
+            worst = max(worst, float(np.abs(model.joints(x) - points).max()))
+    if worst > _SHAPE_TOLERANCE:
+        raise ValueError(
+            f"{path}: holds no hand shape (saved by an older handvar) and its joints are "
+            f"not those of the default {shape.length:g} mm right hand (off by up to "
+            f"{worst:.3g} mm): the shape cannot be rebuilt; track the recording again"
+        )
+    return shape
+
+
+def _project(rig: Rig, joints: np.ndarray) -> np.ndarray:
+    """(n_cameras, T, 21, 2) pixels of the (T, 21, 3) `joints` in every camera of `rig`."""
+    T = joints.shape[0]
+    points = joints.reshape(-1, 3)
+    return np.stack([cam.project(points).reshape(T, -1, 2) for cam in rig.cameras])
 
 
 def _scalar(value: np.ndarray):

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from pathlib import Path
-from types import SimpleNamespace
 
 import click
 
@@ -17,85 +16,35 @@ FORMATS = {
     "gltf": "track.glb",
 }
 _SUFFIXES = {"json": (".json",), "bvh": (".bvh",), "gltf": (".glb",)}
-_SHAPE_TOLERANCE = 1e-3  # mm: the stored joints must be G(poses) of the shape found
-
-
-def read_track(directory) -> SimpleNamespace:
-    """The track saved in `directory`: poses, joints, shape, rig, quality, fps, name.
-
-    Reads `track.npz` as `handvar track --out` writes it. A track saved without its hand
-    shape gets the `HandShape.from_size` hand (either side, any length) whose G(poses)
-    reproduces the stored joints; one saved without its cameras has ``rig`` None.
-    """
-    import numpy as np
-
-    from handvar.hand.anthropometry import MIDDLE_MCP, WRIST, HandShape
-    from handvar.hand.kinematics import HandModel
-
-    path = Path(directory)
-    npz_path = path / "track.npz"
-    if not path.is_dir() or not npz_path.is_file():
-        raise ValueError(f"TRACK_DIR: expected a track directory with track.npz; got {directory}")
-    try:
-        with np.load(npz_path, allow_pickle=False) as npz:
-            data = {k: npz[k] for k in npz.files}
-    except (OSError, ValueError, EOFError) as exc:
-        raise ValueError(f"TRACK_DIR: cannot read {npz_path}: {exc}") from None
-    if "poses" not in data or "joints" not in data:
-        raise ValueError(f"TRACK_DIR: expected poses and joints in {npz_path}; got {sorted(data)}")
-    poses = np.asarray(data["poses"], dtype=float)
-    joints = np.asarray(data["joints"], dtype=float)
-    if (
-        poses.ndim != 2
-        or poses.shape[1] != 26
-        or len(poses) < 1
-        or joints.shape != (len(poses), 21, 3)
-    ):
-        raise ValueError(f"TRACK_DIR: expected T × 26 poses and T × 21 × 3 joints in {npz_path}")
-    # The hand: its size follows from the wrist → middle MCP distance at any pose.
-    unit = HandShape.from_size(1.0)
-    ratio = np.linalg.norm(unit.bases[2])
-    length = float(np.linalg.norm(joints[0, MIDDLE_MCP] - joints[0, WRIST]) / ratio)
-    shape = None
-    for side in ("right", "left"):
-        candidate = HandShape.from_size(length, side=side)
-        model = HandModel(candidate)
-        picks = np.unique(np.linspace(0, len(poses) - 1, 5).round().astype(int))
-        if all(np.abs(model.joints(poses[t]) - joints[t]).max() < _SHAPE_TOLERANCE for t in picks):
-            shape = candidate
-            break
-    if shape is None:
-        raise ValueError(
-            f"TRACK_DIR: the joints in {npz_path} are not those of a standard hand; "
-            "cannot tell the hand's shape"
-        )
-    quality = None
-    if "iou" in data and "lost" in data:
-        quality = {"iou": np.asarray(data["iou"], float), "lost": np.asarray(data["lost"], bool)}
-    return SimpleNamespace(poses=poses, joints=joints, shape=shape, rig=None, quality=quality,
-                           fps=None, name=path.resolve().name)  # fmt: skip
 
 
 def _load(track_dir, calib):
-    track = read_track(track_dir)
+    """The track saved in TRACK_DIR (`handvar.Track.load`), with the cameras of `calib`
+    instead of the stored ones when given."""
+    from handvar.pipeline import Track
+
+    rig = None
     if calib is not None:
         from handvar.camera import Rig
 
-        track.rig = Rig.load(calib)
-    return track
+        rig = Rig.load(calib)
+    try:
+        return Track.load(track_dir, rig=rig)
+    except ValueError as exc:
+        raise ValueError(f"TRACK_DIR: {str(exc).removeprefix('directory: ')}") from None
 
 
 def _confidence(track):
+    """Per-frame fit confidence: the tracker's silhouette IoU, 0 on lost frames."""
     from handvar.export.keypoints import fit_confidence
 
-    if track.quality is None:
-        return None
-    return fit_confidence(track.quality["iou"], track.quality["lost"])
+    return fit_confidence(track.result.iou, track.result.lost)
 
 
 _calib_option = click.option(
     "--calib", type=click.Path(dir_okay=False), default=None,
-    help="OpenCV calibration file of the cameras to project into [default: the track's].",
+    help="OpenCV calibration file of the cameras to project into, instead of the "
+    "track's own (TRACK_DIR/cameras.yml) [default: the track's].",
 )  # fmt: skip
 
 

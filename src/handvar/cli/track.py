@@ -98,7 +98,9 @@ def track_command(
     keypoints when it has them); the summary says how many.
 
     OUT receives poses.csv (T × 26, mm and degrees), joints.csv (T × 63, mm),
-    track.npz (the track and its fit quality), overlay.png (a
+    cameras.yml (the cameras, as --calib reads them), track.npz (the track, its fit
+    quality, hand shape, frame rate and name: what `handvar export` and `handvar
+    view` read), overlay.png (a
     strip of frames: the observed masks with the fitted model's outline and joints)
     and, with --video, overlay.mp4 (numbered PNGs in overlay_frames/ when OpenCV has
     no mp4v codec); with recovery also quality.csv (per frame: IoU, keypoint error,

@@ -7,6 +7,8 @@
     track.npz     every field of `TrackResult` (poses, joints, starts, costs,
                   iterations, seconds, iou, cost, keypoint_error, lost, empty),
                   predictor and seed; with a quality also reinit and with_keypoints
+    cameras.yml   with a rig: the cameras of the full-resolution frames, in
+                  `handvar.camera.Rig.save`'s OpenCV format (what ``--calib`` reads)
     quality.csv   with a quality (design §14.3): per frame its silhouette IoU, keypoint error
                   (hand sizes, empty without keypoints), final cost and the flags lost,
                   reinit, empty, keypoints (0/1)
@@ -39,10 +41,12 @@ import cv2
 import numpy as np
 
 from handvar.atomic import OutputSet, lock_directory, user_paths, write_png
+from handvar.camera import Rig
 from handvar.io import Sequence
 from handvar.params import NAMES
 from handvar.render import overlay_views, side_by_side, write_overlay_video
 from handvar.tracking.tracker import TrackResult
+from handvar.validate import as_instance
 
 __all__ = [
     "TRACK_FILES",
@@ -61,8 +65,8 @@ _STRIP_SHRINK = 2  # overlay.png tiles are 1/_STRIP_SHRINK of the camera's size
 #: Every file and folder `write_track_outputs` may write: a new track removes those of
 #: an earlier one that it does not write itself (a run without video or recovery).
 TRACK_FILES = (
-    "poses.csv", "joints.csv", "track.npz", "overlay.png", "quality.csv", "overlay.mp4",
-    "overlay_frames",
+    "poses.csv", "joints.csv", "track.npz", "cameras.yml", "overlay.png", "quality.csv",
+    "overlay.mp4", "overlay_frames",
 )  # fmt: skip
 _QUALITY = ("iou", "keypoint_error", "cost", "lost", "reinit", "empty", "keypoints")
 
@@ -194,6 +198,7 @@ def write_track_outputs(
     quality=None,
     overlays: bool = True,
     extra: dict[str, np.ndarray] | None = None,
+    rig: Rig | None = None,
 ) -> dict[str, Path | str]:
     """Write the files of a track (poses, joints, the track, overlays) into `out_dir`.
 
@@ -225,12 +230,15 @@ def write_track_outputs(
     extra : dict of str to ndarray, keyword-only, optional
         More arrays for track.npz (`handvar.pipeline.Track` keeps its rig, hand shape
         and options there); a name already taken is refused.
+    rig : Rig, keyword-only, optional
+        The cameras of the full-resolution frames, written to cameras.yml
+        (`Rig.save`; `Rig.load` reads them back exactly).
 
     Returns
     -------
     dict
-        ``"poses"``, ``"joints"``, ``"track"``, ``"overlay"`` (and ``"quality"``): the
-        files written (Path);
+        ``"poses"``, ``"joints"``, ``"track"``, ``"overlay"`` (and ``"quality"``,
+        ``"cameras"``): the files written (Path);
         ``"video"``: overlay.mp4, or the ``overlay_frames`` folder when the codec is
         missing; ``"video_error"``: why no video was written (str), instead of raising.
     """
@@ -241,13 +249,13 @@ def write_track_outputs(
     with lock_directory(out, "out_dir"):  # held already by a command that checked --out
         return _write_track_outputs(
             out, result, sequence, hand, n_frames, predictor, seed, video, backgrounds,
-            quality, overlays, extra,
+            quality, overlays, extra, rig,
         )  # fmt: skip
 
 
 def _write_track_outputs(
     out: Path, result, sequence, hand, n_frames, predictor, seed, video, backgrounds,
-    quality, overlays, extra,
+    quality, overlays, extra, rig,
 ) -> dict[str, Path | str]:  # fmt: skip
     if backgrounds is None and overlays:
         backgrounds = sequence_backgrounds(sequence)
@@ -258,6 +266,9 @@ def _write_track_outputs(
     }
     if overlays:
         written["overlay"] = out / "overlay.png"
+    if rig is not None:
+        rig = as_instance(rig, Rig, "rig", what="a Rig")
+        written["cameras"] = out / "cameras.yml"
 
     header = ",".join(NAMES)
     jheader = ",".join(f"j{j}_{c}" for j in range(_N_JOINTS) for c in "xyz")
@@ -297,6 +308,8 @@ def _write_track_outputs(
             p, result.joints.reshape(n_frames, -1), delimiter=",", header=jheader,
             comments="", fmt="%.4f"))  # fmt: skip
         outputs.add(written["track"], write_npz)
+        if rig is not None:
+            outputs.add(written["cameras"], rig.save)
         if overlays:
             outputs.add(written["overlay"], write_strip)
         if quality is not None:
