@@ -69,7 +69,7 @@ def test_a_track_owns_its_folder(tmp_path):
     assert again.exit_code == 0, again.output
     # the earlier run's quality.csv and overlay.mp4 went; the user's own file stayed
     assert sorted(p.name for p in out.iterdir()) == [
-        "joints.csv", "notes.txt", "overlay.png", "poses.csv", "track.npz"
+        "cameras.yml", "joints.csv", "notes.txt", "overlay.png", "poses.csv", "track.npz"
     ]  # fmt: skip
     assert (out / "notes.txt").read_text() == "mine"
 
@@ -105,7 +105,7 @@ def test_two_tracks_started_together_leave_one_whole_track(tmp_path):
         if code == 2:
             assert err == [busy(out)]
     assert sorted(p.name for p in out.iterdir()) == [
-        "joints.csv", "overlay.png", "poses.csv", "track.npz"
+        "cameras.yml", "joints.csv", "overlay.png", "poses.csv", "track.npz"
     ]  # fmt: skip
     poses = np.loadtxt(out / "poses.csv", delimiter=",", skiprows=1)
     assert poses.shape == (2, 26)
