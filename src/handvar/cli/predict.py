@@ -116,7 +116,7 @@ def predict_command(
             raise ValueError(f"{option}: expected rows within 0..{len(X)}; got {spec!r}")
         if any(r >= len(X) for r in reset_at):
             raise ValueError(f"--reset-at: expected rows below {len(X)}; got {list(reset_at)}")
-        biggest = float(np.abs(X).max()) if X.size else 0.0
+        biggest = float(max(X.max(), -X.min())) if X.size else 0.0  # no |X| copy
         if biggest > _MAX_SERIES_VALUE:  # finite, but beyond any pose: the arithmetic overflows
             raise ValueError(
                 f"{path}: expected poses in mm and degrees (|value| <= {_MAX_SERIES_VALUE:g}); "
@@ -134,7 +134,7 @@ def predict_command(
         file = files[0]
         X, resets = load(file, "FILE")
         try:
-            rows, _ = evaluate_open_loop(X, resets=resets, layout=inner)
+            rows = evaluate_open_loop(X, resets=resets, layout=inner)
         except ValueError as exc:  # the series' shape or values: name the file
             msg = str(exc)
             raise ValueError(msg if msg.startswith(file) else f"{file}: {msg}") from None
