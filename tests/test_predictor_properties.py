@@ -14,11 +14,13 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from handvar.predictors import (
+    AdaptiveBank,
     RVAR,
     VAR,
     Decelerating,
     KalmanCV,
     NoMotion,
+    OneEuro,
     _kernels,
     fit_affine_weights,
     fit_trust_weights,
@@ -288,6 +290,16 @@ def test_misconfigurations_are_refused_naming_the_argument(call, error, message)
     with pytest.raises(error) as info:
         call()
     assert str(info.value).startswith(message)
+
+
+@pytest.mark.parametrize(
+    "make",
+    [NoMotion, Decelerating, KalmanCV, VAR, RVAR, OneEuro, AdaptiveBank],
+    ids=lambda m: m.__name__,
+)
+def test_an_empty_frame_is_refused_naming_the_argument(make):
+    with pytest.raises(ValueError, match=r"^x: expected a vector of at least one value; got shape \(0,\)"):
+        make().update(np.array([]))
 
 
 def test_every_paper_configuration_is_accepted():

@@ -38,7 +38,7 @@ def as_vector(x, name: str = "x", size: int | None = None) -> np.ndarray:
     """Return `x` as a finite float64 vector, or raise naming `name`.
 
     TypeError if it is not numeric, ValueError if its shape differs from ``(size,)``
-    (any length when `size` is None) or it holds NaN or infinity.
+    (any length but 0 when `size` is None) or it holds NaN or infinity.
     """
     # The per-frame fast path; handvar.validate words the error when there is one.
     try:
@@ -52,6 +52,8 @@ def as_vector(x, name: str = "x", size: int | None = None) -> np.ndarray:
         or not np.isfinite(arr).all()
     ):
         return as_array(x, name, (size,), what="a vector")
+    if arr.shape[0] == 0:
+        raise ValueError(f"{name}: expected a vector of at least one value; got shape (0,)")
     return arr
 
 
