@@ -13,6 +13,7 @@ from handvar.evaluation.openloop import (
     keypoint_blocks,
     league_predictors,
     noise_variants,
+    smooth_variants,
 )
 from handvar.predictors import (
     EXPERTS,
@@ -315,6 +316,26 @@ def test_bank_never_loses_to_the_best_baseline_on_the_shipped_recordings(experts
     assert len(ratios) == 15
     assert max(ratios.values()) <= 1.01, ratios
     assert sum(r < 1.0 for r in ratios.values()) >= len(ratios) / 2, ratios
+
+
+def test_slow_smooth_motion_needs_the_bank_of_all_experts():
+    """Why the steering bank does not predict open loop (design: docs/predictors-notes.md).
+
+    On slow smooth motion (the htrack recording slowed 4x and smoothed; a random walk in
+    velocity) the constant-velocity Kalman filter is the best baseline.  The steering
+    bank, which leaves out the experts that carry the whole step forward, loses to it by
+    far; the bank of all twelve experts does not.
+    """
+    from handvar.synth.motion import htrack_to_handvar
+
+    H = htrack_to_handvar(np.loadtxt(EXAMPLES / "htrack-fingerfist.txt", max_rows=300))
+    for rec in smooth_variants(Recording("htrack 0-299", H, "handvar")):
+        base = _baseline_rmse(rec.X, rec.X, rec.resets)
+        best = min(base.values())
+        assert min(base, key=base.get) == "Kalman CV", (rec.name, base)
+        groups = hand_groups()
+        assert _bank_rmse(rec.X, rec.X, rec.resets, groups, "all") <= 1.01 * best, rec.name
+        assert _bank_rmse(rec.X, rec.X, rec.resets, groups, "steering") > 1.5 * best, rec.name
 
 
 def _families():

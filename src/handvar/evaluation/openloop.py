@@ -381,7 +381,8 @@ def smooth_variants(
     *,
     slow: float = 4.0,
     sigma: float = 2.0,
-    walk_sigma: float = 0.02,
+    walk_sigma: float = 0.005,
+    walk_frames: int = 2000,
     seed: int = 0,
 ) -> list[Recording]:
     """Slow, smooth motion for the league: where constant velocity is hard to beat.
@@ -389,9 +390,9 @@ def smooth_variants(
     Two recordings: `recording` played `slow` times slower at the same frame rate
     after a Gaussian smoothing of `sigma` source frames (:func:`handvar.synth.motion.
     retime`, cubic interpolation; takes are slowed one by one), and a random walk in
-    velocity of the same length and width, v_t = v_{t−1} + `walk_sigma` ε_t,
-    x_t = x_{t−1} + v_t (ε standard normal, seeded by `seed`; in the columns' units per
-    frame²).  On both the motion between frames is almost linear: the best baseline is
+    velocity of the same width and at most `walk_frames` frames, starting at the
+    recording's first frame, v_t = v_{t−1} + `walk_sigma` ε_t, x_t = x_{t−1} + v_t
+    (ε standard normal, seeded by `seed`; in the columns' units per frame²).  On both the motion between frames is almost linear: the best baseline is
     the constant-velocity Kalman filter, and a predictor that damps the last step
     (decelerating, a steering set without constant velocity) loses to it.
 
@@ -400,6 +401,7 @@ def smooth_variants(
     recording : Recording
         A clean recording (its `truth` must be None).
     slow, sigma, walk_sigma : float
+    walk_frames : int
     seed : int
     """
     from handvar.synth.motion import retime
@@ -419,9 +421,10 @@ def smooth_variants(
         tuple(resets[1:]),
     )  # fmt: skip
     rng = np.random.default_rng([seed, 1])
-    v = np.cumsum(walk_sigma * rng.standard_normal(X.shape), axis=0)
+    n = min(len(X), walk_frames)
+    v = np.cumsum(walk_sigma * rng.standard_normal((n, X.shape[1])), axis=0)
     walk = Recording(
-        f"velocity random walk ({len(X)} frames)", X[0] + np.cumsum(v, axis=0), recording.layout
+        f"{recording.name} velocity random walk", X[0] + np.cumsum(v, axis=0), recording.layout
     )
     return [slowed, walk]
 
