@@ -52,11 +52,13 @@ def main() -> None:
         done = subprocess.run(cmd, capture_output=True, text=True)
         seconds = time.perf_counter() - t0
     if done.returncode:
-        raise SystemExit(f"handvar predict failed ({done.returncode}): {done.stderr or done.stdout}")
+        why = done.stderr or done.stdout
+        raise SystemExit(f"handvar predict failed ({done.returncode}): {why}")
     peak_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024  # KiB on Linux
     series_mb = args.frames * 26 * 8 / 1e6
     mode = "league with --noise" if args.league else "table"
-    print(f"handvar predict ({mode}), {args.frames} frames x 26 columns (series {series_mb:.0f} MB)")
+    print(f"handvar predict ({mode}), {args.frames} frames x 26 columns")
+    print(f"  the series alone: {series_mb:.0f} MB")
     print(f"  peak resident memory {peak_mb:.0f} MiB, wall clock {seconds:.1f} s")
 
 

@@ -13,8 +13,8 @@ from handvar.evaluation.openloop import (
     evaluate_open_loop,
     read_pose_series,
 )
-from handvar.predictors.catalogue import CATALOGUE
 from handvar.predictors import NoMotion, one_step_predictions
+from handvar.predictors.catalogue import CATALOGUE
 from tests.conftest import EXAMPLES
 
 

@@ -14,9 +14,9 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from handvar.predictors import (
-    AdaptiveBank,
     RVAR,
     VAR,
+    AdaptiveBank,
     Decelerating,
     KalmanCV,
     NoMotion,
@@ -298,7 +298,8 @@ def test_misconfigurations_are_refused_naming_the_argument(call, error, message)
     ids=lambda m: m.__name__,
 )
 def test_an_empty_frame_is_refused_naming_the_argument(make):
-    with pytest.raises(ValueError, match=r"^x: expected a vector of at least one value; got shape \(0,\)"):
+    message = r"^x: expected a vector of at least one value; got shape \(0,\)"
+    with pytest.raises(ValueError, match=message):
         make().update(np.array([]))
 
 

@@ -2,9 +2,9 @@
 
 References: statsmodels' VAR (least squares, Lütkepohl 2006) on the US macroeconomic
 data shipped with statsmodels; per-block numpy.linalg.lstsq; a brute-force search
-over the RVAR weight triangle; scipy.optimize's non-negative least squares on eq. 27 as printed; and a
-plain batch implementation of eq. 5, 14, 22, 26–28 that refits everything from
-scratch every frame.
+over the RVAR weight triangle; scipy.optimize's non-negative least squares on eq. 27
+as printed; and a plain batch implementation of eq. 5, 14, 22, 26–28 that refits
+everything from scratch every frame.
 """
 
 from __future__ import annotations

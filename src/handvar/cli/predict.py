@@ -74,8 +74,6 @@ def predict_command(
     """
     import os
 
-    import numpy as np
-
     from handvar.atomic import OutputSet, check_output_file
     from handvar.evaluation.openloop import (
         Recording,

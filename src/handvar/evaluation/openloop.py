@@ -14,6 +14,7 @@ scoring predictors on recorded motion — hence one module.
 
 from __future__ import annotations
 
+import itertools
 import os
 import warnings
 from dataclasses import dataclass
@@ -22,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from handvar import params
-from handvar.predictors import NoMotion, Predictor, one_step_predictions
+from handvar.predictors import NoMotion, Predictor
 from handvar.predictors.base import as_series
 from handvar.predictors.catalogue import CATALOGUE
 
@@ -249,8 +250,8 @@ def evaluate_open_loop(
         for k, name in enumerate(names):
             g_sq = sq[k, idx].sum()
             r2 = 1.0 - g_sq / g_den if g_den > 0 else float("nan")
-            rows.append(OpenLoopRow(group, unit, name, float(np.sqrt(g_sq / count)),
-                                    float(ab[k, idx].sum() / count), float(r2), n_scored))  # fmt: skip
+            rmse, mae = float(np.sqrt(g_sq / count)), float(ab[k, idx].sum() / count)
+            rows.append(OpenLoopRow(group, unit, name, rmse, mae, float(r2), n_scored))
     return rows
 
 
@@ -388,13 +389,14 @@ def smooth_variants(
     """Slow, smooth motion for the league: where constant velocity is hard to beat.
 
     Two recordings: `recording` played `slow` times slower at the same frame rate
-    after a Gaussian smoothing of `sigma` source frames (:func:`handvar.synth.motion.
-    retime`, cubic interpolation; takes are slowed one by one), and a random walk in
-    velocity of the same width and at most `walk_frames` frames, starting at the
-    recording's first frame, v_t = v_{t−1} + `walk_sigma` ε_t, x_t = x_{t−1} + v_t
-    (ε standard normal, seeded by `seed`; in the columns' units per frame²).  On both the motion between frames is almost linear: the best baseline is
-    the constant-velocity Kalman filter, and a predictor that damps the last step
-    (decelerating, a steering set without constant velocity) loses to it.
+    after a Gaussian smoothing of `sigma` source frames
+    (:func:`handvar.synth.motion.retime`, cubic interpolation; takes are slowed one by
+    one), and a random walk in velocity of the same width and at most `walk_frames`
+    frames, starting at the recording's first frame, v_t = v_{t−1} + `walk_sigma` ε_t,
+    x_t = x_{t−1} + v_t (ε standard normal, seeded by `seed`; in the columns' units
+    per frame²).  On both the motion between frames is almost linear: the best
+    baseline is the constant-velocity Kalman filter, and a predictor that damps the
+    last step (decelerating, a steering set without constant velocity) loses to it.
 
     Parameters
     ----------
@@ -411,7 +413,7 @@ def smooth_variants(
     X = recording.X
     edges = [0, *recording.resets, len(X)]
     takes, resets = [], []
-    for a, b in zip(edges[:-1], edges[1:], strict=True):
+    for a, b in itertools.pairwise(edges):
         if b - a < 2:
             continue
         resets.append(sum(len(t) for t in takes))
