@@ -73,7 +73,8 @@ def offsets(X: np.ndarray) -> None:
     print("1. prediction shift under a constant offset c (max over frames and parameters)")
     print(f"   {'predictor':<22}{'RMSE':>9}{'c = 100':>12}{'c = 1e9':>12}{'c = 1e12':>12}")
     cases = [
-        ("RVAR absolute", lambda: RVAR(mode="absolute")),
+        ("RVAR as printed", lambda: RVAR(mode="paper")),
+        ("RVAR edge", lambda: RVAR(mode="edge")),
         ("RVAR relative", lambda: RVAR(mode="relative")),
         ("VAR full (N = 150)", lambda: VAR()),
         ("VAR structured", lambda: VAR(memory=30, blocks=hand_blocks())),

@@ -8,8 +8,15 @@ from click.testing import CliRunner
 
 from handvar.cli import main, make_predictor
 from handvar.data import example_path
-from handvar.evaluation.openloop import BASELINES, evaluate_open_loop, read_pose_series
+from handvar.evaluation.openloop import (
+    BASELINES,
+    TABLE_ROWS,
+    evaluate_open_loop,
+    read_pose_series,
+)
 from handvar.predictors import NoMotion, one_step_predictions
+from handvar.predictors.catalogue import CATALOGUE
+from tests.conftest import EXAMPLES
 
 
 def test_predict_table_on_the_real_recording(tmp_path):
@@ -34,14 +41,47 @@ def test_open_loop_scores_equal_a_direct_computation(fingerfist):
     from handvar.synth.motion import htrack_to_handvar
 
     X = htrack_to_handvar(fingerfist[:300])
-    rows, preds = evaluate_open_loop(X)
+    rows = evaluate_open_loop(X)
     none = one_step_predictions(NoMotion(), X)
-    dec = preds["decelerating"]
+    dec = one_step_predictions(make_predictor("decelerating"), X)
     idx = np.arange(14, 17)  # index finger flexion
     r2 = 1 - np.sum((X - dec)[1:, idx] ** 2) / np.sum((X - none)[1:, idx] ** 2)
     (row,) = [r for r in rows if r.group == "index flexion" and r.predictor == "decelerating"]
     assert abs(row.r2_tilde - r2) < 1e-12
     assert abs(row.rmse - np.sqrt(np.mean((X - dec)[1:, idx] ** 2))) < 1e-12
+
+
+@pytest.mark.parametrize("chunk", [1, 7, 64])
+def test_streamed_scores_equal_the_whole_series_at_once(fingerfist, chunk):
+    """Streaming `chunk` frames at a time gives the scores of holding every prediction."""
+    from handvar.synth.motion import htrack_to_handvar
+
+    X = htrack_to_handvar(fingerfist[:150])
+    truth = X + 0.0
+    noisy = X + np.random.default_rng(3).normal(scale=0.5, size=X.shape)
+    names = ("decelerating", "rvar", "adaptive", "kalman")
+    resets = (60,)
+
+    def fresh():  # by label, as the rows name them
+        return {CATALOGUE[n].label: make_predictor(n) for n in ("none", *names)}
+
+    streamed = evaluate_open_loop(noisy, fresh(), resets=resets, truth=truth, chunk=chunk)
+    # The whole series at once: every prediction held, then scored with numpy.
+    preds = {n: one_step_predictions(p, noisy, resets=resets) for n, p in fresh().items()}
+    ok = np.isfinite(preds["no motion"]).all(1)
+    assert ok.sum() == len(X) - 2
+    assert {r.predictor for r in streamed} == set(preds)
+    for row in streamed:
+        if row.predictor == "no motion":
+            continue
+        (_, _, idx), *_ = [g for g in TABLE_ROWS if g[0] == row.group]
+        err = (truth - preds[row.predictor])[ok][:, idx]
+        ref = (truth - preds["no motion"])[ok][:, idx]
+        np.testing.assert_allclose(row.rmse, np.sqrt(np.mean(err**2)), rtol=1e-12)
+        np.testing.assert_allclose(row.mae, np.mean(np.abs(err)), rtol=1e-12)
+        np.testing.assert_allclose(row.r2_tilde, 1 - np.sum(err**2) / np.sum(ref**2), rtol=1e-12,
+                                   atol=1e-12)  # fmt: skip
+        assert row.frames == ok.sum()
 
 
 def test_pose_files_in_three_formats_read_the_same(tmp_path):

@@ -68,7 +68,7 @@ def test_default_config_is_the_papers_protocol():
     assert built[1].rho == 0.4
     assert built[2].memory == 150 and built[2].blocks is None
     assert built[3].memory == 30 and built[3].blocks == params.hand_blocks()
-    assert (built[4].gamma, built[4].cutoff, built[4].mode) == (0.8, 8, "absolute")
+    assert (built[4].gamma, built[4].cutoff, built[4].mode) == (0.8, 8, "paper")
 
 
 def test_overrides_and_sweep():

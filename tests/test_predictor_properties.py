@@ -16,9 +16,11 @@ from hypothesis import strategies as st
 from handvar.predictors import (
     RVAR,
     VAR,
+    AdaptiveBank,
     Decelerating,
     KalmanCV,
     NoMotion,
+    OneEuro,
     _kernels,
     fit_affine_weights,
     fit_trust_weights,
@@ -46,7 +48,7 @@ PREDICTORS = {
     "KalmanCV": (lambda: KalmanCV(q=0.5, r=2.0), 4),
     "VAR full": (lambda: VAR(order=2, memory=30, max_step=None), 4),
     "VAR structured": (lambda: VAR(memory=30, blocks=hand_blocks()), 26),
-    "RVAR absolute": (lambda: RVAR(mode="absolute"), 26),
+    "RVAR edge": (lambda: RVAR(mode="edge"), 26),
     "RVAR relative": (lambda: RVAR(mode="relative"), 26),
 }
 
@@ -67,7 +69,7 @@ def test_every_predictor_moves_with_a_constant_offset(name, seed, offset, T):
     np.testing.assert_allclose(moved, base, rtol=0, atol=1e-6 * scale + 1e8 * EPS * abs(offset))
 
 
-@pytest.mark.parametrize("mode", ["absolute", "relative"])
+@pytest.mark.parametrize("mode", ["edge", "relative"])
 @pytest.mark.parametrize("offset", [1e9, -1e9])
 def test_rvar_is_not_biased_by_a_large_offset(mode, offset):
     X = walk(7, 120, 26)
@@ -281,13 +283,24 @@ def test_a_full_var_too_short_to_fit_is_refused_at_the_first_update():
         (lambda: Decelerating(rho="a"), TypeError, "rho: expected"),
         (lambda: RVAR(cutoff=2.5), TypeError, "cutoff: expected an integer >= 0; got 2.5"),
         (lambda: RVAR(structured="svar"), TypeError, "structured: expected a predictor"),
-        (lambda: RVAR(mode="sideways"), ValueError, "mode: expected one of absolute, relative"),
+        (lambda: RVAR(mode="sideways"), ValueError, "mode: expected one of paper, edge, relative"),
     ],
 )
 def test_misconfigurations_are_refused_naming_the_argument(call, error, message):
     with pytest.raises(error) as info:
         call()
     assert str(info.value).startswith(message)
+
+
+@pytest.mark.parametrize(
+    "make",
+    [NoMotion, Decelerating, KalmanCV, VAR, RVAR, OneEuro, AdaptiveBank],
+    ids=lambda m: m.__name__,
+)
+def test_an_empty_frame_is_refused_naming_the_argument(make):
+    message = r"^x: expected a vector of at least one value; got shape \(0,\)"
+    with pytest.raises(ValueError, match=message):
+        make().update(np.array([]))
 
 
 def test_every_paper_configuration_is_accepted():

@@ -2,14 +2,16 @@
 
 References: statsmodels' VAR (least squares, Lütkepohl 2006) on the US macroeconomic
 data shipped with statsmodels; per-block numpy.linalg.lstsq; a brute-force search
-over the RVAR weight triangle; and a plain batch implementation of eq. 5, 14, 22,
-26–28 that refits everything from scratch every frame.
+over the RVAR weight triangle; scipy.optimize's non-negative least squares on eq. 27
+as printed; and a plain batch implementation of eq. 5, 14, 22, 26–28 that refits
+everything from scratch every frame.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.optimize import nnls
 from statsmodels.datasets import macrodata
 from statsmodels.tsa.api import VAR as SmVAR
 
@@ -27,6 +29,7 @@ from handvar.predictors import (
     second_differences,
     select_order,
 )
+from handvar.synth.motion import htrack_to_handvar
 
 
 @pytest.fixture(scope="module")
@@ -233,7 +236,29 @@ def _batch_affine(target, a, b, w):
     return t, 1.0 - t
 
 
-def _batch_rvar(X, gamma=0.8, cutoff=8, mode="absolute"):
+def _printed_weights(target, a, b, w):
+    """Eq. 27 as printed, by scipy's non-negative least squares (Lawson–Hanson).
+
+    The triangle α, β ≥ 0, α + β ≤ 1 is the simplex of (α, β, 1 − α − β): with a
+    third weight on the zero column, minimise Σ w (target − α a − β b)² over
+    non-negative weights whose sum, held by a row of weight 1e5, is 1 (to about
+    1e-10).  The residual is measured from the values' zero.  When both predictors
+    made the same predictions (a = b: the structured VAR before it has enough
+    equations is constant velocity) only s = α + β matters; the smallest-norm
+    minimiser is α = β = s / 2.
+    """
+    scale = np.sum(w * (np.abs(target) + np.abs(a) + np.abs(b)) ** 2) or 1.0
+    sw = np.sqrt(w / scale)
+    cols = [a] if np.array_equal(a, b) else [a, b]
+    M = np.zeros((len(w) + 1, len(cols) + 1))
+    for j, col in enumerate(cols):
+        M[: len(w), j] = sw * col
+    M[-1] = 1e5  # the weights sum to 1
+    lam, _ = nnls(M, np.concatenate([sw * target, [1e5]]))
+    return (lam[0] / 2, lam[0] / 2) if len(cols) == 1 else (lam[0], lam[1])
+
+
+def _batch_rvar(X, gamma=0.8, cutoff=8, mode="edge"):
     T_all, d = X.shape
     blocks = hand_blocks()
     sv = [_batch_var(X, t, 1, 30, blocks, 10.0) for t in range(T_all)]  # x̂^SV_{t+1}
@@ -251,6 +276,8 @@ def _batch_rvar(X, gamma=0.8, cutoff=8, mode="absolute"):
                 if mode == "relative":  # changes from each frame's predecessor
                     o = np.array([X[t - 1, i] for t in ts])
                     alpha[i], beta[i] = _batch_trust(tgt - o, a - o, b - o, w)
+                elif mode == "paper":  # positions, the whole triangle, from zero
+                    alpha[i], beta[i] = _printed_weights(tgt, a, b, w)
                 else:  # positions, on the edge α + β = 1
                     alpha[i], beta[i] = _batch_affine(tgt, a, b, w)
         if mode == "relative":  # eq. 26 on changes from x_T
@@ -284,11 +311,46 @@ def test_full_var_order_2_online_equals_batch_refit(real_degrees):
     np.testing.assert_allclose(online[1:], batch, rtol=0, atol=1e-6)
 
 
-@pytest.mark.parametrize("mode", ["absolute", "relative"])
+@pytest.mark.parametrize("mode", ["edge", "relative"])
 def test_rvar_online_equals_batch_refit(real_degrees, mode):
     X = real_degrees[:70]
     online = one_step_predictions(RVAR(mode=mode), X)
     np.testing.assert_allclose(online[1:], _batch_rvar(X, mode=mode)[1:], rtol=0, atol=1e-6)
+
+
+@pytest.fixture(scope="module")
+def recorded_hand(fingerfist):
+    """The htrack recording in handvar's parameters (mm, degrees), as `predict` reads it."""
+    return htrack_to_handvar(fingerfist)
+
+
+def _assert_printed_rvar(X):
+    online = one_step_predictions(RVAR(mode="paper"), X)
+    batch = _batch_rvar(X, mode="paper")
+    np.testing.assert_allclose(online[1:], batch[1:], rtol=0, atol=1e-6)
+    return online
+
+
+def test_rvar_paper_mode_is_eq_26_to_28_as_printed(recorded_hand):
+    """RVAR(mode="paper") equals scipy's NNLS on eq. 26–28 as printed to 1e-6 (mm, deg)."""
+    X = recorded_hand[:120]
+    online = _assert_printed_rvar(X)
+    # The printed fit is not the edge fit: on this motion they differ.
+    edge = one_step_predictions(RVAR(mode="edge"), X)
+    assert np.abs(online[1:] - edge[1:]).max() > 1e-3
+
+
+@pytest.mark.slow
+def test_rvar_paper_mode_equals_batch_on_320_frames(recorded_hand):
+    _assert_printed_rvar(recorded_hand[:320])
+
+
+def test_rvar_absolute_is_the_earlier_name_of_the_edge_fit(real_degrees):
+    X = real_degrees[:40]
+    assert RVAR(mode="absolute").mode == "edge"
+    np.testing.assert_array_equal(
+        one_step_predictions(RVAR(mode="absolute"), X), one_step_predictions(RVAR(mode="edge"), X)
+    )
 
 
 # -- simple predictors and baselines --------------------------------------------------

@@ -14,6 +14,7 @@ from handvar.evaluation.openloop import (
     keypoint_blocks,
     league_predictors,
     noise_variants,
+    smooth_variants,
 )
 from handvar.predictors import (
     EXPERTS,
@@ -315,6 +316,66 @@ def test_bank_never_loses_to_the_best_baseline_on_the_shipped_recordings(experts
     assert len(ratios) == 15
     assert max(ratios.values()) <= 1.01, ratios
     assert sum(r < 1.0 for r in ratios.values()) >= len(ratios) / 2, ratios
+
+
+def test_slow_smooth_motion_needs_the_bank_of_all_experts():
+    """Why the steering bank does not predict open loop (design: docs/predictors-notes.md).
+
+    On slow smooth motion (the htrack recording slowed 4x and smoothed; a random walk in
+    velocity) the constant-velocity Kalman filter is the best baseline.  The steering
+    bank, which leaves out the experts that carry the whole step forward, loses to it by
+    far; the bank of all twelve experts does not.
+    """
+    from handvar.synth.motion import htrack_to_handvar
+
+    H = htrack_to_handvar(np.loadtxt(EXAMPLES / "htrack-fingerfist.txt", max_rows=300))
+    for rec in smooth_variants(Recording("htrack 0-299", H, "handvar")):
+        base = _baseline_rmse(rec.X, rec.X, rec.resets)
+        best = min(base.values())
+        assert min(base, key=base.get) == "Kalman CV", (rec.name, base)
+        groups = hand_groups()
+        assert _bank_rmse(rec.X, rec.X, rec.resets, groups, "all") <= 1.01 * best, rec.name
+        assert _bank_rmse(rec.X, rec.X, rec.resets, groups, "steering") > 1.5 * best, rec.name
+
+
+@pytest.fixture(scope="module")
+def slow_smooth_league():
+    """RMSE / best baseline of the bank of all experts on the league's slow smooth rows.
+
+    ``handvar predict htrack:0:4000 htrack:4000:6000 --layout htrack --noise --smooth``:
+    each take slowed 4x and smoothed, the random walk in velocity, and their noisy copies.
+    """
+    from handvar.synth.motion import htrack_to_handvar
+
+    H = htrack_to_handvar(np.loadtxt(EXAMPLES / "htrack-fingerfist.txt"))
+    ratios = {}
+    for name, X in (("0-3999", H[:4000]), ("4000-5999", H[4000:])):
+        for rec in smooth_variants(Recording(name, X, "handvar")):
+            for r in (rec, *noise_variants(rec)):
+                truth = r.X if r.truth is None else r.truth
+                best = min(_baseline_rmse(r.X, truth, r.resets).values())
+                bank = _bank_rmse(r.X, truth, r.resets, hand_groups(), "all")
+                ratios[r.name] = bank / best
+    return ratios
+
+
+# Where the open-loop bank does not meet the rule (1.030 measured): outlier frames on
+# slow smooth motion pull weight onto the experts that carry the whole step forward.
+_KNOWN_MISS = "4000-5999 slowed 4x +5% outliers"
+
+
+@pytest.mark.slow
+def test_open_loop_bank_meets_the_rule_on_slow_smooth_motion(slow_smooth_league):
+    ratios = dict(slow_smooth_league)
+    assert len(ratios) == 20
+    ratios.pop(_KNOWN_MISS)
+    assert max(ratios.values()) <= 1.01, ratios
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason=f"{_KNOWN_MISS}: 1.030 x the best baseline (One Euro)")
+def test_open_loop_bank_meets_the_rule_on_outliers_over_slow_motion(slow_smooth_league):
+    assert slow_smooth_league[_KNOWN_MISS] <= 1.01
 
 
 def _families():

@@ -40,7 +40,7 @@ from handvar.cli.common import _one_line_errors
 @click.option(
     "--extras",
     is_flag=True,
-    help="Add ours: relative RVAR, Kalman CV, One Euro and both adaptive banks.",
+    help="Add ours: edge and relative RVAR, Kalman CV, One Euro and both adaptive banks.",
 )
 @click.option("--progress/--no-progress", default=True, show_default=True)
 @_one_line_errors

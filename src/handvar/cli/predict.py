@@ -41,6 +41,12 @@ _MAX_SERIES_VALUE = 1e6
     "units; 5% outlier frames), scored against the clean next frame.",
 )  # fmt: skip
 @click.option(
+    "--smooth", is_flag=True,
+    help="Add slow smooth motion: every recording played 4x slower after a Gaussian "
+    "smoothing of 2 frames, and a random walk in velocity (at most 2000 frames, seeded); "
+    "with --noise, their noisy copies too.",
+)  # fmt: skip
+@click.option(
     "--train", "train", metavar="FILE[:START:STOP]",
     help="Fit an offline VAR on this recording (same layout) and add it to the table.",
 )  # fmt: skip
@@ -54,7 +60,7 @@ _MAX_SERIES_VALUE = 1e6
 )  # fmt: skip
 @_one_line_errors
 def predict_command(
-    files, layout, stride, reset_at, csv_out, figure_out, noise, train, keys, fps
+    files, layout, stride, reset_at, csv_out, figure_out, noise, smooth, train, keys, fps
 ) -> None:
     """Score every predictor one step ahead on the recorded poses in FILE(s).
 
@@ -62,13 +68,11 @@ def predict_command(
     keypoints).  FILE:START:STOP takes rows START to STOP - 1.  With one FILE and no
     league option, prints per parameter group RMSE and mean absolute error (mm or
     degrees) and R̃² against no motion (> 0: better than no motion).  With several
-    FILEs, --noise, --train, --predictor or --figure, prints the league table: per
+    FILEs, --noise, --smooth, --train, --predictor or --figure, prints the league table: per
     recording every predictor's RMSE, R̃², rank and RMSE / best simple baseline
     (no motion, decelerating 0.2 / 0.4 / 0.6, Kalman CV, One Euro).
     """
     import os
-
-    import numpy as np
 
     from handvar.atomic import OutputSet, check_output_file
     from handvar.evaluation.openloop import (
@@ -79,6 +83,7 @@ def predict_command(
         league_table,
         noise_variants,
         read_pose_series,
+        smooth_variants,
         write_csv,
         write_league_csv,
         write_league_figure,
@@ -116,7 +121,7 @@ def predict_command(
             raise ValueError(f"{option}: expected rows within 0..{len(X)}; got {spec!r}")
         if any(r >= len(X) for r in reset_at):
             raise ValueError(f"--reset-at: expected rows below {len(X)}; got {list(reset_at)}")
-        biggest = float(np.abs(X).max()) if X.size else 0.0
+        biggest = float(max(X.max(), -X.min())) if X.size else 0.0  # no |X| copy
         if biggest > _MAX_SERIES_VALUE:  # finite, but beyond any pose: the arithmetic overflows
             raise ValueError(
                 f"{path}: expected poses in mm and degrees (|value| <= {_MAX_SERIES_VALUE:g}); "
@@ -129,12 +134,12 @@ def predict_command(
         resets = sorted({-(-r // stride) for r in local if -(-r // stride) < n})
         return X[::stride], tuple(resets)
 
-    league = len(files) > 1 or noise or train or keys or figure_out
+    league = len(files) > 1 or noise or smooth or train or keys or figure_out
     if not league:
         file = files[0]
         X, resets = load(file, "FILE")
         try:
-            rows, _ = evaluate_open_loop(X, resets=resets, layout=inner)
+            rows = evaluate_open_loop(X, resets=resets, layout=inner)
         except ValueError as exc:  # the series' shape or values: name the file
             msg = str(exc)
             raise ValueError(msg if msg.startswith(file) else f"{file}: {msg}") from None
@@ -150,7 +155,8 @@ def predict_command(
     for file in files:
         X, resets = load(file, "FILE")
         rec = Recording(os.path.basename(file), X, inner, resets)
-        recordings += [rec, *(noise_variants(rec) if noise else [])]
+        for r in [rec, *(smooth_variants(rec) if smooth else [])]:
+            recordings += [r, *(noise_variants(r) if noise else [])]
     extra = None
     if train:
         from handvar.evaluation.openloop import layout_structure

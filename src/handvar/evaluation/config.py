@@ -89,7 +89,7 @@ class ExperimentConfig:
         Trial k uses ``numpy.random.default_rng([seed, k])`` for every predictor.
     predictors : tuple of PredictorSpec
         The paper's five (:data:`PAPER_PREDICTORS`); :meth:`with_extras` adds
-        the relative RVAR and the Kalman filter.
+        ours (:data:`EXTRA_PREDICTORS`).
     trial_kind : {"tracker", "openloop"}
         ``"tracker"``: the SMD tracker on the silhouettes (the experiment of the
         paper).  ``"openloop"``: no tracker; the predictor runs one step ahead along
@@ -206,8 +206,8 @@ class ExperimentConfig:
         )
 
     def with_extras(self) -> ExperimentConfig:
-        """Add :data:`EXTRA_PREDICTORS` (relative RVAR, Kalman CV, One Euro, both adaptive
-        banks), those not yet present."""
+        """Add :data:`EXTRA_PREDICTORS` (edge and relative RVAR, Kalman CV, One Euro, both
+        adaptive banks), those not yet present."""
         keys = {s.key for s in self.predictors}
         extra = tuple(s for s in EXTRA_PREDICTORS if s.key not in keys)
         return dataclasses.replace(self, predictors=self.predictors + extra)

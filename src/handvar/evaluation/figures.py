@@ -42,6 +42,7 @@ _COLOURS = {
     "structured_var": "gold",
     "rvar": "tab:red",
     "full_var": "tab:gray",
+    "rvar_edge": "tab:pink",
     "rvar_relative": "tab:purple",
     "kalman": "black",
     "one_euro": "tab:cyan",

@@ -14,6 +14,7 @@ scoring predictors on recorded motion — hence one module.
 
 from __future__ import annotations
 
+import itertools
 import os
 import warnings
 from dataclasses import dataclass
@@ -22,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from handvar import params
-from handvar.predictors import NoMotion, Predictor, one_step_predictions
+from handvar.predictors import NoMotion, Predictor
 from handvar.predictors.base import as_series
 from handvar.predictors.catalogue import CATALOGUE
 
@@ -44,6 +45,7 @@ __all__ = [
     "league_table",
     "noise_variants",
     "read_pose_series",
+    "smooth_variants",
     "write_csv",
     "write_league_csv",
     "write_league_figure",
@@ -175,8 +177,14 @@ def evaluate_open_loop(
     resets=(),
     layout: str = "handvar",
     truth=None,
-) -> tuple[list[OpenLoopRow], dict[str, np.ndarray]]:
+    groups: TableRows | None = None,
+    chunk: int = 4096,
+) -> list[OpenLoopRow]:
     """Score every predictor on a recorded series of hand poses, per parameter group.
+
+    The series is streamed: every predictor is advanced `chunk` frames at a time
+    (:func:`~handvar.predictors.one_step_chunks`) and only running sums per column are
+    kept, so memory does not grow with the series' length beyond `X` itself.
 
     Parameters
     ----------
@@ -195,42 +203,56 @@ def evaluate_open_loop(
     truth : (T, d) array_like, optional
         What the predictions are scored against (default `X` itself): the clean
         recording when `X` is a noisy copy of it.
+    groups : tuple of (name, unit, indices), optional
+        The groups of the table; default the layout's.
+    chunk : int
+        Frames per step of the stream (any value gives the same scores, to rounding).
 
     Returns
     -------
     rows : list of OpenLoopRow
-    predictions : dict of name to (T, d) ndarray
+        A frame is scored when every predictor has a finite prediction of it.
     """
+    from handvar.predictors import one_step_chunks
+
     X = as_series(X)
-    groups, blocks = layout_structure(layout, X.shape[1])
+    layout_groups, blocks = layout_structure(layout, X.shape[1])
+    groups = layout_groups if groups is None else groups
     Z = X if truth is None else as_series(truth, "truth")
     if Z.shape != X.shape:
         raise ValueError(f"truth: expected shape {X.shape}; got {Z.shape}")
     predictors = dict(predictors or default_predictors(blocks))
     predictors.setdefault("no motion", NoMotion())
-    preds = {name: one_step_predictions(p, X, resets=resets) for name, p in predictors.items()}
-    scored = np.all([np.isfinite(P).all(1) for P in preds.values()], axis=0)
-    if not scored.any():
+    names = list(predictors)
+    streams = [one_step_chunks(predictors[n], X, resets=resets, chunk=chunk) for n in names]
+    d = X.shape[1]
+    sq = np.zeros((len(names), d))  # Σ err² per predictor and column
+    ab = np.zeros((len(names), d))  # Σ |err|
+    den = np.zeros(d)  # Σ (z − x̂⁰)², the no-motion reference of R̃²
+    n_scored = 0
+    ref = names.index("no motion")
+    for parts in zip(*streams, strict=True):
+        start = parts[0][0]
+        P = np.stack([p for _, p in parts])  # (n_predictors, rows, d)
+        err = Z[start : start + P.shape[1]][None] - P
+        ok = np.isfinite(P).all(axis=(0, 2))
+        err = err[:, ok]
+        sq += np.einsum("prd,prd->pd", err, err)
+        ab += np.abs(err).sum(1)
+        den += np.einsum("rd,rd->d", err[ref], err[ref])
+        n_scored += int(ok.sum())
+    if not n_scored:
         raise ValueError(f"X: expected at least 2 frames to score; got {len(X)}")
-    base = (Z - preds["no motion"])[scored]
     rows = []
     for group, unit, idx in groups:
-        den = np.sum(base[:, idx] ** 2)
-        for name, P in preds.items():
-            err = (Z - P)[scored][:, idx]
-            r2 = 1.0 - np.sum(err**2) / den if den > 0 else float("nan")
-            rows.append(
-                OpenLoopRow(
-                    group,
-                    unit,
-                    name,
-                    float(np.sqrt(np.mean(err**2))),
-                    float(np.mean(np.abs(err))),
-                    float(r2),
-                    int(scored.sum()),
-                )
-            )
-    return rows, preds
+        g_den = den[idx].sum()
+        count = n_scored * len(idx)
+        for k, name in enumerate(names):
+            g_sq = sq[k, idx].sum()
+            r2 = 1.0 - g_sq / g_den if g_den > 0 else float("nan")
+            rmse, mae = float(np.sqrt(g_sq / count)), float(ab[k, idx].sum() / count)
+            rows.append(OpenLoopRow(group, unit, name, rmse, mae, float(r2), n_scored))
+    return rows
 
 
 def format_table(rows: list[OpenLoopRow]) -> str:
@@ -355,6 +377,60 @@ def noise_variants(
     return out
 
 
+def smooth_variants(
+    recording: Recording,
+    *,
+    slow: float = 4.0,
+    sigma: float = 2.0,
+    walk_sigma: float = 0.005,
+    walk_frames: int = 2000,
+    seed: int = 0,
+) -> list[Recording]:
+    """Slow, smooth motion for the league: where constant velocity is hard to beat.
+
+    Two recordings: `recording` played `slow` times slower at the same frame rate
+    after a Gaussian smoothing of `sigma` source frames
+    (:func:`handvar.synth.motion.retime`, cubic interpolation; takes are slowed one by
+    one), and a random walk in velocity of the same width and at most `walk_frames`
+    frames, starting at the recording's first frame, v_t = v_{t−1} + `walk_sigma` ε_t,
+    x_t = x_{t−1} + v_t (ε standard normal, seeded by `seed`; in the columns' units
+    per frame²).  On both the motion between frames is almost linear: the best
+    baseline is the constant-velocity Kalman filter, and a predictor that damps the
+    last step (decelerating, a steering set without constant velocity) loses to it.
+
+    Parameters
+    ----------
+    recording : Recording
+        A clean recording (its `truth` must be None).
+    slow, sigma, walk_sigma : float
+    walk_frames : int
+    seed : int
+    """
+    from handvar.synth.motion import retime
+
+    if recording.truth is not None:
+        raise ValueError(f"recording: expected a clean recording; got {recording.name!r}")
+    X = recording.X
+    edges = [0, *recording.resets, len(X)]
+    takes, resets = [], []
+    for a, b in itertools.pairwise(edges):
+        if b - a < 2:
+            continue
+        resets.append(sum(len(t) for t in takes))
+        takes.append(retime(X[a:b], 1.0, 1.0, speed=1.0 / slow, smooth_sigma=sigma))
+    slowed = Recording(
+        f"{recording.name} slowed {slow:g}x", np.concatenate(takes), recording.layout,
+        tuple(resets[1:]),
+    )  # fmt: skip
+    rng = np.random.default_rng([seed, 1])
+    n = min(len(X), walk_frames)
+    v = np.cumsum(walk_sigma * rng.standard_normal((n, X.shape[1])), axis=0)
+    walk = Recording(
+        f"{recording.name} velocity random walk", X[0] + np.cumsum(v, axis=0), recording.layout
+    )
+    return [slowed, walk]
+
+
 def league_predictors(blocks=None, *, rate: float = 30.0, keys=None) -> dict[str, Predictor]:
     """The predictors of the league: the catalogue plus decelerating at ρ = 0.2 and 0.6.
 
@@ -417,10 +493,10 @@ def league_table(
             p = make(rec)
             if p is not None:
                 predictors[name] = p
-        scored, preds = evaluate_open_loop(
-            rec.X, predictors, resets=rec.resets, layout=rec.layout, truth=rec.truth
-        )
-        by_group = _all_group(rec, scored, preds)
+        by_group = evaluate_open_loop(
+            rec.X, predictors, resets=rec.resets, layout=rec.layout, truth=rec.truth,
+            groups=groups,
+        )  # fmt: skip
         for group, unit, _idx in groups:
             sub = [r for r in by_group if r.group == group]
             best = min(r.rmse for r in sub if r.predictor in BASELINES)
@@ -431,20 +507,6 @@ def league_table(
                 rows.append(LeagueRow(rec.name, group, unit, r.predictor, r.rmse, r.r2_tilde,
                                       rank[r.predictor], ratio, r.frames))  # fmt: skip
     return rows
-
-
-def _all_group(rec: Recording, rows: list[OpenLoopRow], preds) -> list[OpenLoopRow]:
-    """`rows` plus an "all" group over every column of the predictions `preds`."""
-    Z = rec.X if rec.truth is None else rec.truth
-    ok = np.all([np.isfinite(P).all(1) for P in preds.values()], axis=0)
-    den = np.sum((Z - preds["no motion"])[ok] ** 2)
-    extra = []
-    for name, P in preds.items():
-        err = (Z - P)[ok]
-        r2 = 1.0 - np.sum(err**2) / den if den > 0 else float("nan")
-        rmse, mae = float(np.sqrt(np.mean(err**2))), float(np.mean(np.abs(err)))
-        extra.append(OpenLoopRow("all", "", name, rmse, mae, float(r2), int(ok.sum())))
-    return [*rows, *extra]
 
 
 def format_league(rows: list[LeagueRow], *, group: str = "all") -> str:

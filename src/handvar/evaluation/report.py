@@ -40,6 +40,7 @@ from handvar.evaluation.results import (
     reference_curve,
 )
 from handvar.evaluation.store import damaged_trials
+from handvar.predictors.catalogue import PAPER_PREDICTORS
 
 __all__ = ["write_report"]
 
@@ -197,8 +198,10 @@ def _summary_rows(results: Results) -> list[list[str]]:
     for p, spec in enumerate(results.config.predictors):
         n = int(results.done[p].sum())
         args = ", ".join(f"{k}={v}" for k, v in spec.params) or "-"
+        # The paper's predictors with its settings; every other entry is ours.
+        source = "paper" if spec in PAPER_PREDICTORS else "ours"
         if n == 0:
-            rows.append([spec.label, args, "0", "-", "-", "-", "-", "-"])
+            rows.append([spec.label, source, args, "0", "-", "-", "-", "-", "-"])
             continue
         r2 = results.r2(p)
         it = results.iterations[p][results.done[p]][:, 1:]
@@ -206,6 +209,7 @@ def _summary_rows(results: Results) -> list[list[str]]:
         rows.append(
             [
                 spec.label,
+                source,
                 args,
                 str(n),
                 fmt(results.overall_error(p)),
@@ -220,6 +224,7 @@ def _summary_rows(results: Results) -> list[list[str]]:
 
 _SUMMARY_HEADER = [
     "predictor",
+    "source",
     "arguments",
     "trials done",
     "overall mean error (mm)",

@@ -11,7 +11,7 @@
 
 from handvar.params import hand_blocks
 from handvar.predictors.adaptive import EXPERTS, STEERING_EXPERTS, AdaptiveBank, hand_groups
-from handvar.predictors.base import Predictor, one_step_predictions
+from handvar.predictors.base import Predictor, one_step_chunks, one_step_predictions
 from handvar.predictors.kalman import KalmanCV
 from handvar.predictors.offline import OfflineVAR
 from handvar.predictors.one_euro import OneEuro
@@ -37,6 +37,7 @@ __all__ = [
     "fit_trust_weights",
     "hand_blocks",
     "hand_groups",
+    "one_step_chunks",
     "one_step_predictions",
     "second_differences",
     "select_order",

@@ -13,7 +13,7 @@ import numpy as np
 
 from handvar.validate import as_array, as_int
 
-__all__ = ["Predictor", "as_series", "as_vector", "one_step_predictions"]
+__all__ = ["Predictor", "as_series", "as_vector", "one_step_chunks", "one_step_predictions"]
 
 
 @runtime_checkable
@@ -38,7 +38,7 @@ def as_vector(x, name: str = "x", size: int | None = None) -> np.ndarray:
     """Return `x` as a finite float64 vector, or raise naming `name`.
 
     TypeError if it is not numeric, ValueError if its shape differs from ``(size,)``
-    (any length when `size` is None) or it holds NaN or infinity.
+    (any length but 0 when `size` is None) or it holds NaN or infinity.
     """
     # The per-frame fast path; handvar.validate words the error when there is one.
     try:
@@ -52,6 +52,8 @@ def as_vector(x, name: str = "x", size: int | None = None) -> np.ndarray:
         or not np.isfinite(arr).all()
     ):
         return as_array(x, name, (size,), what="a vector")
+    if arr.shape[0] == 0:
+        raise ValueError(f"{name}: expected a vector of at least one value; got shape (0,)")
     return arr
 
 
@@ -95,18 +97,44 @@ def one_step_predictions(predictor: Predictor, X, *, resets=()) -> np.ndarray:
     array([0., 2.])
     """
     X = as_series(X)
+    X_hat = np.full_like(X, np.nan)
+    for start, chunk in one_step_chunks(predictor, X, resets=resets, chunk=len(X)):
+        X_hat[start : start + len(chunk)] = chunk
+    return X_hat
+
+
+def one_step_chunks(predictor: Predictor, X, *, resets=(), chunk: int = 4096):
+    """:func:`one_step_predictions`, `chunk` rows at a time: memory flat in T.
+
+    Yields ``(start, X_hat[start : start + chunk])`` in order; the predictor keeps its
+    state from one chunk to the next, so the chunks together are exactly
+    :func:`one_step_predictions`' result.  Several predictors advanced in lockstep
+    (one generator each) let a caller score a long series without holding every
+    prediction of it.
+
+    Examples
+    --------
+    >>> from handvar.predictors import NoMotion
+    >>> [(s, c[:, 0].tolist()) for s, c in one_step_chunks(NoMotion(), [[1.0], [2.0], [3.0]],
+    ...                                                     chunk=2)]
+    [(0, [nan, 1.0]), (2, [2.0])]
+    """
+    X = as_series(X)
+    chunk = as_int(chunk, "chunk", minimum=1)
     cuts = {as_int(r, "resets") for r in resets}
     if any(not 0 <= r < len(X) for r in cuts):
         raise ValueError(f"resets: expected row numbers in [0, {len(X)}); got {sorted(cuts)}")
-    X_hat = np.full_like(X, np.nan)
     predictor.reset()
     fresh = True
-    for t, x in enumerate(X):
-        if t in cuts:
-            predictor.reset()
-            fresh = True
-        if not fresh:
-            X_hat[t] = predictor.predict()
-        predictor.update(x)
-        fresh = False
-    return X_hat
+    for start in range(0, len(X), chunk):
+        rows = X[start : start + chunk]
+        X_hat = np.full_like(rows, np.nan)
+        for k, x in enumerate(rows):
+            if start + k in cuts:
+                predictor.reset()
+                fresh = True
+            if not fresh:
+                X_hat[k] = predictor.predict()
+            predictor.update(x)
+            fresh = False
+        yield start, X_hat

@@ -8,7 +8,7 @@ store records it) and builds a fresh predictor on demand.
 Examples
 --------
 >>> make_predictor("rvar")
-RVAR(gamma=0.8, cutoff=8, mode='absolute')
+RVAR(gamma=0.8, cutoff=8, mode='paper')
 >>> [s.key for s in PAPER_PREDICTORS]
 ['none', 'decelerating', 'full_var', 'structured_var', 'rvar']
 """
@@ -194,7 +194,8 @@ class PredictorSpec:
 
 
 # The paper's five predictors with its settings (paper §4: ρ = 0.4; paper §4.2: full
-# VAR, N = 150; paper §4.3: structured VAR, N = 30; paper §5: RVAR, γ = 0.8, c = 8; all
+# VAR, N = 150; paper §4.3: structured VAR, N = 30; paper §5: RVAR, γ = 0.8, c = 8, eq.
+# 26–28 as printed; all
 # VARs of order 1 with the 10° step bound).
 PAPER_PREDICTORS: tuple[PredictorSpec, ...] = (
     PredictorSpec("none", "no motion", "none"),
@@ -206,12 +207,15 @@ PAPER_PREDICTORS: tuple[PredictorSpec, ...] = (
         "var",
         (("order", 1), ("memory", 30), ("structured", True)),
     ),
-    PredictorSpec("rvar", "RVAR", "rvar", (("gamma", 0.8), ("cutoff", 8))),
+    PredictorSpec("rvar", "RVAR", "rvar", (("gamma", 0.8), ("cutoff", 8), ("mode", "paper"))),
 )
-# Beyond the paper (design §16): the relative interpolation mentioned after eq. 27,
-# the textbook constant-velocity Kalman filter, the One Euro filter of keypoint
-# pipelines and the adaptive bank.
+# Beyond the paper (design §16): eq. 27 fitted on its origin-free edge α + β = 1, the
+# relative interpolation mentioned after eq. 27, the textbook constant-velocity Kalman
+# filter, the One Euro filter of keypoint pipelines and the adaptive bank.
 EXTRA_PREDICTORS: tuple[PredictorSpec, ...] = (
+    PredictorSpec(
+        "rvar_edge", "RVAR edge", "rvar", (("gamma", 0.8), ("cutoff", 8), ("mode", "edge"))
+    ),
     PredictorSpec(
         "rvar_relative",
         "RVAR relative",
@@ -233,6 +237,7 @@ SHORT_NAMES: dict[str, str] = {
     "decel": "decelerating",
     "fullvar": "full_var",
     "svar": "structured_var",
+    "rvar-edge": "rvar_edge",
     "rvar-rel": "rvar_relative",
     "euro": "one_euro",
     "bank": "adaptive",
@@ -247,9 +252,10 @@ def make_predictor(name: str):
     ----------
     name : str
         A key of :data:`CATALOGUE` (``"none"``, ``"decelerating"``, ``"full_var"``,
-        ``"structured_var"``, ``"rvar"``, ``"rvar_relative"``, ``"kalman"``,
-        ``"one_euro"``, ``"adaptive"``) or a short name (``decel``, ``fullvar``,
-        ``svar``, ``rvar-rel``, ``euro``, ``bank``).
+        ``"structured_var"``, ``"rvar"`` (eq. 26–28 as printed), ``"rvar_edge"``,
+        ``"rvar_relative"``, ``"kalman"``, ``"one_euro"``, ``"adaptive"``,
+        ``"adaptive_open"``) or a short name (``decel``, ``fullvar``, ``svar``,
+        ``rvar-edge``, ``rvar-rel``, ``euro``, ``bank``, ``bank-all``).
     """
     return CATALOGUE[catalogue_key(name)].build()
 

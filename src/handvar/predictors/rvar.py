@@ -6,9 +6,11 @@ with α_i, β_i ≥ 0, α_i + β_i ≤ 1 minimising, per parameter i,
 
 E_i = Σ_{t=T−c}^{T} 2^{−(T−t)} [x_t(i) − (α x̂^SV_t(i) + β x̂^D_t(i))]²       (eq. 27, 28)
 
-over the predictions each predictor made for the last c + 1 frames.  The absolute mode
-fits eq. 27 on its edge α + β = 1, the one part of the triangle on which eq. 27 does
-not depend on where the parameters' zero is; see ``RVAR``'s Notes.
+over the predictions each predictor made for the last c + 1 frames.  ``mode="paper"``
+is eq. 26–28 as printed; ``mode="edge"`` fits eq. 27 on its edge α + β = 1, the one
+part of the triangle on which eq. 27 does not depend on where the parameters' zero is;
+``mode="relative"`` fits the changes relative to each frame's predecessor (the variant
+the paper mentions after eq. 27).  See ``RVAR``'s Notes.
 """
 
 from __future__ import annotations
@@ -24,7 +26,10 @@ from handvar.validate import as_array, as_float, as_instance, as_int, one_of
 
 __all__ = ["RVAR", "fit_affine_weights", "fit_trust_weights"]
 
-_MODES = ("absolute", "relative")
+_MODES = ("paper", "edge", "relative")
+# Earlier name of the edge fit, still accepted: "absolute" misleads, the printed fit is
+# absolute too.
+_MODE_ALIASES = {"absolute": "edge"}
 _RANK_TOL = 1e-13  # relative rank tolerance of the 2-column design of eq. 27
 _EPS = float(np.finfo(float).eps)
 
@@ -58,9 +63,10 @@ def fit_trust_weights(target, a, b, weights):
     its exact constrained minimum.
 
     The fit is a function of the three columns as given: shifting all three by the
-    same constant changes it (eq. 27 is not origin-free), which is why :class:`RVAR`
-    hands it changes relative to the frame before (``mode="relative"``) and fits the
-    absolute mode with :func:`fit_affine_weights` instead.
+    same constant changes it (eq. 27 is not origin-free).  :class:`RVAR` hands it the
+    values as observed (``mode="paper"``, eq. 27 as printed) or the changes relative
+    to the frame before (``mode="relative"``); ``mode="edge"`` uses
+    :func:`fit_affine_weights` instead.
 
     Parameters
     ----------
@@ -208,13 +214,17 @@ class RVAR:
         γ of eq. 26: the upper bound on how far to trust the motion predictions.
     cutoff : int, default 8
         c of eq. 27: the weights are fitted on the last c + 1 frames.
-    mode : {"absolute", "relative"}, default "absolute"
-        ``"absolute"`` is eq. 26–27 with α + β = 1: eq. 27 fits the positions
-        x_t from x̂^SV_t and x̂^D_t on the edge of its triangle that does not depend
-        on the parameters' origin (see Notes).  ``"relative"`` is the variant the
-        paper mentions after eq. 27: each past frame's values are taken relative to
-        the frame before it, i.e. eq. 27 fits x_t − x_{t−1} from x̂^SV_t − x_{t−1} and
-        x̂^D_t − x_{t−1} over the whole triangle α, β ≥ 0, α + β ≤ 1.
+    mode : {"paper", "edge", "relative"}, default "paper"
+        ``"paper"`` is eq. 26–28 as printed: eq. 27 fits the positions x_t from
+        x̂^SV_t and x̂^D_t over the whole triangle α, β ≥ 0, α + β ≤ 1, residuals
+        measured from each parameter's zero, and eq. 26 predicts
+        (1 − γ) x_T + γ (α x̂^SV_{T+1} + β x̂^D_{T+1}).  ``"edge"`` (not in the
+        paper) fits eq. 27 on the edge α + β = 1 only, the part of the triangle that
+        does not depend on the parameters' origin (see Notes); ``"absolute"`` is
+        accepted as its earlier name.  ``"relative"`` is the variant the paper
+        mentions after eq. 27: each past frame's values are taken relative to the
+        frame before it, i.e. eq. 27 fits x_t − x_{t−1} from x̂^SV_t − x_{t−1} and
+        x̂^D_t − x_{t−1} over the whole triangle.
     structured : VAR, optional
         The structured VAR; default ``VAR(order=1, memory=30, blocks=hand_blocks(),
         max_step=10.0)``, the paper's (paper §4.3), for the 26 hand parameters.
@@ -226,11 +236,15 @@ class RVAR:
     Eq. 26–27 as printed depend on where the parameters' origin is: adding c to
     every value adds c (1 − α − β) to each residual of eq. 27, so the fitted α, β —
     and the prediction, unless α + β = 1 — change with c.  The paper does not fix
-    the origin (a joint angle's zero and the camera's position are conventions).
+    the origin (a joint angle's zero and the camera's position are conventions);
+    ``mode="paper"`` takes the parameters as they are (:mod:`handvar.params`: mm
+    from the camera, degrees from the hand's rest pose) and minimises eq. 27
+    exactly over the triangle (:func:`fit_trust_weights`); when α + β < 1 its
+    prediction is pulled towards the parameters' zero by γ (1 − α − β) x_T.
     When the parameters are far from their zero compared with how much they move —
     the palm's position, hundreds of millimetres from the camera, is — the
     c (1 − α − β) term dominates eq. 27 and its minimum lies on the edge
-    α + β = 1; there, and only there, eq. 27 is origin-free.  The absolute mode
+    α + β = 1; there, and only there, eq. 27 is origin-free.  ``mode="edge"``
     therefore fits eq. 27 on that edge for every parameter,
 
         E_i(α) = Σ_t k_t [x_t(i) − (α x̂^SV_t(i) + (1 − α) x̂^D_t(i))]²,  α ∈ [0, 1],
@@ -240,12 +254,13 @@ class RVAR:
     1 − γ.  Each frame t is scored against its own x_t only, never against a later
     frame.  The relative mode fits the whole triangle (:func:`fit_trust_weights`,
     exact) on changes relative to each frame's predecessor, which are origin-free
-    by construction.  Both modes predict x̂_{T+1} = x_T + γ (α (x̂^SV_{T+1} − x_T) +
-    β (x̂^D_{T+1} − x_T)), eq. 26 rearranged, and every prediction moves with a
-    constant offset of the input, x + c ↦ x̂ + c, to rounding.  The relative mode is
-    eq. 26 with the no-motion prediction x_{t−1} of each frame taking the weight
-    1 − α − β that the printed fit gives to the origin; in the paper's closed-loop
-    experiment it tracks better than the absolute mode (figures in design §6).
+    by construction.  The edge and relative modes predict x̂_{T+1} = x_T + γ (α
+    (x̂^SV_{T+1} − x_T) + β (x̂^D_{T+1} − x_T)) (eq. 26 rearranged, and eq. 26 itself
+    when α + β = 1), and their predictions move with a constant offset of the
+    input, x + c ↦ x̂ + c, to rounding.  The relative mode is eq. 26 with the
+    no-motion prediction x_{t−1} of each frame taking the weight 1 − α − β that the
+    printed fit gives to the origin.  The closed-loop figures of the three modes
+    are in docs/results.
 
     Until a past prediction can be scored (the first two frames), α = β = ½.
     ``alpha`` and ``beta`` hold the weights used by the next ``predict``.
@@ -255,14 +270,14 @@ class RVAR:
         self,
         gamma: float = 0.8,
         cutoff: int = 8,
-        mode: str = "absolute",
+        mode: str = "paper",
         *,
         structured: Predictor | None = None,
         decelerating: Predictor | None = None,
     ) -> None:
         self.gamma = as_float(gamma, "gamma", minimum=0.0, maximum=1.0)
         self.cutoff = as_int(cutoff, "cutoff", minimum=0)
-        self.mode = one_of(mode, _MODES, "mode")
+        self.mode = one_of(_MODE_ALIASES.get(mode, mode), _MODES, "mode")
         if structured is None:
             structured = VAR(order=1, memory=30, blocks=hand_blocks())
         if decelerating is None:
@@ -311,15 +326,18 @@ class RVAR:
         if self._n:
             # The ring's rows by age: the newest (weight 1) was written last.
             ages = (self._head - 1 - np.arange(self._n)) % (self.cutoff + 1)
-            fit = _kernels.affine_weights if self.mode == "absolute" else _kernels.trust_weights
+            fit = _kernels.affine_weights if self.mode == "edge" else _kernels.trust_weights
             fit(self._hist[:, ages], self._weights[::-1][: self._n], self.alpha, self.beta)
 
     def predict(self) -> np.ndarray:
-        """x̂_{T+1} = x_T + γ (α (x̂^SV − x_T) + β (x̂^D − x_T)): eq. 26 rearranged."""
+        """Eq. 26: (1 − γ) x_T + γ (α x̂^SV + β x̂^D) as printed (``mode="paper"``),
+        else x_T + γ (α (x̂^SV − x_T) + β (x̂^D − x_T))."""
         if self._pending is None:
             raise RuntimeError("predict() needs at least one update()")
         sv, dec = self._pending
         x = self._x
+        if self.mode == "paper":
+            return (1.0 - self.gamma) * x + self.gamma * (self.alpha * sv + self.beta * dec)
         return x + self.gamma * (self.alpha * (sv - x) + self.beta * (dec - x))  # eq. 26
 
     def __repr__(self) -> str:
