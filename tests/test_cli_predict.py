@@ -16,7 +16,6 @@ from handvar.evaluation.openloop import (
 )
 from handvar.predictors import NoMotion, one_step_predictions
 from handvar.predictors.catalogue import CATALOGUE
-from tests.conftest import EXAMPLES
 
 
 def test_predict_table_on_the_real_recording(tmp_path):

@@ -328,7 +328,7 @@ def test_slow_smooth_motion_needs_the_bank_of_all_experts():
     """
     from handvar.synth.motion import htrack_to_handvar
 
-    H = htrack_to_handvar(np.loadtxt(EXAMPLES / "htrack-fingerfist.txt", max_rows=300))
+    H = htrack_to_handvar(np.loadtxt(example_path("htrack"), max_rows=300))
     for rec in smooth_variants(Recording("htrack 0-299", H, "handvar")):
         base = _baseline_rmse(rec.X, rec.X, rec.resets)
         best = min(base.values())
@@ -347,7 +347,7 @@ def slow_smooth_league():
     """
     from handvar.synth.motion import htrack_to_handvar
 
-    H = htrack_to_handvar(np.loadtxt(EXAMPLES / "htrack-fingerfist.txt"))
+    H = htrack_to_handvar(np.loadtxt(example_path("htrack")))
     ratios = {}
     for name, X in (("0-3999", H[:4000]), ("4000-5999", H[4000:])):
         for rec in smooth_variants(Recording(name, X, "handvar")):
