@@ -125,8 +125,8 @@ def _checked(recordings, keypoints) -> tuple[list[str], list]:
     twice = sorted({n for n in names if names.count(n) > 1})
     if twice:
         raise ValueError(
-            f"recordings: expected recordings with distinct file names (each is written "
-            f"to OUT/<name>); got {', '.join(twice)} more than once"
+            f"recordings: expected distinct file names (each is written to OUT/<name>); "
+            f"got {', '.join(twice)} more than once"
         )
     if keypoints is None:
         return names, [None] * len(recordings)

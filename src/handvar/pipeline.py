@@ -559,7 +559,7 @@ def track(
         from handvar.tracking.recovery import track_with_recovery
 
         name = opened.names[0] if live else Path(opened.readers[0].path).stem
-        n = None if live else (opened.n_frames if frames is None else min(frames, opened.n_frames))
+        n = None if live or realtime else min(frames or opened.n_frames, opened.n_frames)
         masks = stream.frames()
         if bar is not None:
             masks = bar(f"tracking {name}", n)(masks)
