@@ -498,7 +498,7 @@ def track(
     stage_seconds = {}
     stream = None  # the online form (module notes)
     if live:
-        opened = full_rig = source
+        opened, full_rig = source, source.rig  # its frames as delivered (open_camera scale)
         stream = _Stream(source, None, carry=carry, frames=frames, realtime=True)
     elif recording:
         from handvar.vision.sources import open_source
@@ -601,7 +601,11 @@ def track(
     stage_seconds["tracking"] = time.perf_counter() - clock
     T = result.poses.shape[0]
     points = result.joints.reshape(-1, 3)
-    projected = np.stack([cam.project(points).reshape(T, -1, 2) for cam in full_rig.cameras])
+    finite = np.isfinite(points).all(axis=1)  # not before the first frame tracked
+    projected = np.full((len(full_rig), len(points), 2), np.nan)
+    for c, cam in enumerate(full_rig.cameras):
+        projected[c, finite] = cam.project(points[finite])
+    projected = projected.reshape(len(full_rig), T, -1, 2)
     seen = None
     if detected is not None:
         seen = np.zeros(T, dtype=bool)

@@ -327,7 +327,7 @@ def _track_batch(seq, out, keypoint_files, video, scheduler, workers, **options)
     if summary.failed:
         n = len(summary.failed)
         click.echo(
-            f"handvar: error: {n} of {len(summary.names)} recording{'s' * (n != 1)} failed",
+            f"handvar: error: {n} of {len(summary.names)} recordings failed",
             err=True,
         )
         sys.exit(2)

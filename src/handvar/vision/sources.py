@@ -634,11 +634,8 @@ class CameraSource:
         return f"CameraSource({self.readers[0].name}: {w}x{h} at {self.fps:g} fps)"
 
     n_cameras = 1
-
-    @property
-    def image_size(self) -> tuple[int, int]:
-        """(width, height) of the delivered frames, pixels."""
-        return self.rig.cameras[0].size
+    image_size = VideoSource.image_size
+    sequence_of = VideoSource.sequence_of  # the silhouettes tracked, as a Sequence
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -668,7 +665,7 @@ class CameraSource:
         Yields
         ------
         index : int
-            Frame index, counted from the first frame read.
+            Frame index, counted from the first frame handed out.
         seconds : float
             Capture time, seconds after the first frame's.
         images : list of one (H, W, 3) uint8 ndarray
@@ -698,7 +695,7 @@ class CameraSource:
 
         thread = threading.Thread(target=grab, name="handvar-camera", daemon=True)
         thread.start()
-        last, t0 = -1, None
+        last, base, t0 = -1, 0, None
         try:
             while not self._stopped:
                 with cond:
@@ -709,13 +706,15 @@ class CameraSource:
                     item = state["latest"]
                     if item is None or item[0] <= last:
                         return  # the camera ended
-                index, seconds, image = item
-                self.dropped.extend(range(last + 1, index))
-                last = index
-                t0 = seconds if t0 is None else t0
+                count, seconds, image = item
+                if t0 is None:  # the first frame handed out is frame 0, at time 0
+                    base, t0 = count, seconds
+                else:
+                    self.dropped.extend(range(last + 1 - base, count - base))
+                last = count
                 if self.scale != 1.0:
                     image = cv2.resize(image, self.image_size, interpolation=cv2.INTER_AREA)
-                yield index, seconds - t0, [image]
+                yield count - base, seconds - t0, [image]
         finally:
             self._stopped = True
             thread.join(timeout=5.0)
