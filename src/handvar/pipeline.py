@@ -21,6 +21,14 @@ The defaults it decides:
 - empty silhouettes are allowed (carried by the prediction) only with recovery;
 - the first pose: ``init``, else the sequence's true first pose (a synthetic or
   rendered sequence), else searched in the first frame (with recovery).
+
+The online form.  A recording with recovery is tracked one frame at a time: each frame
+read (or, with ``realtime``, the newest frame each time the tracker is free, after
+`paced_frames`; or a live camera's), its silhouettes, its keypoints (carried forward by
+optical flow) and its fit follow each other, and nothing is computed ahead.  The frames
+skipped in real time stay in the track, flagged ``dropped``, holding the last tracked
+pose.  Only ``carry="both"`` (which waits for the next detection) and ``recover=False``
+read the whole recording first (docs/live-and-batch.md).
 """
 
 from __future__ import annotations
@@ -765,7 +773,7 @@ def paced_frames(frames, fps: float, dropped: list, *, clock=time.perf_counter, 
 
 
 class _Stream:
-    """The per-frame steps ahead of the tracker, one frame at a time (design: live-and-batch).
+    """The per-frame steps ahead of the tracker, one frame at a time (docs/live-and-batch.md).
 
     For each frame of the source (a recording, played at its own rate or as fast as
     it goes, or a live camera): the skin-colour silhouettes, the frame's keypoints
