@@ -192,7 +192,12 @@ def track_command(
         if result.detections is not None:
             text += f"; keypoints on {int(result.quality.keypoints.sum())} frames"
         if result.options["carry"] != "none":
-            text += f" ({int(result.detections.sum())} with a detection, the others carried)"
+            seen = (
+                result.detections
+                if result.dropped is None
+                else (result.detections & ~result.dropped)
+            )  # the frames tracked
+            text += f" ({int(seen.sum())} with a detection, the others carried)"
         click.echo(text)
     truth = result.sequence.truth
     if truth is not None:
