@@ -51,6 +51,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("tracking",),
     ("pipeline",),  # handvar.track: the whole pipeline, one call
     ("evaluation",),
+    ("batch",),  # many recordings on Dask, one handvar.track each
     ("cli",),
     ("__main__",),  # python -m handvar: the command line, nothing else
 )

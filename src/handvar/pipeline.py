@@ -21,6 +21,14 @@ The defaults it decides:
 - empty silhouettes are allowed (carried by the prediction) only with recovery;
 - the first pose: ``init``, else the sequence's true first pose (a synthetic or
   rendered sequence), else searched in the first frame (with recovery).
+
+The online form.  A recording with recovery is tracked one frame at a time: each frame
+read (or, with ``realtime``, the newest frame each time the tracker is free, after
+`paced_frames`; or a live camera's), its silhouettes, its keypoints (carried forward by
+optical flow) and its fit follow each other, and nothing is computed ahead.  The frames
+skipped in real time stay in the track, flagged ``dropped``, holding the last tracked
+pose.  Only ``carry="both"`` (which waits for the next detection) and ``recover=False``
+read the whole recording first (docs/live-and-batch.md).
 """
 
 from __future__ import annotations
@@ -42,7 +50,7 @@ from handvar.hand.anthropometry import JOINTS, SIDES, HandShape
 from handvar.params import NAMES
 from handvar.validate import as_float, as_instance, as_int, one_of
 
-__all__ = ["CARRY", "KEYPOINT_TIPS", "MODELS", "Track", "track"]
+__all__ = ["CARRY", "KEYPOINT_TIPS", "MODELS", "Track", "paced_frames", "track"]
 
 #: How detected keypoints are carried over the frames without a detection (design §14.5).
 CARRY: tuple[str, ...] = ("forward", "both", "none")
@@ -114,6 +122,14 @@ class Track:
         resolution, its ground truth if any); None for a loaded track.
     source : VideoSource or None
         The recording, for overlays on its colour frames; None otherwise.
+    dropped : (T,) bool ndarray or None
+        Tracked in real time (a recording played at its rate, a live camera): the
+        frames skipped because the tracker was busy.  A dropped frame holds the last
+        tracked frame's pose and joints (what a live display shows then; NaN before the
+        first), and NaN, 0 or False in the rest of its row.  None off-line.
+    latency : (T,) ndarray or None
+        Tracked in real time: seconds from a frame's capture to its pose (NaN on dropped
+        frames; `realtime_summary`).  None off-line.
     """
 
     poses: np.ndarray
@@ -134,6 +150,8 @@ class Track:
     stage_seconds: dict = field(default_factory=dict)
     sequence: Any = field(default=None, repr=False)
     source: Any = field(default=None, repr=False)
+    dropped: np.ndarray | None = None
+    latency: np.ndarray | None = None
 
     @property
     def n_frames(self) -> int:
@@ -214,6 +232,10 @@ class Track:
         }  # fmt: skip
         if self.detections is not None:
             arrays["detections"] = np.asarray(self.detections, dtype=bool)
+        if self.dropped is not None:
+            arrays["dropped"] = np.asarray(self.dropped, dtype=bool)
+        if self.latency is not None:
+            arrays["latency"] = np.asarray(self.latency, dtype=float)
         for name in _shape_fields():
             arrays[_SHAPE_PREFIX + name] = np.asarray(getattr(self.shape, name))
         if self.quality is not None:
@@ -313,7 +335,8 @@ class Track:
             predictor=str(stored["predictor"]), seed=int(stored["seed"]), fps=meta.get("fps"),
             result=result, search_seconds=stored.get("search_seconds", np.zeros(0)),
             detections=stored.get("detections"), options=meta.get("options", {}),
-            stage_seconds=meta.get("stage_seconds", {}),
+            stage_seconds=meta.get("stage_seconds", {}), dropped=stored.get("dropped"),
+            latency=stored.get("latency"),
         )  # fmt: skip
 
     def to_dataframe(self, kind: str = "wide"):
@@ -330,7 +353,8 @@ class Track:
             the quality's columns (``iou``, ``keypoint_error``, ``lost``, ...) when
             there is one.  ``"long"``: one row per frame and joint (``frame``,
             ``joint``, ``x``, ``y``, ``z`` in mm, and ``u_<camera>``, ``v_<camera>``,
-            pixels of the full-resolution frames).
+            pixels of the full-resolution frames).  Tracked in real time, the wide
+            table also has ``dropped`` and ``latency`` (seconds).
 
         Returns
         -------
@@ -359,7 +383,27 @@ class Track:
         if self.quality is not None:
             for f in dataclasses.fields(self.quality):
                 columns[f.name] = np.asarray(getattr(self.quality, f.name))[:T]
+        if self.dropped is not None:
+            columns["dropped"] = np.asarray(self.dropped, dtype=bool)
+        if self.latency is not None:
+            columns["latency"] = np.asarray(self.latency, dtype=float)
         return pd.DataFrame(columns, index=pd.RangeIndex(T, name="frame"))
+
+    def realtime_summary(self) -> str:
+        """One line: frames, dropped, latency median and 95th percentile (real time only).
+
+        Raises
+        ------
+        ValueError
+            For a track not made in real time (``latency`` None).
+        """
+        if self.latency is None or self.dropped is None:
+            raise ValueError("track: expected a track made in real time; it has no latency")
+        ms = 1000.0 * self.latency[~np.isnan(self.latency)]
+        return (
+            f"realtime: {self.n_frames} frames, {int(np.sum(self.dropped))} dropped, "
+            f"latency median {np.median(ms):.0f} ms, 95 % {np.percentile(ms, 95):.0f} ms"
+        )
 
 
 def _shape_fields() -> list[str]:
@@ -425,15 +469,19 @@ def track(
     allow_short: bool = False,
     recovery=None,
     on_frame: Callable | None = None,
+    realtime: bool = False,
 ) -> Track:
     """Track the hand through a recording or a sequence (module notes: the defaults).
 
     Parameters
     ----------
-    source : str, path-like or list of them
+    source : str, path-like, list of them, or CameraSource
         A video file or an image folder, a list of them (one per camera of `calib`;
-        or a comma-separated string), a sequence directory (`handvar.io`) or the name
-        of a synthetic sequence (`handvar.synth.SEQUENCE_NAMES`).
+        or a comma-separated string), a sequence directory (`handvar.io`), the name
+        of a synthetic sequence (`handvar.synth.SEQUENCE_NAMES`), or a live camera
+        (`handvar.vision.sources.open_camera`, which takes its calibration, field of
+        view and scale; tracked as it comes, as with `realtime`, until `frames`
+        frames or its ``stop()``).
     keypoints : path-like, (T, 21, 2|3) array_like, Keypoints2D, or a list of them, optional
         2D keypoints of the 21 points (`handvar.vision.keypoints`), pixels of the
         full-resolution frames: a file (.npy or .csv), an array or a `Keypoints2D`; a
@@ -484,7 +532,12 @@ def track(
         Settings of the recovery (`handvar.tracking.recovery.RECOVERY_DEFAULTS`).
     on_frame : callable, optional
         With recovery: called as ``on_frame(i, pose, quality, masks)`` after every frame
-        (`track_with_recovery`), for instance to keep the silhouettes fitted.
+        tracked, i its index in the recording (`track_with_recovery`), for instance to
+        keep the silhouettes fitted.
+    realtime : bool
+        A recording only, with recovery: play it at its own frame rate and track the
+        newest frame each time the tracker is free, skipping the others (module notes
+        on the online form); the track then has ``dropped`` and ``latency``.
 
     Returns
     -------
@@ -510,6 +563,7 @@ def track(
         one_of(keypoint_tips, KEYPOINT_TIPS, "keypoint_tips")
     if recover is not None:
         as_instance(recover, bool, "recover")
+    as_instance(realtime, bool, "realtime")
     if hand == "left" and model == "mesh":
         raise ValueError(
             "model: expected spheres for a left hand (the skinned mesh is a right hand); got mesh"
@@ -518,6 +572,17 @@ def track(
 
     predictor_key = catalogue_key(as_instance(predictor, str, "predictor"), "predictor")
     spec, label = _resolve_source(source)
+    live = spec.kind == "camera"
+    if live and (calib is not None or fov is not None or scale != 1.0 or keypoints is not None):
+        raise ValueError(
+            "calib, fov, scale, keypoints: expected none with a live camera (open_camera "
+            "takes the calibration, field of view and scale)"
+        )
+    if realtime and spec.kind != "recording":
+        raise ValueError(
+            f"realtime: expected a recording (a video file or an image folder); got the "
+            f"{spec.kind} sequence {label!r}"
+        )
     detected = _read_keypoints(keypoints, spec, keypoint_every)
     if carry not in (None, "none") and (detected is None or spec.kind != "recording"):
         got = "no keypoints" if spec.kind == "recording" else f"the {spec.kind} sequence {label!r}"
@@ -525,7 +590,7 @@ def track(
             f"carry: expected a recording (a video file or an image folder) with "
             f"keypoints for {carry}; got {got}"
         )
-    recording = spec.kind == "recording"
+    recording = spec.kind in ("recording", "camera")
     if carry is None:
         carry = "forward" if detected is not None and recording else "none"
     if recover is None:
@@ -534,11 +599,20 @@ def track(
         raise ValueError("recovery, on_frame: expected only with recover")
     if keypoint_tips is None:  # a detector's keypoints on a recording, else G(x) projected
         keypoint_tips = "pad" if recording else "end"
+    if (realtime or live) and (not recover or carry == "both"):
+        raise ValueError(
+            "realtime: expected recovery on and carry forward or none (one frame at a "
+            f"time); got recover={recover}, carry={carry}"
+        )
     bar = _progress_bar if progress else None
 
     opened, full_rig, used = None, None, detected  # the recording; its rig; the keypoints
     stage_seconds = {}
-    if recording:
+    stream = None  # the online form (module notes)
+    if live:
+        opened, full_rig = source, source.rig  # its frames as delivered (open_camera scale)
+        stream = _Stream(source, None, carry=carry, frames=frames, realtime=True)
+    elif recording:
         from handvar.vision.sources import open_source
 
         opened = open_source(list(spec.paths), calib, fov=fov, scale=scale, allow_short=allow_short)
@@ -547,6 +621,9 @@ def track(
             if scale == 1.0
             else open_source(list(spec.paths), calib, fov=fov, allow_short=allow_short).rig
         )
+    if recording and not live and recover and carry != "both":  # frame by frame
+        stream = _Stream(opened, detected, carry=carry, frames=frames, realtime=realtime)
+    elif recording and not live:  # the whole recording first (carry both looks ahead)
         total = opened.n_frames if frames is None else min(frames, opened.n_frames)
         clock = time.perf_counter()
         # With keypoints and recovery the wrist is cut while tracking (at the detected
@@ -569,32 +646,54 @@ def track(
         from handvar.io import read_sequence
 
         sequence = read_sequence(spec.paths[0], lazy=True)
-    else:
+    elif spec.kind == "synthetic":
         from handvar.synth.sequences import make_sequence
 
         sequence = make_sequence(spec.name, n_frames=frames)
+    rig = opened.rig if stream is not None else sequence.rig  # of the tracked frames
     if full_rig is None:
-        full_rig = sequence.rig
-    if used is not None and len(used) != len(sequence.rig):
-        raise ValueError(
-            f"keypoints: expected one file per camera ({len(sequence.rig)}); got {len(used)}"
-        )
-    x0 = _first_pose(init, sequence, recover, label)
+        full_rig = rig
+    if used is not None and len(used) != len(rig):
+        raise ValueError(f"keypoints: expected one file per camera ({len(rig)}); got {len(used)}")
+    x0 = _first_pose(init, None if stream is not None else sequence.truth, recover, label)
 
     from handvar.hand.kinematics import HandModel
     from handvar.tracking import CostSettings, Tracker, TrackerSettings
 
     hand_model = HandModel(HandShape.from_size(hand_length, side=hand), surface=model)
     if x0 is not None:
-        check_in_front(hand_model.joints(x0), sequence.rig, "init" if init is not None else label)
+        check_in_front(hand_model.joints(x0), rig, "init" if init is not None else label)
     settings = TrackerSettings(cost=CostSettings(keypoint_tips=keypoint_tips))
     tracker = Tracker(
-        sequence.rig, hand_model, make_predictor(predictor_key), np.random.default_rng(seed),
+        rig, hand_model, make_predictor(predictor_key), np.random.default_rng(seed),
         settings,
     )  # fmt: skip
     quality, search_seconds = None, np.zeros(0)
+    dropped = latency = None
     clock = time.perf_counter()
-    if recover:
+    if stream is not None:
+        from handvar.tracking.recovery import track_with_recovery
+
+        name = opened.names[0] if live else Path(opened.readers[0].path).stem
+        n = None if live or realtime else min(frames or opened.n_frames, opened.n_frames)
+        masks = stream.frames()
+        if bar is not None:
+            masks = bar(f"tracking {name}", n)(masks)
+        recovered = track_with_recovery(
+            tracker, masks, x0, keypoints=None if detected is None else stream.keypoints_at,
+            cut_wrist=detected is not None, on_frame=stream.on_frame(on_frame),
+            **({} if recovery is None else {"settings": recovery}),
+        )  # fmt: skip
+        result, quality = _with_dropped(recovered, stream.rows(), stream.n_frames)
+        search_seconds = np.asarray(recovered.init_seconds, dtype=float)
+        sequence, used = stream.sequence(), stream.keypoints(opened.names)
+        latency = stream.latency()
+        dropped = stream.dropped_mask() if stream.realtime else None
+        stage_seconds.update(stream.seconds)
+        clock += sum(stream.seconds.values())  # the tracking stage is the rest
+        if live:
+            opened = None  # its frames cannot be read again: overlays over the silhouettes
+    elif recover:
         from handvar.tracking.recovery import track_with_recovery
 
         n = sequence.n_frames if frames is None else min(frames, sequence.n_frames)
@@ -618,7 +717,11 @@ def track(
     stage_seconds["tracking"] = time.perf_counter() - clock
     T = result.poses.shape[0]
     points = result.joints.reshape(-1, 3)
-    projected = np.stack([cam.project(points).reshape(T, -1, 2) for cam in full_rig.cameras])
+    finite = np.isfinite(points).all(axis=1)  # not before the first frame tracked
+    projected = np.full((len(full_rig), len(points), 2), np.nan)
+    for c, cam in enumerate(full_rig.cameras):
+        projected[c, finite] = cam.project(points[finite])
+    projected = projected.reshape(len(full_rig), T, -1, 2)
     seen = None
     if detected is not None:
         seen = np.zeros(T, dtype=bool)
@@ -629,13 +732,15 @@ def track(
         "hand_length": hand_length, "model": model, "scale": scale, "init": init is not None,
         "keypoints": detected is not None, "keypoint_every": keypoint_every, "carry": carry,
         "keypoint_tips": keypoint_tips, "recover": recover, "frames": frames,
+        "realtime": realtime or live,
     }  # fmt: skip
     return Track(
         poses=result.poses, joints=result.joints, projected=projected, quality=quality,
         rig=full_rig, shape=hand_model.shape, name=sequence.name, predictor=predictor,
         seed=seed, fps=None if sequence.fps is None else float(sequence.fps), result=result,
         search_seconds=search_seconds, detections=seen, keypoints=used, options=options,
-        stage_seconds=stage_seconds, sequence=sequence, source=opened,
+        stage_seconds=stage_seconds, sequence=sequence, source=opened, dropped=dropped,
+        latency=latency,
     )  # fmt: skip
 
 
@@ -644,6 +749,11 @@ def _resolve_source(source):
     from handvar.io import SequenceSpec, resolve_sequence
     from handvar.synth.sequences import SEQUENCE_NAMES
 
+    if type(source).__name__ == "CameraSource":  # without importing OpenCV for the others
+        from handvar.vision.sources import CameraSource
+
+        if isinstance(source, CameraSource):
+            return SequenceSpec("camera", (source.readers[0].path,)), source.readers[0].path
     if isinstance(source, list | tuple):
         if not source or not all(isinstance(p, str | os.PathLike) for p in source):
             raise TypeError(
@@ -680,7 +790,7 @@ def _read_keypoints(keypoints, spec, every: int):
     return out
 
 
-def _first_pose(init, sequence, recover: bool, label: str) -> np.ndarray | None:
+def _first_pose(init, truth, recover: bool, label: str) -> np.ndarray | None:
     """The pose of the first frame, or None to search it (module notes)."""
     if init is not None:
         from handvar.hand.kinematics import POSE_NAMES, named_pose
@@ -694,8 +804,8 @@ def _first_pose(init, sequence, recover: bool, label: str) -> np.ndarray | None:
                 )
             return named_pose(init)
         return check_pose(init, "init")
-    if sequence.truth is not None:
-        return sequence.truth.poses[0]
+    if truth is not None:
+        return truth.poses[0]
     if recover:
         return None  # searched in the first frame
     raise ValueError(f"{label}: the sequence has no ground truth; give the first pose with init")
@@ -718,3 +828,234 @@ def _progress_bar(desc: str, total: int | None):
         return tqdm(iterable, total=total, desc=desc, unit="frame", leave=False)
 
     return wrap
+
+
+# --- the online form: one frame at a time ------------------------------------------------
+
+
+def paced_frames(frames, fps: float, dropped: list, *, clock=time.perf_counter, sleep=time.sleep):
+    """Play `frames` at their own rate, skipping those the consumer had no time for.
+
+    A wall clock starts when the first frame is handed out; frame i's capture time is
+    (i − i₀) / fps.  Each time the consumer asks for the next frame, the frames whose
+    capture time has passed are skipped except the latest (their indices appended to
+    `dropped`); when none is due yet, it waits for the next one.
+
+    Parameters
+    ----------
+    frames : iterable of (int, images)
+        Frame index and images, in order (`VideoSource.frames`).
+    fps : float
+        Frame rate, frames per second.
+    dropped : list
+        Receives the indices of the frames skipped.
+    clock, sleep : callable, keyword-only
+        Seconds, and waiting (for tests: a simulated clock).
+
+    Yields
+    ------
+    index : int
+    seconds : float
+        Capture time after the first frame's.
+    images : list of ndarray
+    """
+    it = iter(frames)
+    item = next(it, None)
+    if item is None:
+        return
+    first, t0 = item[0], clock()
+
+    def capture(index: int) -> float:
+        return (index - first) / fps
+
+    while item is not None:
+        wait = capture(item[0]) - (clock() - t0)
+        if wait > 0:
+            sleep(wait)
+        following = next(it, None)
+        while following is not None and capture(following[0]) <= clock() - t0:
+            dropped.append(item[0])
+            item, following = following, next(it, None)
+        yield item[0], capture(item[0]), item[1]
+        item = following
+
+
+class _Stream:
+    """The per-frame steps ahead of the tracker, one frame at a time (docs/live-and-batch.md).
+
+    For each frame of the source (a recording, played at its own rate or as fast as
+    it goes, or a live camera): the skin-colour silhouettes, the frame's keypoints
+    (the detection, or with ``carry`` "forward" the last one carried by optical flow,
+    `handvar.vision.carry.KeypointCarrier`), handed to `track_with_recovery`, which
+    fits the frame; `on_frame` notes when each fit finished.
+    """
+
+    def __init__(self, source, detected, *, carry: str, frames: int | None, realtime: bool):
+        from handvar.vision.carry import KeypointCarrier
+        from handvar.vision.skin import SkinModel
+
+        self.source = source
+        self.live = not hasattr(source, "frames")
+        self.realtime = realtime or self.live
+        self.scaled = None if detected is None else source.scaled_keypoints(detected)
+        self.carriers = None
+        if self.scaled is not None and carry == "forward":
+            self.carriers = [KeypointCarrier() for _ in self.scaled]
+        self.stop = frames
+        self.model = SkinModel()
+        self.clock = time.perf_counter
+        self.t0: float | None = None
+        self.indices: list[int] = []  # recording index of each tracked frame
+        self.capture: list[float] = []  # its capture time, s after the first frame's
+        self.finish: list[float] = []  # when its fit finished, s after the first frame's
+        self.masks: list[np.ndarray] = []
+        self.kps: list[list | None] = []
+        self.dropped: list[int] = []
+        self.seconds = {"silhouettes": 0.0, "keypoints": 0.0}
+
+    def _feed(self):
+        if self.live:
+            self.dropped = self.source.dropped
+            return self.source.stream(self.stop, clock=self.clock)
+        frames = self.source.frames(0, self.stop)
+        if self.realtime:
+            return paced_frames(frames, self.source.fps, self.dropped, clock=self.clock)
+        return ((i, i / self.source.fps, images) for i, images in frames)
+
+    def frames(self):
+        """The silhouettes of every frame tracked, for `track_with_recovery`."""
+        from handvar.vision.sources import frame_silhouettes
+
+        wrist = self.scaled is None  # with keypoints the tracker cuts the wrist
+        for index, seconds, images in self._feed():
+            if self.t0 is None:
+                self.t0 = self.clock() - seconds
+            clock = self.clock()
+            masks = frame_silhouettes(
+                images, self.model, index=index, names=self.source.names, wrist=wrist,
+                allow_empty=True,
+            )  # fmt: skip
+            self.seconds["silhouettes"] += self.clock() - clock
+            clock = self.clock()
+            self.kps.append(self._keypoints(index, images))
+            self.seconds["keypoints"] += self.clock() - clock
+            self.indices.append(index)
+            self.capture.append(seconds)
+            self.masks.append(masks)
+            yield masks
+
+    def _keypoints(self, index: int, images) -> list | None:
+        if self.scaled is None:
+            return None
+        out = []
+        for j, k in enumerate(self.scaled):
+            if k is None or index >= k.n_frames:
+                out.append(None)
+            elif self.carriers is None:
+                out.append(k.frame(index))
+            else:
+                out.append(self.carriers[j].step(images[j], k.frame(index)))
+        return out
+
+    def keypoints_at(self, i: int):
+        """The i-th tracked frame's keypoints, per camera (`track_with_recovery`)."""
+        return self.kps[i]
+
+    def on_frame(self, user: Callable | None):
+        """`track_with_recovery`'s callback: the finish time, then the user's."""
+
+        def done(i, pose, quality, masks):
+            self.finish.append(self.clock() - self.t0)
+            if user is not None:
+                user(self.indices[i], pose, quality, masks)
+
+        return done
+
+    @property
+    def n_frames(self) -> int:
+        """Frames of the source played: tracked and dropped."""
+        return len(self.indices) + len(self.dropped)
+
+    def rows(self) -> np.ndarray:
+        """(T_tracked,) the row of each tracked frame in the track (index − first)."""
+        first = min(self.indices[0], *self.dropped) if self.dropped else self.indices[0]
+        return np.asarray(self.indices) - first
+
+    def latency(self) -> np.ndarray | None:
+        """(T,) seconds from capture to pose, NaN on dropped frames; None off-line."""
+        if not self.realtime:
+            return None
+        out = np.full(self.n_frames, np.nan)
+        out[self.rows()] = np.asarray(self.finish) - np.asarray(self.capture)
+        return out
+
+    def dropped_mask(self) -> np.ndarray:
+        """(T,) bool: frames skipped."""
+        out = np.ones(self.n_frames, dtype=bool)
+        out[self.rows()] = False
+        return out
+
+    def sequence(self):
+        """The tracked silhouettes as a `handvar.io.Sequence`; dropped frames empty."""
+        if not self.live:  # a recording in which no frame shows a hand is refused
+            self.source.check_some_hand(self.masks)
+        rows = self.rows()
+        masks = [np.zeros_like(self.masks[0])] * self.n_frames
+        for r, m in zip(rows, self.masks, strict=True):
+            masks[r] = m
+        indices = np.arange(self.n_frames) + (self.indices[0] - rows[0])
+        return self.source.sequence_of(indices, masks)
+
+    def keypoints(self, names) -> list | None:
+        """Per camera the keypoints given to the tracker, as `Keypoints2D` (T frames)."""
+        if self.scaled is None:
+            return None
+        from handvar.vision.keypoints import Keypoints2D
+
+        out = []
+        for j, k in enumerate(self.scaled):
+            a = np.full((self.n_frames, 21, 3), np.nan)
+            for r, kps in zip(self.rows(), self.kps, strict=True):
+                if kps is not None and kps[j] is not None:
+                    a[r] = kps[j]
+            out.append(Keypoints2D.from_array(a, name=names[j] if k is None else k.name))
+        return out
+
+
+def _with_dropped(recovered, rows: np.ndarray, n: int):
+    """`recovered`'s track and quality over all `n` frames, the dropped ones filled in.
+
+    A dropped frame holds the last tracked pose (and its joints; NaN before the first
+    tracked frame); its other entries are NaN, 0 or False.
+    """
+    from handvar.tracking.recovery import TrackQuality
+    from handvar.tracking.tracker import TrackResult
+
+    held = np.maximum.accumulate(np.isin(np.arange(n), rows) * np.arange(n))  # last row
+    source_row = np.searchsorted(rows, held)  # the tracked entry at that row
+    started = np.arange(n) >= rows[0]
+
+    def expand(a, hold: bool, zero: bool = False):
+        a = np.asarray(a)
+        if hold:
+            out = a[np.minimum(source_row, len(a) - 1)].copy()
+            if out.dtype.kind == "f":
+                out[~started] = np.nan
+            return out
+        fill = np.nan if a.dtype.kind == "f" and not zero else 0
+        out = np.full((n, *a.shape[1:]), fill, dtype=a.dtype)
+        out[rows] = a
+        return out
+
+    track = recovered.track
+    result = TrackResult(**{
+        f.name: expand(
+            getattr(track, f.name), f.name in ("poses", "joints", "starts"), f.name == "seconds"
+        )
+        for f in dataclasses.fields(TrackResult)
+    })  # fmt: skip
+    quality = TrackQuality(**{
+        f.name: expand(getattr(recovered.quality, f.name), False)
+        for f in dataclasses.fields(TrackQuality)
+    })  # fmt: skip
+    return result, quality

@@ -34,7 +34,7 @@ def _check_predictor(ctx, param, value: str) -> str:
 
 
 @click.command("track")
-@click.argument("seq")
+@click.argument("seq", nargs=-1)
 @click.option(
     "--predictor", default="rvar", show_default=True, callback=_check_predictor,
     help="Motion predictor giving each frame's starting pose: "
@@ -75,12 +75,28 @@ def _check_predictor(ctx, param, value: str) -> str:
 @click.option("--recover/--no-recover", default=None,
               help="Refine poor fits, detect lost frames and search the pose again there "
               "[default: on for recordings and with --keypoints].")  # fmt: skip
+@click.option("--camera", type=click.IntRange(min=0), default=None,
+              help="Track a live camera (OpenCV's index N) instead of SEQ, the newest "
+              "frame each time the tracker is free, until --frames or Ctrl-C.")  # fmt: skip
+@click.option("--realtime", is_flag=True,
+              help="Play the recording at its own frame rate, skipping the frames the "
+              "tracker has no time for; report the latency and the frames dropped.")  # fmt: skip
+@click.option("--show", is_flag=True,
+              help="With --camera or --realtime: show the model over the silhouettes in a "
+              "window while tracking (needs a display and OpenCV with a GUI).")  # fmt: skip
+@click.option("--scheduler", default=None,
+              help="Several SEQ: address of an existing Dask scheduler [default: an "
+              "embedded cluster].")  # fmt: skip
+@click.option("--workers", type=click.IntRange(min=1), default=None,
+              help="Several SEQ: worker processes of the embedded cluster [default: one "
+              "per core].")  # fmt: skip
 @_recording_options
 @_one_line_errors
 @_locks_out
 def track_command(
     seq, predictor, init, seed, n_frames, out, video, hand_length, side, model, keypoint_files,
-    keypoint_every, carry, keypoint_tips, recover, calib, fov, scale,
+    keypoint_every, carry, keypoint_tips, recover, camera, realtime, show, scheduler, workers,
+    calib, fov, scale,
 ) -> None:  # fmt: skip
     """Track the hand through the sequence SEQ (a sequence directory or a synthetic name).
 
@@ -107,42 +123,87 @@ def track_command(
     final cost, lost, re-initialised, empty). Prints the mean joint error when the
     sequence has ground truth. The files of an earlier track in OUT that this run does
     not write go; other files stay. One run at a time writes OUT.
+
+    Live and real time: --camera N tracks a webcam; --realtime plays a recording at its
+    frame rate. Each frame is tracked as it comes; the frames that arrive while the
+    tracker is busy are dropped (marked in track.npz, holding the last pose), and a
+    line gives the frames dropped and the latency from capture to pose.
+
+    Several SEQ (each a recording, or a comma-separated rig): one task per recording
+    on a Dask cluster, each written to OUT/<file stem>/ whole or not at all; the
+    recordings already in OUT are skipped, so a run stopped half-way is resumed by
+    running it again. --keypoints then gives one file per recording, in order. A
+    recording that fails gets its one-line error and the others go on; the exit
+    status is 2 when any failed.
     """
 
     from handvar.atomic import check_output_dir
-    from handvar.pipeline import track
 
     check_output_dir(out, "--out")  # before any work
-    with _option_names(seq):
-        result = track(
-            seq, keypoints=list(keypoint_files) or None,
-            calib=calib, fov=fov, scale=scale, hand=side, hand_length=hand_length, model=model,
+    allow_short = click.get_current_context().meta.get("handvar.allow_short", False)
+    if camera is not None and seq:
+        raise ValueError(f"--camera: expected no SEQ with a camera; got {' '.join(seq)}")
+    if camera is None and not seq:
+        raise ValueError("SEQ: expected a sequence or a recording (or --camera N); got none")
+    if len(seq) > 1:
+        for name, given in (("--realtime", realtime), ("--show", show)):
+            if given:
+                raise ValueError(f"{name}: expected one recording; got {len(seq)}")
+        _track_batch(
+            seq, out, keypoint_files, video, scheduler, workers, calib=calib, fov=fov,
+            scale=scale, hand=side, hand_length=hand_length, model=model,
             predictor=predictor, init=None if init is None else load_pose(init),
             keypoint_every=keypoint_every, carry=carry, keypoint_tips=keypoint_tips,
-            recover=recover, seed=seed, frames=n_frames, progress=True,
-            allow_short=click.get_current_context().meta.get("handvar.allow_short", False),
+            recover=recover, seed=seed, frames=n_frames, allow_short=allow_short,
+        )  # fmt: skip
+        return
+    if scheduler is not None or workers is not None:
+        raise ValueError("--scheduler, --workers: expected several SEQ (a batch); got one")
+    if show and not (realtime or camera is not None):
+        raise ValueError("--show: expected --camera or --realtime")
+    if show:
+        _check_display()
+    source, options = (seq[0] if seq else None), {"calib": calib, "fov": fov, "scale": scale}
+    if camera is not None:
+        if keypoint_files:
+            raise ValueError("--keypoints: expected none with --camera")
+        source, options = _open_camera(camera, calib, fov, scale), {}
+    with _option_names(seq[0] if seq else "--camera"), _stop_on_interrupt(source):
+        result = _track_one(
+            source, keypoints=list(keypoint_files) or None, hand=side, hand_length=hand_length,
+            model=model, predictor=predictor, init=None if init is None else load_pose(init),
+            keypoint_every=keypoint_every, carry=carry, keypoint_tips=keypoint_tips,
+            recover=recover, seed=seed, frames=n_frames, progress=not show,
+            realtime=realtime and camera is None, show=show, allow_short=allow_short,
+            **options,
         )  # fmt: skip
     written = result.save(out, video=video)
     if "video_error" in written:
         click.echo(f"handvar: note: no video ({written['video_error']})", err=True)
 
     T, fit = result.n_frames, result.result
-    fps = T / max(float(fit.seconds.sum()), 1e-9)
+    tracked = T if result.dropped is None else int(T - result.dropped.sum())
+    fps = tracked / max(float(fit.seconds.sum()), 1e-9)
     searches = ""  # the pose searches of the recovery are not in the tracker's time
     if len(result.search_seconds):
         n_search, s_search = len(result.search_seconds), float(result.search_seconds.sum())
         searches = f" and {n_search} pose search{'es' * (n_search != 1)} in {s_search:.1f} s"
     click.echo(
         f"{result.name}: {T} frames, predictor {predictor}, seed {seed}: "
-        f"{fit.iterations.mean():.1f} iterations/frame, {fps:.1f} frames/s{searches} -> {out}"
-        + (f" (with {written['video'].name})" if "video" in written else "")
+        f"{fit.iterations.sum() / tracked:.1f} iterations/frame, {fps:.1f} frames/s{searches} "
+        f"-> {out}" + (f" (with {written['video'].name})" if "video" in written else "")
     )
     if result.quality is not None:
         text = f"fit quality: {result.quality.summary()}"
         if result.detections is not None:
             text += f"; keypoints on {int(result.quality.keypoints.sum())} frames"
         if result.options["carry"] != "none":
-            text += f" ({int(result.detections.sum())} with a detection, the others carried)"
+            seen = (
+                result.detections
+                if result.dropped is None
+                else (result.detections & ~result.dropped)
+            )  # the frames tracked
+            text += f" ({int(seen.sum())} with a detection, the others carried)"
         click.echo(text)
     truth = result.sequence.truth
     if truth is not None:
@@ -150,6 +211,137 @@ def track_command(
 
         err = mean_joint_error(truth.joints[:T], result.joints)
         click.echo(f"mean joint error: {err.mean():.2f} mm (max {err.max():.2f} mm)")
+    if result.latency is not None:
+        click.echo(result.realtime_summary())
+
+
+def _open_camera(index: int, calib, fov, scale):
+    """`open_camera`, its errors naming --camera."""
+    from handvar.vision.sources import open_camera
+
+    try:
+        return open_camera(index, calib, fov=fov, scale=scale)
+    except ValueError as exc:
+        message = str(exc)
+        if message.startswith("camera: "):
+            message = "--" + message
+        raise ValueError(message) from None
+
+
+def _check_display() -> None:
+    """--show needs a display and an OpenCV built with a GUI (not the headless wheel)."""
+    import os
+    import re
+    import sys
+
+    import cv2
+
+    gui = re.search(r"GUI:\s*(\S+)", cv2.getBuildInformation())
+    if gui is None or gui.group(1).upper() == "NONE":
+        raise ValueError(
+            "--show: expected OpenCV with a GUI (opencv-python); got one without "
+            "(opencv-python-headless)"
+        )
+    if sys.platform.startswith("linux") and not (
+        os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
+    ):
+        raise ValueError("--show: expected a display; DISPLAY and WAYLAND_DISPLAY are not set")
+
+
+def _track_one(source, *, show: bool, **options):
+    """`handvar.track`, with a window showing each frame's fit when `show`."""
+    from handvar.pipeline import track
+
+    if not show:
+        return track(source, **options)
+    import cv2
+    import numpy as np
+
+    from handvar.hand.anthropometry import HandShape
+    from handvar.hand.kinematics import HandModel
+    from handvar.render import overlay_views, side_by_side
+
+    hand = HandModel(
+        HandShape.from_size(options["hand_length"], side=options["hand"]),
+        surface=options["model"],
+    )
+    rig = {}
+
+    def draw(i, pose, quality, masks):
+        if "rig" not in rig:  # the tracked frames' cameras: the camera's, or the recording's
+            rig["rig"] = _tracked_rig(source, options, masks)
+        if np.all(np.isfinite(pose)):
+            views = overlay_views(hand, rig["rig"], masks, pose)
+            image = side_by_side(views, [f"frame {i}"] * len(views))
+            cv2.imshow("handvar", cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+        if cv2.waitKey(1) & 0xFF == ord("q") and hasattr(source, "stop"):
+            source.stop()
+
+    try:
+        return track(source, on_frame=draw, **options)
+    finally:
+        cv2.destroyAllWindows()
+
+
+def _tracked_rig(source, options, masks):
+    """The rig of the frames being tracked (for --show)."""
+    if hasattr(source, "rig"):
+        return source.rig
+    from handvar.vision.sources import open_source
+
+    paths = source.split(",")
+    return open_source(paths, options.get("calib"), fov=options.get("fov"),
+                       scale=options.get("scale", 1.0)).rig  # fmt: skip
+
+
+@contextlib.contextmanager
+def _stop_on_interrupt(source):
+    """On a live camera the first Ctrl-C ends the tracking (the frames so far are kept)."""
+    import signal
+
+    if not hasattr(source, "stop"):
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, lambda *_: source.stop())
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        source.close()
+
+
+def _track_batch(seq, out, keypoint_files, video, scheduler, workers, **options) -> None:
+    """Several SEQ: `handvar.batch.track_many`, a line per recording, exit 2 on failures."""
+    import sys
+
+    from handvar.batch import track_many
+
+    if keypoint_files and len(keypoint_files) != len(seq):
+        raise ValueError(
+            f"--keypoints: expected one file per recording ({len(seq)}), in order; "
+            f"got {len(keypoint_files)}"
+        )
+
+    def done(name: str, error: str | None, line: str) -> None:
+        if error is None:
+            click.echo(f"{name}: {line}")
+            return
+        recording, _, message = error.partition(": ")  # `track_many` names the recording
+        click.echo(f"handvar: error: {recording}: {_cli_message(message, None)}", err=True)
+
+    with _option_names(",".join(seq)):
+        summary = track_many(
+            list(seq), out, keypoints=list(keypoint_files) or None, video=video,
+            scheduler=scheduler, workers=workers, progress=True, on_done=done, **options,
+        )  # fmt: skip
+    click.echo(summary.text())
+    if summary.failed:
+        n = len(summary.failed)
+        click.echo(
+            f"handvar: error: {n} of {len(summary.names)} recordings failed",
+            err=True,
+        )
+        sys.exit(2)
 
 
 #: `handvar.track`'s keyword arguments as `handvar track` names them in its messages (those
@@ -157,7 +349,7 @@ def track_command(
 OPTION_NAMES = {
     "source": "SEQ", "keypoints": "--keypoints", "keypoint_every": "--keypoint-every",
     "carry": "--carry", "calib": "--calib", "fov": "--fov", "model": "--model",
-    "init": "--init",
+    "init": "--init", "realtime": "--realtime", "recordings": "SEQ", "out": "--out",
 }  # fmt: skip
 
 
@@ -169,14 +361,18 @@ def _option_names(seq: str):
     or about SEQ, every keyword standing as a word of its own is replaced; other
     messages (a file's) are left as they are.
     """
-    import re
-
-    word = re.compile(r"(?<![\w/.\-])(" + "|".join(OPTION_NAMES) + r")(?![\w/.\-])")
     try:
         yield
     except ValueError as exc:
-        message = str(exc)
-        prefix = message.partition(": ")[0]
-        if prefix == seq or all(name in OPTION_NAMES for name in prefix.split(", ")):
-            message = word.sub(lambda m: OPTION_NAMES[m.group(1)], message)
-        raise ValueError(message) from None
+        raise ValueError(_cli_message(str(exc), seq)) from None
+
+
+def _cli_message(message: str, seq: str | None) -> str:
+    """`message` with `handvar.track`'s keywords named as the options (`_option_names`)."""
+    import re
+
+    word = re.compile(r"(?<![\w/.\-])(" + "|".join(OPTION_NAMES) + r")(?![\w/.\-])")
+    prefix = message.partition(": ")[0]
+    if prefix == seq or all(name in OPTION_NAMES for name in prefix.split(", ")):
+        message = word.sub(lambda m: OPTION_NAMES[m.group(1)], message)
+    return message

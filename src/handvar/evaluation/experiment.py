@@ -36,7 +36,7 @@ from handvar.evaluation.store import (
 from handvar.evaluation.trials import TrialRunner
 from handvar.validate import as_instance, as_int
 
-__all__ = ["RunSummary", "run_experiment", "summary_text"]
+__all__ = ["RunSummary", "local_client", "run_experiment", "summary_text"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -142,7 +142,11 @@ def _open_or_create(path: Path, config: ExperimentConfig, progress: bool):
     return config, sequence, np.zeros((P, N), bool), np.zeros((P, N), np.int16), []
 
 
-def _local_client(workers: int | None):
+def local_client(workers: int | None):
+    """An embedded Dask cluster of `workers` processes, one thread each: (client, cluster).
+
+    Default: one worker per core.  Close both when done.
+    """
     from distributed import Client, LocalCluster
 
     n = workers or os.cpu_count() or 1
@@ -241,7 +245,7 @@ def _run_locked(config, path, client, scheduler, workers, progress, rounds, on_w
                 client = Client(scheduler)
                 own = (client, None)
             else:
-                own = _local_client(workers)
+                own = local_client(workers)
                 client = own[0]
         try:
             computed = _run_tasks(

@@ -54,10 +54,13 @@ from handvar.vision.silhouette import silhouettes_from_frames
 __all__ = [
     "IMAGE_SUFFIXES",
     "SOURCE_SETTINGS",
+    "CameraSource",
     "FrameReader",
     "SourceSettings",
     "VideoSource",
     "assumed_camera",
+    "frame_silhouettes",
+    "open_camera",
     "open_frames",
     "open_source",
 ]
@@ -111,6 +114,58 @@ def assumed_camera(size: tuple[int, int], *, fov: float = SOURCE_SETTINGS.fov) -
     (1108.5, 639.5, 359.5)
     """
     return Camera.assumed(size, fov=fov)
+
+
+def frame_silhouettes(
+    images: Sequence[np.ndarray],
+    model,
+    *,
+    index: int,
+    names: Sequence[str],
+    threshold: float | None = None,
+    cleanup: dict | None = None,
+    wrist: bool = SOURCE_SETTINGS.wrist,
+    keypoints=None,
+    allow_empty: bool = False,
+) -> np.ndarray:
+    """The hand silhouettes of one time step, one per camera (`VideoSource.silhouettes`).
+
+    Parameters
+    ----------
+    images : sequence of (H, W, 3) uint8 ndarray
+        One BGR frame per camera.
+    model : SkinModel or HistogramSkinModel
+        Skin classifier.
+    index : int, keyword-only
+        Frame index, for messages.
+    names : sequence of str, keyword-only
+        The cameras' file names, for messages.
+    threshold, cleanup, wrist : keyword-only
+        As in `VideoSource.silhouettes`.
+    keypoints : sequence of (21, 3) array_like or None, keyword-only, optional
+        Per camera this frame's keypoints in the frames' pixels (or None).
+    allow_empty : bool, keyword-only
+        An empty silhouette instead of `EmptySilhouetteError`.
+
+    Returns
+    -------
+    (n_cams, H, W) bool ndarray
+    """
+    from handvar.vision.silhouette import EmptySilhouetteError
+
+    masks = []
+    for j, image in enumerate(images):
+        try:
+            masks += silhouettes_from_frames(
+                [image], model, threshold=threshold, cleanup=cleanup, wrist=wrist,
+                frame=index, cameras=[names[j]],
+                keypoints=None if keypoints is None else [keypoints[j]],
+            )  # fmt: skip
+        except EmptySilhouetteError:
+            if not allow_empty:
+                raise
+            masks.append(np.zeros(image.shape[:2], dtype=bool))
+    return np.stack(masks)
 
 
 # --- several cameras with their rig ----------------------------------------------------
@@ -274,7 +329,6 @@ class VideoSource:
             (a ValueError) when a camera's silhouette is empty; the message names the
             camera's file and the frame.
         """
-        from handvar.vision.silhouette import EmptySilhouetteError
         from handvar.vision.skin import SkinModel
 
         model = SkinModel() if model is None else model
@@ -283,24 +337,11 @@ class VideoSource:
             kps = None
             if scaled is not None:
                 kps = [None if k is None or index >= k.n_frames else k.frame(index) for k in scaled]
-            masks = []
-            for j, image in enumerate(images):
-                try:
-                    masks += silhouettes_from_frames(
-                        [image],
-                        model,
-                        threshold=threshold,
-                        cleanup=cleanup,
-                        wrist=wrist,
-                        frame=index,
-                        cameras=[self.names[j]],
-                        keypoints=None if kps is None else [kps[j]],
-                    )
-                except EmptySilhouetteError:
-                    if not allow_empty:
-                        raise
-                    masks.append(np.zeros(image.shape[:2], dtype=bool))
-            yield index, images, np.stack(masks)
+            masks = frame_silhouettes(
+                images, model, index=index, names=self.names, threshold=threshold,
+                cleanup=cleanup, wrist=wrist, keypoints=kps, allow_empty=allow_empty,
+            )  # fmt: skip
+            yield index, images, masks
 
     def scaled_keypoints(self, keypoints):
         """Per-camera keypoints mapped to the delivered frames' pixels (or None)."""
@@ -399,9 +440,6 @@ class VideoSource:
             A frame's silhouette is empty (unless ``allow_empty``), or no frame read
             shows a hand at all (also with ``allow_empty``).
         """
-        from handvar.io import Sequence
-        from handvar.vision.silhouette import EmptySilhouetteError
-
         it = self.silhouettes(start, stop, step, **kwargs)
         if progress is not None:
             it = progress(it)
@@ -416,7 +454,17 @@ class VideoSource:
                 f"start: expected a frame range inside the recording "
                 f"({self.n_frames} frames); got start={start}, stop={stop}"
             )
-        if not any(m.any() for m in masks):  # allow_empty, and nothing anywhere
+        self.check_some_hand(masks)
+        return self.sequence_of(indices, masks, step=step, rgb=colour if rgb else None)
+
+    def check_some_hand(self, masks) -> None:
+        """Raise `EmptySilhouetteError` unless some silhouette of `masks` shows a hand.
+
+        `masks` are the silhouettes read with ``allow_empty`` (every frame's, per camera).
+        """
+        from handvar.vision.silhouette import EmptySilhouetteError
+
+        if not any(np.asarray(m).any() for m in masks):
             raise EmptySilhouetteError(
                 f"{', '.join(self.names)}: expected a hand in some frame; none of the "
                 f"{len(masks)} frames read shows one (every silhouette is empty, or skin "
@@ -424,9 +472,32 @@ class VideoSource:
                 camera=self.names[0],
                 frame=None,
             )
+
+    def sequence_of(self, indices, masks, *, step: int = 1, rgb=None):
+        """A `handvar.io.Sequence` of silhouettes computed from this source.
+
+        Parameters
+        ----------
+        indices : sequence of int
+            Frame index of each entry of `masks`.
+        masks : sequence of (n_cams, H, W) bool ndarray
+            The silhouettes.
+        step : int, keyword-only
+            Frame step of `indices` (the sequence's rate is ``fps / step``).
+        rgb : sequence of (n_cams, H, W, 3) uint8 ndarray, keyword-only, optional
+            The colour frames (RGB).
+
+        Returns
+        -------
+        handvar.io.Sequence
+            Without ground truth; the provenance names the files, the frames, the
+            scale and whether the camera was assumed.
+        """
+        from handvar.io import Sequence
+
         provenance = {
             "source": [str(r.path) for r in self.readers],
-            "frames": indices,
+            "frames": [int(i) for i in indices],
             "scale": self.scale,
             "calibrated": self.calibrated,
         }
@@ -435,7 +506,7 @@ class VideoSource:
             fps=self.fps / step,
             rig=self.rig,
             masks=np.stack(masks),
-            rgb=np.stack(colour) if rgb else None,
+            rgb=None if rgb is None else np.stack(rgb),
             provenance=provenance,
         )
 
@@ -495,6 +566,21 @@ def open_source(
         raise ValueError("paths: expected one video file or image folder per camera; got none")
     scale = as_float(scale, "scale", minimum=0.0, maximum=4.0, exclusive_minimum=True)
     readers = tuple(open_frames(p, allow_short=allow_short) for p in paths)
+    rig, calibrated = _source_rig(readers, calibration, fov)
+    if scale != 1.0:
+        rig = rig.scaled(scale)
+    if fps is None:
+        fps = next((r.fps for r in readers if r.fps), SOURCE_SETTINGS.fps)
+    fps = as_float(fps, "fps", minimum=0.0, exclusive_minimum=True)
+    return VideoSource(readers, rig, fps, scale, calibrated)
+
+
+def _source_rig(readers, calibration, fov) -> tuple[Rig, bool]:
+    """The rig of `readers` (each with ``path``, ``name``, ``size``) and whether calibrated.
+
+    Without `calibration` a single reader gets `assumed_camera`; with one, its cameras
+    are checked against the readers (number and image size; `open_source`).
+    """
     if calibration is None:
         if len(readers) != 1:
             raise ValueError(
@@ -525,9 +611,196 @@ def open_source(
                 f"{reader.path}: frames are {reader.size[0]}x{reader.size[1]} pixels; camera "
                 f"{name!r} of {where} is calibrated for {cam.size[0]}x{cam.size[1]}"
             )
+    return rig, calibrated
+
+
+# --- a live camera -----------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _CameraReader:
+    """What messages and the rig need of a live camera (as of a `FrameReader`)."""
+
+    path: str
+    name: str
+    size: tuple[int, int]
+
+
+class CameraSource:
+    """A live camera read through OpenCV (``cv2.VideoCapture(index)``), latest frame first.
+
+    Created by `open_camera`.  A thread reads the camera continuously; `stream` hands
+    out the newest frame each time it is asked, so a consumer slower than the camera
+    skips the frames it had no time for (counted in ``dropped``), as a live tracker
+    must.  The frame's capture time is when its read returned.
+
+    Attributes
+    ----------
+    readers : tuple
+        One entry (``path``, ``name``, ``size``: the camera as messages name it).
+    rig : Rig
+        The camera, for the frames as delivered (resized by `scale`).
+    fps : float
+        Frame rate the camera reports (`SourceSettings.fps` when it reports none).
+    scale : float
+        Resize factor applied to every frame.
+    calibrated : bool
+        False when the rig is `assumed_camera`'s guess.
+    """
+
+    def __init__(self, capture, reader, rig: Rig, fps: float, scale: float, calibrated: bool):
+        self._capture = capture
+        self.readers = (reader,)
+        self.rig = rig
+        self.fps = fps
+        self.scale = scale
+        self.calibrated = calibrated
+        self.dropped: list[int] = []
+        self._stopped = False
+
+    def __repr__(self) -> str:
+        w, h = self.image_size
+        return f"CameraSource({self.readers[0].name}: {w}x{h} at {self.fps:g} fps)"
+
+    n_cameras = 1
+    image_size = VideoSource.image_size
+    sequence_of = VideoSource.sequence_of  # the silhouettes tracked, as a Sequence
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The camera's name, used in messages."""
+        return (self.readers[0].name,)
+
+    def stop(self) -> None:
+        """Make `stream` end after the frame it is handing out (safe from a signal handler)."""
+        self._stopped = True
+
+    def close(self) -> None:
+        """Release the camera."""
+        self._stopped = True
+        self._capture.release()
+
+    def stream(self, stop: int | None = None, clock=None) -> Iterator[tuple[int, float, list]]:
+        """The newest frame each time one is asked for, until `stop` frames were read.
+
+        Parameters
+        ----------
+        stop : int, optional
+            End after the camera's first `stop` frames (those skipped included);
+            None: until `stop()` is called or the camera ends.
+        clock : callable, optional
+            Seconds (``time.perf_counter`` by default).
+
+        Yields
+        ------
+        index : int
+            Frame index, counted from the first frame handed out.
+        seconds : float
+            Capture time, seconds after the first frame's.
+        images : list of one (H, W, 3) uint8 ndarray
+            The BGR frame, resized by `scale`.
+
+        The indices of the frames skipped are appended to ``dropped``.
+        """
+        import threading
+        import time
+
+        clock = time.perf_counter if clock is None else clock
+        cond = threading.Condition()
+        state = {"latest": None, "count": 0, "done": False}
+
+        def grab() -> None:
+            while not self._stopped and (stop is None or state["count"] < stop):
+                ok, image = self._capture.read()
+                with cond:
+                    if not ok:
+                        break
+                    state["latest"] = (state["count"], clock(), image)
+                    state["count"] += 1
+                    cond.notify()
+            with cond:
+                state["done"] = True
+                cond.notify()
+
+        thread = threading.Thread(target=grab, name="handvar-camera", daemon=True)
+        thread.start()
+        last, base, t0 = -1, 0, None
+        try:
+            while not self._stopped:
+                with cond:
+                    while not state["done"] and (
+                        state["latest"] is None or state["latest"][0] <= last
+                    ):
+                        cond.wait()
+                    item = state["latest"]
+                    if item is None or item[0] <= last:
+                        return  # the camera ended
+                count, seconds, image = item
+                if t0 is None:  # the first frame handed out is frame 0, at time 0
+                    base, t0 = count, seconds
+                else:
+                    self.dropped.extend(range(last + 1 - base, count - base))
+                last = count
+                if self.scale != 1.0:
+                    image = cv2.resize(image, self.image_size, interpolation=cv2.INTER_AREA)
+                yield count - base, seconds - t0, [image]
+        finally:
+            self._stopped = True
+            thread.join(timeout=5.0)
+
+
+def open_camera(
+    index: int,
+    calibration: str | os.PathLike | Rig | None = None,
+    *,
+    fov: float | None = None,
+    scale: float = 1.0,
+    capture=None,
+) -> CameraSource:
+    """Open the live camera number `index` (``cv2.VideoCapture(index)``).
+
+    Parameters
+    ----------
+    index : int
+        OpenCV's camera index (0: the first camera).
+    calibration : path-like or Rig, optional
+        The camera's calibration (one camera, `Rig.load`); without one, `assumed_camera`.
+    fov : float, keyword-only, optional
+        Horizontal field of view of the assumed camera, degrees.
+    scale : float, keyword-only
+        Resize every frame by this factor first.
+    capture : keyword-only, optional
+        An opened ``cv2.VideoCapture`` (or an object with ``read``, ``get`` and
+        ``release``) to read instead of camera `index`.
+
+    Returns
+    -------
+    CameraSource
+
+    Raises
+    ------
+    ValueError
+        ``camera: expected ...`` when no camera `index` can be opened or read.
+    """
+    from handvar.validate import as_int
+
+    index = as_int(index, "camera", minimum=0)
+    scale = as_float(scale, "scale", minimum=0.0, maximum=4.0, exclusive_minimum=True)
+    if capture is None:
+        capture = cv2.VideoCapture(index)
+    ok, image = capture.read() if capture.isOpened() else (False, None)
+    if not ok or image is None:
+        capture.release()
+        raise ValueError(f"camera: expected a camera that can be read at index {index}; none")
+    h, w = image.shape[:2]
+    reader = _CameraReader(f"camera {index}", f"camera{index}", (w, h))
+    try:
+        rig, calibrated = _source_rig((reader,), calibration, fov)
+    except BaseException:
+        capture.release()
+        raise
     if scale != 1.0:
         rig = rig.scaled(scale)
-    if fps is None:
-        fps = next((r.fps for r in readers if r.fps), SOURCE_SETTINGS.fps)
-    fps = as_float(fps, "fps", minimum=0.0, exclusive_minimum=True)
-    return VideoSource(readers, rig, fps, scale, calibrated)
+    fps = float(capture.get(cv2.CAP_PROP_FPS) or 0.0)
+    fps = fps if np.isfinite(fps) and fps > 0 else SOURCE_SETTINGS.fps
+    return CameraSource(capture, reader, rig, fps, scale, calibrated)
