@@ -52,6 +52,9 @@ def make_inputs(root: Path) -> Path:
     (root / "short.txt").write_text("1 2 3")
     pose = named_pose("open")
     (root / "good_pose.txt").write_text(" ".join(map(str, pose)))
+    front = pose.copy()
+    front[:3] = (0.0, 0.0, 400.0)  # in front of a recording's assumed camera
+    (root / "front_pose.txt").write_text(" ".join(map(str, front)))
     (root / "nan_pose.txt").write_text(" ".join(["nan", *map(str, pose[1:])]))
     far = pose.copy()
     far[2] = 1e12
@@ -280,7 +283,7 @@ CASES = [
        subprocess=True),
     _c("track-header-only-video", "track {r}/header.mp4 --init open --out {r}/track_out",
        "header.mp4", subprocess=True),
-    _c("track-short-video", "track {r}/short.avi --init open --out {r}/track_out",
+    _c("track-short-video", "track {r}/short.avi --init {r}/front_pose.txt --out {r}/track_out",
        "short.avi: decoding stopped after 5 of the 12 frames", subprocess=True),
     _c("init-short-video", "init {r}/short.avi --frame 8 --out {r}/existing.txt",
        "short.avi: decoding stopped after 5 of the 12 frames", subprocess=True),

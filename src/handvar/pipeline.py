@@ -679,11 +679,16 @@ def track(
         masks = stream.frames()
         if bar is not None:
             masks = bar(f"tracking {name}", n)(masks)
-        recovered = track_with_recovery(
-            tracker, masks, x0, keypoints=None if detected is None else stream.keypoints_at,
-            cut_wrist=detected is not None, on_frame=stream.on_frame(on_frame),
-            **({} if recovery is None else {"settings": recovery}),
-        )  # fmt: skip
+        try:
+            recovered = track_with_recovery(
+                tracker, masks, x0, keypoints=None if detected is None else stream.keypoints_at,
+                cut_wrist=detected is not None, on_frame=stream.on_frame(on_frame),
+                **({} if recovery is None else {"settings": recovery}),
+            )  # fmt: skip
+        except ValueError:
+            if stream.exhausted and not stream.live:  # read whole, and no hand anywhere:
+                stream.source.check_some_hand(stream.masks)  # the recording's own word
+            raise
         result, quality = _with_dropped(recovered, stream.rows(), stream.n_frames)
         search_seconds = np.asarray(recovered.init_seconds, dtype=float)
         sequence, used = stream.sequence(), stream.keypoints(opened.names)
@@ -912,6 +917,7 @@ class _Stream:
         self.kps: list[list | None] = []
         self.dropped: list[int] = []
         self.seconds = {"silhouettes": 0.0, "keypoints": 0.0}
+        self.exhausted = False  # every frame read without an error
 
     def _feed(self):
         if self.live:
@@ -943,6 +949,7 @@ class _Stream:
             self.capture.append(seconds)
             self.masks.append(masks)
             yield masks
+        self.exhausted = True
 
     def _keypoints(self, index: int, images) -> list | None:
         if self.scaled is None:
