@@ -127,6 +127,9 @@ def track_command(
     if carry is None:
         carry = "forward" if keypoints is not None and spec.kind == "recording" else "none"
     detected = keypoints
+    import time
+
+    t_read = time.perf_counter()  # the all-in time: silhouettes, carrying, fit, rules
     if recover is None:
         recover = spec.kind == "recording" or keypoints is not None
     if spec.kind == "recording":  # video files / image folders: see _recording_sequence
@@ -194,6 +197,7 @@ def track_command(
                                      leave=False),
         )  # fmt: skip
     T = result.poses.shape[0]
+    all_in = time.perf_counter() - t_read
     written = write_track_outputs(
         out, result, sequence, hand, predictor=predictor, seed=seed, video=video,
         backgrounds=None if source is None else recording_backgrounds(source), quality=quality,
@@ -201,14 +205,17 @@ def track_command(
     if "video_error" in written:
         click.echo(f"handvar: note: no video ({written['video_error']})", err=True)
 
-    fps = T / max(float(result.seconds.sum()), 1e-9)
-    searches = ""  # the pose searches of the recovery are not in the tracker's time
+    fps = T / max(all_in, 1e-9)
+    searches = ""
     if recover and len(recovered.init_seconds):
         n_search, s_search = len(recovered.init_seconds), float(recovered.init_seconds.sum())
-        searches = f" and {n_search} pose search{'es' * (n_search != 1)} in {s_search:.1f} s"
+        searches = (
+            f", {n_search} re-initialisation{'s' * (n_search != 1)} in {s_search:.1f} s"
+        )
     click.echo(
         f"{sequence.name}: {T} frames, predictor {predictor}, seed {seed}: "
-        f"{result.iterations.mean():.1f} iterations/frame, {fps:.1f} frames/s{searches} -> {out}"
+        f"{result.iterations.mean():.1f} iterations/frame, {fps:.1f} frames/s all-in "
+        f"(silhouettes, keypoints, fit and recovery){searches} -> {out}"
         + (f" (with {written['video'].name})" if "video" in written else "")
     )
     if quality is not None:
@@ -222,6 +229,14 @@ def track_command(
                 seen[: min(T, k.n_frames)] |= k.present[:T].any(axis=1)
             text += f" ({int(seen.sum())} with a detection, the others carried)"
         click.echo(text)
+        if keypoints is not None:
+            ok, worst, n_rejected = quality.check()
+            click.echo(
+                f"keypoint check: {'holds' if ok else 'FAILS'} (on every frame with "
+                f"keypoints the joints lie within 0.2 hand sizes of at least 98 % of the "
+                f"keypoints kept; worst frame {100 * worst:.1f} %); {n_rejected} "
+                f"keypoints rejected as outliers"
+            )
     if sequence.truth is not None:
         from handvar.evaluation.metrics import mean_joint_error
 

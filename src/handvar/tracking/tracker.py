@@ -368,6 +368,29 @@ class Tracker:
         """Frames tracked since the last `reset`."""
         return self._n
 
+    def prediction(self) -> np.ndarray:
+        """The next frame's starting pose (26,): x0 after `reset`, else the predictor's.
+
+        As `step` starts from it: clamped to the joint limits and moved in front of
+        every camera.
+        """
+        if self._x0 is None:
+            raise ValueError("x0: expected a starting pose; call reset(x0) first")
+        if self._n == 0:
+            start = self._x0.copy()
+        else:
+            start = clamp(check_pose(self.predictor.predict(), "predictor.predict()"))
+        return clamp(self._front(start))
+
+    def accept(self, x) -> None:
+        """Take pose `x` (26,) as the frame's fit made elsewhere: the predictor learns it.
+
+        For a frame fitted outside `step` (the keypoint-first fit,
+        `handvar.tracking.frame_fit`); the next `prediction` follows from it.
+        """
+        self.predictor.update(check_pose(x, "x"))
+        self._n += 1
+
     def prepare(self, masks) -> FrameData:
         """The per-frame preprocessing of `masks` (distance fields), for `step(frame=...)`.
 
