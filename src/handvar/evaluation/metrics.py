@@ -1,10 +1,31 @@
-"""Evaluation measures of the paper (§3.3): R̃² (eq. 18 and 21) and the mean joint error."""
+"""Evaluation measures: the paper's (§3.3: R̃², eq. 18 and 21, the mean joint error) and
+those of a hand-pose benchmark against ground truth (docs/realistic-benchmark.md).
+
+The benchmark's measures take arrays of points, (T, J, 2) pixels or (T, J, 3) mm, with
+NaN where an estimate has no point (a missed frame): 2D PCK (`pck_2d`) counts a missing
+point as wrong; the mean errors skip it (and say how many they scored).
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["mean_joint_error", "r2_tilde", "r2_tilde_acceleration", "r2_tilde_joints"]
+__all__ = [
+    "auc_pck_3d",
+    "mean_joint_error",
+    "mean_point_error",
+    "mpjpe",
+    "pa_mpjpe",
+    "pck_2d",
+    "r2_tilde",
+    "r2_tilde_acceleration",
+    "r2_tilde_joints",
+    "joint_errors",
+    "similarity_align",
+]
+
+#: The reference length of 2D PCK: from the wrist to the middle finger's MCP (G(x)'s order).
+_WRIST, _MIDDLE_MCP = 0, 9
 
 
 def _same_shape(truth, with_model, without_model, ndim: int, what: str):
@@ -114,3 +135,166 @@ def mean_joint_error(truth, estimate) -> np.ndarray:
         )
     err = np.linalg.norm(Z - E, axis=-1).mean(-1)
     return float(err) if Z.ndim == 2 else err
+
+
+def _points(truth, estimate, dim: int | None = None):
+    """truth and estimate as float arrays (T, J, D) of one shape (finite truth)."""
+    Z = np.asarray(truth, dtype=float)
+    E = np.asarray(estimate, dtype=float)
+    if Z.ndim != 3 or (dim is not None and Z.shape[-1] != dim):
+        what = f"(T, J, {dim})" if dim else "(T, J, D)"
+        raise ValueError(f"truth: expected points {what}; got shape {Z.shape}")
+    if E.shape != Z.shape:
+        raise ValueError(f"estimate: expected the shape of truth {Z.shape}; got {E.shape}")
+    if not np.isfinite(Z).all():
+        raise ValueError("truth: expected finite values; got NaN or infinity")
+    return Z, E
+
+
+def pck_2d(truth, estimate, threshold: float = 0.2) -> float:
+    """Fraction of the points within `threshold` reference lengths of the truth.
+
+    The reference length of a frame is the true wrist → middle-MCP distance in the image
+    (point 0 to point 9). A missing (NaN) estimate counts as wrong.
+
+    Parameters
+    ----------
+    truth, estimate : (T, 21, 2) array_like
+        Pixels.
+    threshold : float
+
+    Examples
+    --------
+    >>> truth = np.zeros((1, 21, 2)); truth[0, 9] = (0.0, 100.0)
+    >>> est = truth.copy(); est[0, 1:4, 0] += (10.0, 30.0, np.nan)
+    >>> round(pck_2d(truth, est), 4)  # 20 px allowed: points 2 and 3 are wrong
+    0.9048
+    """
+    Z, E = _points(truth, estimate, 2)
+    ref = np.linalg.norm(Z[:, _MIDDLE_MCP] - Z[:, _WRIST], axis=-1)  # (T,)
+    d = np.linalg.norm(E - Z, axis=-1)
+    with np.errstate(invalid="ignore"):
+        ok = d <= threshold * ref[:, None]  # NaN compares False
+    return float(ok.mean())
+
+
+def mean_point_error(truth, estimate) -> tuple[float, int]:
+    """Mean Euclidean distance over the points the estimate has, and how many.
+
+    Parameters
+    ----------
+    truth, estimate : (T, J, D) array_like
+
+    Returns
+    -------
+    (float, int)
+        The mean (NaN when none) and the number of points scored.
+    """
+    Z, E = _points(truth, estimate)
+    d = np.linalg.norm(E - Z, axis=-1)
+    d = d[np.isfinite(d)]
+    return (float(d.mean()) if d.size else float("nan")), int(d.size)
+
+
+def _wrist_relative(P: np.ndarray) -> np.ndarray:
+    return P - P[:, _WRIST : _WRIST + 1]
+
+
+def _frame_errors(truth, estimate, align) -> np.ndarray:
+    """(T, J) distances after `align` (per frame), NaN on frames the estimate lacks."""
+    Z, E = _points(truth, estimate, 3)
+    out = np.full(Z.shape[:2], np.nan)
+    for t in range(Z.shape[0]):
+        if np.isfinite(E[t]).all():
+            out[t] = np.linalg.norm(align(E[t], Z[t]) - Z[t], axis=-1)
+    return out
+
+
+def joint_errors(truth, estimate, *, alignment: str = "wrist") -> np.ndarray:
+    """(T, J) 3D errors after aligning each frame's estimate to the truth.
+
+    ``"none"``: as they are (the absolute error in the world frame); ``"wrist"``: both
+    taken relative to their wrist (point 0); ``"procrustes"``: the estimate moved by the
+    similarity (`similarity_align`) that best fits it to the truth.  NaN rows: frames
+    where the estimate has a missing point.
+    """
+    if alignment == "none":
+        return _frame_errors(truth, estimate, lambda e, z: e)
+    if alignment == "wrist":
+        return _frame_errors(truth, estimate, lambda e, z: e - e[_WRIST] + z[_WRIST])
+    if alignment == "procrustes":
+        return _frame_errors(truth, estimate, similarity_align)
+    raise ValueError(f"alignment: expected none, wrist or procrustes; got {alignment!r}")
+
+
+def mpjpe(truth, estimate) -> float:
+    """Wrist-relative mean per-joint position error over the frames the estimate has.
+
+    Both point sets are taken relative to their wrist (point 0); the mean runs over all
+    J points (the wrist's zero included) of every scored frame.
+
+    Parameters
+    ----------
+    truth, estimate : (T, J, 3) array_like
+        mm.
+
+    Examples
+    --------
+    >>> z = np.zeros((1, 2, 3)); e = z.copy(); e[0, :, 0] = (5.0, 9.0)
+    >>> mpjpe(z, e)   # relative to the wrist: 0 and 4 mm
+    2.0
+    """
+    return float(np.nanmean(joint_errors(truth, estimate, alignment="wrist")))
+
+
+def pa_mpjpe(truth, estimate) -> float:
+    """Mean per-joint error after a similarity Procrustes fit of each frame (mm)."""
+    return float(np.nanmean(joint_errors(truth, estimate, alignment="procrustes")))
+
+
+def similarity_align(source, target) -> np.ndarray:
+    """`source` moved by the similarity s R p + t that best fits it to `target`.
+
+    Least squares over the points (Umeyama 1991): R a rotation (no reflection), s > 0.
+
+    Parameters
+    ----------
+    source, target : (J, 3) array_like
+
+    Returns
+    -------
+    (J, 3) ndarray
+    """
+    X = np.asarray(source, dtype=float)
+    Y = np.asarray(target, dtype=float)
+    if X.ndim != 2 or X.shape != Y.shape:
+        raise ValueError(f"source: expected the shape of target {Y.shape}; got {X.shape}")
+    mx, my = X.mean(0), Y.mean(0)
+    A, B = X - mx, Y - my
+    U, S, Vt = np.linalg.svd(B.T @ A)  # cross-covariance Σ (y − ȳ)(x − x̄)ᵀ
+    D = np.ones(len(S))
+    D[-1] = np.sign(np.linalg.det(U @ Vt)) or 1.0  # a rotation, not a reflection
+    R = (U * D) @ Vt
+    var = (A**2).sum()
+    s = (S * D).sum() / var if var > 0 else 1.0
+    return s * A @ R.T + my
+
+
+def auc_pck_3d(errors, low: float = 20.0, high: float = 50.0, steps: int = 31) -> float:
+    """Area under the 3D PCK curve between `low` and `high` mm, normalised to [0, 1].
+
+    PCK(τ) is the fraction of the finite `errors` at most τ; the curve is sampled at
+    `steps` thresholds evenly from `low` to `high` and integrated by the trapezoid rule.
+
+    Examples
+    --------
+    >>> auc_pck_3d([10.0, 60.0, 70.0, 80.0])  # PCK is 1/4 at every threshold
+    0.25
+    """
+    e = np.asarray(errors, dtype=float).ravel()
+    e = e[np.isfinite(e)]
+    if not e.size:
+        return float("nan")
+    tau = np.linspace(low, high, steps)
+    curve = (e[None, :] <= tau[:, None]).mean(1)
+    return float(np.trapezoid(curve, tau) / (high - low))

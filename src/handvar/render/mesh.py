@@ -17,7 +17,7 @@ import numpy as np
 from handvar.camera import Rig
 from handvar.params import check_pose
 
-__all__ = ["mesh_silhouettes", "render_mesh_rgb", "vertex_normals"]
+__all__ = ["mesh_silhouettes", "pixel_normals", "render_mesh_rgb", "vertex_normals"]
 
 
 def vertex_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
@@ -29,6 +29,35 @@ def vertex_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
         np.add.at(normals, triangles[:, i], face)
     norm = np.linalg.norm(normals, axis=1, keepdims=True)
     return normals / np.where(norm > 0, norm, 1.0)
+
+
+def pixel_normals(uv, triangles, normals, rows, cols, tri) -> np.ndarray:
+    """(n, 3) unit normals at pixels, interpolated from the vertices' normals (Phong).
+
+    Parameters
+    ----------
+    uv : (V, 2) ndarray
+        Projected vertices, pixels.
+    triangles : (T, 3) int ndarray
+    normals : (V, 3) ndarray
+        Vertex normals (`vertex_normals`).
+    rows, cols : (n,) int ndarray
+        The pixels (centres at integers).
+    tri : (n,) int ndarray
+        The triangle seen at each pixel (a depth buffer's).
+    """
+    t = triangles[tri]
+    a, b, c = uv[t[:, 0]], uv[t[:, 1]], uv[t[:, 2]]
+    p = np.stack([cols, rows], -1).astype(float)
+    # barycentric coordinates of the pixel centre in the projected triangle
+    d = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    d = np.where(d == 0, 1.0, d)
+    lb = ((p[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (p[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])) / d
+    lc = ((b[:, 0] - a[:, 0]) * (p[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (p[:, 0] - a[:, 0])) / d
+    lam = np.clip(np.stack([1.0 - lb - lc, lb, lc], -1), 0.0, 1.0)
+    n = np.einsum("ni,nic->nc", lam, normals[t])
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
+    return n
 
 
 def mesh_silhouettes(hand, x, rig: Rig, *, coverage: str = "touch") -> np.ndarray:
@@ -69,22 +98,7 @@ def render_mesh_rgb(hand, x, rig: Rig, *, background="clutter", rng=None, shadin
         rows, cols = np.nonzero(tri_id >= 0)
         if not rows.size:
             return rows, cols, np.empty((0, 3))
-        t = tris[tri_id[rows, cols]]
-        uv = cam.project(verts)
-        a, b, c = uv[t[:, 0]], uv[t[:, 1]], uv[t[:, 2]]
-        p = np.stack([cols, rows], -1).astype(float)
-        # barycentric coordinates of the pixel centre in the projected triangle
-        d = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-        d = np.where(d == 0, 1.0, d)
-        lb = (
-            (p[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (p[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-        ) / d
-        lc = (
-            (b[:, 0] - a[:, 0]) * (p[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (p[:, 0] - a[:, 0])
-        ) / d
-        lam = np.clip(np.stack([1.0 - lb - lc, lb, lc], -1), 0.0, 1.0)
-        n = np.einsum("ni,nic->nc", lam, normals[t])
-        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
-        return rows, cols, n
+        return rows, cols, pixel_normals(cam.project(verts), tris, normals, rows, cols,
+                                         tri_id[rows, cols])  # fmt: skip
 
     return shade_views(rig, (w, h), background, rng, sh, surface_normals)

@@ -23,7 +23,27 @@ import numpy as np
 
 from handvar.validate import as_float, as_instance
 
-__all__ = ["synthetic_keypoints"]
+__all__ = ["hand_size_px", "synthetic_keypoints"]
+
+
+def hand_size_px(camera, joints) -> np.ndarray:
+    """Hand size of each frame in `camera`, pixels: ``f · L / z`` (module docstring).
+
+    Parameters
+    ----------
+    camera : handvar.camera.Camera
+    joints : (T, 21, 3) array_like
+        The true points of every frame, world, mm (G(x); only the wrist and the middle
+        MCP are used).
+
+    Returns
+    -------
+    (T,) ndarray
+    """
+    G = np.asarray(joints, dtype=float)
+    L = np.linalg.norm(G[:, 0] - G[:, 9], axis=1)  # (T,) mm
+    z = camera.camera_from_world(0.5 * (G[:, 0] + G[:, 9]))[:, 2]
+    return 0.5 * (camera.fx + camera.fy) * L / z
 
 
 def synthetic_keypoints(
@@ -67,12 +87,9 @@ def synthetic_keypoints(
     T = G.shape[0]
     n_cams = len(sequence.rig)
     out = np.ones((T, n_cams, 21, 3))
-    L = np.linalg.norm(G[:, 0] - G[:, 9], axis=1)  # (T,) mm
-    palm = 0.5 * (G[:, 0] + G[:, 9])
     for j, cam in enumerate(sequence.rig):
         uv = cam.project(G.reshape(-1, 3)).reshape(T, 21, 2)
-        z = cam.camera_from_world(palm)[:, 2]
-        size = 0.5 * (cam.fx + cam.fy) * L / z  # (T,) pixels
+        size = hand_size_px(cam, G)  # (T,) pixels
         noise = rng.normal(0.0, noise_px, (T, 21, 2)) if noise_px > 0 else np.zeros((T, 21, 2))
         bad = rng.random((T, 21)) < outliers
         shift = rng.uniform(-1.0, 1.0, (T, 21, 2)) * size[:, None, None]
