@@ -75,8 +75,9 @@ class FrameFitSettings:
         beyond pulls with a bounded force).
     reject : float
         A keypoint farther than this from its fitted joint, hand sizes, is rejected as
-        an outlier; 0.4: eight times the noise, and twice the PCK@0.2 radius, so that
-        the check of `honoured` (within 0.2 of the kept points) can fail.
+        an outlier; 0.25: five times the noise (a Gaussian error that far is one in
+        10⁵), a quarter beyond the PCK@0.2 radius, so that the check of `honoured`
+        (within 0.2 of the kept points) can still fail.
     world_noise : float
         σ_w, noise of the detector's 3D joints relative to the wrist, mm; 20.
     iterations : int
@@ -94,7 +95,7 @@ class FrameFitSettings:
 
     noise: float = 0.05
     huber: float = 0.1
-    reject: float = 0.4
+    reject: float = 0.25
     world_noise: float = 20.0
     iterations: int = 12
     polish: int = 3
@@ -389,7 +390,6 @@ def fit_frame(
         d[rejected] = _Problem(hand, rig, kp, None, None, None, settings, x).distances(x)[rejected]
         rejected = present & (d > settings.reject)
     return FrameFit(x, d, rejected, cost, n)
-
 
 
 def reinitialise(

@@ -296,6 +296,10 @@ class RecoverySettings:
         model at the predicted pose by less than this IoU (or has none) is flagged
         *no hand* and not fitted; 0.3, the lowest IoU `handvar init` accepts of a
         hand (design §13.4).
+    keypoint_iou : bool
+        Also measure the silhouette IoU of the fit on frames with keypoints; False: the
+        keypoint-first fit does not use the silhouette, so a frame with keypoints
+        needs none (its IoU is NaN) and costs no silhouette, wrist cut or rendering.
     frame_fit : FrameFitSettings
         The keypoint-first fit's settings (its ``tips`` replaced by the tracker's
         ``CostSettings.keypoint_tips``).
@@ -307,6 +311,7 @@ class RecoverySettings:
     reseed_digits: int = 4
     reseed_margin: float = 0.02
     no_hand_iou: float = 0.3
+    keypoint_iou: bool = False
     frame_fit: FrameFitSettings = FRAME_FIT_DEFAULTS
 
     def __post_init__(self) -> None:
@@ -316,6 +321,7 @@ class RecoverySettings:
         as_int(self.reseed_digits, "reseed_digits", minimum=0)
         as_float(self.reseed_margin, "reseed_margin", minimum=0.0, maximum=1.0)
         as_float(self.no_hand_iou, "no_hand_iou", minimum=0.0, maximum=1.0)
+        as_instance(self.keypoint_iou, bool, "keypoint_iou")
         as_instance(self.frame_fit, FrameFitSettings, "frame_fit")
 
 
@@ -380,21 +386,33 @@ class Recovery:
         `with_keypoints`: the track has keypoints (so a frame without them may be a
         frame without a hand).
         """
+        if kps is not None:
+            lazy = masks if callable(masks) else (lambda: masks)
+            return self.keypoint_frame(
+                (lambda: self._masks(lazy(), kps)) if self.settings.keypoint_iou else None,
+                kps, world,
+            )  # fmt: skip
+        masks = self._masks(masks() if callable(masks) else masks, None)
+        empty = not masks.any()
+        if with_keypoints and (not self.started or self.no_hand(masks)):
+            return _Frame(None, self._nan_pose(), empty=empty, no_hand=True)
+        return self.silhouette_frame(masks, empty)
+
+    def _masks(self, masks, kps) -> np.ndarray:
         masks = np.asarray(masks, dtype=bool)
         if masks.ndim == 2:
             masks = masks[None]
         if self.cut_wrist:
             masks = _cut(masks, kps, self.previous, self.hand, self.rig)
-        empty = not masks.any()
-        if kps is not None:
-            return self.keypoint_frame(masks, kps, world)
-        if with_keypoints and (not self.started or self.no_hand(masks)):
-            return _Frame(None, self._nan_pose(), empty=empty, no_hand=True)
-        return self.silhouette_frame(masks, empty)
+        return masks
 
     def keypoint_frame(self, masks, kps, world=None) -> _Frame:
         """Rule 1: the keypoint-first fit from the prediction; rule 2: a lost one is
-        fitted again directly from the keypoints, and the better kept."""
+        fitted again directly from the keypoints, and the better kept.
+
+        `masks`: a callable giving the frame's silhouettes, for their IoU with the fit
+        (`RecoverySettings.keypoint_iou`), or None (IoU not measured).
+        """
         t0 = time.perf_counter()
         tracker = self.tracker
         fit, again = None, False
@@ -422,16 +440,21 @@ class Recovery:
         self.started = True
         self.previous = fit.pose
         t2 = time.perf_counter()
-        kp = frame_keypoints(kps, len(self.rig))
-        iou, _, _ = tracker._quality(fit.pose, masks, kp, ~masks.any(axis=(1, 2)))
+        iou = np.full(len(self.rig), np.nan)
+        empty = np.zeros(len(self.rig), dtype=bool)
+        if masks is not None:
+            m = masks()
+            empty = ~m.any(axis=(1, 2))
+            kp = frame_keypoints(kps, len(self.rig))
+            iou = tracker._quality(fit.pose, m, kp, empty)[0]
         t3 = time.perf_counter()
         result = FrameResult(
             fit.pose, fit.pose, np.empty(0), 0, np.array([t3 - t2, t2 - t0, 0.0]), iou,
-            fit.cost, fit.error, self._lost(fit), ~masks.any(axis=(1, 2)),
+            fit.cost, fit.error, self._lost(fit), empty,
         )  # fmt: skip
         distances = joint_distances(fit.pose, self.hand, self.rig, kps,
                                     tips=self.fit_settings.tips)  # fmt: skip
-        return _Frame(result, fit.pose, again, not masks.any(), True, False, fit.n_rejected,
+        return _Frame(result, fit.pose, again, bool(empty.all()), True, False, fit.n_rejected,
                       np.where(fit.rejected, np.nan, distances))  # fmt: skip
 
     def no_hand(self, masks) -> bool:
