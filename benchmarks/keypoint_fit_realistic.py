@@ -29,7 +29,7 @@ from handvar.evaluation.metrics import (
 from handvar.hand import HandModel
 from handvar.hand.anthropometry import HandShape
 from handvar.predictors.catalogue import make_predictor
-from handvar.synth.realistic import realistic_case
+from handvar.synth.realistic import motion_poses, realistic_case
 from handvar.tracking.costs import CostSettings
 from handvar.tracking.keypoint_cost import keypoint_points
 from handvar.tracking.recovery import Recovery, _assemble
@@ -86,25 +86,28 @@ def main():
     ap.add_argument("--frames", type=int, default=150)
     args = ap.parse_args()
     print(
-        "case | keypoints | 2D PCK@0.2 | 2D mean px | MPJPE mm | PA-MPJPE mm | AUC 20-50 | abs 3D mm | lost | ms/frame"
+        "case | keypoints | 2D PCK@0.2 | 2D mean px | MPJPE mm | PA-MPJPE mm | AUC 20-50 | "
+        "abs 3D mm | lost | ms/frame"
     )
     for motion, cams, side, seed in CASES:
-        n = len(__import__("handvar.synth.realistic", fromlist=["x"]).motion_poses(motion, seed)[0])
+        n = len(motion_poses(motion, seed)[0])
         case = realistic_case(
             motion, cameras=cams, side=side, seed=seed, frames=(0, min(n, args.frames))
         )
-        label = f"{motion} {'mono' if cams == 1 else 'stereo'} {side} seed {seed} ({case.hand_length:.0f} mm)"
-        raw = case.keypoints[0]
+        rig_name = "mono" if cams == 1 else "stereo"
+        label = f"{motion} {rig_name} {side} seed {seed} ({case.hand_length:.0f} mm)"
+        raw, truth = case.keypoints[0], case.truth_2d[0]
         print(
-            f"{label} | raw | {pck_2d(case.truth_2d[0], raw):.3f} | {mean_point_error(case.truth_2d[0], raw)[0]:.1f} | - | - | - | - | - | -"
+            f"{label} | raw | {pck_2d(truth, raw):.3f} | "
+            f"{mean_point_error(truth, raw)[0]:.1f} | - | - | - | - | - | -"
         )
         for every in (1, 5):
             P, proj, res, sec = run(case, every)
             err = joint_errors(case.joints, P)
             absolute = np.nanmean(np.linalg.norm(P - case.joints, axis=2))
             print(
-                f"{label} | fit, every {every} | {pck_2d(case.truth_2d[0], proj):.3f} | "
-                f"{mean_point_error(case.truth_2d[0], proj)[0]:.1f} | {mpjpe(case.joints, P):.1f} | "
+                f"{label} | fit, every {every} | {pck_2d(truth, proj):.3f} | "
+                f"{mean_point_error(truth, proj)[0]:.1f} | {mpjpe(case.joints, P):.1f} | "
                 f"{pa_mpjpe(case.joints, P):.1f} | {auc_pck_3d(err):.3f} | {absolute:.1f} | "
                 f"{int(res.quality.lost.sum())} | {1e3 * np.median(sec):.1f}",
                 flush=True,
