@@ -12,6 +12,7 @@ import numpy as np
 
 __all__ = [
     "auc_pck_3d",
+    "joint_errors",
     "mean_joint_error",
     "mean_point_error",
     "mpjpe",
@@ -20,7 +21,6 @@ __all__ = [
     "r2_tilde",
     "r2_tilde_acceleration",
     "r2_tilde_joints",
-    "joint_errors",
     "similarity_align",
 ]
 

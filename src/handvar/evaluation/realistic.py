@@ -277,11 +277,13 @@ def textured_background(kind: str, size: tuple[int, int], rng: np.random.Generat
             y0 = rng.uniform(0.1, 0.5) * h
             cv2.rectangle(img, (int(x) - 12, int(y0)), (int(x) - 6, int(y0 + 0.3 * h)),
                           (90, 90, 95), -1)  # fmt: skip
-        x0 = rng.uniform(0, 0.8) * w  # a wooden strip (skin-like hue)
-        grain = 20 * np.sin(yy[:, :1] / rng.uniform(3, 8) + rng.uniform(0, 6)).astype(np.float32)
-        wood = np.array([176, 120, 74], np.float32) + grain[..., None]
+        x0 = rng.uniform(0, 0.85) * w  # a wooden shelf (skin-like hue), part of the height
+        y0 = int(rng.uniform(0.0, 0.6) * h)
+        y1 = int(y0 + rng.uniform(0.15, 0.4) * h)
+        grain = 20 * np.sin(yy[y0:y1, :1] / rng.uniform(3, 8) + rng.uniform(0, 6))
+        wood = np.array([176, 120, 74], np.float32) + grain[..., None].astype(np.float32)
         x1 = int(x0 + rng.uniform(0.06, 0.15) * w)
-        img[:, int(x0) : x1] = wood
+        img[y0:y1, int(x0) : x1] = wood
     field = rng.standard_normal((h // 40 + 2, w // 40 + 2)).astype(np.float32)
     img = img * (1.0 + 0.06 * cv2.resize(field, (w, h), interpolation=cv2.INTER_CUBIC))[..., None]
     return np.clip(img, 0, 255).astype(np.uint8)
@@ -830,8 +832,9 @@ def realistic_case(
         for j in range(n_cams):
             img = acc[j] / np.float32(len(subs)) * cast * np.float32(gain[t])
             img = cv2.GaussianBlur(img, (0, 0), 0.7)
-            img += np.float32(settings.noise_sigma) * rng.standard_normal(img.shape,
-                                                                          dtype=np.float32)
+            img += np.float32(settings.noise_sigma) * rng.standard_normal(
+                img.shape, dtype=np.float32
+            )
             images[j, t] = np.clip(np.rint(img), 0, 255).astype(np.uint8)
 
     kps = np.empty((n_cams, T, 21, 2))

@@ -1,0 +1,310 @@
+"""The realistic benchmark: generated recordings with ground truth, tracked as a user would.
+
+Each case is a recording made by `handvar.evaluation.realistic.realistic_case` (the skinned
+mesh hand with a forearm, in a skin tone, over a real or generated background, with a
+skin-coloured distractor, motion blur and brightness changes; detector-like keypoints
+with AR(1) noise, gross errors and missed frames; docs/realistic-benchmark.md), written
+to disk as JPEG image folders, ``keypoints{j}.npy`` and ``calib.yml``.  The fit runs the
+user's commands on those files::
+
+    handvar init cam0[ cam1] --calib calib.yml --hand SIDE --keypoints keypoints0.npy ...
+    handvar track cam0[,cam1] --calib calib.yml --hand SIDE --init x0.txt \\
+        --keypoints keypoints0.npy ... --keypoint-every K --out DIR --no-video
+
+with keypoints on every frame (K = 1) and on every 5th (K = 5), and reads DIR/poses.csv
+and DIR/quality.csv.  Against the truth it prints, per case and overall, for the raw
+keypoints and for each fit:
+
+- 2D PCK@0.2 (of the true wrist → middle-MCP length in the image) and the mean 2D
+  error (px), over every camera;
+- wrist-relative MPJPE, PA-MPJPE (similarity Procrustes per frame), the AUC of 3D PCK
+  over 20–50 mm (of the wrist-relative errors) and the absolute 3D error (world frame,
+  the cameras are calibrated), mm; for the raw keypoints "–" (no 3D in mono; stereo
+  keypoints are not triangulated here);
+- lost frames (quality.csv's ``lost``; for the raw keypoints, the missed frames of
+  camera 0);
+- ms/frame all-in: the wall time of ``init`` plus ``track`` (process start-up included)
+  over the frames.
+
+The scored points are the detector's (G(x) with the fingertips at the pad centres,
+design §14.6) for the truth, the raw keypoints and the fit (its poses through a hand
+model of the length and side the commands were given).
+
+Run: ``PYTHONPATH=src .venv/bin/python benchmarks/realistic.py`` (about 5–10 minutes on
+two cores); ``--quick`` for a one-minute subset; ``--out DIR`` keeps the generated cases
+(and the fits) in DIR; ``--cases`` to run only the cases whose name contains a string.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from handvar.evaluation.metrics import (
+    auc_pck_3d,
+    joint_errors,
+    mean_point_error,
+    pck_2d,
+)
+from handvar.evaluation.realistic import SKIN_TONES, read_case, realistic_case
+from handvar.hand import HandModel
+from handvar.hand.anthropometry import HandShape
+from handvar.tracking.keypoint_cost import keypoint_points
+
+ROOT = Path(__file__).resolve().parents[1]
+VIDEO = ROOT / "examples" / "data" / "dex-human-hand-video.mp4"
+VIDEO_KEYPOINTS = ROOT / "examples" / "data" / "dex-human-hand-video-keypoints.npy"
+HANDVAR = [sys.executable, "-m", "handvar"]
+#: The model the commands are given: the default hand length (the user does not know
+#: the true one, which the generator draws from 172–198 mm).
+HAND_LENGTH = 185.0
+
+
+@dataclass(frozen=True)
+class Spec:
+    """One case: motion, cameras, side, seed, frames, background, distractor, skin."""
+
+    motion: str
+    cameras: int
+    side: str
+    seed: int
+    frames: tuple[int, int]
+    background: str
+    distractor: str
+    skin: str
+
+    @property
+    def name(self) -> str:
+        rig = "mono" if self.cameras == 1 else "stereo"
+        return f"{self.motion}-{rig}-{self.side}-s{self.seed}"
+
+
+#: Frames of each motion: a window with its fast events (benchmark: the little finger
+#: at 73, the global rotation at 100; flexion: the single digits; flip: the whole turn).
+WINDOWS = {"benchmark": (50, 110), "flexion": (20, 80), "flip": (10, 70), "counting": (0, 60)}
+
+
+def specs(quick: bool) -> list[Spec]:
+    """The cases: every motion, mono and stereo, right and left (quick: one of each motion)."""
+    backgrounds = ("video", "fridge", "rectangles", "gradient")
+    distractors = ("arm", "face", "none")
+    skins = tuple(SKIN_TONES)
+    out = []
+    k = 0
+    combos = [(1, "right"), (2, "left"), (1, "left"), (2, "right")] if not quick else [(1, "right")]
+    for m, motion in enumerate(("benchmark", "flip", "flexion", "counting")):
+        for c, (cameras, side) in enumerate(combos):
+            if quick:
+                cameras, side = ((1, "right"), (2, "left"), (1, "left"), (2, "right"))[m]
+            start, stop = WINDOWS[motion]
+            if quick:
+                stop = start + 30
+            out.append(Spec(
+                motion, cameras, side, seed=c, frames=(start, stop),
+                background=backgrounds[k % 4], distractor=distractors[k % 3],
+                skin=skins[k % len(skins)],
+            ))  # fmt: skip
+            k += 1
+    return out
+
+
+def video_background(seed: int) -> np.ndarray:
+    """A crop of a frame of the example video where the hand never is (RGB).
+
+    The hand and forearm of that video stay right of the leftmost detected keypoint
+    (less a margin of 40 px); the crop, 16:9, lies left of it at a seeded place, in a
+    seeded frame, flipped left-right for odd seeds.
+    """
+    rng = np.random.default_rng([seed, 30])
+    kp = np.load(VIDEO_KEYPOINTS)
+    free = int(np.nanmin(np.where(kp[..., 2] > 0, kp[..., 0], np.nan))) - 40
+    cap = cv2.VideoCapture(str(VIDEO))
+    n = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
+    cap.set(cv2.CAP_PROP_POS_FRAMES, int(rng.integers(0, max(n, 1))))
+    ok, bgr = cap.read()
+    cap.release()
+    if not ok:
+        raise OSError(f"{VIDEO}: cannot read a frame")
+    h = bgr.shape[0]
+    cw = int(rng.uniform(0.75, 1.0) * free)
+    ch = min(h, cw * 9 // 16)
+    x0 = int(rng.integers(0, free - cw + 1))
+    y0 = int(rng.integers(0, h - ch + 1))
+    crop = cv2.cvtColor(bgr[y0 : y0 + ch, x0 : x0 + cw], cv2.COLOR_BGR2RGB)
+    return crop[:, ::-1].copy() if seed % 2 else crop
+
+
+def generate(spec: Spec, directory: Path):
+    """Generate the case of `spec` into `directory` (kept if it is already there)."""
+    if (directory / "truth.npz").exists():
+        return read_case(directory)
+    background = video_background(spec.seed) if spec.background == "video" else spec.background
+    case = realistic_case(
+        spec.motion, cameras=spec.cameras, side=spec.side, seed=spec.seed,
+        background=background, skin=spec.skin, distractor=spec.distractor, frames=spec.frames,
+    )  # fmt: skip
+    case.write(directory)
+    return case
+
+
+def run_fit(case_dir: Path, spec: Spec, every: int, out: Path) -> tuple[float, Path]:
+    """``handvar init`` then ``handvar track`` on the case's files; wall time (s), out dir."""
+    cams = [str(case_dir / f"cam{j}") for j in range(spec.cameras)]
+    kps = []
+    for j in range(spec.cameras):
+        kps += ["--keypoints", str(case_dir / f"keypoints{j}.npy")]
+    common = ["--calib", str(case_dir / "calib.yml"), "--hand", spec.side,
+              "--hand-length", str(HAND_LENGTH)]  # fmt: skip
+    out.parent.mkdir(parents=True, exist_ok=True)
+    x0 = out.parent / f"{out.name}-x0.txt"
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
+    start = time.perf_counter()
+    for cmd in (
+        [*HANDVAR, "init", *cams, *common, *kps, "--out", str(x0)],
+        [*HANDVAR, "track", ",".join(cams), *common, "--init", str(x0), *kps,
+         "--keypoint-every", str(every), "--out", str(out), "--no-video"],
+    ):  # fmt: skip
+        done = subprocess.run(cmd, capture_output=True, text=True, env=env)
+        if done.returncode != 0:
+            raise RuntimeError(f"{' '.join(cmd)}\n{done.stderr.strip()}")
+    return time.perf_counter() - start, out
+
+
+def fit_points(out: Path, side: str) -> tuple[np.ndarray, np.ndarray | None]:
+    """The fit's scored points (T, 21, 3) mm from its poses, and its lost flags."""
+    poses = np.loadtxt(out / "poses.csv", delimiter=",", skiprows=1, ndmin=2)
+    hand = HandModel(HandShape.from_size(HAND_LENGTH, side=side))
+    points = np.stack([keypoint_points(hand, x, "pad") if np.isfinite(x).all()
+                       else np.full((21, 3), np.nan) for x in poses])  # fmt: skip
+    lost = None
+    if (out / "quality.csv").exists():
+        with open(out / "quality.csv") as fh:
+            header = fh.readline().strip().split(",")
+        q = np.loadtxt(out / "quality.csv", delimiter=",", skiprows=1, ndmin=2)
+        lost = q[:, header.index("lost")].astype(bool)
+    return points, lost
+
+
+def scores(case, points_2d, points_3d, lost, seconds) -> dict[str, float]:
+    """The table's figures of one estimate (module docstring)."""
+    truth_2d = case.truth_2d.reshape(-1, 21, 2)
+    est_2d = points_2d.reshape(-1, 21, 2)
+    row = {"pck": pck_2d(truth_2d, est_2d), "px": mean_point_error(truth_2d, est_2d)[0]}
+    if points_3d is None:
+        row.update(mpjpe=np.nan, pa=np.nan, auc=np.nan, abs=np.nan)
+    else:
+        wrist = joint_errors(case.joints, points_3d, alignment="wrist")
+        row.update(
+            mpjpe=float(np.nanmean(wrist)),
+            pa=float(np.nanmean(joint_errors(case.joints, points_3d, alignment="procrustes"))),
+            auc=auc_pck_3d(wrist),
+            abs=float(np.nanmean(joint_errors(case.joints, points_3d, alignment="none"))),
+        )
+    row["lost"] = float(np.sum(lost)) if lost is not None else np.nan
+    row["ms"] = 1000.0 * seconds / case.n_frames if seconds is not None else np.nan
+    row["frames"] = case.n_frames
+    return row
+
+
+RUNS = ("keypoints", "fit every 1", "fit every 5")
+COLUMNS = (("pck", "PCK@0.2", "{:.3f}"), ("px", "2D px", "{:.1f}"), ("mpjpe", "MPJPE", "{:.1f}"),
+           ("pa", "PA-MPJPE", "{:.1f}"), ("auc", "AUC 20-50", "{:.3f}"),
+           ("abs", "abs 3D", "{:.1f}"), ("lost", "lost", "{:.0f}"),
+           ("ms", "ms/frame", "{:.0f}"))  # fmt: skip
+
+
+def _cell(value, fmt: str) -> str:
+    return "–" if value is None or not np.isfinite(value) else fmt.format(value)
+
+
+def print_table(rows: list[tuple[str, str, dict]]) -> None:
+    """Markdown table: case, run, then `COLUMNS`."""
+    head = "| case | run | " + " | ".join(c[1] for c in COLUMNS) + " |"
+    print(head)
+    print("|---|---|" + "---:|" * len(COLUMNS))
+    for case, run, r in rows:
+        cells = " | ".join(_cell(r.get(k), f) for k, _, f in COLUMNS)
+        print(f"| {case} | {run} | {cells} |", flush=True)
+
+
+def overall(rows, label: str, keep) -> list[tuple[str, str, dict]]:
+    """Frame-weighted means of the rows of each run whose case passes `keep`."""
+    out = []
+    for run in RUNS:
+        sel = [r for c, k, r in rows if k == run and keep(c)]
+        if not sel:
+            continue
+        w = np.array([r["frames"] for r in sel], dtype=float)
+        agg = {}
+        for key, _, _ in COLUMNS:
+            v = np.array([r.get(key, np.nan) for r in sel], dtype=float)
+            if key == "lost":
+                agg[key] = float(v.sum()) if np.isfinite(v).all() else np.nan
+            else:
+                ok = np.isfinite(v)
+                agg[key] = float(np.average(v[ok], weights=w[ok])) if ok.any() else np.nan
+        out.append((f"**{label}** ({len(sel)} cases, {int(w.sum())} frames)", run, agg))
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true", help="four 30-frame cases (~1 min)")
+    parser.add_argument("--out", type=Path, default=None, help="keep the cases in DIR")
+    parser.add_argument("--cases", default="", help="only cases whose name contains this")
+    parser.add_argument("--no-fit", action="store_true", help="score the raw keypoints only")
+    args = parser.parse_args()
+
+    todo = [s for s in specs(args.quick) if args.cases in s.name]
+    with tempfile.TemporaryDirectory() as tmp:
+        base = args.out if args.out is not None else Path(tmp)
+        base.mkdir(parents=True, exist_ok=True)
+        rows: list[tuple[str, str, dict]] = []
+        started = time.perf_counter()
+        for spec in todo:
+            case_dir = base / spec.name
+            t0 = time.perf_counter()
+            case = generate(spec, case_dir)
+            gen = time.perf_counter() - t0
+            label = (f"{spec.name} ({spec.background}, {spec.distractor}, {spec.skin}, "
+                     f"{case.n_frames} fr)")  # fmt: skip
+            raw_lost = case.missed[0]
+            rows.append((label, "keypoints", scores(case, case.keypoints, None, raw_lost, None)))
+            if not args.no_fit:
+                for every in (1, 5):
+                    out = base / "fits" / f"{spec.name}-every{every}"
+                    try:
+                        seconds, out = run_fit(case_dir, spec, every, out)
+                        pts, lost = fit_points(out, spec.side)
+                        proj = np.stack([cam.project(pts.reshape(-1, 3)).reshape(-1, 21, 2)
+                                         for cam in case.rig])  # fmt: skip
+                        row = scores(case, proj, pts, lost, seconds)
+                    except RuntimeError as exc:  # scored as every frame lost
+                        print(f"{spec.name} every {every}: failed: {exc}", file=sys.stderr)
+                        row = {"frames": case.n_frames, "lost": float(case.n_frames),
+                               "failed": True}  # fmt: skip
+                    rows.append((label, f"fit every {every}", row))
+            print(
+                f"# {spec.name}: generated in {gen:.1f} s; "
+                f"{time.perf_counter() - started:.0f} s so far",
+                file=sys.stderr,
+                flush=True,
+            )
+        rows += overall(rows, "mono", lambda c: "-mono-" in c)
+        rows += overall(rows, "stereo", lambda c: "-stereo-" in c)
+        rows += overall([r for r in rows if not r[0].startswith("**")], "all", lambda c: True)
+        print_table(rows)
+        print(f"\n{len(todo)} cases in {time.perf_counter() - started:.0f} s")
+
+
+if __name__ == "__main__":
+    main()
