@@ -1,4 +1,6 @@
-"""The keypoint-first fit against ground truth on realistic recordings (handvar.synth.realistic).
+"""The keypoint-first fit against ground truth on realistic recordings.
+
+The recordings: `handvar.evaluation.realistic`.
 
 For each case (motion, cameras, side, seed), the recording's simulated detector keypoints
 (every frame, or every 5th with the frames between left to the prediction and the
@@ -26,10 +28,10 @@ from handvar.evaluation.metrics import (
     pa_mpjpe,
     pck_2d,
 )
+from handvar.evaluation.realistic import motion_poses, realistic_case
 from handvar.hand import HandModel
 from handvar.hand.anthropometry import HandShape
 from handvar.predictors.catalogue import make_predictor
-from handvar.synth.realistic import motion_poses, realistic_case
 from handvar.tracking.costs import CostSettings
 from handvar.tracking.keypoint_cost import keypoint_points
 from handvar.tracking.recovery import Recovery, _assemble
@@ -62,6 +64,7 @@ def run(case, every: int):
         t0 = time.perf_counter()
         frames.append(recovery.frame(lambda t=t: case.masks[:, t], kps, with_keypoints=True))
         seconds.append(time.perf_counter() - t0)
+    hand = recovery.hand  # the shape adapted to the first frames
     res = _assemble(
         frames,
         hand,

@@ -90,6 +90,7 @@ def run(name: str, every: int, seed: int = 0) -> dict:
         frames.append(recovery.frame(masks, kps, with_keypoints=True))
         seconds.append(time.perf_counter() - t0)
     seconds = np.asarray(seconds)
+    hand = recovery.hand  # the shape adapted to the first frames
     result = _assemble(frames, hand, 1, settings.smd.max_iterations, recovery.init_seconds,
                        seconds)  # fmt: skip
     q, poses = result.quality, result.track.poses

@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
+from handvar.hand.anthropometry import MIDDLE_MCP, WRIST, HandShape
 from handvar.params import N_PARAMS
 from handvar.predictors import NoMotion
 from handvar.tracking.frame_fit import (
@@ -56,6 +56,7 @@ from handvar.tracking.frame_fit import (
 )
 from handvar.tracking.init import InitSettings, initial_pose
 from handvar.tracking.keypoint_cost import frame_keypoints, keypoint_points
+from handvar.tracking.shape_fit import SHAPE_FIT_DEFAULTS, ShapeFitSettings, fit_shape
 from handvar.tracking.tracker import FrameResult, Tracker, TrackResult, silhouette_iou
 from handvar.validate import as_float, as_instance, as_int
 
@@ -178,6 +179,7 @@ class RecoveredTrack:
     quality: TrackQuality
     init_seconds: np.ndarray = field(default_factory=lambda: np.zeros(0))
     seconds: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    shape: HandShape | None = None
 
 
 def _present(kps) -> bool:
@@ -300,9 +302,16 @@ class RecoverySettings:
         Also measure the silhouette IoU of the fit on frames with keypoints; False: the
         keypoint-first fit does not use the silhouette, so a frame with keypoints
         needs none (its IoU is NaN) and costs no silhouette, wrist cut or rendering.
+    prior_steps : int
+        Levenberg–Marquardt steps with the temporal prior after the fit to the
+        keypoints alone (rule 1); 3.  0: no temporal prior.
     frame_fit : FrameFitSettings
         The keypoint-first fit's settings (its ``tips`` replaced by the tracker's
         ``CostSettings.keypoint_tips``).
+    shape : ShapeFitSettings or None
+        In a track with keypoints, the hand's proportions are fitted to the first
+        frames whose keypoint fit is not lost (`handvar.tracking.shape_fit`) and held
+        fixed after; None keeps the given shape.
     """
 
     reinit: bool = True
@@ -312,7 +321,9 @@ class RecoverySettings:
     reseed_margin: float = 0.02
     no_hand_iou: float = 0.3
     keypoint_iou: bool = False
+    prior_steps: int = 3
     frame_fit: FrameFitSettings = FRAME_FIT_DEFAULTS
+    shape: ShapeFitSettings | None = SHAPE_FIT_DEFAULTS
 
     def __post_init__(self) -> None:
         as_instance(self.reinit, bool, "reinit")
@@ -322,7 +333,10 @@ class RecoverySettings:
         as_float(self.reseed_margin, "reseed_margin", minimum=0.0, maximum=1.0)
         as_float(self.no_hand_iou, "no_hand_iou", minimum=0.0, maximum=1.0)
         as_instance(self.keypoint_iou, bool, "keypoint_iou")
+        as_int(self.prior_steps, "prior_steps", minimum=0)
         as_instance(self.frame_fit, FrameFitSettings, "frame_fit")
+        if self.shape is not None:
+            as_instance(self.shape, ShapeFitSettings, "shape")
 
 
 RECOVERY_DEFAULTS = RecoverySettings()
@@ -369,6 +383,9 @@ class Recovery:
         self.fit_settings = dataclasses.replace(
             settings.frame_fit, tips=tracker.settings.cost.keypoint_tips
         )
+        self._prior_settings = dataclasses.replace(
+            self.fit_settings, iterations=max(settings.prior_steps, 1)
+        )
         self.init_kw = {} if init_settings is None else {"settings": init_settings}
         self.cut_wrist = cut_wrist
         self.hand, self.rig = tracker.hand, tracker.rig
@@ -377,6 +394,7 @@ class Recovery:
         self.started = False
         self.init_seconds: list[float] = []
         self._refiner: Tracker | None = None
+        self._shape_frames: list | None = [] if settings.shape is not None else None
 
     # -- one frame ------------------------------------------------------------------
 
@@ -416,13 +434,20 @@ class Recovery:
         t0 = time.perf_counter()
         tracker = self.tracker
         fit, again = None, False
+        scale = self.scale
         if self.started:
+            # the keypoints alone first, from the prediction: how far that fit lies from
+            # the prediction is the predictor's accuracy (measured after the prior had
+            # pulled the fit towards the prediction it would confirm itself)
             prediction = tracker.prediction()
-            first = tracker.frames_tracked == 0
-            fit = fit_frame(
-                kps, self.rig, self.hand, prediction, prior=None if first else prediction,
-                prior_scale=self.scale, world=world, settings=self.fit_settings,
-            )  # fmt: skip
+            fit = fit_frame(kps, self.rig, self.hand, prediction, world=world,
+                            settings=self.fit_settings)  # fmt: skip
+            if tracker.frames_tracked > 0 and self.settings.prior_steps:
+                scale = self.scale.update(fit.pose, prediction)
+                fit = fit_frame(
+                    kps, self.rig, self.hand, fit.pose, prior=prediction, prior_scale=scale,
+                    world=world, settings=self._prior_settings,
+                )  # fmt: skip
         if fit is None or (self.settings.reinit and self._lost(fit)):
             t1 = time.perf_counter()
             direct = reinitialise(kps, self.rig, self.hand, world=world,
@@ -434,8 +459,8 @@ class Recovery:
                 self.scale = PriorScale()
         if fit is None:  # no palm to start from: nothing to track yet
             return _Frame(None, self._nan_pose(), keypoints=True, no_hand=not self.started)
-        if not again and tracker.frames_tracked > 0:
-            self.scale = self.scale.update(fit.pose, prediction)
+        if not again:
+            self.scale = scale
         tracker.accept(fit.pose)
         self.started = True
         self.previous = fit.pose
@@ -454,8 +479,43 @@ class Recovery:
         )  # fmt: skip
         distances = joint_distances(fit.pose, self.hand, self.rig, kps,
                                     tips=self.fit_settings.tips)  # fmt: skip
-        return _Frame(result, fit.pose, again, bool(empty.all()), True, False, fit.n_rejected,
-                      np.where(fit.rejected, np.nan, distances))  # fmt: skip
+        out = _Frame(result, fit.pose, again, bool(empty.all()), True, False, fit.n_rejected,
+                     np.where(fit.rejected, np.nan, distances))  # fmt: skip
+        if self._shape_frames is not None and not result.lost:
+            self._adapt(out, kps, world)
+        return out
+
+    def _adapt(self, frame: _Frame, kps, world) -> None:
+        """The shape fit (`RecoverySettings.shape`): keep the frame while fewer than
+        `ShapeFitSettings.frames` are kept; with that many, fit the hand's proportions
+        to them, track with that hand from now on and re-fit their poses with it."""
+        s = self.settings.shape
+        kp = frame_keypoints(kps, len(self.rig))
+        if int((kp[:, :, 2] > 0).sum(axis=1).max()) < s.min_points:
+            return
+        self._shape_frames.append((frame, kps, world))
+        if len(self._shape_frames) < s.frames:
+            return
+        from handvar.hand import HandModel
+
+        frames, self._shape_frames = self._shape_frames, None
+        t0 = time.perf_counter()
+        fit = fit_shape([k for _, k, _ in frames], self.rig, self.hand,
+                        [f.pose for f, _, _ in frames], world=[w for _, _, w in frames],
+                        settings=s, frame_settings=self.fit_settings)  # fmt: skip
+        self.hand = HandModel(fit.shape, surface=self.hand.surface)
+        self.tracker.set_hand(self.hand)
+        if self._refiner is not None:
+            self._refiner.set_hand(self.hand)
+        for (f, k, _), x in zip(frames, fit.poses, strict=True):
+            f.pose = x
+            f.result = dataclasses.replace(f.result, pose=x)
+            d = joint_distances(x, self.hand, self.rig, k, tips=self.fit_settings.tips)
+            f.distances = np.where(np.isnan(f.distances), np.nan, d)
+        self.tracker.reset(fit.poses[-1])
+        self.previous = fit.poses[-1]
+        self.scale = PriorScale()
+        self.init_seconds.append(time.perf_counter() - t0)
 
     def no_hand(self, masks) -> bool:
         """Rule 3: no silhouette, or none where the predicted hand would be."""
@@ -814,4 +874,4 @@ def _assemble(frames, hand, n_cams, max_it, init_seconds, seconds) -> RecoveredT
         rejected=np.array([f.rejected for f in frames], dtype=np.int64),
         distances=distances,
     )
-    return RecoveredTrack(track, quality, np.array(init_seconds), seconds)
+    return RecoveredTrack(track, quality, np.array(init_seconds), seconds, hand.shape)

@@ -331,10 +331,21 @@ class Tracker:
         settings = TrackerSettings() if settings is None else settings
         as_instance(settings, TrackerSettings, "settings")
         self.rig = rig
-        self.hand = hand
         self.predictor = predictor
         self.rng = rng
         self.settings = settings
+        self.set_hand(hand)
+        self._x0: np.ndarray | None = None
+        self._n = 0
+
+    def set_hand(self, hand) -> None:
+        """Track with the model `hand` from now on (e.g. a shape adapted to the person,
+        `handvar.tracking.shape_fit`); the predictor and the track so far are kept."""
+        from handvar.hand.kinematics import HandModel
+
+        hand = as_instance(hand, HandModel, "hand")
+        rig, settings = self.rig, self.settings
+        self.hand = hand
         if hand.surface == "mesh":  # the skinned mesh (§15)
             from handvar.tracking.mesh_cost import MeshSilhouetteCost
 
@@ -350,8 +361,6 @@ class Tracker:
         )  # fmt: skip
         self._refine_cost = type(self.cost)(hand, rig, dense)
         self._length = hand_length(hand)
-        self._x0: np.ndarray | None = None
-        self._n = 0
 
     def reset(self, x0) -> None:
         """Start a new track at pose `x0` (26,): the next frame's starting pose.
