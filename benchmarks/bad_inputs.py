@@ -1,4 +1,4 @@
-"""Run the table of bad inputs of tests/test_bad_inputs.py and count the outcomes (§13.4).
+"""Run the table of bad inputs of tests/test_bad_inputs.py and count the outcomes (design §13.4).
 
 Usage: PYTHONPATH=src python benchmarks/bad_inputs.py [--quick]
 

@@ -1,4 +1,4 @@
-"""Digit re-seeding against ground truth: a digit started in the wrong posture (§14.3).
+"""Digit re-seeding against ground truth: a digit started in the wrong posture (design §14.3).
 
 For an open and a spread hand seen by the default stereo rig and by its first camera
 alone, each digit in turn starts the fit in another named shape's posture (fist, thumb

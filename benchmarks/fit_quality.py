@@ -114,8 +114,8 @@ def degenerate() -> None:
 def video(n: int) -> None:
     from handvar.tracking.init import initial_pose
     from handvar.vision.keypoints import read_keypoints
-    from handvar.vision.silhouette import cut_wrist
     from handvar.vision.sources import open_source
+    from handvar.vision.wrist import cut_wrist
 
     scale = 0.5
     hand = HandModel()

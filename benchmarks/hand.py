@@ -2,7 +2,7 @@
 
 Run ``python benchmarks/hand.py``. Prints the median (and the fastest) of many
 repetitions, in microseconds; on a shared machine the median is the figure to quote.
-Target (§10 via the tracker budget): forward kinematics and Jacobian of 600
+Target (design §10 via the tracker budget): forward kinematics and Jacobian of 600
 surface points ≤ 200 µs; drawing 300 surface samples ≤ 30 µs.
 """
 

@@ -11,7 +11,7 @@ check is in 3D: the mean distance of the 21 joints, relative to the wrist, betwe
 track of the mirrored video (mirrored back) and the track of the original.
 
 Each track is `handvar track`'s on a recording: half resolution, RVAR, seed 0, keypoints
-on every 5th frame carried between (§14.5), fingertips at the pads (§14.6), recovery.
+on every 5th frame carried between (design §14.5), fingertips at the pads (design §14.6), recovery.
 The mirrored video is written as Motion-JPEG at quality 100 into a temporary folder.
 
 Run: ``PYTHONPATH=src .venv/bin/python benchmarks/hand_side.py`` (``--frames N`` for the

@@ -1,4 +1,4 @@
-"""The initial pose on the example video with and without its keypoints (§14.1).
+"""The initial pose on the example video with and without its keypoints (design §14.1).
 
 For a few frames of ``examples/data/dex-human-hand-video.mp4`` (open hand, the fist,
 edge-on), `handvar.tracking.init.initial_pose` from the silhouette alone and with the
@@ -22,8 +22,8 @@ from handvar.hand import HandModel
 from handvar.tracking.init import initial_pose
 from handvar.tracking.keypoint_fit import keypoint_error
 from handvar.vision.keypoints import read_keypoints
-from handvar.vision.silhouette import cut_wrist
 from handvar.vision.sources import open_source
+from handvar.vision.wrist import cut_wrist
 
 DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
 VIDEO = DATA / "dex-human-hand-video.mp4"

@@ -1,4 +1,4 @@
-"""Timings of the skinned mesh hand (§15).
+"""Timings of the skinned mesh hand (design §15).
 
 Run ``python benchmarks/mesh.py``. Prints the median (and the fastest) of many
 repetitions; on a shared machine the median is the figure to quote. Targets: mesh

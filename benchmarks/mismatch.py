@@ -1,4 +1,4 @@
-"""The paper's protocol under model mismatch (§15.1): run, report and summarise.
+"""The paper's protocol under model mismatch (docs/results/mismatch.md): run, report, summarise.
 
 Each variant is an experiment (the paper's five predictors) on a sequence the
 tracker's model does not explain exactly: rendered with the skinned mesh, by a hand
@@ -66,7 +66,7 @@ VARIANTS: dict[str, tuple[str, tuple[str, ...]]] = {
     ),
 }
 
-# short names of the §4–5 claims, in the order of evaluate_claims
+# short names of the paper §4–5 claims, in the order of evaluate_claims
 _SHORT = ["dec>0", "fullVAR<0", "sVAR j1,18-21", "sVAR j13<0", "sVAR var", "RVAR≈0.5",
           "RVAR>dec", "RVAR var", "RVAR lowest"]  # fmt: skip
 _KEYS = ("none", "decelerating", "full_var", "structured_var", "rvar")
@@ -91,7 +91,7 @@ def summary_row(name: str, store: Path) -> list[str]:
     held = [s for s, c in zip(_SHORT, paper, strict=True) if c.holds]
     failed = [s for s, c in zip(_SHORT, paper, strict=True) if c.holds is False]
     errors = " / ".join(fmt(r.overall_error(r.index(k))) for k in _KEYS)
-    flips = [c for c in claims if c.section.startswith("§6")]
+    flips = [c for c in claims if c.section.startswith("paper §6")]
     if r.config.sequence == "flip":
         worst = [np.nanmax(r.mean_error_curve(r.index(k))) for k in ("rvar", "decelerating")]
         flip = (
@@ -117,8 +117,8 @@ HEADER = [
     "what",
     "trials × frames",
     "overall mean error (mm): none / dec. / full VAR / str. VAR / RVAR",
-    "§4–5 claims that hold",
-    f"§6 flip: follows (RVAR < {LOSS_MM:g} mm ≤ dec.) / lower error",
+    "paper §4–5 claims that hold",
+    f"paper §6 flip: follows (RVAR < {LOSS_MM:g} mm ≤ dec.) / lower error",
 ]
 
 

@@ -6,7 +6,7 @@ camera) and its MediaPipe keypoints ``examples/data/dex-human-hand-video-keypoin
 (`handvar.tracking.recovery.track_with_recovery`, RVAR predictor, seed 0, the first pose
 searched in frame 0) is scored against the detector's keypoints of *every* frame.  The
 frames between detections get the detected points carried there by optical flow
-(`handvar.vision.carry`, §14.5), as `handvar track` does; the detector's own keypoints of
+(`handvar.vision.carry`, design §14.5), as `handvar track` does; the detector's own keypoints of
 those frames are withheld from the tracker.  Printed:
 
 - PCK@0.2: the fraction of the 21 projected joints within 0.2 hand sizes of the
@@ -27,7 +27,7 @@ without keypoints: how far silhouette and keypoints can be matched together, `re
 ``--breakdown`` to split the misfit of every frame under IoU 0.8 into the heel band, the
 fingertips and the rest, `misfit`; ``--tips end`` to compare the detected fingertips
 with the ends of the model's fingers instead of the centres of their pads, design
-§14.6).  PCK is that of G(x) either way.
+design §14.6).  PCK is that of G(x) either way.
 """
 
 from __future__ import annotations
@@ -76,9 +76,9 @@ def run(
     """Track with keypoints on every `every`-th frame (0: none) and score the track.
 
     With `carry` "forward" or "both" the keypoints are carried by optical flow over the
-    frames between (`VideoSource.carried_keypoints`, §14.5).  For each frame in `probe`, the tracked
-    fit is also refitted (`refit`); with `breakdown`, every frame's misfit is split by
-    `misfit`.
+    frames between (`VideoSource.carried_keypoints`, design §14.5).  For each frame in
+    `probe`, the tracked fit is also refitted (`refit`); with `breakdown`, every frame's
+    misfit is split by `misfit`.
     """
     source = open_source(VIDEO, scale=scale)
     detected = read_keypoints(KEYPOINTS)
@@ -271,7 +271,7 @@ def main() -> None:
     parser.add_argument("--refine-without-keypoints", action="store_true",
                         help="refine frames without keypoints for their IoU too")  # fmt: skip
     parser.add_argument("--carry", choices=("forward", "both", "none"), default="forward",
-                        help="carry the keypoints between detections (§14.5)")  # fmt: skip
+                        help="carry the keypoints between detections (design §14.5)")  # fmt: skip
     parser.add_argument("--tips", choices=("end", "pad"), default="pad",
                         help="model point of a detected fingertip (design §14.6)")  # fmt: skip
     parser.add_argument("--iou-at", default="", help="frames (comma-separated) to print the IoU of")

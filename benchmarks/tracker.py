@@ -12,7 +12,7 @@ counts as optimisation, so the time "per iteration" with keypoints includes it. 
 runs alternate ``--repeats`` times and the medians are compared, since the machine may
 be shared.
 
-With ``--model mesh`` the tracker fits the skinned mesh hand (§15) to the same
+With ``--model mesh`` the tracker fits the skinned mesh hand (design §15) to the same
 sphere-mesh-rendered frames (model mismatch; the mesh's costs are not compiled, so this
 is the slow path).
 

@@ -4,8 +4,8 @@ Prints medians (milliseconds) over repeated runs on frames of the example video
 (``examples/data/dex-human-hand-video.mp4``); falls back to random frames if it cannot
 be read.  The carrying of the 21 keypoints by optical flow (`handvar.vision.carry`,
 design §14.5) is timed on 60 consecutive frames, at full and half resolution, from the
-detected keypoints of the first.  Target (§10 and the vision part): skin mask of a 1280×720 frame
-≤ 10 ms; the one-off table build is printed separately.
+detected keypoints of the first.  Target (design §10 and the vision part): skin mask of
+a 1280×720 frame ≤ 10 ms; the one-off table build is printed separately.
 
 Run: ``.venv/bin/python benchmarks/vision.py``
 """

@@ -1,9 +1,8 @@
-"""The wrist cut on the example video, against the detected wrists (§14.1).
+"""The wrist cut on the example video, against the detected wrists (design §14.1).
 
 For every frame of ``examples/data/dex-human-hand-video.mp4`` the skin silhouette (no
-cut) is cut by the palm-centre heuristic (`handvar.vision.silhouette.find_wrist` without
-keypoints, as before the forearm heuristic), by the forearm heuristic
-(`handvar.vision.wrist.forearm_wrist`) and by the keypoint cut
+cut) is cut by the palm-centre heuristic (`handvar.vision.wrist.palm_wrist`), by the
+forearm heuristic (`handvar.vision.wrist.forearm_wrist`) and by the keypoint cut
 (`handvar.vision.wrist.wrist_from_keypoints`).  The reference is the shipped MediaPipe
 wrist (``dex-human-hand-video-keypoints.npy``).  Printed per method and frame group:
 the distance from the cut line to the detected wrist in hand sizes (the detected wrist
@@ -21,9 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from handvar.vision.keypoints import read_keypoints
-from handvar.vision.silhouette import _palm_wrist
 from handvar.vision.sources import open_source
-from handvar.vision.wrist import forearm_wrist, wrist_from_keypoints
+from handvar.vision.wrist import forearm_wrist, palm_wrist, wrist_from_keypoints
 
 DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
 VIDEO = DATA / "dex-human-hand-video.mp4"
@@ -44,7 +42,7 @@ def main() -> None:
     source = open_source(VIDEO, scale=args.scale)
     kp = read_keypoints(KEYPOINTS).scaled(args.scale, (1280, 720))
     methods = {
-        "palm centre": lambda m, k: _palm_wrist(m),
+        "palm centre": lambda m, k: palm_wrist(m),
         "forearm": lambda m, k: forearm_wrist(m),
         "keypoints": lambda m, k: wrist_from_keypoints(k, m.shape),
     }

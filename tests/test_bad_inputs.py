@@ -1,7 +1,7 @@
 """Bad inputs to every command: one clean line, exit 2, and nothing that existed is lost.
 
 Each case of :data:`CASES` runs one command with one wrong input and asserts (design
-§13.1, §13.4): exit status 2, exactly one line of output starting ``handvar: error:``,
+design §13.1, §13.4): exit status 2, exactly one line of output starting ``handvar: error:``,
 naming the argument or the user's path (never a temporary), no traceback, no
 temporary left behind, and every file that existed before byte-identical afterwards.
 `benchmarks/bad_inputs.py` runs the same table and prints the count of outcomes.

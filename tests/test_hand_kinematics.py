@@ -19,6 +19,7 @@ from handvar.hand import (
     within_limits,
 )
 from handvar.hand.anthropometry import bone_index
+from handvar.hand.kinematics import euler_from_matrix, world_from_hand_rotation
 
 MODEL = HandModel()
 NUMPY = HandModel(compiled=False)
@@ -339,3 +340,24 @@ def test_compiled_and_numpy_routes_agree():
     # no points: empty results of the right shapes
     p, J = compiled.points(x, np.zeros(0, dtype=int), np.zeros((0, 3)), jacobian=True)
     assert p.shape == (0, 3) and J.shape == (0, 3, 26)
+
+
+def test_euler_from_matrix_inverts_the_kinematics_rotation():
+    rng = np.random.default_rng(7)
+    angles = rng.uniform([-179, -89, -179], [179, 89, 179], size=(50, 3))
+    R = np.stack([world_from_hand_rotation(a)[0] for a in angles])
+    np.testing.assert_allclose(euler_from_matrix(R), angles, atol=1e-9)
+
+
+@pytest.mark.parametrize("b", [90.0, -90.0])
+def test_euler_from_matrix_at_gimbal_lock_gives_the_same_rotation(b):
+    R = world_from_hand_rotation([30.0, b, 40.0])[0]
+    back = world_from_hand_rotation(euler_from_matrix(R))[0]
+    np.testing.assert_allclose(back, R, atol=1e-9)
+
+
+def test_euler_from_matrix_rejects_bad_shape():
+    with pytest.raises(
+        ValueError, match=r"R: expected rotation matrices of shape \(\.\.\., 3, 3\)"
+    ):
+        euler_from_matrix(np.eye(4))

@@ -1,4 +1,4 @@
-"""Sequences under model mismatch (§15.1): deterministic, really mismatched, and run."""
+"""Sequences under model mismatch (docs/results/mismatch.md): deterministic, mismatched, run."""
 
 from __future__ import annotations
 
@@ -162,7 +162,7 @@ def test_tiny_mismatch_run_writes_a_store_and_a_report_with_the_flip_claim(tiny_
     assert flip.holds == (worst["rvar"] < LOSS_MM <= worst["decelerating"])
     md = write_report(path, tmp_path / "report", figures=("fig4_mean_error.png",))
     text = md.read_text()
-    assert "§6, fig. 8" in text and "Model mismatch: rendered with the skinned mesh" in text
+    assert flip.claim in text and "Model mismatch: rendered with the skinned mesh" in text
     assert {p.name for p in (tmp_path / "report").iterdir()} == {
         "fig4_mean_error.png",
         "report.md",
@@ -174,7 +174,7 @@ def test_flip_claims_are_not_tested_on_other_sequences(tiny_store):
     _, path = tiny_store
     results = load_results(path)
     other = type(results)(**{**results.__dict__, "config": ExperimentConfig(trials=2, frames=20)})
-    flips = [c for c in evaluate_claims(other) if c.section.startswith("§6")]
+    flips = [c for c in evaluate_claims(other) if c.section.startswith("paper §6")]
     assert len(flips) == 2 and all(c.holds is None for c in flips)
 
 
@@ -192,7 +192,8 @@ def test_flip_claims_follow_the_stored_errors(tiny_store, tmp_path):
     def verdicts(rvar: float, decelerating: float) -> list[bool | None]:
         error[labels.index("RVAR")] = rvar
         error[labels.index("decelerating")] = decelerating
-        return [c.holds for c in evaluate_claims(load_results(copy)) if c.section[:2] == "§6"]
+        claims = evaluate_claims(load_results(copy))
+        return [c.holds for c in claims if c.section.startswith("paper §6")]
 
     assert verdicts(5.0, LOSS_MM + 1.0) == [True, True]
     assert verdicts(5.0, LOSS_MM - 1.0) == [False, True]  # neither loses the hand

@@ -1,4 +1,4 @@
-"""All-or-nothing outputs, the directory swap, stale temporaries and permissions (§13)."""
+"""All-or-nothing outputs, the directory swap, stale temporaries and permissions (design §13)."""
 
 from __future__ import annotations
 

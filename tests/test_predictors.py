@@ -169,7 +169,7 @@ def test_rvar_weights_stay_in_the_triangle_on_real_motion(fingerfist):
 
 # -- online against a plain batch implementation ----------------------------------------
 def _batch_var(X, T, order, memory, blocks, max_step):
-    """x̂_{T+1} from X[:T+1] by refitting eq. 14 with lstsq (eq. 5, max step of §4.2)."""
+    """x̂_{T+1} from X[:T+1] by refitting eq. 14 with lstsq (eq. 5, max step of paper §4.2)."""
     x = X[: T + 1]
     if len(x) < 2:
         return x[-1].copy()

@@ -75,36 +75,36 @@ def _set(path, name, predictor, value):
 
 def test_claim_verdict_follows_the_store(copy):
     _set(copy, "r2_joints", "decelerating", 0.3)
-    claim = _verdict(copy, "§4, fig. 2", "The decelerating")
+    claim = _verdict(copy, "paper §4, fig. 2", "The decelerating")
     assert claim.holds is True and "= 0.30" in claim.measured
     _set(copy, "r2_joints", "decelerating", -0.3)
-    claim = _verdict(copy, "§4, fig. 2", "The decelerating")
+    claim = _verdict(copy, "paper §4, fig. 2", "The decelerating")
     assert claim.holds is False and "= -0.30" in claim.measured
 
 
 def test_error_claim_follows_the_store(copy):
     _set(copy, "error", "RVAR", 0.01)
-    assert _verdict(copy, "§5, fig. 4", "RVAR has the lowest").holds is True
+    assert _verdict(copy, "paper §5, fig. 4", "RVAR has the lowest").holds is True
     _set(copy, "error", "RVAR", 1000.0)
-    assert _verdict(copy, "§5, fig. 4", "RVAR has the lowest").holds is False
+    assert _verdict(copy, "paper §5, fig. 4", "RVAR has the lowest").holds is False
 
 
 def test_rvar_half_claim_counts_joints(copy):
     r2 = np.zeros((CONFIG.trials, 21))
     r2[:, :11] = 0.5  # 11 joints around 0.5: "most joints"
     _set(copy, "r2_joints", "RVAR", r2)
-    claim = _verdict(copy, "§5, fig. 5", "RVAR (γ")
+    claim = _verdict(copy, "paper §5, fig. 5", "RVAR (γ")
     assert claim.holds is True and claim.measured.startswith("11/21")
     r2[:, 10] = 0.9
     _set(copy, "r2_joints", "RVAR", r2)
-    claim = _verdict(copy, "§5, fig. 5", "RVAR (γ")
+    claim = _verdict(copy, "paper §5, fig. 5", "RVAR (γ")
     assert claim.holds is False and claim.measured.startswith("10/21")
 
 
 def test_missing_predictor_gives_no_verdict(copy):
     _set(copy, "done", "Kalman CV", False)
     _set(copy, "r2_joints", "Kalman CV", np.nan)
-    claim = _verdict(copy, "§4 (ρ = 1)", "Tracking with a constant-velocity")
+    claim = _verdict(copy, "paper §4 (ρ = 1)", "Tracking with a constant-velocity")
     assert claim.holds is None and claim.verdict == "n/a"
 
 
@@ -113,7 +113,7 @@ def test_claim_statistics_match_numpy(store):
     ds = open_store(store)
     r2 = ds["r2_joints"].sel(predictor="full VAR").values
     expected = np.median(np.median(r2, axis=0))
-    claim = _verdict(store, "§4.2", "The full VAR")
+    claim = _verdict(store, "paper §4.2", "The full VAR")
     assert f"= {expected:.2f}" in claim.measured
     assert claim.holds is bool(expected < 0)
     p = results.index("rvar")

@@ -1,4 +1,4 @@
-"""Damaged experiment stores: found, recomputed on resume, refused by the report (§13.3)."""
+"""Damaged experiment stores: found, recomputed on resume, refused by the report (design §13.3)."""
 
 from __future__ import annotations
 

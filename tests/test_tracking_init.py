@@ -1,4 +1,4 @@
-"""Tests of handvar.tracking.init: Euler angles, the orientation grid, IoU, the search."""
+"""Tests of handvar.tracking.init: the orientation grid, IoU, the search."""
 
 from __future__ import annotations
 
@@ -12,7 +12,6 @@ from handvar.render import silhouettes
 from handvar.tracking.init import (
     InitSettings,
     candidate_rotations,
-    euler_from_matrix,
     initial_pose,
     silhouette_iou,
 )
@@ -22,27 +21,6 @@ from handvar.vision.sources import assumed_camera
 @pytest.fixture(scope="module")
 def hand() -> HandModel:
     return HandModel()
-
-
-def test_euler_from_matrix_inverts_the_kinematics_rotation():
-    rng = np.random.default_rng(7)
-    angles = rng.uniform([-179, -89, -179], [179, 89, 179], size=(50, 3))
-    R = np.stack([world_from_hand_rotation(a)[0] for a in angles])
-    np.testing.assert_allclose(euler_from_matrix(R), angles, atol=1e-9)
-
-
-@pytest.mark.parametrize("b", [90.0, -90.0])
-def test_euler_from_matrix_at_gimbal_lock_gives_the_same_rotation(b):
-    R = world_from_hand_rotation([30.0, b, 40.0])[0]
-    back = world_from_hand_rotation(euler_from_matrix(R))[0]
-    np.testing.assert_allclose(back, R, atol=1e-9)
-
-
-def test_euler_from_matrix_rejects_bad_shape():
-    with pytest.raises(
-        ValueError, match=r"R: expected rotation matrices of shape \(\.\.\., 3, 3\)"
-    ):
-        euler_from_matrix(np.eye(4))
 
 
 def test_candidate_rotations_face_the_camera_as_specified():

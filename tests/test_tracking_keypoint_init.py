@@ -1,4 +1,4 @@
-"""The keypoint fit of G(x) and the keypoint-aware initial pose (§14.1)."""
+"""The keypoint fit of G(x) and the keypoint-aware initial pose (design §14.1)."""
 
 from __future__ import annotations
 
@@ -79,7 +79,7 @@ def test_monocular_fit_recovers_the_pose_from_noisy_keypoints(name, rotation):
 
 
 def test_fingertips_marked_at_the_pads_are_fitted_with_pad_tips():
-    """Keypoints with the tips at the pads' centres (MediaPipe's, §14.6), exact, stereo."""
+    """Keypoints with the tips at the pads' centres (MediaPipe's, design §14.6), exact, stereo."""
     x = named_pose("point")
     P = keypoint_points(HAND, x, "pad")
     kps = [cam.project(P) for cam in RIG]

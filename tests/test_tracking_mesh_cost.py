@@ -75,7 +75,7 @@ def test_needs_a_mesh_model():
 
 
 def test_pad_tips_on_the_mesh_match_the_sphere_mesh_cost(setup):
-    """C_k with the fingertips at the pads (§14.6): the same on both surfaces, which share
+    """C_k with the fingertips at the pads (design §14.6): the same on both surfaces, which share
     the bones; zero for keypoints at the pads, not for G(x)'s tips."""
     from handvar.tracking import CostSettings, SilhouetteCost
     from handvar.tracking.keypoint_cost import keypoint_points

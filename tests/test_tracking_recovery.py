@@ -1,9 +1,9 @@
-"""Lost frames and recovery (§14.3): the quality measures, the loop, the CLI and the video.
+"""Lost frames and recovery (design §14.3): the quality measures, the loop, the CLI and the video.
 
 The quality measures are checked against hand-computed distances; the loop against
 synthetic frames whose truth is known (a start far off is lost and recovered, an empty
 frame is flagged and keeps the previous pose); the real example video against its
-detector's keypoints on the frames withheld from the tracker (PCK@0.2, §14.4).
+detector's keypoints on the frames withheld from the tracker (PCK@0.2, docs/results/real-video.md).
 """
 
 from __future__ import annotations
@@ -35,8 +35,9 @@ from handvar.tracking.recovery import (
 from handvar.tracking.smd import SMDSettings
 from handvar.tracking.tracker import QualitySettings, Tracker, TrackerSettings
 from handvar.vision.keypoints import read_keypoints
-from handvar.vision.silhouette import EmptySilhouetteError, cut_wrist, silhouettes_from_frames
+from handvar.vision.silhouette import EmptySilhouetteError, silhouettes_from_frames
 from handvar.vision.sources import open_source
+from handvar.vision.wrist import cut_wrist
 
 DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
 VIDEO = DATA / "dex-human-hand-video.mp4"
@@ -76,7 +77,8 @@ def test_pck_counts_the_points_within_the_threshold():
 
 
 def test_with_pad_tips_the_fit_and_its_measures_compare_the_pads():
-    """Keypoints at the fingertips' pads (§14.6): the pad correspondence fits them exactly."""
+    """Keypoints at the fingertips' pads (design §14.6): the pad correspondence fits them
+    exactly."""
     from handvar.render import silhouettes
     from handvar.tracking.keypoint_cost import keypoint_points
 
@@ -284,7 +286,8 @@ def test_an_empty_camera_raises_unless_allowed(tmp_path):
 def track_video(n_frames: int | None, every: int):
     """The track with keypoints on every `every`-th frame, as the CLI tracks a recording.
 
-    Keypoints carried forwards between detections (§14.5), fingertips at the pads (§14.6).
+    Keypoints carried forwards between detections (design §14.5), fingertips at the pads
+    (design §14.6).
 
     Returns the recovered track, PCK@0.2 per frame against the detector, and which
     frames had a detection.
@@ -326,7 +329,7 @@ def test_the_whole_video_keeps_pck_and_is_never_lost_with_keypoints_every_5th(wh
     result, scores, with_detection = whole_video
     q = result.quality
     assert len(q.iou) == 621
-    assert scores[~with_detection].mean() >= 0.9  # measured 0.973 (§14.4)
+    assert scores[~with_detection].mean() >= 0.9  # measured 0.973 (docs/results/real-video.md)
     assert not q.lost.any(), np.flatnonzero(q.lost)
 
 
@@ -378,7 +381,7 @@ def test_carry_needs_a_recording_with_keypoints(tmp_path):
 
 
 def test_track_compares_the_fingertip_pads_when_asked(tmp_path):
-    """`--keypoint-tips pad` reaches the tracker: its keypoint error is the pads' (§14.6)."""
+    """`--keypoint-tips pad` reaches the tracker: its keypoint error is the pads' (design §14.6)."""
     from handvar.tracking.keypoint_cost import hand_length, keypoint_points, reprojection_error
 
     out = tmp_path / "pad"

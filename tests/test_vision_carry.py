@@ -1,4 +1,4 @@
-"""Keypoints carried by optical flow between detections (§14.5).
+"""Keypoints carried by optical flow between detections (design §14.5).
 
 Against known image motion (a texture shifted by a known sub-pixel amount), against the
 forward–backward rule (a point whose surroundings change is dropped), and against the

@@ -11,7 +11,7 @@ checked before any work (:func:`check_output_file`, :func:`check_output_dir`), w
 aside, and all are renamed into place only once every one of them was written
 (design §13.1). A directory is replaced by :func:`replace_directory`, which leaves a
 marked copy of the old one that :func:`recover_directory` restores should the swap be
-killed half-way (§13.2).
+killed half-way (design §13.2).
 
 This module is a leaf: it imports nothing from handvar.
 """

@@ -1,6 +1,6 @@
 """Pinhole cameras with OpenCV lens distortion, stereo rigs and calibration files.
 
-Conventions (§3), the same as OpenCV's:
+Conventions (design §3), the same as OpenCV's:
 
 - lengths in millimetres, image coordinates in pixels;
 - ``x_cam = R @ x_world + t`` (``R``, ``t``: world → camera);
@@ -488,7 +488,7 @@ class Camera:
 
 @dataclass(frozen=True)
 class RigSettings:
-    """The convergent stereo pair of the paper (§2, figure 1).
+    """The convergent stereo pair of paper §2 (figure 1).
 
     Two 640×480 cameras on the world −z side, ``distance`` from the world origin,
     ``baseline`` apart along world x, optical axes crossing at the origin (where the

@@ -1,6 +1,6 @@
 """Sequences on disk: silhouette masks, optional colour frames, the rig and ground truth.
 
-A sequence directory (§8) holds::
+A sequence directory (design §8) holds::
 
     sequence.json          name, fps, frame count, the cameras (intrinsics, distortion,
                            extrinsics, image size, as Rig.to_dict()), provenance

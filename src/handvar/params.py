@@ -1,6 +1,6 @@
 """The 26 hand parameters: names, units, limits, optimiser groups and VAR blocks.
 
-The order follows §2 and makes the block structure of the paper's
+The order follows design §2 and makes the block structure of the paper's
 eq. 25 contiguous: palm translation (mm), palm orientation (degrees, intrinsic
 x-y-z Euler angles), one abduction per digit (degrees), then three flexions per
 digit (degrees), thumb first.

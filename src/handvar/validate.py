@@ -175,6 +175,31 @@ def as_array(
     return arr
 
 
+def as_mask(mask, name: str = "mask") -> np.ndarray:
+    """Return a 2-D (H, W) mask as C-contiguous uint8 0/1, or raise naming `name`.
+
+    Anything non-zero is inside; booleans and any integer or finite float dtype are
+    accepted.
+
+    Examples
+    --------
+    >>> as_mask([[0, 2], [True, 0]]).tolist()
+    [[0, 1], [1, 0]]
+    >>> as_mask([1, 0, 1], "sil")
+    Traceback (most recent call last):
+    ...
+    ValueError: sil: expected a 2-D (H, W) mask, got shape (3,)
+    """
+    arr = np.asarray(mask)
+    if arr.ndim != 2:
+        raise ValueError(f"{name}: expected a 2-D (H, W) mask, got shape {arr.shape}")
+    if arr.dtype.kind not in "biuf":
+        raise ValueError(f"{name}: expected a boolean or numeric mask, got dtype {arr.dtype}")
+    if arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: expected finite values, got NaN or inf")
+    return np.ascontiguousarray(arr != 0, dtype=np.uint8)
+
+
 def as_instance(value, types: type | tuple[type, ...], name: str, *, what: str | None = None):
     """Return `value` if it is an instance of `types`, else raise :class:`TypeError`.
 

@@ -46,7 +46,7 @@ __all__ = [
 
 
 class _OneLineGroup(click.Group):
-    """A command group whose usage errors (bad options, values) are one line too (§13.4)."""
+    """A command group whose usage errors (bad options, values) are one line too (design §13.4)."""
 
     def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
         if not standalone_mode:
@@ -70,7 +70,7 @@ def main() -> None:
 
 
 def _quiet_native_logs() -> None:
-    """Silence OpenCV's and its FFmpeg backend's logging on standard error (§13.4).
+    """Silence OpenCV's and its FFmpeg backend's logging on standard error (design §13.4).
 
     A damaged video makes FFmpeg print lines such as ``moov atom not found`` before our
     own one-line message; the failure is reported by us instead.  Set before OpenCV

@@ -16,7 +16,7 @@ import click
 def _one_line_errors(func):
     """Report ValueError / TypeError / OSError as one line and exit with status 2.
 
-    The line names the user's paths, never a temporary of `handvar.atomic` (§13.4).
+    The line names the user's paths, never a temporary of `handvar.atomic` (design §13.4).
     """
 
     @functools.wraps(func)

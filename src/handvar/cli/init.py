@@ -110,7 +110,7 @@ def init_command(
     cut_here = wrist and kps is None
     rig, images, masks = _frame_silhouettes(sources, calib, fov, scale, frame, cut_here, threshold)
     if kps is not None:
-        from handvar.vision.silhouette import cut_wrist
+        from handvar.vision.wrist import cut_wrist
 
         if wrist:
             masks = np.stack([cut_wrist(m, k) for m, k in zip(masks, kps, strict=True)])
@@ -127,7 +127,7 @@ def init_command(
         with open(path, "w", encoding="utf-8") as fh:
             fh.write(line)
 
-    with OutputSet() as outputs:  # both files, or neither (§13.1)
+    with OutputSet() as outputs:  # both files, or neither (design §13.1)
         outputs.add(out, write_text)
         if overlay is not None:
             from handvar.render.overlay import overlay_frame

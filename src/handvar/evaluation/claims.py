@@ -1,10 +1,11 @@
-"""The paper's claims of §4–6, each beside what an experiment store shows.
+"""The claims of paper §4–6, each beside what an experiment store shows.
 
 :func:`evaluate_claims` tests every claim on the measurements (:class:`Results`) and
 states the exact test behind each verdict; a claim whose predictors are missing or
-unfinished is undecided (``holds`` None). The §6 claims about the palm flip are
-tested only on a ``flip`` sequence (at any speed or mismatch, §15.1); a trial has
-lost the hand when its mean joint error exceeds :data:`LOSS_MM` in some frame.
+unfinished is undecided (``holds`` None). The paper §6 claims about the palm flip are
+tested only on a ``flip`` sequence (at any speed or mismatch, docs/results/mismatch.md);
+a trial has lost the hand when its mean joint error exceeds :data:`LOSS_MM` in some
+frame.
 """
 
 from __future__ import annotations
@@ -202,21 +203,21 @@ def _claim_relative(r: Results) -> tuple[str, bool]:
 # (section, claim, test, predictors needed, measurement)
 _CLAIMS: tuple[tuple[str, str, str, tuple[str, ...], Callable], ...] = (
     (
-        "§4, fig. 2",
+        "paper §4, fig. 2",
         "The decelerating predictor (ρ = 0.4) improves on tracking without prediction.",
         "median over the 21 joints of the per-joint median (over trials) R̃² (eq. 21) > 0",
         ("none", "decelerating"),
         _claim_decelerating,
     ),
     (
-        "§4.2",
+        "paper §4.2",
         "The full VAR (N = 150) tracks worse than no motion prediction.",
         "median over the 21 joints of the per-joint median R̃² < 0",
         ("none", "full_var"),
         _claim_full_var,
     ),
     (
-        "§4.3, fig. 3",
+        "paper §4.3, fig. 3",
         "The structured VAR (N = 30) drastically improves the palm base (joint 1) and "
         "the little finger (joints 18–21).",
         "median over trials of R̃² of joint 1 > 0 and median over trials of the mean R̃² "
@@ -225,14 +226,14 @@ _CLAIMS: tuple[tuple[str, str, str, tuple[str, ...], Callable], ...] = (
         _claim_structured_joints,
     ),
     (
-        "§4.3",
+        "paper §4.3",
         "The structured VAR worsens the middle fingertip (joint 13).",
         "median over trials of R̃² of joint 13 < 0",
         ("none", "structured_var"),
         _claim_structured_middle_tip,
     ),
     (
-        "§4.3",
+        "paper §4.3",
         "The structured VAR increases the variance of the tracking performance compared "
         "with the decelerating predictor.",
         "median over joints of the interquartile range (over trials) of R̃²: structured "
@@ -241,14 +242,14 @@ _CLAIMS: tuple[tuple[str, str, str, tuple[str, ...], Callable], ...] = (
         _claim_structured_variance,
     ),
     (
-        "§5, fig. 5",
+        "paper §5, fig. 5",
         "RVAR (γ = 0.8, c = 8): R̃² around 0.5 for most joints.",
         "at least 11 of the 21 joints have a median R̃² in [0.25, 0.75]",
         ("none", "rvar"),
         _claim_rvar_half,
     ),
     (
-        "§5",
+        "paper §5",
         "RVAR performs better than the decelerating predictor (except the middle PIP, "
         "joint 12, and possibly the thumb, joints 3–5).",
         "RVAR's median R̃² exceeds the decelerating predictor's at at least 11 of 21 joints",
@@ -256,7 +257,7 @@ _CLAIMS: tuple[tuple[str, str, str, tuple[str, ...], Callable], ...] = (
         _claim_rvar_vs_decelerating,
     ),
     (
-        "§5",
+        "paper §5",
         "RVAR inherits the low variance of the decelerating predictor: lower than the "
         "structured VAR's.",
         "median over joints of the interquartile range of R̃²: RVAR < structured VAR",
@@ -264,7 +265,7 @@ _CLAIMS: tuple[tuple[str, str, str, tuple[str, ...], Callable], ...] = (
         _claim_rvar_variance,
     ),
     (
-        "§5, fig. 4",
+        "paper §5, fig. 4",
         "RVAR has the lowest mean error curve.",
         "RVAR's overall mean error (frames 1.. and finished trials) is the lowest of the "
         "paper's predictors in the store",
@@ -272,7 +273,7 @@ _CLAIMS: tuple[tuple[str, str, str, tuple[str, ...], Callable], ...] = (
         _claim_rvar_lowest,
     ),
     (
-        "§4 (ρ = 1)",
+        "paper §4 (ρ = 1)",
         "Tracking with a constant-velocity model is unstable; here: the constant-velocity "
         "Kalman filter (not in the paper) against the decelerating predictor.",
         "overall mean error: Kalman CV > decelerating",
@@ -280,7 +281,7 @@ _CLAIMS: tuple[tuple[str, str, str, tuple[str, ...], Callable], ...] = (
         _claim_constant_velocity,
     ),
     (
-        "§5, after eq. 27",
+        "paper §5, after eq. 27",
         "Relative interpolation of the changes is an alternative to eq. 26–27 (the "
         "paper gives no result); here: relative RVAR tracks at least as well as absolute.",
         "overall mean error: RVAR relative ≤ RVAR",
@@ -321,14 +322,14 @@ def _claim_flip_error(r: Results) -> tuple[str, bool]:
 
 _FLIP_CLAIMS: tuple[tuple[str, str, str, tuple[str, ...], Callable], ...] = (
     (
-        "§6, fig. 8",
+        "paper §6, fig. 8",
         "RVAR follows the palm flip where the decelerating predictor fails.",
         f"worst frame of the mean (over trials) error curve: RVAR < {LOSS_MM:g} mm ≤ decelerating",
         ("rvar", "decelerating"),
         _claim_flip_follows,
     ),
     (
-        "§6",
+        "paper §6",
         "Weaker form: RVAR tracks the palm flip better than the decelerating predictor.",
         "overall mean error on the flip: RVAR < decelerating",
         ("rvar", "decelerating"),
@@ -338,13 +339,13 @@ _FLIP_CLAIMS: tuple[tuple[str, str, str, tuple[str, ...], Callable], ...] = (
 
 
 def evaluate_claims(results: Results) -> list[Claim]:
-    """Every claim of §4–6 tested on the store's measurements.
+    """Every claim of paper §4–6 tested on the store's measurements.
 
     Returns
     -------
     list of Claim
         In the paper's order; ``holds`` is None where a needed predictor is missing or
-        has no finished trial, and for the §6 flip claims on another sequence.
+        has no finished trial, and for the paper §6 flip claims on another sequence.
     """
     out = []
     flip = results.config.sequence == "flip"

@@ -1,6 +1,6 @@
-"""The configuration of an experiment: protocol, predictors and tracker settings (§7).
+"""The configuration of an experiment: protocol, predictors and tracker settings (design §7).
 
-:class:`ExperimentConfig` is the paper's protocol (§4) by default, changed by
+:class:`ExperimentConfig` is the paper's protocol (paper §4) by default, changed by
 ``KEY=VALUE`` assignments (the command line's ``--set``) and swept predictor
 arguments (``--sweep``); it is stored as JSON in the experiment's store.
 
@@ -73,7 +73,7 @@ def _format_value(value: Any) -> str:
 
 @dataclasses.dataclass(frozen=True)
 class ExperimentConfig:
-    """One experiment: the paper's protocol (§4, §7) by default.
+    """One experiment: the paper's protocol (paper §4, design §7) by default.
 
     Attributes
     ----------
@@ -98,10 +98,10 @@ class ExperimentConfig:
     noise : float
         Noise of the ``openloop`` trials.
     tracker : tuple of (str, value) pairs
-        Overrides of the tracker's settings (the paper's by default, §4).
+        Overrides of the tracker's settings (those of paper §4 by default).
     sequence_model : {"spheres", "mesh"}
-        The surface that renders the sequence (§15.1): the tracker's own sphere-mesh
-        by default, or the skinned mesh -- model mismatch.
+        The surface that renders the sequence (docs/results/mismatch.md): the tracker's
+        own sphere-mesh by default, or the skinned mesh -- model mismatch.
     sequence_length, sequence_breadth : float
         The rendering hand's length and breadth as factors of the tracker's default
         185 × 85 mm hand (shape mismatch; the truth's joints are the rendering hand's).
@@ -113,7 +113,7 @@ class ExperimentConfig:
         (:func:`handvar.synth.mismatch.corrupt_silhouettes`, seeded by
         `sequence_seed`); 0: exact silhouettes.
     tracker_model : {"spheres", "mesh"}
-        The surface the tracker fits (the mesh costs ~13.5 ms per iteration, §15).
+        The surface the tracker fits (the mesh costs ~13.5 ms per iteration, design §15).
 
     ``--set sequence.model=mesh`` and the like set the ``sequence_*`` fields,
     ``--set tracker.model=mesh`` sets `tracker_model`.
@@ -362,7 +362,7 @@ _SETTABLE = (
 
 
 def tracker_settings(overrides: Iterable[tuple[str, Any]] = ()):
-    """The tracker's settings (the paper's, §4) with ``("group.field", value)`` overrides.
+    """The tracker's settings (those of paper §4) with ``("group.field", value)`` overrides.
 
     A group is a field of :class:`handvar.tracking.TrackerSettings` (``smd``, ``cost``);
     a bare field name (``max_iterations``) is looked up in every group.

@@ -1,4 +1,4 @@
-"""The paper's tracking experiments at scale (§4–5, §7), on Dask distributed.
+"""The paper's tracking experiments at scale (paper §4–5, design §7), on Dask distributed.
 
 One experiment is a set of predictors × trials on one synthetic sequence
 (:class:`~handvar.evaluation.config.ExperimentConfig`); each trial

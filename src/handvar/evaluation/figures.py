@@ -1,4 +1,4 @@
-"""The paper's figures, drawn from an experiment's measurements (§4–5).
+"""The paper's figures, drawn from an experiment's measurements (paper §4–5).
 
 - :func:`r2_boxplot`: R̃² (eq. 21) per joint over the trials, as figures 2, 3 and 5
   (whiskers at 1.5 IQR; outliers between 1.5 and 3 IQR '+', beyond 3 IQR 'o').

@@ -119,7 +119,7 @@ def layout_structure(layout: str, width: int) -> tuple[TableRows, list[list[int]
 
 
 def default_predictors(blocks=None) -> dict[str, Predictor]:
-    """The paper's predictors (§4–5) with its settings, plus the relative RVAR and Kalman.
+    """The paper's predictors (paper §4–5) with its settings, plus the relative RVAR and Kalman.
 
     `blocks` are the structured VARs' blocks (default: eq. 25 for hand parameters).
     """

@@ -205,7 +205,7 @@ def counting_poses(seed: int = 0, fps: float = 25.0) -> np.ndarray:
     from handvar.hand.kinematics import named_pose
     from handvar.params import clamp, digit_angles
     from handvar.synth.motion import keyframe_motion
-    from handvar.synth.sequences import _palm_drift
+    from handvar.synth.sequences import palm_drift
 
     rng = np.random.default_rng([int(seed), 10])
     fist, point, spread = named_pose("fist"), named_pose("point"), named_pose("spread")
@@ -220,18 +220,18 @@ def counting_poses(seed: int = 0, fps: float = 25.0) -> np.ndarray:
     holds = rng.uniform(0.15, 0.35, len(keys))
     poses = keyframe_motion(np.array(keys), durations, holds=holds, fps=fps)
     t = np.arange(len(poses)) / fps
-    _palm_drift(poses, t, rng, (("rx", 10.0), ("ry", 15.0), ("rz", 10.0)), 15.0, (1.2, 1.5))
+    palm_drift(poses, t, rng, (("rx", 10.0), ("ry", 15.0), ("rz", 10.0)), 15.0, (1.2, 1.5))
     return clamp(poses)
 
 
 def motion_poses(name: str, seed: int = 0) -> tuple[np.ndarray, float]:
     """True poses (T, 26) and frame rate of the motion called `name` (`MOTIONS`)."""
-    from handvar.synth.sequences import _FPS, sequence_poses
+    from handvar.synth.sequences import SEQUENCE_FPS, sequence_poses
 
     one_of(name, MOTIONS, "motion")
     if name == "counting":
         return counting_poses(seed), 25.0
-    return sequence_poses(name, seed), _FPS[name]
+    return sequence_poses(name, seed), SEQUENCE_FPS[name]
 
 
 # --- backgrounds -------------------------------------------------------------------------

@@ -1,11 +1,11 @@
-"""The report of an experiment: its figures and claims as files (§4–5, §7).
+"""The report of an experiment: its figures and claims as files (paper §4–5, design §7).
 
 :func:`write_report` draws every figure (:mod:`handvar.evaluation.figures`), tests
 every claim (:mod:`handvar.evaluation.claims`) and writes them as PNG files,
 ``report.md`` and ``report.html``.  The store is verified first
 (:func:`handvar.evaluation.store.damaged_trials`, design §13.3): a damaged trial stops
 the report before any file is written.  The files are all-or-nothing
-(:class:`handvar.atomic.OutputSet`, §13.1): written aside and renamed into place once
+(:class:`handvar.atomic.OutputSet`, design §13.1): written aside and renamed into place once
 every one of them is complete.
 """
 
@@ -65,7 +65,7 @@ def _save_text(outputs: OutputSet, path: Path, text: str) -> None:
 
 
 def check_store(store: str | os.PathLike) -> None:
-    """Raise ValueError naming the first damaged trial of `store`, if any (§13.3)."""
+    """Raise ValueError naming the first damaged trial of `store`, if any (design §13.3)."""
     damage = damaged_trials(store)
     if damage:
         more = f" and {len(damage) - 1} more" if len(damage) > 1 else ""
@@ -161,7 +161,10 @@ def _intro(store, results: Results) -> list[str]:
 
 
 def _mismatch_text(cfg) -> str:
-    """One sentence: how the sequence departs from the tracker's model (§15.1)."""
+    """One sentence: how the sequence departs from the tracker's model.
+
+    The departures are those of docs/results/mismatch.md.
+    """
     parts = [
         f"rendered with the {'skinned mesh' if cfg.sequence_model == 'mesh' else 'sphere-mesh'}",
         f"tracked with the {'skinned mesh' if cfg.tracker_model == 'mesh' else 'sphere-mesh'}",
@@ -180,7 +183,10 @@ def _mismatch_text(cfg) -> str:
 
 
 def _claim_rows(claims: list[Claim]) -> list[list[str]]:
-    return [[c.section, c.claim, c.measured, c.verdict, c.test] for c in claims]
+    # the column is headed "paper": its cells drop the section's "paper " prefix
+    return [
+        [c.section.removeprefix("paper "), c.claim, c.measured, c.verdict, c.test] for c in claims
+    ]
 
 
 _FIGURE_NUMBER = {"decelerating": 2, "structured_var": 3, "rvar": 5}

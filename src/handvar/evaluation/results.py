@@ -1,4 +1,4 @@
-"""The measurements of an experiment store, in memory, and their statistics (§7).
+"""The measurements of an experiment store, in memory, and their statistics (design §7).
 
 :func:`load_results` reads the small arrays of a store (not the poses nor the masks)
 into :class:`Results`; the helpers below summarise R̃² over trials and joints and find

@@ -1,4 +1,4 @@
-"""The format of an experiment store: one Zarr store of every trial (§7).
+"""The format of an experiment store: one Zarr store of every trial (design §7).
 
 An experiment goes to ONE Zarr store (written through xarray, Zarr format 2):
 

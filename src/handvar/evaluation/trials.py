@@ -1,4 +1,4 @@
-"""One trial of an experiment: a predictor tracking the sequence from its first pose (§7).
+"""One trial of an experiment: a predictor tracking the sequence from its first pose (design §7).
 
 A trial tracks the whole sequence from its true first pose with one predictor; trials
 differ only by the seed of the optimiser's random generator, ``default_rng([seed,

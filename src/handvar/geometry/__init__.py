@@ -1,6 +1,6 @@
 """Geometry below the hand model: lens distortion and cone-spheres in 3D and in the image.
 
-A leaf package (§12): it imports nothing from handvar but `handvar.validate`.
+A leaf package (design §12): it imports nothing from handvar but `handvar.validate`.
 
 - :mod:`~handvar.geometry.distortion`: OpenCV's lens distortion and its Jacobian, with
   the compiled scalar form the tracking cost calls.

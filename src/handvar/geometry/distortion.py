@@ -1,4 +1,4 @@
-"""OpenCV's lens distortion model, with its Jacobian (§3).
+"""OpenCV's lens distortion model, with its Jacobian (design §3).
 
 Normalised image coordinates ``(x, y) = (X/Z, Y/Z)`` are distorted as in
 ``cv2.projectPoints``::

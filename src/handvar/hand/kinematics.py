@@ -142,6 +142,38 @@ def world_from_hand_rotation(angles_deg) -> tuple[np.ndarray, np.ndarray]:
     return R, dR
 
 
+def euler_from_matrix(R) -> np.ndarray:
+    """Intrinsic x-y-z Euler angles of rotation matrices: the inverse of ``Rx Ry Rz``.
+
+    With ``R = Rx(a) Ry(b) Rz(c)`` (`world_from_hand_rotation`):
+    ``R[0, 2] = sin b``, ``R[1, 2] = −sin a cos b``, ``R[2, 2] = cos a cos b``,
+    ``R[0, 1] = −cos b sin c``, ``R[0, 0] = cos b cos c``.  At gimbal lock
+    (``cos b = 0``) ``c = 0`` is chosen and ``a`` taken from ``R[2, 1] = sin a`` (for
+    ``b = +90°``) or its opposite.
+
+    Parameters
+    ----------
+    R : (..., 3, 3) array_like
+        Rotation matrices.
+
+    Returns
+    -------
+    (..., 3) ndarray
+        ``(a, b, c) = (rx, ry, rz)``, degrees, a and c in (−180, 180], b in [−90, 90].
+    """
+    R = np.asarray(R, dtype=float)
+    if R.shape[-2:] != (3, 3):
+        raise ValueError(f"R: expected rotation matrices of shape (..., 3, 3); got {R.shape}")
+    cb = np.hypot(R[..., 0, 0], R[..., 0, 1])
+    b = np.arctan2(R[..., 0, 2], cb)
+    locked = cb < 1e-9
+    a = np.where(
+        locked, np.arctan2(R[..., 2, 1], R[..., 1, 1]), np.arctan2(-R[..., 1, 2], R[..., 2, 2])
+    )
+    c = np.where(locked, 0.0, np.arctan2(-R[..., 0, 1], R[..., 0, 0]))
+    return np.degrees(np.stack([a, b, c], axis=-1))
+
+
 class _Pose:
     """Forward kinematics of one pose, in the world frame (cached by HandModel).
 
@@ -315,7 +347,7 @@ class HandModel:
         vectorised numpy reference; both agree to rounding.
     surface : {"spheres", "mesh"}, optional
         The surface that renders the hand: the sphere-mesh (default) or the skinned
-        mesh (`mesh`, :mod:`handvar.hand.mesh`, §15). Both are driven by the
+        mesh (`mesh`, :mod:`handvar.hand.mesh`, design §15). Both are driven by the
         same bone frames, so G(x) is the same; the sphere-mesh stays available either
         way (`world_spheres`).
 
@@ -601,7 +633,7 @@ class HandModel:
         centres, radii, J = self.world_spheres(x, jacobian=True)
         return closest_point_projected(centres, radii, J, camera, pixels)
 
-    # -- the skinned mesh (§15) -----------------------------------------------
+    # -- the skinned mesh (design §15) -----------------------------------------------
     def _init_surface(self, surface: str) -> None:
         if surface not in SURFACES:
             raise ValueError(f"surface: expected one of {', '.join(SURFACES)}; got {surface!r}")
@@ -865,6 +897,7 @@ __all__ = [
     "POSE_NAMES",
     "SURFACES",
     "HandModel",
+    "euler_from_matrix",
     "named_pose",
     "world_from_hand_rotation",
 ]

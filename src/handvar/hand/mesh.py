@@ -1,4 +1,4 @@
-"""The skinned mesh hand: a scanned hand surface driven by the 26 parameters (§15).
+"""The skinned mesh hand: a scanned hand surface driven by the 26 parameters (design §15).
 
 The paper tracks with "a deformable hand model … from a 3D scan" (paper §2); this is
 that model, built on the right hand of the MakeHuman base mesh (package data
@@ -542,7 +542,7 @@ class MeshSurface:
         vertex, and dh/dx that vertex's projection Jacobian times its skinning
         Jacobian: exact for the point chosen, which differs from the true closest point
         of the outline by at most half the projected vertex spacing (the choice and its
-        reason: §15).
+        reason: design §15).
 
         Returns
         -------

@@ -1,4 +1,4 @@
-"""Scan conversion of projected triangles: masks, depth and triangle ids (§15).
+"""Scan conversion of projected triangles: masks, depth and triangle ids (design §15).
 
 Pixel ``[i, j]`` is centred on ``(u, v) = (j, i)`` (OpenCV's convention, as in
 :mod:`handvar.render`). Two coverage rules, the same as the sphere-mesh renderer's:

@@ -96,7 +96,7 @@ _KALMAN_SLOT = np.array([5, 7, 8])
 _P11_0 = 1e4  # KalmanCV's initial velocity variance
 _PRIOR = np.zeros(_M)
 _FAST = EXPERTS.index("fast blend")
-_PRIOR[2] = 1.0  # decelerating ρ = 0.4, the paper's choice (§4), until errors are known
+_PRIOR[2] = 1.0  # decelerating ρ = 0.4, the paper's choice (paper §4), until errors are known
 
 
 def hand_groups() -> list[list[int]]:
@@ -360,7 +360,7 @@ def _bank_update(
                 for q in range(k):
                     yh += Vxy[bb, p, q] * zz[q]
                 yh = min(max(yh, -ymax), ymax)
-            step = S[_P0 + 4, j] - x[j] + yh  # x̂^SV − x_T = v_T + ŷ, bounded (§4.2)
+            step = S[_P0 + 4, j] - x[j] + yh  # x̂^SV − x_T = v_T + ŷ, bounded (paper §4.2)
             step = min(max(step, -max_step), max_step)
             S[_SV, j] = x[j] + step
     # 2c. The fast blend (eq. 26 in the relative mode of eq. 27, per coordinate):
@@ -514,10 +514,10 @@ class AdaptiveBank:
         For hand parameters :func:`~handvar.params.hand_blocks`.
     var_memory : float, default 30
         The horizon of the fast blend's VAR: its sums are discounted by
-        1 − 1/var_memory a frame (the structured VAR's N = 30, §4.3).
+        1 − 1/var_memory a frame (the structured VAR's N = 30, paper §4.3).
     max_step : float or None, default 10
         Bound on |x̂^SV − x_T| of the fast blend's VAR prediction, in the coordinates'
-        units (the paper's 10° threshold, §4.2); ``None`` disables it.
+        units (the paper's 10° threshold, paper §4.2); ``None`` disables it.
 
     Notes
     -----

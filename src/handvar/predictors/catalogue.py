@@ -169,7 +169,7 @@ class PredictorSpec:
             structured = kw.pop("structured", False)
             kw = {k: (int(v) if k in ("order", "memory") else v) for k, v in kw.items()}
             return VAR(blocks=blocks if structured else None, **kw)
-        memory = int(kw.pop("memory", 30))  # §4.3: the structured VAR's N
+        memory = int(kw.pop("memory", 30))  # paper §4.3: the structured VAR's N
         if "cutoff" in kw:
             kw["cutoff"] = int(kw["cutoff"])
         return RVAR(structured=VAR(order=1, memory=memory, blocks=blocks), **kw)
@@ -193,9 +193,9 @@ class PredictorSpec:
             ) from exc
 
 
-# The paper's five predictors with its settings (§4: ρ = 0.4; §4.2: full VAR, N = 150;
-# §4.3: structured VAR, N = 30; §5: RVAR, γ = 0.8, c = 8; all VARs of order 1 with
-# the 10° step bound).
+# The paper's five predictors with its settings (paper §4: ρ = 0.4; paper §4.2: full
+# VAR, N = 150; paper §4.3: structured VAR, N = 30; paper §5: RVAR, γ = 0.8, c = 8; all
+# VARs of order 1 with the 10° step bound).
 PAPER_PREDICTORS: tuple[PredictorSpec, ...] = (
     PredictorSpec("none", "no motion", "none"),
     PredictorSpec("decelerating", "decelerating", "decelerating", (("rho", 0.4),)),

@@ -10,7 +10,7 @@ frequency f_c (Hz), τ = 1 / (2π f_c) and α(f_c) = 1 / (1 + τ / T_e):
     f_c  = f_cmin + β |dx̂_i|                           (the speed-based cutoff)
     x̂_i  = α(f_c) x_i + (1 − α(f_c)) x̂_{i−1}           (the filtered value)
 
-and x̂_1 = x_1, dx̂_1 = 0.  Not in the paper; a baseline of the league table (§16).
+and x̂_1 = x_1, dx̂_1 = 0.  Not in the paper; a baseline of the league table (design §16).
 
 Tuning (the CHI paper's two-step procedure): set β = 0 and f_cmin to a middle value
 such as 1 Hz; with the hand still or moving slowly, lower f_cmin until the jitter is

@@ -1,4 +1,4 @@
-"""VAR order selection by information criteria (paper §4.1; Lütkepohl 2006, §4.3)."""
+"""VAR order selection by information criteria (paper §4.1; Lütkepohl 2006, section 4.3)."""
 
 from __future__ import annotations
 

@@ -200,7 +200,7 @@ def fit_affine_weights(target, a, b, weights):
 
 
 class RVAR:
-    """The robust VAR predictor of §5 (eq. 26–28).
+    """The robust VAR predictor of paper §5 (eq. 26–28).
 
     Parameters
     ----------
@@ -217,9 +217,9 @@ class RVAR:
         x̂^D_t − x_{t−1} over the whole triangle α, β ≥ 0, α + β ≤ 1.
     structured : VAR, optional
         The structured VAR; default ``VAR(order=1, memory=30, blocks=hand_blocks(),
-        max_step=10.0)``, the paper's (§4.3), for the 26 hand parameters.
+        max_step=10.0)``, the paper's (paper §4.3), for the 26 hand parameters.
     decelerating : Decelerating, optional
-        Default ``Decelerating(rho=1.0)``, constant velocity (§5).
+        Default ``Decelerating(rho=1.0)``, constant velocity (paper §5).
 
     Notes
     -----
@@ -245,7 +245,7 @@ class RVAR:
     constant offset of the input, x + c ↦ x̂ + c, to rounding.  The relative mode is
     eq. 26 with the no-motion prediction x_{t−1} of each frame taking the weight
     1 − α − β that the printed fit gives to the origin; in the paper's closed-loop
-    experiment it tracks better than the absolute mode (figures in §6).
+    experiment it tracks better than the absolute mode (figures in design §6).
 
     Until a past prediction can be scored (the first two frames), α = β = ½.
     ``alpha`` and ``beta`` hold the weights used by the next ``predict``.

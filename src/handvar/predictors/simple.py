@@ -38,7 +38,7 @@ class Decelerating:
     ----------
     rho : float, default 0.4
         The fraction of the last velocity carried forward; the paper's best value
-        is 0.4 (§4), and ρ = 1 is the constant-velocity model.  With one frame
+        is 0.4 (paper §4), and ρ = 1 is the constant-velocity model.  With one frame
         seen, the prediction is that frame.
     """
 

@@ -78,12 +78,12 @@ class VAR:
     After every ``update`` the VAR(p) of eq. 2 on y_t = x_t − 2x_{t−1} + x_{t−2} is
     refitted by least squares (eq. 14) on the last `memory` equations; ``predict``
     returns x̂_{T+1} = ŷ_{T+1} + 2 x_T − x_{T−1} (eq. 5), each parameter's step
-    |x̂ − x_T| bounded by `max_step` (the paper's 10° threshold, §4.2).
+    |x̂ − x_T| bounded by `max_step` (the paper's 10° threshold, paper §4.2).
 
     Parameters
     ----------
     order : int, default 1
-        The order p.  The paper uses p = 1 (§4.1).
+        The order p.  The paper uses p = 1 (paper §4.1).
     memory : int, default 150
         N, the number of equations (pairs of target y_t and regressors
         y_{t−1} … y_{t−p}) in the least-squares window; the paper's full VAR uses
@@ -233,7 +233,7 @@ class VAR:
         )
         self._n_back += 1
         self._n_eq += 1
-        if self._n_eq > self.memory:  # drop the oldest equation (limited memory, §3.2)
+        if self._n_eq > self.memory:  # drop the oldest equation (limited memory, paper §3.2)
             if self._lo == self._f:  # the older part is used up: the newer becomes it
                 _kernels.build_suffixes(
                     self._R_front, self._slots, self._y, self._capacity, self._f, n,

@@ -1,4 +1,4 @@
-"""Silhouette and colour rendering of the skinned mesh hand (§15).
+"""Silhouette and colour rendering of the skinned mesh hand (design §15).
 
 The mesh counterparts of :func:`handvar.render.silhouettes` and
 :func:`handvar.render.render_rgb`, which call these for a ``HandModel(surface="mesh")``.
@@ -16,6 +16,8 @@ import numpy as np
 
 from handvar.camera import Rig
 from handvar.params import check_pose
+from handvar.render.common import BACKGROUNDS, Shading, check_rig, shade_views
+from handvar.validate import one_of
 
 __all__ = ["mesh_silhouettes", "pixel_normals", "render_mesh_rgb", "vertex_normals"]
 
@@ -62,10 +64,8 @@ def pixel_normals(uv, triangles, normals, rows, cols, tri) -> np.ndarray:
 
 def mesh_silhouettes(hand, x, rig: Rig, *, coverage: str = "touch") -> np.ndarray:
     """Silhouette masks (n_cams, H, W) bool of the mesh hand at pose `x` in every camera."""
-    from handvar.render.silhouettes import _check_rig
-
     x = check_pose(x, "x")
-    w, h = _check_rig(rig)
+    w, h = check_rig(rig)
     out = np.empty((len(rig), h, w), dtype=bool)
     for k, cam in enumerate(rig):
         out[k] = hand.mesh.silhouette(x, cam, coverage=coverage)
@@ -77,15 +77,9 @@ def render_mesh_rgb(hand, x, rig: Rig, *, background="clutter", rng=None, shadin
 
     Parameters as :func:`handvar.render.render_rgb`.
     """
-    from handvar.render.shading import _BACKGROUNDS, Shading, shade_views
-    from handvar.render.silhouettes import _check_rig
-
     x = check_pose(x, "x")
-    if background not in _BACKGROUNDS:
-        raise ValueError(
-            f"background: expected one of {', '.join(_BACKGROUNDS)}; got {background!r}"
-        )
-    w, h = _check_rig(rig)
+    one_of(background, BACKGROUNDS, "background")
+    w, h = check_rig(rig)
     rng = np.random.default_rng(0) if rng is None else rng
     sh = Shading() if shading is None else shading
     mesh = hand.mesh

@@ -40,7 +40,7 @@ __all__ = [
     "write_overlay_video",
 ]
 
-# Bones of the 21-point layout (§2): wrist 0; thumb 1-4; index 5-8;
+# Bones of the 21-point layout (design §2): wrist 0; thumb 1-4; index 5-8;
 # middle 9-12; ring 13-16; little 17-20 (MCP/CMC, PIP/MCP, DIP/IP, tip).
 SKELETON: tuple[tuple[int, int], ...] = (
     (0, 1), (1, 2), (2, 3), (3, 4),

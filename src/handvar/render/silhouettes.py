@@ -1,4 +1,4 @@
-"""Exact silhouettes of the sphere-mesh hand model (§2, §3).
+"""Exact silhouettes of the sphere-mesh hand model (design §2, §3).
 
 The hand surface is a union of cone-spheres, each the convex hull of two spheres. Under
 perspective projection segments map to segments, so the image of a cone-sphere is the
@@ -42,7 +42,8 @@ import numpy as np
 from handvar.camera import Camera, Rig
 from handvar.geometry.distortion import distort_normalized
 from handvar.params import check_pose
-from handvar.validate import as_array, as_instance, one_of
+from handvar.render.common import check_rig
+from handvar.validate import as_array, one_of
 
 __all__ = [
     "SphereMeshModel",
@@ -353,16 +354,6 @@ def silhouette_of_spheres(
     return _rasterize(verts, verts[nxt], sign, camera.size)
 
 
-def _check_rig(rig: Rig) -> tuple[int, int]:
-    as_instance(rig, Rig, "rig", what="a handvar.camera.Rig")
-    sizes = {cam.size for cam in rig}
-    if len(sizes) != 1:
-        raise ValueError(
-            f"rig: expected cameras of one image size to stack; got sizes {sorted(sizes)}"
-        )
-    return sizes.pop()
-
-
 def silhouettes(
     hand: SphereMeshModel, x, rig: Rig, *, coverage: str = "touch", tol: float = 0.02
 ) -> np.ndarray:
@@ -373,7 +364,7 @@ def silhouettes(
     hand : HandModel
         Anything with ``world_spheres(x) -> (centres (P, 2, 3), radii (P, 2))``.
     x : (26,) array_like
-        Pose (§2).
+        Pose (design §2).
     rig : Rig
         Cameras, all with the same image size.
     coverage : {"touch", "centre"}, optional
@@ -392,12 +383,12 @@ def silhouettes(
     >>> masks.shape, masks.dtype
     ((2, 480, 640), dtype('bool'))
     """
-    if getattr(hand, "surface", "spheres") == "mesh":  # the skinned mesh (§15)
+    if getattr(hand, "surface", "spheres") == "mesh":  # the skinned mesh (design §15)
         from handvar.render.mesh import mesh_silhouettes
 
         return mesh_silhouettes(hand, x, rig, coverage=coverage)
     x = check_pose(x, "x")
-    w, h = _check_rig(rig)
+    w, h = check_rig(rig)
     centres, radii = hand.world_spheres(x)
     out = np.empty((len(rig), h, w), dtype=bool)
     for k, cam in enumerate(rig):

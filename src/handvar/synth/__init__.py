@@ -6,7 +6,7 @@ recording); :mod:`handvar.synth.sequences` builds the paper's three sequences
 :class:`handvar.io.Sequence`; :mod:`handvar.synth.keypoints` makes a sequence's 2D
 keypoints from its ground truth (noise and outliers, as a detector's);
 :mod:`handvar.synth.mismatch` departs from the tracker's model (the rendering hand's
-surface and size, the speed, silhouette noise; §15.1).
+surface and size, the speed, silhouette noise; docs/results/mismatch.md).
 """
 
 from handvar.synth.keypoints import synthetic_keypoints

@@ -1,4 +1,4 @@
-"""Sequences the tracker's model does not explain exactly: model mismatch (§15.1).
+"""Model mismatch (docs/results/mismatch.md): sequences the tracker's model does not explain.
 
 The paper's sequences are rendered by the very model that tracks them, so their
 silhouettes hold no model error. Four departures, each deterministic for a seed:
@@ -13,7 +13,7 @@ silhouettes hold no model error. Four departures, each deterministic for a seed:
 - **silhouette noise** (:func:`corrupt_silhouettes`): the outline moved in and out
   by a smooth random field, holes punched into the hand and a ragged cut at the wrist
   that leaves a stub of forearm or bites into the palm -- the errors of a real
-  segmentation (skin colour, a wrist cut, §9).
+  segmentation (skin colour, a wrist cut, design §9).
 
 Examples
 --------
@@ -50,7 +50,7 @@ def generator_hand(model: str = "spheres", length: float = 1.0, breadth: float =
     Parameters
     ----------
     model : {"spheres", "mesh"}
-        The sphere-mesh or the skinned mesh (§15).
+        The sphere-mesh or the skinned mesh (design §15).
     length, breadth : float
         Factors on the default hand length (185 mm) and breadth (85 mm). With equal
         factors every joint moves away from the wrist by that factor (all bones and

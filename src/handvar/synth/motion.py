@@ -353,7 +353,7 @@ def htrack_to_handvar(array, mapping: HtrackMapping = HtrackMapping()) -> np.nda
     Returns
     -------
     poses : (N, 26) ndarray
-        Our layout (§2): translation (mm), rotation (degrees), the five
+        Our layout (design §2): translation (mm), rotation (degrees), the five
         abductions (degrees), then the fifteen flexions (degrees). Not clamped to
         the joint limits; :func:`replay` does that.
 

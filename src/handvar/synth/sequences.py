@@ -1,13 +1,13 @@
-"""The paper's three synthetic sequences, with ground truth (§8).
+"""The paper's three synthetic sequences, with ground truth (design §8).
 
-- :func:`benchmark` — the 175-frame, 25 fps stereo test sequence of the paper's §4:
+- :func:`benchmark` — the 175-frame, 25 fps stereo test sequence of paper §4:
   finger articulation replayed from a real recording (htrack ``fingerfist``, see
   :mod:`handvar.synth.motion`), palm rotations, a fast little-finger movement near
   frame 73, a global rotation near frame 100 and the thumb crossing the palm near
   frame 150 — the three error peaks of the paper's figure 4.
-- :func:`flexion` — 280 frames like the first real sequence of §6: each digit
+- :func:`flexion` — 280 frames like the first real sequence of paper §6: each digit
   flexes alone, then the fingers flex together, some of them fast.
-- :func:`flip` — 80 frames like the second real sequence of §6: the palm turns
+- :func:`flip` — 80 frames like the second real sequence of paper §6: the palm turns
   fully away from the cameras (its normal more than 150° from the direction to
   them) and back.
 
@@ -40,6 +40,7 @@ from handvar.synth.motion import (
 from handvar.validate import as_float, as_int
 
 __all__ = [
+    "SEQUENCE_FPS",
     "SEQUENCE_NAMES",
     "BenchmarkSettings",
     "FlexionSettings",
@@ -48,6 +49,7 @@ __all__ = [
     "flexion",
     "flip",
     "make_sequence",
+    "palm_drift",
     "render_sequence",
     "sequence_poses",
 ]
@@ -57,12 +59,12 @@ _FINGERS = ("index", "middle", "ring", "little")
 
 @dataclasses.dataclass(frozen=True)
 class BenchmarkSettings:
-    """The synthetic benchmark sequence of the paper's §4 (figure 4: error peaks).
+    """The synthetic benchmark sequence of paper §4 (figure 4: error peaks).
 
     Attributes
     ----------
     n_frames, fps : int, float
-        175 frames at 25 fps (§4: "175 frames, 640×480 pixels").
+        175 frames at 25 fps (paper §4: "175 frames, 640×480 pixels").
     little_frame, rotation_frame, thumb_frame : int
         Frames of the fastest moment of the three events behind the error peaks of
         figure 4: a misfit of the little finger (73), a global rotation (100), the
@@ -92,7 +94,7 @@ class BenchmarkSettings:
 
 @dataclasses.dataclass(frozen=True)
 class FlexionSettings:
-    """The finger-flexion sequence of the paper's §6 (first real sequence, figure 7).
+    """The finger-flexion sequence of paper §6 (first real sequence, figure 7).
 
     280 frames at 25 fps: individual flexions of the five digits, then simultaneous
     ones, some fast (the paper's tracker lost accuracy in the fast flexions near
@@ -105,7 +107,7 @@ class FlexionSettings:
 
 @dataclasses.dataclass(frozen=True)
 class FlipSettings:
-    """The palm-flip sequence of the paper's §6 (second real sequence, figure 8).
+    """The palm-flip sequence of paper §6 (second real sequence, figure 8).
 
     80 frames at 25 fps in which the palm turns completely away from the cameras
     and back: a rotation of `turn_deg` (drawn from the range by the seed) about the
@@ -141,7 +143,7 @@ def _drift(rng, t, amplitude: float, period: float) -> tuple[np.ndarray, np.ndar
     return times, values
 
 
-def _palm_drift(poses, t, rng, rotation, translation: float, periods) -> None:
+def palm_drift(poses, t, rng, rotation, translation: float, periods) -> None:
     """Add slow random drifts of the palm: `rotation` ((name, degrees), ...) with knots
     every ``periods[0]`` s, then ±`translation` mm on each axis every ``periods[1]`` s."""
     for name, amplitude in rotation:
@@ -205,7 +207,7 @@ def benchmark(seed: int = 0, settings: BenchmarkSettings = BenchmarkSettings()) 
     poses[:, 3:6] += real[:, 3:6] - real[0, 3:6]  # the recorded palm rotation, from zero
 
     # slow palm rotations and translation (keyframed drift)
-    _palm_drift(poses, t, rng, (("rx", 15.0), ("ry", 20.0), ("rz", 12.0)), 20.0, (1.2, 1.5))
+    palm_drift(poses, t, rng, (("rx", 15.0), ("ry", 20.0), ("rz", 12.0)), 20.0, (1.2, 1.5))
 
     def centred(frame: int, rise: float) -> float:
         return frame / s.fps - rise / 2.0  # start so that the rise is fastest at `frame`
@@ -288,7 +290,7 @@ def flexion(seed: int = 0, settings: FlexionSettings = FlexionSettings()) -> np.
     n = settings.n_frames
     t = np.arange(n) / settings.fps
     poses = _base(n)
-    _palm_drift(poses, t, rng, (("rx", 8.0), ("ry", 10.0), ("rz", 6.0)), 10.0, (2.0, 2.0))
+    palm_drift(poses, t, rng, (("rx", 8.0), ("ry", 10.0), ("rz", 6.0)), 10.0, (2.0, 2.0))
 
     # the script: (digits, rise, hold, fall, amplitude, pause after), in seconds
     everything = ("thumb", *_FINGERS)
@@ -347,7 +349,7 @@ def flip(seed: int = 0, settings: FlipSettings = FlipSettings()) -> np.ndarray:
         for joint, value in relaxed.items():
             poses[:, index(f"{finger}_{joint}")] += value
     poses[:, index("thumb_cmc")] += 10.0
-    _palm_drift(poses, t, rng, (("rx", 6.0), ("rz", 6.0)), 8.0, (1.0, 1.0))
+    palm_drift(poses, t, rng, (("rx", 6.0), ("rz", 6.0)), 8.0, (1.0, 1.0))
 
     lo, hi = settings.turn_deg
     angle = rng.uniform(lo, hi)
@@ -367,7 +369,8 @@ _GENERATORS: dict[str, Callable[[int], np.ndarray]] = {
     "flexion": flexion,
     "flip": flip,
 }
-_FPS = {
+#: Frame rate of each named sequence, frames per second.
+SEQUENCE_FPS = {
     "benchmark": BenchmarkSettings().fps,
     "flexion": FlexionSettings().fps,
     "flip": FlipSettings().fps,
@@ -544,7 +547,7 @@ def make_sequence(
     seq = render_sequence(
         poses,
         name=name,
-        fps=_FPS[name],
+        fps=SEQUENCE_FPS[name],
         rgb=rgb,
         seed=seed,
         progress=progress,

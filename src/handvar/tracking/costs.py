@@ -5,7 +5,7 @@ S_j, a field giving for every pixel its nearest silhouette pixel (OpenCV's label
 distance transform) and the list of silhouette pixels. Every optimiser iteration then
 draws fresh random samples (:meth:`SilhouetteCost.draw`): N points on the model surface,
 projected into every camera, and M pixels inside every silhouette. The paper uses
-"about 600 sample points" (§4); our default split is N = 150 surface points (300
+"about 600 sample points" (paper §4); our default split is N = 150 surface points (300
 projections in a stereo rig) and M = 150 silhouette pixels per camera (300 in all), so
 that both terms are estimated from the same number of residuals.
 
@@ -19,7 +19,7 @@ Terms, for a rig of n_c cameras (residuals in pixels, see *Unit* below):
   model covers the pixel). Eq. 1 sums over the cameras and averages over the samples;
   we average over both, i.e. eq. 1 divided by n_c, so that one threshold serves a
   monocular and a stereo rig alike.
-- C = 1.7 C_s + 0.4 C_f (§4), plus w_k C_k on frames with keypoints and w_z C_z, which
+- C = 1.7 C_s + 0.4 C_f (paper §4), plus w_k C_k on frames with keypoints and w_z C_z, which
   keeps the hand in front of every camera (`handvar.tracking.keypoint_cost`).
 
 Gradients follow the chain rule residual × projection Jacobian × kinematic Jacobian with
@@ -31,7 +31,7 @@ Unit
 ----
 The cost is dimensionless: residuals are measured in units of ``pixel_scale`` pixels
 (`CostSettings`), i.e. C is in (pixel_scale px)². With the default pixel_scale of 3 px
-the paper's stopping threshold 0.006 (§4) is a weighted mean squared misfit of
+the paper's stopping threshold 0.006 (paper §4) is a weighted mean squared misfit of
 0.006 · 9 = 0.054 px². How it was chosen (benchmark sequence, stereo rig): at the true
 pose C ≈ 1–2·10⁻⁴ (circle approximation of the model's outline, pixel rounding); with
 every parameter 1 mm or 1° off C ≈ 0.05 (about 3 mm of mean joint error), and it stays
@@ -98,14 +98,14 @@ class CostSettings:
     Attributes
     ----------
     weight_silhouette : float
-        Weight of C_s, 1.7 (§4).
+        Weight of C_s, 1.7 (paper §4).
     weight_filling : float
-        Weight of C_f, 0.4 (§4).
+        Weight of C_f, 0.4 (paper §4).
     n_surface : int
         Surface samples N per iteration, each projected into every camera.
     n_pixels : int
         Silhouette pixel samples M per camera and iteration. With the defaults a stereo
-        rig has 300 + 300 residuals, the paper's "about 600 sample points" (§4).
+        rig has 300 + 300 residuals, the paper's "about 600 sample points" (paper §4).
     pixel_scale : float
         Pixels per unit of residual, so that the cost is in (pixel_scale px)². 3 px puts
         the paper's stopping threshold 0.006 (`SMDSettings.threshold`) at a weighted

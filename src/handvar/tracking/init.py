@@ -21,7 +21,7 @@ the first frame's silhouettes:
    with the tracker (`handvar.tracking.tracker.Tracker`, no motion model) at full
    resolution, and the one with the highest IoU is returned.
 
-With 2D keypoints (``keypoints``, §14.1) the palm's orientation, the side of the hand
+With 2D keypoints (``keypoints``, design §14.1) the palm's orientation, the side of the hand
 that faces the camera, the position and the depth come from them instead
 (`handvar.tracking.keypoint_fit.fit_keypoints`: a PnP fit of the palm, then least
 squares of all 21 projected joints); steps 1–3 are skipped, and the search runs only
@@ -45,6 +45,7 @@ import cv2
 import numpy as np
 
 from handvar.camera import Camera, Rig
+from handvar.hand.kinematics import euler_from_matrix
 from handvar.params import N_PARAMS, clamp
 from handvar.validate import as_float, as_instance, as_int
 
@@ -53,7 +54,6 @@ __all__ = [
     "InitResult",
     "InitSettings",
     "candidate_rotations",
-    "euler_from_matrix",
     "initial_pose",
     "silhouette_iou",
 ]
@@ -61,7 +61,7 @@ __all__ = [
 
 @dataclass(frozen=True)
 class InitSettings:
-    """Grid and effort of the initial-pose search (the paper fitted by eye, §6).
+    """Grid and effort of the initial-pose search (the paper fitted by eye, paper §6).
 
     Attributes
     ----------
@@ -166,38 +166,6 @@ class InitResult:
 
 
 # --- rotations -------------------------------------------------------------------------
-
-
-def euler_from_matrix(R) -> np.ndarray:
-    """Intrinsic x-y-z Euler angles of rotation matrices: the inverse of ``Rx Ry Rz``.
-
-    With ``R = Rx(a) Ry(b) Rz(c)`` (`handvar.hand.kinematics.world_from_hand_rotation`):
-    ``R[0, 2] = sin b``, ``R[1, 2] = −sin a cos b``, ``R[2, 2] = cos a cos b``,
-    ``R[0, 1] = −cos b sin c``, ``R[0, 0] = cos b cos c``.  At gimbal lock
-    (``cos b = 0``) ``c = 0`` is chosen and ``a`` taken from ``R[2, 1] = sin a`` (for
-    ``b = +90°``) or its opposite.
-
-    Parameters
-    ----------
-    R : (..., 3, 3) array_like
-        Rotation matrices.
-
-    Returns
-    -------
-    (..., 3) ndarray
-        ``(a, b, c) = (rx, ry, rz)``, degrees, a and c in (−180, 180], b in [−90, 90].
-    """
-    R = np.asarray(R, dtype=float)
-    if R.shape[-2:] != (3, 3):
-        raise ValueError(f"R: expected rotation matrices of shape (..., 3, 3); got {R.shape}")
-    cb = np.hypot(R[..., 0, 0], R[..., 0, 1])
-    b = np.arctan2(R[..., 0, 2], cb)
-    locked = cb < 1e-9
-    a = np.where(
-        locked, np.arctan2(R[..., 2, 1], R[..., 1, 1]), np.arctan2(-R[..., 1, 2], R[..., 2, 2])
-    )
-    c = np.where(locked, 0.0, np.arctan2(-R[..., 0, 1], R[..., 0, 0]))
-    return np.degrees(np.stack([a, b, c], axis=-1))
 
 
 def _axis_rotation(axis: int, deg: np.ndarray) -> np.ndarray:

@@ -188,7 +188,7 @@ def palm_candidates(keypoints, camera: Camera, hand) -> np.ndarray:
         ``tx ty tz rx ry rz`` (mm, degrees) per candidate; K = 0 when a palm point is
         missing.
     """
-    from handvar.tracking.init import euler_from_matrix
+    from handvar.hand.kinematics import euler_from_matrix
 
     k = as_frame_keypoints(keypoints)
     palm = np.asarray(PALM)

@@ -1,4 +1,4 @@
-"""The tracker's cost on the skinned mesh hand (§4 and §15).
+"""The tracker's cost on the skinned mesh hand (design §4 and §15).
 
 The same cost as :class:`handvar.tracking.costs.SilhouetteCost`, C = w_s C_s + w_f C_f
 in (pixel_scale px)², with the same samples per iteration, the same per-frame data

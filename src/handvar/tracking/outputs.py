@@ -7,7 +7,7 @@
     track.npz     every field of `TrackResult` (poses, joints, starts, costs,
                   iterations, seconds, iou, cost, keypoint_error, lost, empty),
                   predictor and seed; with a quality also reinit and with_keypoints
-    quality.csv   with a quality (§14.3): per frame its silhouette IoU, keypoint error
+    quality.csv   with a quality (design §14.3): per frame its silhouette IoU, keypoint error
                   (hand sizes, empty without keypoints), final cost and the flags lost,
                   reinit, empty, keypoints (0/1)
     overlay.png   a strip of up to six evenly spaced frames of the first camera at half

@@ -198,7 +198,7 @@ def joint_distances(x, hand, rig, keypoints, *, tips: str = "end") -> np.ndarray
     keypoints : sequence of (21, 3) array_like or None
         One per camera (None: none there): x, y in that camera's pixels, confidence.
     tips : {"end", "pad"}, keyword-only
-        G(x)'s fingertips, or the centres of their pads (`keypoint_points`, §14.6).
+        G(x)'s fingertips, or the centres of their pads (`keypoint_points`, design §14.6).
 
     Returns
     -------
@@ -716,7 +716,7 @@ def track_with_recovery(
 
 
 def digit_reseeds(x, hand, rig, masks, n: int) -> list[np.ndarray]:
-    """Starts for a new fit: `x` with one digit set to a named hand shape's (§14.3).
+    """Starts for a new fit: `x` with one digit set to a named hand shape's (design §14.3).
 
     For each digit and each named shape (`handvar.hand.kinematics.POSE_NAMES`), the
     digit's abduction and three flexions are set to that shape's; a setting within 10°
@@ -786,7 +786,7 @@ def _cut_at_joint(k: np.ndarray) -> np.ndarray:
     `cut_wrist` cuts `WristCutSettings.keypoint_offset` (a) hand sizes beyond the wrist
     point, towards the forearm; moving the point a / (1 + a) of the way to the middle
     MCP cancels that.  The tracked model ends at its wrist joint, which is the point a
-    detector marks, so the silhouette it is fitted to ends there too (§14.3).
+    detector marks, so the silhouette it is fitted to ends there too (design §14.3).
     """
     from handvar.vision.wrist import WRIST_CUT_SETTINGS
 
@@ -798,7 +798,7 @@ def _cut_at_joint(k: np.ndarray) -> np.ndarray:
 
 def _cut(masks: np.ndarray, kps, previous, hand, rig) -> np.ndarray:
     """Each camera's silhouette cut at the wrist (`track_with_recovery`'s cut_wrist)."""
-    from handvar.vision.silhouette import cut_wrist
+    from handvar.vision.wrist import cut_wrist
 
     out = []
     for j, (m, cam) in enumerate(zip(masks, rig, strict=True)):

@@ -11,7 +11,7 @@ curvature-vector product (Gauss–Newton, ``Jᵀ(J v)``), one step is::
 
 With the paper's horizon λ = 0 the last line is ``v = −p ⊙ g`` and no curvature product
 is needed. The iteration stops when the cost falls below a threshold or after a
-maximum number of iterations (§4: 0.006 and 50).
+maximum number of iterations (paper §4: 0.006 and 50).
 
 Gains and units (``SMDSettings.precondition``)
 ----------------------------------------------
@@ -53,7 +53,7 @@ __all__ = [
 
 @dataclass(frozen=True)
 class SMDSettings:
-    """Settings of stochastic meta-descent, the paper's values (§4).
+    """Settings of stochastic meta-descent, the paper's values (paper §4).
 
     Attributes
     ----------

@@ -346,7 +346,7 @@ class Tracker:
         hand = as_instance(hand, HandModel, "hand")
         rig, settings = self.rig, self.settings
         self.hand = hand
-        if hand.surface == "mesh":  # the skinned mesh (§15)
+        if hand.surface == "mesh":  # the skinned mesh (design §15)
             from handvar.tracking.mesh_cost import MeshSilhouetteCost
 
             self.cost = MeshSilhouetteCost(hand, rig, settings.cost)

@@ -1,22 +1,17 @@
 """Hand silhouettes from colour video (paper section 6).
 
 `skin` classifies pixels by colour (the Jones–Rehg skin / non-skin mixtures, or a
-histogram trained on labelled images); `silhouette` cleans the resulting masks, cuts a
-visible forearm at the wrist and handles any number of cameras; `frames` reads one
+histogram trained on labelled images); `silhouette` cleans the resulting masks and
+handles any number of cameras, `wrist` cuts a visible forearm off at the wrist; `frames` reads one
 camera's video file or image folder, and `sources` puts the cameras of a recording
 together with their rig.
 """
 
 from handvar.vision.silhouette import (
     CLEANUP_SETTINGS,
-    WRIST_SETTINGS,
     CleanupSettings,
     EmptySilhouetteError,
-    WristCut,
-    WristSettings,
     clean_mask,
-    cut_wrist,
-    find_wrist,
     nearest_silhouette_pixel,
     silhouettes_from_frames,
     silhouettes_from_videos,
@@ -29,11 +24,18 @@ from handvar.vision.skin import (
     SkinSettings,
     jones_rehg_mixtures,
 )
+from handvar.vision.wrist import (
+    WRIST_CUT_SETTINGS,
+    WristCut,
+    WristCutSettings,
+    cut_wrist,
+    find_wrist,
+)
 
 __all__ = [
     "CLEANUP_SETTINGS",
     "SKIN_SETTINGS",
-    "WRIST_SETTINGS",
+    "WRIST_CUT_SETTINGS",
     "CleanupSettings",
     "EmptySilhouetteError",
     "GaussianMixture",
@@ -41,7 +43,7 @@ __all__ = [
     "SkinModel",
     "SkinSettings",
     "WristCut",
-    "WristSettings",
+    "WristCutSettings",
     "clean_mask",
     "cut_wrist",
     "find_wrist",

@@ -1,4 +1,4 @@
-"""Keypoints carried between detector frames by optical flow (§14.5).
+"""Keypoints carried between detector frames by optical flow (design §14.5).
 
 A keypoint detector slower than the tracker (`Keypoints2D.every`: at 6 fps beside a
 30 fps tracker) leaves the frames between its detections without keypoints; there the
@@ -38,7 +38,7 @@ __all__ = ["CARRY_SETTINGS", "CarrySettings", "KeypointCarrier", "carry_keypoint
 
 @dataclass(frozen=True)
 class CarrySettings:
-    """Named settings of the optical-flow carrying (module notes; §14.5).
+    """Named settings of the optical-flow carrying (module notes; design §14.5).
 
     Attributes
     ----------
@@ -52,7 +52,7 @@ class CarrySettings:
     confidence : float
         Factor on the detector's confidence of a carried point; 1 (on the example video
         the carried points lie as close to the detector's own as its neighbouring
-        detections do, §14.5).
+        detections do, design §14.5).
     max_frames : int
         Frames after a detection beyond which nothing is carried; 30 (one second of
         video at 30 fps).
@@ -201,7 +201,7 @@ def carry_keypoints(
         The detections (`Keypoints2D.every` for a detector at a lower rate).
     settings : CarrySettings, optional
     both : bool, keyword-only
-        Also carry the next detection backwards, and blend (module notes, §14.5): not
+        Also carry the next detection backwards, and blend (module notes, design §14.5): not
         causal, a frame's keypoints wait for the next detection.
 
     Returns

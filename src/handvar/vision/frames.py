@@ -1,4 +1,4 @@
-"""Frame reading: one camera's colour frames from a video file or an image folder (§6).
+"""Frame reading: one camera's colour frames from a video file or an image folder (paper §6).
 
 `open_frames` opens a video file (anything ``cv2.VideoCapture`` decodes) or a folder of
 numbered images as a `FrameReader`, which reads the frames lazily, one at a time, and

@@ -1,4 +1,4 @@
-"""2D hand keypoints per camera: the 21 points of `G(x)` seen in the images (§14.1).
+"""2D hand keypoints per camera: the 21 points of `G(x)` seen in the images (design §14.1).
 
 A keypoint detector (e.g. MediaPipe Hands, `handvar.vision.mediapipe`) gives, per frame,
 the image positions of the 21 points of the hand model's `G(x)`, in its order

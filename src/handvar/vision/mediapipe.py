@@ -1,4 +1,4 @@
-"""2D hand keypoints from MediaPipe Hands 0.10.21, an optional extra (§14.1).
+"""2D hand keypoints from MediaPipe Hands 0.10.21, an optional extra (design §14.1).
 
 MediaPipe Hands (the legacy ``mediapipe.solutions.hands`` API; the wheel ships its
 palm-detection and landmark models, Apache-2.0, and runs offline) finds hands in colour

@@ -7,20 +7,19 @@ turns it into one clean silhouette per camera:
 
 1. `clean_mask`: morphological opening (removes speckle) and closing (bridges thin
    gaps), the largest connected component(s), small components dropped, holes filled.
-2. `cut_wrist` (optional): removes a visible forearm so that it does not pull the hand
-   model out of the image (at the detected wrist with keypoints, else where the
-   forearm's width changes; see `find_wrist` and `handvar.vision.wrist`).
+2. `handvar.vision.wrist.cut_wrist` (optional): removes a visible forearm so that it
+   does not pull the hand model out of the image (at the detected wrist with keypoints,
+   else where the forearm's width changes; see `handvar.vision.wrist`).
 3. `silhouettes_from_frames`: both steps for the frames of any number of cameras;
    an empty silhouette raises `EmptySilhouetteError` naming the camera and frame.
 
 `nearest_silhouette_pixel` gives, for every pixel, the nearest silhouette pixel — the
-``s*`` of the silhouette cost ``C_s`` (§4).
+``s*`` of the silhouette cost ``C_s`` (design §4).
 
 Masks are ``(H, W)`` arrays; anything non-zero is inside.  Pixel coordinates are
 ``(x, y)`` = (column, row), in pixels.
 
-One concept, a silhouette from a skin mask, which is why the module is a little
-over 600 lines.
+One concept, a silhouette from a skin mask; the wrist cut has its own module.
 """
 
 from __future__ import annotations
@@ -35,19 +34,15 @@ import cv2
 import numpy as np
 from scipy import ndimage
 
-from handvar.validate import as_int, one_of
+from handvar.validate import as_int, as_mask, one_of
 from handvar.vision.skin import SkinModel, _TableClassifier
+from handvar.vision.wrist import cut_wrist
 
 __all__ = [
     "CLEANUP_SETTINGS",
-    "WRIST_SETTINGS",
     "CleanupSettings",
     "EmptySilhouetteError",
-    "WristCut",
-    "WristSettings",
     "clean_mask",
-    "cut_wrist",
-    "find_wrist",
     "nearest_silhouette_pixel",
     "silhouettes_from_frames",
     "silhouettes_from_videos",
@@ -90,42 +85,6 @@ class CleanupSettings:
 CLEANUP_SETTINGS = CleanupSettings()
 
 
-@dataclass(frozen=True)
-class WristSettings:
-    """Named settings of the wrist heuristic (`find_wrist`, `cut_wrist`).
-
-    Lengths are in units of the palm radius ``R`` (the largest inscribed circle of the
-    silhouette, i.e. the maximum of its distance transform).
-
-    Attributes
-    ----------
-    forearm_thickness : float
-        A pixel belongs to a forearm candidate if its distance to the background is at
-        least this × R (fingers are about 0.2 R thick in this sense, a forearm seen from
-        the front 0.5–0.6 R on the example video).
-    forearm_start : float
-        Forearm candidates must lie at least this × R from the palm centre.
-    min_forearm_area : float
-        Fewest candidate pixels, in units of R², to decide that a forearm is visible.
-    search : tuple of float
-        Interval ``(a, b)`` × R along the forearm axis, from the palm centre, in which
-        the narrowest cross-section is taken as the wrist.
-    tolerance : float
-        Relative width tolerance: the wrist is the cross-section nearest the palm whose
-        width is within ``(1 + tolerance)`` × the narrowest one (the forearm just above
-        the wrist is nearly as narrow; this keeps the cut at the palm's end of it).
-    """
-
-    forearm_thickness: float = 0.4
-    forearm_start: float = 1.5
-    min_forearm_area: float = 0.5
-    search: tuple[float, float] = (0.9, 2.6)
-    tolerance: float = 0.05
-
-
-WRIST_SETTINGS = WristSettings()
-
-
 class EmptySilhouetteError(ValueError):
     """A camera's silhouette is empty after skin detection and clean-up.
 
@@ -143,26 +102,11 @@ class EmptySilhouetteError(ValueError):
         self.frame = frame
 
 
-# --- checks ----------------------------------------------------------------------------
-
-
-def _as_mask(mask: np.ndarray, name: str = "mask") -> np.ndarray:
-    """Check a 2-D mask and return it as uint8 0/1 (C-contiguous)."""
-    arr = np.asarray(mask)
-    if arr.ndim != 2:
-        raise ValueError(f"{name}: expected a 2-D (H, W) mask, got shape {arr.shape}")
-    if arr.dtype.kind not in "biuf":
-        raise ValueError(f"{name}: expected a boolean or numeric mask, got dtype {arr.dtype}")
-    if arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: expected finite values, got NaN or inf")
-    return np.ascontiguousarray(arr != 0, dtype=np.uint8)
+# --- clean-up --------------------------------------------------------------------------
 
 
 def _disk(radius: int) -> np.ndarray:
     return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
-
-
-# --- clean-up --------------------------------------------------------------------------
 
 
 def clean_mask(
@@ -215,7 +159,7 @@ def clean_mask(
     >>> int(out.sum()), bool(out[15, 15]), bool(out[35, 35])
     (625, True, False)
     """
-    m = _as_mask(mask)
+    m = as_mask(mask)
     open_radius = as_int(open_radius, "open_radius", minimum=0)
     close_radius = as_int(close_radius, "close_radius", minimum=0)
     min_area = as_int(min_area, "min_area", minimum=0)
@@ -278,258 +222,6 @@ def _fill_holes(mask: np.ndarray, max_hole_area: int | None) -> np.ndarray:
     return out
 
 
-# --- wrist -----------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class WristCut:
-    """Where `find_wrist` found the wrist.
-
-    Attributes
-    ----------
-    palm_centre : (2,) ndarray
-        Centre of the largest inscribed circle, pixels (x, y).
-    palm_radius : float
-        Its radius R, pixels.
-    direction : (2,) ndarray
-        Unit vector from the palm centre towards the forearm (x, y).
-    wrist : (2,) ndarray
-        The cut point on the axis, pixels (x, y); the cut line passes through it
-        perpendicular to ``direction``.
-    width : float
-        Silhouette width at the cut, pixels.
-    """
-
-    palm_centre: np.ndarray
-    palm_radius: float
-    direction: np.ndarray
-    wrist: np.ndarray
-    width: float
-
-    def forearm_side(self, shape: tuple[int, int]) -> np.ndarray:
-        """(H, W) bool: the half-plane beyond the cut line (the forearm side)."""
-        h, w = shape
-        ys, xs = np.mgrid[0:h, 0:w]
-        t = (xs - self.wrist[0]) * self.direction[0] + (ys - self.wrist[1]) * self.direction[1]
-        return t > 0
-
-
-def find_wrist(
-    mask: np.ndarray,
-    keypoints=None,
-    **kwargs: float | tuple[float, float],
-) -> WristCut | None:
-    """Locate the wrist of a hand-and-forearm silhouette, or None if no forearm shows.
-
-    Three routes (`handvar.vision.wrist`, §14.1):
-
-    1. With `keypoints` (this frame's (21, 2|3) keypoints in the mask's pixels, wrist
-       and middle MCP present): the line through the detected wrist perpendicular to
-       the wrist → middle-MCP direction, a little towards the forearm
-       (`handvar.vision.wrist.wrist_from_keypoints`).
-    2. A silhouette that leaves the image: the forearm is followed from the border
-       inwards until its width changes (`handvar.vision.wrist.forearm_wrist`), unless
-       the silhouette beyond that cut is shorter than `WristCutSettings.min_hand`
-       wrist widths (the cut went into the hand).
-    3. Otherwise the palm-centre heuristic (`_palm_wrist`; its settings are `**kwargs`,
-       see `WristSettings`).
-
-    Parameters
-    ----------
-    mask : (H, W) array_like
-        Silhouette (one component is expected; the largest is used).
-    keypoints : (21, 2|3) array_like, optional
-        The frame's keypoints, pixels of the mask; NaN where missing.
-    **kwargs
-        Settings of the palm-centre heuristic (`WristSettings`).
-
-    Returns
-    -------
-    WristCut or None
-    """
-    from handvar.vision.wrist import (
-        WRIST_CUT_SETTINGS,
-        forearm_wrist,
-        hand_length,
-        wrist_from_keypoints,
-    )
-
-    m = _as_mask(mask)
-    if not m.any():
-        raise ValueError("mask: expected a non-empty silhouette, got an empty mask")
-    if keypoints is not None:
-        cut = wrist_from_keypoints(keypoints, m.shape)
-        if cut is not None:
-            return cut
-    if m[0].any() or m[-1].any() or m[:, 0].any() or m[:, -1].any():
-        cut = forearm_wrist(m)
-        # A hand is longer than its wrist is wide: a cut that leaves less went into
-        # the hand, so the palm-centre heuristic decides instead.
-        if cut is None or hand_length(m, cut) >= WRIST_CUT_SETTINGS.min_hand * cut.width:
-            return cut
-    return _palm_wrist(m, **kwargs)
-
-
-def _palm_wrist(
-    mask: np.ndarray,
-    *,
-    forearm_thickness: float = WRIST_SETTINGS.forearm_thickness,
-    forearm_start: float = WRIST_SETTINGS.forearm_start,
-    min_forearm_area: float = WRIST_SETTINGS.min_forearm_area,
-    search: tuple[float, float] = WRIST_SETTINGS.search,
-    tolerance: float = WRIST_SETTINGS.tolerance,
-) -> WristCut | None:
-    """The palm-centre wrist heuristic (`find_wrist`'s route 3).
-
-    Heuristic (all lengths in units of the palm radius R):
-
-    1. Palm centre and R: the maximum of the Euclidean distance transform (the centre
-       and radius of the largest inscribed circle; the palm is the thickest part of a
-       hand, and thicker than the forearm seen from the front in typical views).
-    2. Forearm direction: the forearm is the only other thick part.  Pixels at least
-       ``forearm_thickness`` · R from the background and ``forearm_start`` · R from
-       the palm centre are forearm candidates (fingers are too thin to qualify).  If
-       there are fewer than ``min_forearm_area`` · R² of them, no forearm is visible
-       and None is returned.  Otherwise the direction is the principal axis (second
-       moments) of the silhouette pixels beyond the palm circle on the candidates'
-       side, oriented towards the candidates' mean.
-    3. Wrist: the silhouette's width profile along that axis (pixel count per 1-pixel
-       slab perpendicular to it, lightly smoothed) is minimised over
-       ``search`` = (a, b) · R from the palm centre; the wrist is the cross-section
-       nearest the palm whose width is within ``1 + tolerance`` of the narrowest.
-    4. Check: a forearm in a real image leaves it.  If the silhouette touches the image
-       border but at most half of its border pixels lie beyond the cut (the thickest
-       part was the forearm, e.g. a hand seen edge-on), None is returned rather than
-       cutting the hand off.
-
-    Parameters
-    ----------
-    mask : (H, W) array_like
-        Silhouette (one component is expected; the largest is used).
-    forearm_thickness, forearm_start, min_forearm_area, search, tolerance
-        See `WristSettings`.
-
-    Returns
-    -------
-    WristCut or None
-    """
-    m = _as_mask(mask)
-    if not m.any():
-        raise ValueError("mask: expected a non-empty silhouette, got an empty mask")
-    a, b = (float(v) for v in search)
-    if not 0 <= a < b:
-        raise ValueError(f"search: expected 0 <= a < b (palm radii), got {search!r}")
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(m, connectivity=8)
-    if n > 2:
-        biggest = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
-        m = (labels == biggest).astype(np.uint8)
-
-    # 1. Palm: largest inscribed circle.  Pad so the image border does not count as
-    # background (a forearm leaving the image is not thin there).
-    padded = cv2.copyMakeBorder(m, 1, 1, 1, 1, cv2.BORDER_REPLICATE)
-    dist = cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)[1:-1, 1:-1]
-    iy, ix = np.unravel_index(int(np.argmax(dist)), dist.shape)
-    radius = float(dist[iy, ix])
-    centre = np.array([ix, iy], dtype=np.float64)
-    if radius < 2.0:
-        return None
-
-    ys, xs = np.nonzero(m)
-    rel = np.stack([xs - centre[0], ys - centre[1]], axis=1).astype(np.float64)
-    r = np.hypot(rel[:, 0], rel[:, 1])
-
-    # 2. Forearm candidates: thick and away from the palm.
-    thick = (dist[ys, xs] >= forearm_thickness * radius) & (r >= forearm_start * radius)
-    if thick.sum() < min_forearm_area * radius**2:
-        return None
-    towards = rel[thick].mean(axis=0)
-    towards /= np.linalg.norm(towards)
-    # Principal axis of the silhouette beyond the palm circle on the forearm's side.
-    side = (r > radius) & (rel @ towards > 0)
-    pts = rel[side]
-    pts = pts - pts.mean(axis=0)
-    cov = pts.T @ pts / len(pts)
-    _, vecs = np.linalg.eigh(cov)
-    axis = vecs[:, -1]
-    direction = axis if axis @ towards >= 0 else -axis
-
-    # 3. Width profile along the axis (pixel count per 1-px slab).
-    t = rel @ direction
-    ti = np.floor(t).astype(np.int64)
-    lo = int(np.floor(a * radius))
-    hi = int(np.ceil(b * radius))
-    inside = (ti >= lo) & (ti <= hi)
-    profile = np.bincount(ti[inside] - lo, minlength=hi - lo + 1).astype(np.float64)
-    k = max(1, round(0.1 * radius))
-    smooth = np.convolve(profile, np.ones(2 * k + 1) / (2 * k + 1), mode="same")
-    # Edges of the convolution see zeros outside the interval: ignore them.
-    valid = np.arange(len(smooth))
-    valid = (valid >= k) & (valid < len(smooth) - k)
-    if t.max() < lo + 2 * k or not valid.any():
-        return None
-    smooth[~valid] = np.inf
-    j = int(np.argmax(smooth <= (1.0 + tolerance) * smooth.min()))
-    width = float(profile[j])
-    if width == 0:
-        return None
-    t_cut = lo + j + 0.5
-    wrist = centre + t_cut * direction
-
-    # 4. The forearm side must hold most of the silhouette's image-border pixels.
-    h, w = m.shape
-    edge = (xs == 0) | (ys == 0) | (xs == w - 1) | (ys == h - 1)
-    if edge.any() and np.mean(t[edge] > t_cut) <= 0.5:
-        return None
-    return WristCut(
-        palm_centre=centre,
-        palm_radius=radius,
-        direction=direction,
-        wrist=wrist,
-        width=width,
-    )
-
-
-def cut_wrist(
-    mask: np.ndarray, keypoints=None, **kwargs: float | tuple[float, float]
-) -> np.ndarray:
-    """Remove a visible forearm from a silhouette by cutting at the wrist.
-
-    The wrist is found by `find_wrist` (at the detected wrist when `keypoints` are
-    given; else where the forearm's width changes, or by the palm-centre heuristic for
-    a silhouette inside the image).  Everything beyond the cut line is removed and the
-    largest remaining component is kept.  A silhouette without a visible forearm is
-    returned unchanged.
-
-    Parameters
-    ----------
-    mask : (H, W) array_like
-        Silhouette; non-zero is inside.
-    keypoints : (21, 2|3) array_like, optional
-        The frame's keypoints in the mask's pixels (`handvar.vision.keypoints`).
-    **kwargs
-        Passed to `find_wrist` (see `WristSettings`).
-
-    Returns
-    -------
-    (H, W) bool ndarray
-        The silhouette without the forearm.
-    """
-    m = _as_mask(mask).astype(bool)
-    cut = find_wrist(m, keypoints, **kwargs)
-    if cut is None:
-        return m
-    # Remove the silhouette pixels beyond the cut line (only those are visited).
-    ys, xs = np.nonzero(m)
-    beyond = (xs - cut.wrist[0]) * cut.direction[0] + (ys - cut.wrist[1]) * cut.direction[1] > 0
-    hand = m.astype(np.uint8)
-    hand[ys[beyond], xs[beyond]] = 0
-    n, labels = cv2.connectedComponents(hand, connectivity=8)
-    if n <= 1:
-        return m  # the cut would leave nothing: keep the silhouette
-    areas = np.bincount(labels.ravel(), minlength=n)[1:]
-    return labels == 1 + int(np.argmax(areas))
-
-
 # --- distance field --------------------------------------------------------------------
 
 
@@ -553,7 +245,7 @@ def nearest_silhouette_pixel(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     distance : (H, W) float64 ndarray
         Distance to it, pixels.
     """
-    m = _as_mask(mask)
+    m = as_mask(mask)
     if not m.any():
         raise ValueError("mask: expected a non-empty silhouette, got an empty mask")
     # The transform measures the distance to the nearest zero pixel: invert the mask.
@@ -603,7 +295,7 @@ def silhouettes_from_frames(
         Camera names, used in error messages (default: their indices).
     keypoints : sequence of (21, 2|3) array_like or None, optional
         Per camera, the frame's keypoints in its pixels: the wrist cut is made at the
-        detected wrist (`find_wrist`).
+        detected wrist (`handvar.vision.wrist.find_wrist`).
 
     Returns
     -------

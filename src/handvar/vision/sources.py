@@ -1,4 +1,4 @@
-"""Real video in: frame sources, their rig and skin-colour silhouettes (§9).
+"""Real video in: frame sources, their rig and skin-colour silhouettes (design §9).
 
 The paper tracks a real hand filmed by a calibrated stereo pair (section 6). This module
 turns such recordings into what the tracker consumes:
@@ -326,7 +326,7 @@ class VideoSource:
     def carried_keypoints(
         self, keypoints, stop: int | None = None, settings=None, *, both: bool = False
     ):
-        """Per-camera keypoints carried by optical flow between detections (§14.5).
+        """Per-camera keypoints carried by optical flow between detections (design §14.5).
 
         Parameters
         ----------
