@@ -20,19 +20,20 @@ demo: $(STAMP)
 	$(BIN)/handvar report demo/experiment.zarr --out demo/report
 
 test: $(STAMP)
-	$(BIN)/ruff check src tests benchmarks
+	$(BIN)/ruff check src tests benchmarks studies
 	$(BIN)/python -m pytest
 
 lint: $(STAMP)
-	$(BIN)/ruff check src tests benchmarks examples
-	$(BIN)/ruff format --check src tests benchmarks examples
+	$(BIN)/ruff check src tests benchmarks studies examples
+	$(BIN)/ruff format --check src tests benchmarks studies examples
 
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -m slow
 
+# Every timing benchmark of benchmarks/ (the accuracy studies are in studies/, each run
+# on its own: studies/README.md).
 bench: $(STAMP)
-	for b in predictors hand vision tracker synth realvideo experiment; do \
-		$(BIN)/python benchmarks/$$b.py || exit 1; done
+	for b in benchmarks/*.py; do echo "== $$b"; $(BIN)/python $$b || exit 1; done
 
 clean:
 	rm -rf $(VENV) build src/*.egg-info demo

@@ -13,13 +13,13 @@ from __future__ import annotations
 
 import argparse
 import time
-from pathlib import Path
 
 import numpy as np
 
+from handvar.data import example_path
 from handvar.predictors import RVAR, VAR, Decelerating, KalmanCV, NoMotion, hand_blocks
 
-DATA = Path(__file__).resolve().parent.parent / "examples" / "data" / "htrack-fingerfist.txt"
+DATA = example_path("htrack")
 
 
 def motion(n: int) -> np.ndarray:

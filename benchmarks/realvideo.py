@@ -11,11 +11,11 @@ Run: ``.venv/bin/python benchmarks/realvideo.py``
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 import numpy as np
 
 from handvar.camera import Rig
+from handvar.data import example_path
 from handvar.hand import HandModel, named_pose
 from handvar.predictors import RVAR
 from handvar.render import silhouettes
@@ -23,7 +23,7 @@ from handvar.tracking.init import initial_pose
 from handvar.tracking.tracker import Tracker
 from handvar.vision.sources import open_source
 
-VIDEO = Path(__file__).resolve().parents[1] / "examples" / "data" / "dex-human-hand-video.mp4"
+VIDEO = example_path("video")
 
 
 def silhouettes_ms(scale: float, n: int = 60) -> tuple[float, list[np.ndarray]]:

@@ -13,18 +13,17 @@ Run: ``.venv/bin/python benchmarks/vision.py``
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 import cv2
 import numpy as np
 
+from handvar.data import example_path
 from handvar.vision import SkinModel, clean_mask, cut_wrist, silhouettes_from_frames
 from handvar.vision.carry import KeypointCarrier
 from handvar.vision.keypoints import read_keypoints
 
-DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
-VIDEO = DATA / "dex-human-hand-video.mp4"
-KEYPOINTS = DATA / "dex-human-hand-video-keypoints.npy"
+VIDEO = example_path("video")
+KEYPOINTS = example_path("video-keypoints")
 
 
 def carry_ms(scale: float, n: int = 60) -> float:

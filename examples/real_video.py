@@ -8,6 +8,8 @@ distance is only as good as that guess and the model's 185 mm hand length.
 
 Steps:
 
+All of it is one call, `handvar.track` (as ``handvar track`` makes it on a recording):
+
 1. skin-colour silhouettes of every frame at half resolution (``--scale 0.5``), the
    forearm cut at the wrist: at the detected wrist on the frames with keypoints
    (MediaPipe's, shipped as ``dex-human-hand-video-keypoints.npy``; used on every
@@ -21,13 +23,14 @@ Steps:
    refined, and a frame whose fit is lost (silhouette IoU below 0.75, or joints more
    than 0.3 hand sizes from the keypoints) or drifting from its keypoints is searched
    again and the predictor restarted there;
-4. outputs in ``--out``: ``poses.csv`` (T × 26, mm and degrees), ``joints.csv``
-   (T × 63, mm, camera frame), ``quality.csv`` (per frame: IoU, keypoint error, lost,
-   re-initialised) and ``overlay.mp4`` (the model's outline in yellow, its joints and
-   bones, the observed silhouette's outline in light blue, the frame's quality in a
-   line, red when lost); and in ``--images`` two PNG strips for the README: evenly
-   spaced frames (``real-video-strip.png``) and the hard frames ``--hard``
-   (``real-video-hard-frames.png``: the fist, the hand edge-on).
+4. outputs in ``--out`` (`handvar.Track.save`, as ``handvar track --out``):
+   ``poses.csv`` (T × 26, mm and degrees), ``joints.csv`` (T × 63, mm, camera frame),
+   ``quality.csv`` (per frame: IoU, keypoint error, cost, lost, re-initialised, empty,
+   keypoints), ``track.npz``, ``overlay.png`` and ``overlay.mp4`` (the model over the
+   colour frames, the frame's quality in a line, red when lost); and in ``--images``
+   two PNG strips for the README: evenly spaced frames (``real-video-strip.png``) and
+   the hard frames ``--hard`` (``real-video-hard-frames.png``: the fist, the hand
+   edge-on).
 
 Run from the repository root::
 
@@ -38,27 +41,21 @@ Run from the repository root::
 from __future__ import annotations
 
 import argparse
-import os
 import time
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from handvar.hand import HandModel
-from handvar.params import NAMES
-from handvar.predictors import RVAR
+import handvar
+from handvar.data import example_path
 from handvar.render import silhouettes
-from handvar.render.overlay import OverlayWriter, overlay_frame
-from handvar.tracking.costs import CostSettings
-from handvar.tracking.recovery import track_with_recovery
-from handvar.tracking.tracker import Tracker, TrackerSettings
-from handvar.vision.keypoints import read_keypoints
+from handvar.render.overlay import overlay_frame
 from handvar.vision.sources import open_source
 
 ROOT = Path(__file__).resolve().parent.parent
-VIDEO = ROOT / "examples" / "data" / "dex-human-hand-video.mp4"
-KEYPOINTS = ROOT / "examples" / "data" / "dex-human-hand-video-keypoints.npy"
+VIDEO = example_path("video")
+KEYPOINTS = example_path("video-keypoints")
 
 
 def crop_box(masks: list[np.ndarray], pad: int) -> tuple[int, int, int, int]:
@@ -114,13 +111,6 @@ def make_strip(video, hand, poses, picked, *, height: int, captions, lost) -> np
     return np.concatenate(out[:-1], axis=1)
 
 
-def write_csv(path: Path, array: np.ndarray, header: str, fmt: str) -> None:
-    """Write a CSV to a temporary name and rename it into place."""
-    tmp = path.with_name(f".{path.name}.tmp")
-    np.savetxt(tmp, array, delimiter=",", header=header, comments="", fmt=fmt)
-    os.replace(tmp, path)
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--video", type=Path, default=VIDEO)
@@ -142,64 +132,31 @@ def main() -> None:
                         help="frames of the hard-frames strip (comma-separated)")  # fmt: skip
     parser.add_argument("--tile-height", type=int, default=240, help="strip height, pixels")
     args = parser.parse_args()
-    args.out.mkdir(parents=True, exist_ok=True)
     args.images.mkdir(parents=True, exist_ok=True)
 
-    source = open_source(args.video, scale=args.scale)
-    print(source)
-    n = source.n_frames if args.frames is None else min(args.frames, source.n_frames)
-    given = scaled = None
-    with_detection = np.zeros(n, dtype=bool)
-    if args.keypoint_every:
-        given = [read_keypoints(args.keypoints).every(args.keypoint_every)]
-        with_detection = given[0].present[:n].any(axis=1)
-        if args.carry != "none":
-            scaled = source.carried_keypoints(given, stop=n, both=args.carry == "both")[0]
-        else:
-            scaled = source.scaled_keypoints(given)[0]
-    hand = HandModel()
-    rng = np.random.default_rng(args.seed)
-    # a detector's fingertip is compared with the model's fingertip pad (design §14.6)
-    settings = TrackerSettings(cost=CostSettings(keypoint_tips=args.tips))
-    tracker = Tracker(source.rig, hand, RVAR(gamma=0.8, cutoff=8), rng, settings)
-
+    n = open_source(args.video).n_frames
+    n = n if args.frames is None else min(args.frames, n)
     picks = set(np.linspace(0, n - 1, args.strip).round().astype(int).tolist())
     hard = {int(t) for t in args.hard.split(",") if t and int(t) < n}
-    picked: dict[int, np.ndarray] = {}
-    current: dict[str, object] = {}
+    picked: dict[int, np.ndarray] = {}  # the silhouettes fitted in the strips' frames
 
-    def frames():
-        # with keypoints the wrist is cut while tracking (detected, else the model's wrist)
-        for _, images, masks in source.silhouettes(stop=n, wrist=given is None, allow_empty=True):
-            current["images"] = images
-            yield masks
+    def keep(t, pose, quality, masks):
+        if t in picks | hard:
+            picked[t] = masks[0]
 
     clock = time.perf_counter()
-    with OverlayWriter(args.out / "overlay.mp4", source.fps) as video:
-
-        def on_frame(t, pose, quality, masks):
-            if t in picks | hard:
-                picked[t] = masks[0]
-            picture = overlay_frame(current["images"], source.rig, hand, pose, masks)
-            text = f"frame {t}  IoU {quality.iou:.2f}" + ("  LOST" if quality.lost else "")
-            video.write(label(picture, text, alert=quality.lost))
-
-        result = track_with_recovery(
-            tracker, frames(), on_frame=on_frame,
-            keypoints=None if scaled is None else (lambda i: [scaled.frame(i)]),
-            cut_wrist=given is not None,
-        )  # fmt: skip
+    track = handvar.track(
+        args.video, keypoints=args.keypoints if args.keypoint_every else None,
+        keypoint_every=max(args.keypoint_every, 1),
+        carry=args.carry if args.keypoint_every else None, keypoint_tips=args.tips,
+        scale=args.scale, seed=args.seed, frames=args.frames, on_frame=keep, progress=True,
+    )  # fmt: skip
+    written = track.save(args.out)
     seconds = time.perf_counter() - clock
-    print(f"overlay video -> {video.path_written} ({video.n_frames} frames)")
+    print(f"track -> {args.out} ({', '.join(sorted(p for p in written if p != 'video_error'))})")
 
-    poses, q = result.track.poses, result.quality
-    T = len(poses)
-    write_csv(args.out / "poses.csv", poses, ",".join(NAMES), "%.6f")
-    jheader = ",".join(f"j{j}_{c}" for j in range(21) for c in "xyz")
-    write_csv(args.out / "joints.csv", result.track.joints.reshape(T, -1), jheader, "%.4f")
-    table = np.column_stack([np.arange(T), q.iou, q.keypoint_error, q.lost, q.reinit])
-    write_csv(args.out / "quality.csv", table, "frame,iou,keypoint_error,lost,reinit", "%g")
-
+    q, hand = track.quality, track.hand
+    with_detection = np.zeros(n, dtype=bool) if track.detections is None else track.detections
     # PNG strips: the picked frames at full resolution (the same poses drawn through the
     # camera scaled back up), cropped to one box around the hand, one row.
     captions = [
@@ -210,13 +167,14 @@ def main() -> None:
         if not chosen:
             continue
         strip = make_strip(
-            args.video, hand, poses, {t: picked[t] for t in chosen},
+            args.video, hand, track.poses, {t: picked[t] for t in chosen},
             height=args.tile_height, captions=captions, lost=q.lost,
         )  # fmt: skip
         path = args.images / name
         cv2.imwrite(str(path), strip, [cv2.IMWRITE_PNG_COMPRESSION, 9])
         print(f"strip -> {path} ({path.stat().st_size // 1024} KB)")
 
+    T = track.n_frames
     print(f"{T} frames: {q.summary()}; {seconds:.1f} s (silhouettes, tracking, overlays)")
 
 

@@ -4,7 +4,7 @@ Each case of :data:`CASES` runs one command with one wrong input and asserts (de
 design §13.1, §13.4): exit status 2, exactly one line of output starting ``handvar: error:``,
 naming the argument or the user's path (never a temporary), no traceback, no
 temporary left behind, and every file that existed before byte-identical afterwards.
-`benchmarks/bad_inputs.py` runs the same table and prints the count of outcomes.
+`studies/bad_inputs.py` runs the same table and prints the count of outcomes.
 
 Cases that need FFmpeg's own stderr (a damaged video) run in a subprocess, where a C
 library's output on file descriptor 2 is seen.

@@ -7,9 +7,9 @@ import pytest
 from click.testing import CliRunner
 
 from handvar.cli import main, make_predictor
+from handvar.data import example_path
 from handvar.evaluation.openloop import BASELINES, evaluate_open_loop, read_pose_series
 from handvar.predictors import NoMotion, one_step_predictions
-from tests.conftest import EXAMPLES
 
 
 def test_predict_table_on_the_real_recording(tmp_path):
@@ -17,7 +17,7 @@ def test_predict_table_on_the_real_recording(tmp_path):
     result = CliRunner().invoke(
         main,
         [
-            "predict", str(EXAMPLES / "htrack-fingerfist.txt"), "--layout", "htrack",
+            "predict", str(example_path("htrack")), "--layout", "htrack",
             "--reset-at", "4000", "--csv", str(out),
         ],
     )  # fmt: skip
@@ -70,7 +70,7 @@ def test_predict_errors_are_one_line(tmp_path):
 def test_predict_on_real_keypoints(tmp_path):
     # The second real recording: 621 frames of 21 keypoints (metres), wrist-centred.
     out = tmp_path / "kp.csv"
-    path = EXAMPLES / "dex-human-hand-landmarks.npy"
+    path = example_path("video-landmarks")
     result = CliRunner().invoke(
         main, ["predict", str(path), "--layout", "keypoints", "--csv", str(out)]
     )
@@ -101,10 +101,10 @@ def test_predict_league_on_several_recordings_writes_csv_and_figure(tmp_path):
     result = CliRunner().invoke(
         main,
         [
-            "predict", str(EXAMPLES / "dex-human-hand-landmarks.npy") + ":0:300",
-            str(EXAMPLES / "dex-human-hand-landmarks.npy") + ":300:621",
+            "predict", str(example_path("video-landmarks")) + ":0:300",
+            str(example_path("video-landmarks")) + ":300:621",
             "--layout", "keypoints", "--predictor", "bank", "--noise",
-            "--train", str(EXAMPLES / "dex-human-hand-landmarks.npy") + ":0:300",
+            "--train", str(example_path("video-landmarks")) + ":0:300",
             "--csv", str(csv), "--figure", str(png),
         ],
     )  # fmt: skip
@@ -122,7 +122,7 @@ def test_predict_league_on_several_recordings_writes_csv_and_figure(tmp_path):
 
 
 def test_predict_points_and_columns_layouts(tmp_path):
-    D = np.load(EXAMPLES / "dex-human-hand-landmarks.npy")[:200]
+    D = np.load(example_path("video-landmarks"))[:200]
     f = tmp_path / "fourteen.npy"
     np.save(f, D[:, :14])
     result = CliRunner().invoke(main, ["predict", str(f), "--layout", "points"])
@@ -136,7 +136,7 @@ def test_predict_points_and_columns_layouts(tmp_path):
 
 
 def test_predict_bad_paths_fail_before_computing(tmp_path):
-    rec = str(EXAMPLES / "dex-human-hand-landmarks.npy")
+    rec = str(example_path("video-landmarks"))
     for option, name in (("--csv", "x.csv"), ("--figure", "x.png")):
         result = CliRunner().invoke(
             main, ["predict", rec, "--layout", "keypoints", option, str(tmp_path / "no" / name)]

@@ -1,4 +1,4 @@
-"""The layer rules of design §12, executable.
+"""The layer rules of design §12, executable, and a cheap ``import handvar``.
 
 Every module's imports are read with ``ast`` (so an import inside a function counts as
 much as one at the top) and checked against three rules:
@@ -42,13 +42,14 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "handvar"
 
 # design §12, from the bottom.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("validate",),
+    ("validate", "data"),
     ("atomic", "geometry"),
     ("camera", "params"),
     ("hand",),
     ("render", "io"),
     ("synth", "vision", "predictors"),
     ("tracking",),
+    ("pipeline",),  # handvar.track: the whole pipeline, one call
     ("evaluation",),
     ("cli",),
     ("__main__",),  # python -m handvar: the command line, nothing else
@@ -377,3 +378,43 @@ def test_predictors_load_neither_the_hand_model_nor_compiled_geometry():
         m for m in out if m.startswith(("handvar.hand", "handvar.geometry", "handvar.render"))
     ]
     assert loaded == [], loaded
+
+
+def _fresh_modules(code: str) -> list[str]:
+    """The modules loaded by `code` in a fresh interpreter."""
+    code += "\nimport sys\nprint(' '.join(sorted(sys.modules)))\n"
+    return subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout.split()
+
+
+HEAVY = ("numba", "cv2", "dask", "scipy.optimize", "handvar.pipeline", "handvar.tracking")
+
+
+def test_importing_handvar_loads_nothing_heavy():
+    loaded = _fresh_modules("import handvar")
+    assert "handvar" in loaded
+    assert [m for m in loaded if m in HEAVY] == []
+
+
+def test_the_check_sees_a_heavy_import():
+    # the same check, on a name that does load the pipeline, must find it
+    loaded = _fresh_modules("import handvar\nhandvar.track")
+    assert {"cv2", "handvar.pipeline"} <= set(loaded)
+
+
+def test_the_public_names_are_the_library_objects():
+    import handvar
+    from handvar.hand.kinematics import HandModel
+    from handvar.pipeline import Track, track
+    from handvar.predictors import RVAR
+    from handvar.predictors.catalogue import make_predictor
+
+    assert handvar.track is track and handvar.Track is Track
+    assert handvar.HandModel is HandModel and handvar.RVAR is RVAR
+    assert handvar.make_predictor is make_predictor
+    assert set(handvar.__all__) <= set(dir(handvar))
+    for name in handvar.__all__:
+        assert getattr(handvar, name) is not None
+    with pytest.raises(AttributeError, match="nonesuch"):
+        _ = handvar.nonesuch

@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from handvar.data import example_path
 from handvar.evaluation.openloop import (
     BASELINES,
     Recording,
@@ -28,7 +29,6 @@ from handvar.predictors import (
     one_step_predictions,
     second_differences,
 )
-from tests.conftest import EXAMPLES
 
 
 # --- One Euro: against a literal transcription of the CHI 2012 algorithm -------------
@@ -291,8 +291,8 @@ def _bank_rmse(X, truth, resets=(), blocks=None, experts="all"):
 def _shipped_recordings():
     from handvar.synth.motion import htrack_to_handvar
 
-    H = htrack_to_handvar(np.loadtxt(EXAMPLES / "htrack-fingerfist.txt"))
-    D = 1000.0 * np.load(EXAMPLES / "dex-human-hand-landmarks.npy").reshape(621, -1)
+    H = htrack_to_handvar(np.loadtxt(example_path("htrack")))
+    D = 1000.0 * np.load(example_path("video-landmarks")).reshape(621, -1)
     clean = [
         (Recording("htrack 0-3999", H[:4000], "handvar"), hand_groups()),
         (Recording("htrack 4000-5999", H[4000:], "handvar"), hand_groups()),
@@ -344,7 +344,7 @@ def test_bank_never_loses_on_synthetic_families(family):
 
 @pytest.mark.parametrize("keep", [14, 16])
 def test_bank_never_loses_on_points_layouts_from_dex(keep):
-    D = 1000.0 * np.load(EXAMPLES / "dex-human-hand-landmarks.npy")
+    D = 1000.0 * np.load(example_path("video-landmarks"))
     drop = {14: [3, 7, 11, 15, 19, 20, 18], 16: [7, 11, 15, 19, 20]}[keep]
     X = np.delete(D, drop, axis=1).reshape(len(D), -1)
     assert X.shape[1] == 3 * keep
@@ -359,7 +359,7 @@ def test_offline_var_equals_statsmodels_without_ridge():
 
     from handvar.synth.motion import htrack_to_handvar
 
-    H = htrack_to_handvar(np.loadtxt(EXAMPLES / "htrack-fingerfist.txt", max_rows=1500))
+    H = htrack_to_handvar(np.loadtxt(example_path("htrack"), max_rows=1500))
     X = H[:, [3, 4, 5, 14, 15, 16]]
     for order in (1, 3):
         ours = OfflineVAR(order=order, ridge=0.0).fit(X)

@@ -7,14 +7,13 @@ own silhouettes.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import cv2
 import numpy as np
 import pytest
 from click.testing import CliRunner
 
 from handvar.cli import load_pose, main
+from handvar.data import example_path
 from handvar.hand import HandModel
 from handvar.predictors import RVAR
 from handvar.render import silhouettes
@@ -23,7 +22,7 @@ from handvar.tracking.init import initial_pose, silhouette_iou
 from handvar.tracking.tracker import Tracker
 from handvar.vision.sources import open_source
 
-VIDEO = Path(__file__).resolve().parents[1] / "examples" / "data" / "dex-human-hand-video.mp4"
+VIDEO = example_path("video")
 N_FRAMES = 15
 
 

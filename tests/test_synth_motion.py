@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
+from handvar.data import example_path
 from handvar.params import LOWER, NAMES, UPPER, index, within_limits
 from handvar.synth.motion import (
     HTRACK_EXCERPT_FIRST_ROW,
@@ -22,7 +21,7 @@ from handvar.synth.motion import (
     split_at_jumps,
 )
 
-RECORDING = Path(__file__).resolve().parents[1] / "examples" / "data" / "htrack-fingerfist.txt"
+RECORDING = example_path("htrack")
 needs_recording = pytest.mark.skipif(not RECORDING.exists(), reason="examples/data not present")
 
 

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 from click.testing import CliRunner
 
 from handvar.camera import Rig
 from handvar.cli import main
+from handvar.data import example_path
 from handvar.hand import HandModel, named_pose
 from handvar.hand.kinematics import world_from_hand_rotation
 from handvar.render import silhouettes
@@ -22,7 +21,6 @@ from handvar.tracking.keypoint_fit import (
     palm_candidates,
 )
 
-DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
 HAND = HandModel()
 RIG = Rig.default()
 MONO = Rig((RIG.cameras[0],), (RIG.names[0],))
@@ -140,8 +138,8 @@ def test_initial_pose_uses_keypoints_and_falls_back_without_them():
 
 
 def test_init_command_with_keypoints(tmp_path):
-    video = DATA / "dex-human-hand-video.mp4"
-    kp = DATA / "dex-human-hand-video-keypoints.npy"
+    video = example_path("video")
+    kp = example_path("video-keypoints")
     out = tmp_path / "pose.txt"
     res = CliRunner().invoke(
         main,

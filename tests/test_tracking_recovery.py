@@ -8,15 +8,15 @@ detector's keypoints on the frames withheld from the tracker (PCK@0.2, docs/resu
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import cv2
 import numpy as np
 import pytest
 from click.testing import CliRunner
 
+import handvar
 from handvar.camera import Rig
 from handvar.cli import main
+from handvar.data import example_path
 from handvar.hand import HandModel, named_pose
 from handvar.hand.kinematics import POSE_NAMES
 from handvar.params import DIGITS, digit_angles
@@ -39,9 +39,8 @@ from handvar.vision.silhouette import EmptySilhouetteError, silhouettes_from_fra
 from handvar.vision.sources import open_source
 from handvar.vision.wrist import cut_wrist
 
-DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
-VIDEO = DATA / "dex-human-hand-video.mp4"
-KEYPOINTS = DATA / "dex-human-hand-video-keypoints.npy"
+VIDEO = example_path("video")
+KEYPOINTS = example_path("video-keypoints")
 
 
 def projected_keypoints(hand, rig, x):
@@ -286,28 +285,19 @@ def test_an_empty_camera_raises_unless_allowed(tmp_path):
 def track_video(n_frames: int | None, every: int):
     """The track with keypoints on every `every`-th frame, as the CLI tracks a recording.
 
-    Keypoints carried forwards between detections (design §14.5), fingertips at the pads
-    (design §14.6).
+    `handvar.track`'s defaults on a recording: keypoints carried forwards between
+    detections (design §14.5), fingertips at the pads (design §14.6), recovery.
 
-    Returns the recovered track, PCK@0.2 per frame against the detector, and which
-    frames had a detection.
+    Returns the track, PCK@0.2 per frame against the detector, and which frames had a
+    detection.
     """
-    source = open_source(VIDEO, scale=0.5)
-    detected = read_keypoints(KEYPOINTS)
-    given = [detected.every(every)]
-    masks = [m for _, _, m in source.silhouettes(stop=n_frames, wrist=False)]
-    used = source.carried_keypoints(given, stop=n_frames)[0]
-    truth = source.scaled_keypoints([detected])[0]
-    hand = HandModel()
-    settings = TrackerSettings(cost=CostSettings(keypoint_tips="pad"))
-    tracker = Tracker(source.rig, hand, RVAR(), np.random.default_rng(0), settings)
-    result = track_with_recovery(
-        tracker, masks, keypoints=lambda i: [used.frame(i)], cut_wrist=True
+    result = handvar.track(
+        VIDEO, keypoints=KEYPOINTS, keypoint_every=every, scale=0.5, frames=n_frames
     )
-    scores = np.array(
-        [pck(x, hand, source.rig, [truth.frame(t)]) for t, x in enumerate(result.track.poses)]
-    )
-    return result, scores, given[0].present[: len(scores)].any(axis=1)
+    truth = result.source.scaled_keypoints([read_keypoints(KEYPOINTS)])[0]
+    hand, rig = result.hand, result.sequence.rig
+    scores = np.array([pck(x, hand, rig, [truth.frame(t)]) for t, x in enumerate(result.poses)])
+    return result, scores, result.detections
 
 
 def test_the_first_30_frames_hold_with_keypoints_every_5th():

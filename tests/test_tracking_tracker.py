@@ -201,7 +201,7 @@ def test_track_with_keypoints_reports_keypoint_error(first60):
 def test_keypoints_keep_the_thumb_that_silhouettes_lose():
     # the thumb's return (frames 160-174 of the benchmark), tracked from frame 145 with
     # synthetic keypoints (3 px noise, 10 % outliers) and without: silhouettes alone lose
-    # the thumb tip (about 80 mm off), keypoints keep it (benchmarks/keypoints_synthetic.py
+    # the thumb tip (about 80 mm off), keypoints keep it (studies/keypoints_synthetic.py
     # runs the whole sequence, mono and stereo, over ten trials)
     seq = make_sequence("benchmark")
     hand = HandModel()

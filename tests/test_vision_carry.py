@@ -7,20 +7,18 @@ detector on the example video (its keypoints withheld on the frames between).
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import cv2
 import numpy as np
 import pytest
 
+from handvar.data import example_path
 from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
 from handvar.vision.carry import CarrySettings, KeypointCarrier, carry_keypoints
 from handvar.vision.keypoints import Keypoints2D, read_keypoints
 from handvar.vision.sources import open_source
 
-DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
-VIDEO = DATA / "dex-human-hand-video.mp4"
-KEYPOINTS = DATA / "dex-human-hand-video-keypoints.npy"
+VIDEO = example_path("video")
+KEYPOINTS = example_path("video-keypoints")
 
 
 def texture(size: int = 160, seed: int = 0) -> np.ndarray:

@@ -5,13 +5,13 @@ from __future__ import annotations
 import importlib.util
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 from click.testing import CliRunner
 
 from handvar.cli import main
+from handvar.data import example_path
 from handvar.vision.keypoints import (
     KEYPOINT_NAMES,
     Keypoints2D,
@@ -20,10 +20,9 @@ from handvar.vision.keypoints import (
     write_keypoints,
 )
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "data"
-VIDEO = EXAMPLES / "dex-human-hand-video.mp4"
-SHIPPED = EXAMPLES / "dex-human-hand-video-keypoints.npy"
-DATA = EXAMPLES
+VIDEO = example_path("video")
+SHIPPED = example_path("video-keypoints")
+DATA = SHIPPED.parent
 
 
 def random_keypoints(seed: int, T: int = 6, conf: bool = True) -> np.ndarray:

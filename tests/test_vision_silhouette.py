@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import cv2
 import numpy as np
 import pytest
 from scipy import ndimage
 
+from handvar.data import example_path
 from handvar.vision import (
     EmptySilhouetteError,
     HistogramSkinModel,
@@ -22,7 +21,7 @@ from handvar.vision import (
 )
 from handvar.vision.keypoints import read_keypoints
 
-VIDEO = Path(__file__).resolve().parents[1] / "examples" / "data" / "dex-human-hand-video.mp4"
+VIDEO = example_path("video")
 
 
 @pytest.fixture(scope="module")
@@ -296,7 +295,7 @@ BACKGROUND_BOXES = {  # name: (x0, x1, y0, y1), pixels
 }
 
 
-KEYPOINTS = read_keypoints(VIDEO.parent / "dex-human-hand-video-keypoints.npy")
+KEYPOINTS = read_keypoints(example_path("video-keypoints"))
 
 
 def check_video_silhouette(index: int, sil: np.ndarray) -> None:

@@ -63,7 +63,7 @@ from handvar.geometry.distortion import (
 )
 from handvar.validate import as_array, as_float, as_instance, readonly
 
-__all__ = ["Camera", "PackedRig", "Rig"]
+__all__ = ["Camera", "PackedRig", "Rig", "check_in_front"]
 
 
 # --- Camera --------------------------------------------------------------------------
@@ -832,6 +832,20 @@ def _rig_from_cameras(seq, path: Path, size) -> Rig:
         cams.append(_camera_from_node(reader, size, str(path)))
         names.append(reader.string("name") or f"cam{i}")
     return Rig(tuple(cams), tuple(names))
+
+
+def check_in_front(points, rig: Rig, name: str) -> None:
+    """Raise unless every point (N, 3), mm, lies in front of every camera of `rig`.
+
+    The message names `name` (the argument the points came from) and the camera.
+    """
+    for cam_name, cam in zip(rig.names, rig.cameras, strict=True):
+        depth = np.asarray(cam.camera_from_world(points))[:, 2]
+        if not np.all(depth > 1.0):
+            raise ValueError(
+                f"{name}: expected the hand in front of every camera; it is behind or at "
+                f"camera {cam_name!r} (nearest depth {depth.min():.0f} mm)"
+            )
 
 
 def _rig_from_stereo(reader: _NodeReader, size) -> Rig:

@@ -24,12 +24,11 @@ from handvar.cli.experiment import experiment_command, report_command
 from handvar.cli.init import INIT_MIN_IOU, init_command
 from handvar.cli.keypoints import keypoints_command
 from handvar.cli.predict import predict_command
-from handvar.cli.synth import check_in_front, check_limits, load_pose, show_command, synth_command
+from handvar.cli.synth import check_limits, load_pose, show_command, synth_command
 from handvar.cli.track import make_predictor, track_command
 
 __all__ = [
     "INIT_MIN_IOU",
-    "check_in_front",
     "check_limits",
     "experiment_command",
     "init_command",

@@ -38,7 +38,7 @@ def _sequence_frame_masks(path: str, frame: int):
 
 #: Lowest silhouette IoU of the best initial pose that `init` accepts (design §13.4):
 #: good initialisations measure 0.70-0.92 on the example video
-#: (``benchmarks/keypoint_init.py``), a 3x3 blob 0.001.
+#: (``studies/keypoint_init.py``), a 3x3 blob 0.001.
 INIT_MIN_IOU = 0.3
 
 

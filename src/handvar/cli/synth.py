@@ -1,7 +1,7 @@
 """`handvar synth` and `handvar show`: a synthetic sequence, a pose drawn in the rig.
 
-Also how a pose argument is read and checked (`load_pose`, `check_limits`,
-`check_in_front`), for `show POSE` and `track --init`.
+Also how a pose argument is read and checked (`load_pose`, `check_limits`; for the
+camera, `handvar.camera.check_in_front`), for `show POSE` and `track --init`.
 """
 
 from __future__ import annotations
@@ -135,19 +135,6 @@ def check_limits(x, name: str):
     return x
 
 
-def check_in_front(joints, rig, name: str) -> None:
-    """Raise unless every joint (21, 3), mm, lies in front of every camera of `rig`."""
-    import numpy as np
-
-    for cam_name, cam in zip(rig.names, rig.cameras, strict=True):
-        depth = np.asarray(cam.camera_from_world(joints))[:, 2]
-        if not np.all(depth > 1.0):
-            raise ValueError(
-                f"{name}: expected the hand in front of every camera; it is behind or at "
-                f"camera {cam_name!r} (nearest depth {depth.min():.0f} mm)"
-            )
-
-
 @click.command("show")
 @click.argument("pose")
 @click.option(
@@ -197,7 +184,7 @@ def show_command(
     import numpy as np
 
     from handvar.atomic import OutputSet, check_output_file
-    from handvar.camera import Rig
+    from handvar.camera import Rig, check_in_front
     from handvar.hand.anthropometry import HandShape
     from handvar.hand.kinematics import HandModel
     from handvar.render import draw_overlay, render_rgb, side_by_side, silhouettes

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
+
 import click
 
-from handvar.cli.common import _FiniteRange, _one_line_errors, _open_recordings, _recording_options
-from handvar.cli.synth import check_in_front, load_pose
+from handvar.cli.common import _FiniteRange, _one_line_errors, _recording_options
+from handvar.cli.synth import load_pose
 from handvar.predictors.catalogue import CATALOGUE
 
 
@@ -103,182 +105,83 @@ def track_command(
     sequence has ground truth.
     """
 
-    import numpy as np
-    from tqdm import tqdm
-
     from handvar.atomic import check_output_dir
-    from handvar.hand.anthropometry import HandShape
-    from handvar.hand.kinematics import HandModel
-    from handvar.io import read_sequence, resolve_sequence
-    from handvar.synth.sequences import SEQUENCE_NAMES, make_sequence
-    from handvar.tracking import CostSettings, Tracker, TrackerSettings
-    from handvar.tracking.outputs import recording_backgrounds, write_track_outputs
+    from handvar.pipeline import track
 
     check_output_dir(out, "--out")  # before any work
-    spec = resolve_sequence(seq, names=SEQUENCE_NAMES, argument="SEQ")
-    source = None  # a real recording: its colour frames go under the overlays
-    keypoints = _track_keypoints(keypoint_files, spec, keypoint_every)
-    if carry not in (None, "none") and (keypoints is None or spec.kind != "recording"):
-        got = "no --keypoints" if spec.kind == "recording" else f"the {spec.kind} sequence {seq!r}"
-        raise ValueError(
-            f"--carry: expected a recording (a video file or an image folder) with "
-            f"--keypoints for {carry}; got {got}"
-        )
-    if carry is None:
-        carry = "forward" if keypoints is not None and spec.kind == "recording" else "none"
-    detected = keypoints
-    import time
-
-    t_read = time.perf_counter()  # the all-in time: silhouettes, carrying, fit, rules
-    if recover is None:
-        recover = spec.kind == "recording" or keypoints is not None
-    if spec.kind == "recording":  # video files / image folders: see _recording_sequence
-        # With keypoints and recovery the wrist is cut while tracking (at the detected
-        # wrist, else at the tracked model's); otherwise here.
-        source, sequence = _recording_sequence(
-            spec.paths, calib, fov, scale, n_frames, allow_empty=recover,
-            **({"wrist": False} if recover and keypoints is not None else {"keypoints": keypoints}),
+    with _option_names(seq):
+        result = track(
+            seq, keypoints=list(keypoint_files) or None,
+            calib=calib, fov=fov, scale=scale, hand=side, hand_length=hand_length, model=model,
+            predictor=predictor, init=None if init is None else load_pose(init),
+            keypoint_every=keypoint_every, carry=carry, keypoint_tips=keypoint_tips,
+            recover=recover, seed=seed, frames=n_frames, progress=True,
         )  # fmt: skip
-        if carry != "none":
-            keypoints = source.carried_keypoints(keypoints, stop=n_frames, both=carry == "both")
-        elif keypoints is not None:
-            keypoints = source.scaled_keypoints(keypoints)
-    elif calib is not None or fov is not None:
-        raise ValueError("--calib, --fov: expected only with a video or an image folder")
-    elif spec.kind == "directory":
-        sequence = read_sequence(spec.paths[0], lazy=True)
-    else:
-        sequence = make_sequence(spec.name, n_frames=n_frames)
-    if keypoints is not None and len(keypoints) != len(sequence.rig):
-        raise ValueError(
-            f"--keypoints: expected one file per camera ({len(sequence.rig)}); got {len(keypoints)}"
-        )
-    if init is not None:
-        x0 = load_pose(init)
-    elif sequence.truth is not None:
-        x0 = sequence.truth.poses[0]
-    elif recover:
-        x0 = None  # searched in the first frame
-    else:
-        raise ValueError(
-            f"{seq}: the sequence has no ground truth; give the first pose with --init"
-        )
-    if side == "left" and model == "mesh":
-        raise ValueError(
-            "--model: expected spheres for a left hand (the skinned mesh is a right hand); got mesh"
-        )
-    hand = HandModel(HandShape.from_size(hand_length, side=side), surface=model)
-    if x0 is not None:
-        check_in_front(hand.joints(x0), sequence.rig, "--init" if init is not None else seq)
-    if keypoint_tips is None:  # a detector's keypoints on a recording, else G(x) projected
-        keypoint_tips = "pad" if spec.kind == "recording" else "end"
-    settings = TrackerSettings(cost=CostSettings(keypoint_tips=keypoint_tips))
-    tracker = Tracker(
-        sequence.rig, hand, make_predictor(predictor), np.random.default_rng(seed), settings
-    )
-    quality = None
-    if recover:
-        from handvar.tracking.recovery import track_with_recovery
-
-        n = sequence.n_frames if n_frames is None else min(n_frames, sequence.n_frames)
-        frames = tqdm(
-            (np.asarray(sequence.masks[t]) for t in range(n)), total=n,
-            desc=f"tracking {sequence.name}", unit="frame", leave=False,
-        )  # fmt: skip
-        recovered = track_with_recovery(
-            tracker, frames, x0, keypoints=None if keypoints is None else _keypoints_at(keypoints),
-            cut_wrist=source is not None and keypoints is not None,
-        )  # fmt: skip
-        result, quality = recovered.track, recovered.quality
-    else:
-        result = tracker.track(
-            sequence, x0, frames=n_frames, keypoints=keypoints,
-            progress=lambda it: tqdm(it, desc=f"tracking {sequence.name}", unit="frame",
-                                     leave=False),
-        )  # fmt: skip
-    T = result.poses.shape[0]
-    all_in = time.perf_counter() - t_read
-    written = write_track_outputs(
-        out, result, sequence, hand, predictor=predictor, seed=seed, video=video,
-        backgrounds=None if source is None else recording_backgrounds(source), quality=quality,
-    )  # fmt: skip
+    written = result.save(out, video=video)
     if "video_error" in written:
         click.echo(f"handvar: note: no video ({written['video_error']})", err=True)
 
-    fps = T / max(all_in, 1e-9)
+    T, fit = result.n_frames, result.result
+    # all-in: reading the frames, silhouettes, keypoints, fit, recovery and searches
+    fps = T / max(float(sum(result.stage_seconds.values())), 1e-9)
     searches = ""
-    if recover and len(recovered.init_seconds):
-        n_search, s_search = len(recovered.init_seconds), float(recovered.init_seconds.sum())
-        searches = (
-            f", {n_search} re-initialisation{'s' * (n_search != 1)} in {s_search:.1f} s"
-        )
+    if len(result.search_seconds):
+        n_search, s_search = len(result.search_seconds), float(result.search_seconds.sum())
+        searches = f", {n_search} re-initialisation{'s' * (n_search != 1)} in {s_search:.1f} s"
     click.echo(
-        f"{sequence.name}: {T} frames, predictor {predictor}, seed {seed}: "
-        f"{result.iterations.mean():.1f} iterations/frame, {fps:.1f} frames/s all-in "
-        f"(silhouettes, keypoints, fit and recovery){searches} -> {out}"
+        f"{result.name}: {T} frames, predictor {predictor}, seed {seed}: "
+        f"{fit.iterations.mean():.1f} iterations/frame, {fps:.1f} frames/s all-in{searches} "
+        f"-> {out}"
         + (f" (with {written['video'].name})" if "video" in written else "")
     )
-    if quality is not None:
-        with_kp = int(quality.keypoints.sum())
-        text = f"fit quality: {quality.summary()}"
-        if keypoints is not None:
-            text += f"; keypoints on {with_kp} frames"
-        if carry != "none":
-            seen = np.zeros(T, dtype=bool)
-            for k in detected:
-                seen[: min(T, k.n_frames)] |= k.present[:T].any(axis=1)
-            text += f" ({int(seen.sum())} with a detection, the others carried)"
+    if result.quality is not None:
+        text = f"fit quality: {result.quality.summary()}"
+        if result.detections is not None:
+            text += f"; keypoints on {int(result.quality.keypoints.sum())} frames"
+        if result.options["carry"] != "none":
+            text += f" ({int(result.detections.sum())} with a detection, the others carried)"
         click.echo(text)
-        if keypoints is not None:
-            ok, worst, n_rejected = quality.check()
+        if result.detections is not None:
+            ok, worst, n_rejected = result.quality.check()
             click.echo(
                 f"keypoint check: {'holds' if ok else 'FAILS'} (on every frame with "
                 f"keypoints the joints lie within 0.2 hand sizes of at least 98 % of the "
                 f"keypoints kept; worst frame {100 * worst:.1f} %); {n_rejected} "
                 f"keypoints rejected as outliers"
             )
-    if sequence.truth is not None:
+    truth = result.sequence.truth
+    if truth is not None:
         from handvar.evaluation.metrics import mean_joint_error
 
-        err = mean_joint_error(sequence.truth.joints[:T], result.joints)
+        err = mean_joint_error(truth.joints[:T], result.joints)
         click.echo(f"mean joint error: {err.mean():.2f} mm (max {err.max():.2f} mm)")
 
 
-def _recording_sequence(paths, calib, fov, scale, n_frames, **kwargs):
-    """`handvar track` on a recording: the source and its skin-colour silhouettes.
+#: `handvar.track`'s keyword arguments as `handvar track` names them in its messages (those
+#: that the options' own checks leave to `handvar.track`).
+OPTION_NAMES = {
+    "source": "SEQ", "keypoints": "--keypoints", "keypoint_every": "--keypoint-every",
+    "carry": "--carry", "calib": "--calib", "fov": "--fov", "model": "--model",
+    "init": "--init",
+}  # fmt: skip
 
-    `kwargs` go to `VideoSource.silhouettes` (keypoints, allow_empty).
+
+@contextlib.contextmanager
+def _option_names(seq: str):
+    """Errors of `handvar.track` name the command's options instead of its keywords.
+
+    In a message about the keywords (``keypoint_every: expected only with keypoints``)
+    or about SEQ, every keyword standing as a word of its own is replaced; other
+    messages (a file's) are left as they are.
     """
-    from tqdm import tqdm
+    import re
 
-    source = _open_recordings(paths, calib, fov, scale)
-    total = source.n_frames if n_frames is None else min(n_frames, source.n_frames)
-    return source, source.to_sequence(
-        stop=n_frames,
-        progress=lambda it: tqdm(it, total=total, desc="silhouettes", unit="frame", leave=False),
-        **kwargs,
-    )
-
-
-def _track_keypoints(files, spec, every):
-    """`handvar track --keypoints`: per camera a `Keypoints2D` (every `every`-th frame)."""
-    if not files:
-        if every != 1:
-            raise ValueError("--keypoint-every: expected only with --keypoints")
-        return None
-    from handvar.vision.keypoints import read_keypoints
-
-    if spec.kind == "recording" and len(files) != len(spec.paths):
-        raise ValueError(
-            f"--keypoints: expected one file per recording ({len(spec.paths)}); got {len(files)}"
-        )
-    return [read_keypoints(path).every(every) for path in files]
-
-
-def _keypoints_at(keypoints):
-    """Frame i's keypoints of every camera, for `track_with_recovery`."""
-
-    def at(i):
-        return [None if k is None or i >= k.n_frames else k.frame(i) for k in keypoints]
-
-    return at
+    word = re.compile(r"(?<![\w/.\-])(" + "|".join(OPTION_NAMES) + r")(?![\w/.\-])")
+    try:
+        yield
+    except ValueError as exc:
+        message = str(exc)
+        prefix = message.partition(": ")[0]
+        if prefix == seq or all(name in OPTION_NAMES for name in prefix.split(", ")):
+            message = word.sub(lambda m: OPTION_NAMES[m.group(1)], message)
+        raise ValueError(message) from None

@@ -1,4 +1,4 @@
-"""Evaluation measures: those of paper §3.3 (R̃², eq. 18 and 21, the mean joint error) and
+"""Evaluation measures: paper §3.3 (R̃², eq. 18 and 21, the mean joint error) and
 those of a hand-pose benchmark against ground truth (docs/realistic-benchmark.md).
 
 The benchmark's measures take arrays of points, (T, J, 2) pixels or (T, J, 3) mm, with

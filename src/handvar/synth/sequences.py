@@ -369,7 +369,7 @@ _GENERATORS: dict[str, Callable[[int], np.ndarray]] = {
     "flexion": flexion,
     "flip": flip,
 }
-#: Frame rate of each named sequence, frames per second.
+#: Frame rate of each named sequence.
 SEQUENCE_FPS = {
     "benchmark": BenchmarkSettings().fps,
     "flexion": FlexionSettings().fps,

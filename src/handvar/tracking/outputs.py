@@ -121,8 +121,12 @@ def quality_captions(quality) -> list[str]:
     return lines
 
 
-def _check_result(result: TrackResult, sequence: Sequence) -> int:
+def _check_result(result: TrackResult, sequence: Sequence | None) -> int:
     n_frames = result.poses.shape[0]
+    if sequence is None:
+        if n_frames < 1:
+            raise ValueError(f"result: expected at least one tracked frame; got {n_frames}")
+        return n_frames
     if not 1 <= n_frames <= sequence.n_frames:
         raise ValueError(
             f"result: expected 1 to {sequence.n_frames} tracked frames (the sequence's); "
@@ -170,7 +174,7 @@ def overlay_strip(
 def write_track_outputs(
     out_dir: str | os.PathLike,
     result: TrackResult,
-    sequence: Sequence,
+    sequence: Sequence | None,
     hand,
     *,
     predictor: str,
@@ -178,6 +182,8 @@ def write_track_outputs(
     video: bool = True,
     backgrounds: Backgrounds | None = None,
     quality=None,
+    overlays: bool = True,
+    extra: dict[str, np.ndarray] | None = None,
 ) -> dict[str, Path | str]:
     """Write the files of a track (poses, joints, the track, overlays) into `out_dir`.
 
@@ -187,8 +193,8 @@ def write_track_outputs(
         Output folder, created if missing.
     result : TrackResult
         The track of the first T frames of `sequence`.
-    sequence : Sequence
-        The tracked sequence.
+    sequence : Sequence or None
+        The tracked sequence; None only without overlays.
     hand : HandModel
         The model that was tracked.
     predictor : str, keyword-only
@@ -203,6 +209,12 @@ def write_track_outputs(
     quality : TrackQuality, keyword-only, optional
         Per-frame fit quality (`handvar.tracking.recovery`): written to quality.csv and
         track.npz and drawn on the overlay video.
+    overlays : bool, keyword-only
+        Write overlay.png (and, with `video`, the overlay video); without them the
+        frames are not needed and `sequence` may be None.
+    extra : dict of str to ndarray, keyword-only, optional
+        More arrays for track.npz (`handvar.pipeline.Track` keeps its rig, hand shape
+        and options there); a name already taken is refused.
 
     Returns
     -------
@@ -212,18 +224,21 @@ def write_track_outputs(
         ``"video"``: overlay.mp4, or the ``overlay_frames`` folder when the codec is
         missing; ``"video_error"``: why no video was written (str), instead of raising.
     """
+    if overlays and sequence is None:
+        raise ValueError("sequence: expected the tracked sequence for the overlays; got None")
     n_frames = _check_result(result, sequence)
     out = Path(out_dir)
     made = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
-    if backgrounds is None:
+    if backgrounds is None and overlays:
         backgrounds = sequence_backgrounds(sequence)
     written: dict[str, Path | str] = {
         "poses": out / "poses.csv",
         "joints": out / "joints.csv",
         "track": out / "track.npz",
-        "overlay": out / "overlay.png",
     }
+    if overlays:
+        written["overlay"] = out / "overlay.png"
 
     header = ",".join(NAMES)
     jheader = ",".join(f"j{j}_{c}" for j in range(_N_JOINTS) for c in "xyz")
@@ -241,6 +256,11 @@ def write_track_outputs(
             fmt = ["%d", "%.4f", "%.4f", "%.6g", "%d", "%d", "%d", "%d"]
             qheader = "frame," + ",".join(_QUALITY)
             np.savetxt(path, table, delimiter=",", header=qheader, comments="", fmt=fmt)
+
+    taken = sorted(set(extra or ()) & {*arrays, "predictor", "seed"})
+    if taken:
+        raise ValueError(f"extra: expected names not already in track.npz; got {taken}")
+    arrays.update(extra or {})
 
     def write_npz(path: str) -> None:
         with open(path, "wb") as fh:
@@ -260,10 +280,11 @@ def write_track_outputs(
                 p, result.joints.reshape(n_frames, -1), delimiter=",", header=jheader,
                 comments="", fmt="%.4f"))  # fmt: skip
             outputs.add(written["track"], write_npz)
-            outputs.add(written["overlay"], write_png)
+            if overlays:
+                outputs.add(written["overlay"], write_png)
             if quality is not None:
                 outputs.add(written["quality"], write_quality)
-            if video:
+            if video and overlays:
                 _add_video(outputs, out, hand, sequence, result, backgrounds, written, quality)
     except BaseException:
         if made:

@@ -26,7 +26,7 @@ routes that applies:
 
 Each returns a `WristCut` (palm centre and radius, the direction towards the forearm,
 the cut point, the width there); one `WristCutSettings` holds the settings of all three.
-`benchmarks/wrist.py` measures them against the detected wrists of the example video.
+`studies/wrist.py` measures them against the detected wrists of the example video.
 """
 
 from __future__ import annotations

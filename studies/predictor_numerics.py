@@ -1,6 +1,6 @@
 """The predictors' numerics: origin dependence, eq. 27's optimum, the online VAR against lstsq.
 
-Run:  .venv/bin/python benchmarks/predictor_numerics.py
+Run:  .venv/bin/python studies/predictor_numerics.py
 
 Prints, on the shipped htrack recording (examples/data/htrack-fingerfist.txt, converted
 to millimetres and degrees as ``handvar predict --layout htrack`` does):
@@ -22,10 +22,9 @@ Only public names are used, so the same script measures any version of the packa
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
+from handvar.data import example_path
 from handvar.predictors import (
     RVAR,
     VAR,
@@ -37,7 +36,7 @@ from handvar.predictors import (
 )
 from handvar.synth.motion import htrack_to_handvar
 
-DATA = Path(__file__).resolve().parent.parent / "examples" / "data" / "htrack-fingerfist.txt"
+DATA = example_path("htrack")
 EPS = np.finfo(float).eps
 
 

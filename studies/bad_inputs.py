@@ -1,6 +1,6 @@
 """Run the table of bad inputs of tests/test_bad_inputs.py and count the outcomes (design §13.4).
 
-Usage: PYTHONPATH=src python benchmarks/bad_inputs.py [--quick]
+Usage: PYTHONPATH=src python studies/bad_inputs.py [--quick]
 
 Every case runs one command with one wrong input; a clean error is exit status 2, one
 line naming the argument or the user's path, no traceback, no temporary left and every

@@ -18,26 +18,25 @@ digit in its hand sizes (`HandShape.radii`, tip column, over |G_0 − G_9|): a
 correspondence that puts the detected tip at the centre of the model's fingertip pad
 expects an overshoot of one tip radius.
 
-Run: ``PYTHONPATH=src .venv/bin/python benchmarks/fingertips.py`` (``--at 555,565`` also
+Run: ``PYTHONPATH=src .venv/bin/python studies/fingertips.py`` (``--at 555,565`` also
 prints the overshoot of every digit in those frames, straight or not).
 """
 
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import cv2
 import numpy as np
 
+from handvar.data import example_path
 from handvar.hand import HandModel
 from handvar.tracking.keypoint_cost import hand_length
 from handvar.vision.keypoints import read_keypoints
 from handvar.vision.sources import open_source
 
-DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
-VIDEO = DATA / "dex-human-hand-video.mp4"
-KEYPOINTS = DATA / "dex-human-hand-video-keypoints.npy"
+VIDEO = example_path("video")
+KEYPOINTS = example_path("video-keypoints")
 TIP, DIP = [4, 8, 12, 16, 20], [3, 7, 11, 15, 19]
 PIP, MCP = [2, 6, 10, 14, 18], [1, 5, 9, 13, 17]
 DIGITS = ("thumb", "index", "middle", "ring", "little")

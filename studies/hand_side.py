@@ -10,11 +10,12 @@ right hand seen from the back projects like a left hand seen from the front), so
 check is in 3D: the mean distance of the 21 joints, relative to the wrist, between each
 track of the mirrored video (mirrored back) and the track of the original.
 
-Each track is `handvar track`'s on a recording: half resolution, RVAR, seed 0, keypoints
-on every 5th frame carried between (design §14.5), fingertips at the pads (design §14.6), recovery.
+Each track is `handvar.track`'s on a recording (as `handvar track`'s): half resolution,
+RVAR, seed 0, keypoints on every 5th frame carried between (design §14.5), fingertips at the
+pads (design §14.6), recovery.
 The mirrored video is written as Motion-JPEG at quality 100 into a temporary folder.
 
-Run: ``PYTHONPATH=src .venv/bin/python benchmarks/hand_side.py`` (``--frames N`` for the
+Run: ``PYTHONPATH=src .venv/bin/python studies/hand_side.py`` (``--frames N`` for the
 first N frames only).
 """
 
@@ -27,18 +28,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from handvar.hand import HandModel
-from handvar.hand.anthropometry import HandShape
-from handvar.predictors.catalogue import make_predictor
-from handvar.tracking.costs import CostSettings
-from handvar.tracking.recovery import track_with_recovery
-from handvar.tracking.tracker import Tracker, TrackerSettings
+import handvar
+from handvar.data import example_path
 from handvar.vision.keypoints import Keypoints2D, read_keypoints
-from handvar.vision.sources import open_source
 
-DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
-VIDEO = DATA / "dex-human-hand-video.mp4"
-KEYPOINTS = DATA / "dex-human-hand-video-keypoints.npy"
+VIDEO = example_path("video")
+KEYPOINTS = example_path("video-keypoints")
 
 
 def mirror(folder: Path, frames: int | None) -> tuple[Path, Keypoints2D]:
@@ -64,19 +59,12 @@ def mirror(folder: Path, frames: int | None) -> tuple[Path, Keypoints2D]:
     return path, Keypoints2D.from_array(detected)
 
 
-def track(video: Path, keypoints: Keypoints2D, side: str, frames: int | None):
+def track_side(video: Path, keypoints: Keypoints2D, side: str, frames: int | None):
     """Joints (T, 21, 3) and `TrackQuality` of `handvar track`'s run on a recording."""
-    source = open_source(video, scale=0.5)
-    n = source.n_frames if frames is None else min(frames, source.n_frames)
-    used = source.carried_keypoints([keypoints.every(5)], stop=n)[0]
-    masks = [m for _, _, m in source.silhouettes(stop=n, wrist=False, allow_empty=True)]
-    hand = HandModel(HandShape.from_size(185.0, side=side))
-    settings = TrackerSettings(cost=CostSettings(keypoint_tips="pad"))
-    tracker = Tracker(source.rig, hand, make_predictor("rvar"), np.random.default_rng(0), settings)
-    result = track_with_recovery(
-        tracker, masks, keypoints=lambda i: [used.frame(i)], cut_wrist=True
+    result = handvar.track(
+        video, keypoints=keypoints, keypoint_every=5, hand=side, scale=0.5, frames=frames
     )
-    return result.track.joints, result.quality
+    return result.joints, result.quality
 
 
 def relative_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -89,12 +77,12 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=None, help="only the first N frames")
     args = parser.parse_args()
     flip = np.array([-1.0, 1.0, 1.0])
-    original, q = track(VIDEO, read_keypoints(KEYPOINTS), "right", args.frames)
+    original, q = track_side(VIDEO, read_keypoints(KEYPOINTS), "right", args.frames)
     print(f"original video, right hand model: {q.summary()}")
     with tempfile.TemporaryDirectory() as folder:
         video, keypoints = mirror(Path(folder), args.frames)
         for side in ("left", "right"):
-            joints, q = track(video, keypoints, side, args.frames)
+            joints, q = track_side(video, keypoints, side, args.frames)
             d = relative_distance(joints * flip, original)
             print(
                 f"mirrored video, {side} hand model: {q.summary()}; joints relative to the "

@@ -13,7 +13,7 @@ Every variant is also one command, printed in the table, e.g.::
         --set sequence.model=mesh
     handvar report STORES/bench-mesh.zarr --out docs/results/mismatch/bench-mesh
 
-Usage: ``python benchmarks/mismatch.py [--stores DIR] [--no-run] [--only NAME ...]``
+Usage: ``python studies/mismatch.py [--stores DIR] [--no-run] [--only NAME ...]``
 """
 
 from __future__ import annotations

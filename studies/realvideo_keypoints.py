@@ -3,8 +3,8 @@
 The video ``examples/data/dex-human-hand-video.mp4`` (621 frames, monocular, assumed
 camera) and its MediaPipe keypoints ``examples/data/dex-human-hand-video-keypoints.npy``
 (every frame).  For keypoints on every 5th frame, every 10th frame and none, the track
-(`handvar.tracking.recovery.track_with_recovery`, RVAR predictor, seed 0, the first pose
-searched in frame 0) is scored against the detector's keypoints of *every* frame.  The
+(`handvar.track`, as ``handvar track`` makes it: RVAR predictor, seed 0, the first pose
+searched in frame 0, recovery) is scored against the detector's keypoints of *every* frame.  The
 frames between detections get the detected points carried there by optical flow
 (`handvar.vision.carry`, design §14.5), as `handvar track` does; the detector's own keypoints of
 those frames are withheld from the tracker.  Printed:
@@ -17,7 +17,7 @@ those frames are withheld from the tracker.  Printed:
 - ms per frame: tracking with its quality checks and re-initialisations (not the
   silhouettes, which are timed apart).
 
-Run: ``PYTHONPATH=src .venv/bin/python benchmarks/realvideo_keypoints.py``
+Run: ``PYTHONPATH=src .venv/bin/python studies/realvideo_keypoints.py``
 (``--every 5`` for one setting; ``--frames N`` for the first N frames only; ``--seed S``
 for the optimiser's seed; ``--carry both`` to carry each detection backwards too,
 ``--carry none`` to leave the frames between detections without keypoints; ``--probe
@@ -34,31 +34,21 @@ from __future__ import annotations
 
 import argparse
 import math
-import time
-from pathlib import Path
 
 import numpy as np
 
-from handvar.hand import HandModel
-from handvar.hand.anthropometry import MIDDLE_MCP, WRIST, HandShape
+import handvar
+from handvar.data import example_path
+from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
 from handvar.predictors import NoMotion
-from handvar.predictors.catalogue import make_predictor
 from handvar.tracking.costs import CostSettings
-from handvar.tracking.recovery import (
-    RECOVERY_DEFAULTS,
-    RecoverySettings,
-    joint_distances,
-    pck,
-    track_with_recovery,
-)
+from handvar.tracking.recovery import RECOVERY_DEFAULTS, RecoverySettings, joint_distances, pck
 from handvar.tracking.smd import SMDSettings
 from handvar.tracking.tracker import Tracker, TrackerSettings
 from handvar.vision.keypoints import read_keypoints
-from handvar.vision.sources import open_source
 
-DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
-VIDEO = DATA / "dex-human-hand-video.mp4"
-KEYPOINTS = DATA / "dex-human-hand-video-keypoints.npy"
+VIDEO = example_path("video")
+KEYPOINTS = example_path("video-keypoints")
 
 
 def run(
@@ -80,26 +70,30 @@ def run(
     `probe`, the tracked fit is also refitted (`refit`); with `breakdown`, every frame's
     misfit is split by `misfit`.
     """
-    source = open_source(VIDEO, scale=scale)
     detected = read_keypoints(KEYPOINTS)
-    given = [detected.every(every)] if every else None
-    n = source.n_frames if frames is None else min(frames, source.n_frames)
-    t0 = time.perf_counter()
-    # with keypoints the wrist is cut while tracking (detected, else the model's wrist)
-    frames = source.silhouettes(stop=n, wrist=not every, allow_empty=True)
-    masks = [m for _, _, m in frames]
-    sil_ms = 1e3 * (time.perf_counter() - t0) / len(masks)
-    n = len(masks)
-    truth = source.scaled_keypoints([detected])[0]
-    used = source.scaled_keypoints(given)[0] if every else None
-    carry_ms = 0.0
-    if every and carry != "none":
-        t0 = time.perf_counter()
-        used = source.carried_keypoints(given, stop=n, both=carry == "both")[0]
-        carry_ms = 1e3 * (time.perf_counter() - t0) / n  # frames read again, and the flow
-    with_detection = np.zeros(n, dtype=bool)  # frames whose detections the tracker was given
-    if every:
-        with_detection = given[0].present[:n].any(axis=1)
+    tracked = {}  # the silhouettes fitted in the probed frames (cut while tracking)
+    fitted = {}  # with `breakdown`: every frame's fitted pose and silhouette of camera 0
+
+    def keep(i, pose, quality, m):
+        if i in probe:
+            tracked[i] = m
+        if breakdown and m[0].any() and np.all(np.isfinite(pose)):
+            fitted[i] = (pose, m[0])
+
+    result = handvar.track(
+        VIDEO, keypoints=KEYPOINTS if every else None, keypoint_every=max(every, 1),
+        carry=carry if every else None, keypoint_tips=tips, scale=scale,
+        hand_length=hand_length, seed=seed, frames=frames, recovery=settings, on_frame=keep,
+    )  # fmt: skip
+    n = result.n_frames
+    sil_ms = 1e3 * result.stage_seconds["silhouettes"] / n
+    carry_ms = 1e3 * result.stage_seconds["keypoints"] / n if every and carry != "none" else 0.0
+    track_ms = 1e3 * result.stage_seconds["tracking"] / n
+    hand, rig = result.hand, result.sequence.rig  # the tracked model, the tracked frames' rig
+    truth = result.source.scaled_keypoints([detected])[0]
+    used = None if result.keypoints is None else result.keypoints[0]
+    # frames whose detections the tracker was given
+    with_detection = np.zeros(n, dtype=bool) if result.detections is None else result.detections
     carried_error = carried_kept = math.nan
     if every and carry != "none":  # the carried points against the withheld detections
         t = np.flatnonzero(~with_detection & truth.present[:n].any(axis=1))
@@ -110,42 +104,17 @@ def run(
         carried_kept = float(both.sum() / truth.present[t].sum())
     # frames between detections that the carrying reached with no point left
     bare = np.flatnonzero(~with_detection & ~used.present[:n].any(axis=1)) if every else []
-    hand = HandModel(HandShape.from_size(hand_length))
-    tracker_settings = TrackerSettings(cost=CostSettings(keypoint_tips=tips))
-    tracker = Tracker(
-        source.rig, hand, make_predictor("rvar"), np.random.default_rng(seed), tracker_settings
-    )
-    tracked = {}  # the silhouettes fitted in the probed frames (cut while tracking)
-    parts = {}  # frame: `misfit` of the fit
-
-    def keep(i, pose, quality, m):
-        if i in probe:
-            tracked[i] = m
-        if breakdown and m[0].any() and np.all(np.isfinite(pose)):
-            parts[i] = misfit(pose, m[0], hand, source.rig)
-
-    t0 = time.perf_counter()
-    result = track_with_recovery(
-        tracker,
-        masks,
-        keypoints=None if used is None else (lambda i: [used.frame(i)]),
-        cut_wrist=bool(every),
-        on_frame=keep,
-        settings=settings,
-    )
-    track_ms = 1e3 * (time.perf_counter() - t0) / n
+    parts = {i: misfit(pose, m, hand, rig) for i, (pose, m) in fitted.items()}
     q = result.quality
-    scores = np.array(
-        [pck(result.track.poses[t], hand, source.rig, [truth.frame(t)]) for t in range(n)]
-    )
+    scores = np.array([pck(result.poses[t], hand, rig, [truth.frame(t)]) for t in range(n)])
     withheld = ~with_detection
     points = {  # the tracked fit's distance to each detected point, hand sizes
-        t: joint_distances(result.track.poses[t], hand, source.rig, [truth.frame(t)], tips=tips)[0]
+        t: joint_distances(result.poses[t], hand, rig, [truth.frame(t)], tips=tips)[0]
         for t in probe
         if t < n
     }
     probes = {
-        t: refit(result.track.poses[t], tracked[t], hand, source.rig, truth.frame(t), tips=tips)
+        t: refit(result.poses[t], tracked[t], hand, rig, truth.frame(t), tips=tips)
         for t in probe
         if t in tracked
     }
@@ -171,7 +140,7 @@ def run(
         "reinit": int(q.reinit.sum()),
         "reinit_frames": np.flatnonzero(q.reinit).tolist(),
         "empty": int(q.empty.sum()),
-        "iterations": float(result.track.iterations.mean()),
+        "iterations": float(result.result.iterations.mean()),
         "track_ms": track_ms,
         "silhouette_ms": sil_ms,
         "carry_ms": carry_ms,

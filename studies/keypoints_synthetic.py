@@ -12,7 +12,7 @@ design §14.2); ``--refine steps=0`` tracks without the refinement, ``--refine
 FIELD=VALUE,...`` sets other `RefineSettings` fields; ``--weight``, ``--huber``,
 ``--loss`` and ``--stop`` set SMD's keypoint term and stopping test.
 
-    python benchmarks/keypoints_synthetic.py [--trials 10] [--predictor rvar] [--rigs mono,stereo]
+    python studies/keypoints_synthetic.py [--trials 10] [--predictor rvar] [--rigs mono,stereo]
                                              [--frames T] [--refine steps=0]
 """
 

@@ -12,18 +12,18 @@ keypoint error (hand sizes) for:
 - the example video (monocular, scale 0.5) tracked with its MediaPipe keypoints from
   the keypoint initial pose (with ``--video``).
 
-    python benchmarks/fit_quality.py [--frames 175] [--video] [--video-frames 621]
+    python studies/fit_quality.py [--frames 175] [--video] [--video-frames 621]
 """
 
 from __future__ import annotations
 
 import argparse
 import warnings
-from pathlib import Path
 
 import numpy as np
 
 from handvar.camera import Rig
+from handvar.data import example_path
 from handvar.hand import HandModel
 from handvar.predictors import RVAR, NoMotion
 from handvar.render import silhouettes
@@ -31,7 +31,6 @@ from handvar.synth import make_sequence, synthetic_keypoints
 from handvar.synth.sequences import benchmark
 from handvar.tracking import Tracker
 
-DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
 Q = (0, 1, 5, 50, 95, 99, 100)
 
 
@@ -119,8 +118,8 @@ def video(n: int) -> None:
 
     scale = 0.5
     hand = HandModel()
-    source = open_source(DATA / "dex-human-hand-video.mp4", scale=scale)
-    kp = read_keypoints(DATA / "dex-human-hand-video-keypoints.npy").scaled(scale, (1280, 720))
+    source = open_source(example_path("video"), scale=scale)
+    kp = read_keypoints(example_path("video-keypoints")).scaled(scale, (1280, 720))
     tracker = Tracker(source.rig, hand, RVAR(), np.random.default_rng(0))
     rows = []
     with warnings.catch_warnings():

@@ -7,17 +7,17 @@ cut at the detected wrist, else by the forearm heuristic).  Prints the
 silhouette IoU, the mean distance of the 21 projected joints to the keypoints (pixels
 and hand sizes: the keypoints' wrist → middle-MCP distance) and the seconds taken.
 
-Run: ``PYTHONPATH=src .venv/bin/python benchmarks/keypoint_init.py [--scale 0.5]``
+Run: ``PYTHONPATH=src .venv/bin/python studies/keypoint_init.py [--scale 0.5]``
 """
 
 from __future__ import annotations
 
 import argparse
 import time
-from pathlib import Path
 
 import numpy as np
 
+from handvar.data import example_path
 from handvar.hand import HandModel
 from handvar.tracking.init import initial_pose
 from handvar.tracking.keypoint_fit import keypoint_error
@@ -25,9 +25,8 @@ from handvar.vision.keypoints import read_keypoints
 from handvar.vision.sources import open_source
 from handvar.vision.wrist import cut_wrist
 
-DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
-VIDEO = DATA / "dex-human-hand-video.mp4"
-KEYPOINTS = DATA / "dex-human-hand-video-keypoints.npy"
+VIDEO = example_path("video")
+KEYPOINTS = example_path("video-keypoints")
 FRAMES = (0, 100, 262, 510, 560)
 
 

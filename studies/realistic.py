@@ -30,7 +30,7 @@ The scored points are the detector's (G(x) with the fingertips at the pad centre
 design §14.6) for the truth, the raw keypoints and the fit (its poses through a hand
 model of the length and side the commands were given).
 
-Run: ``PYTHONPATH=src .venv/bin/python benchmarks/realistic.py`` (about 5–10 minutes on
+Run: ``PYTHONPATH=src .venv/bin/python studies/realistic.py`` (about 5–10 minutes on
 two cores); ``--quick`` for a one-minute subset; ``--out DIR`` keeps the generated cases
 (and the fits) in DIR; ``--cases`` to run only the cases whose name contains a string.
 """

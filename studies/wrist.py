@@ -9,23 +9,22 @@ the distance from the cut line to the detected wrist in hand sizes (the detected
 → middle-MCP distance): median, 90th percentile, share of frames within 0.25, and how
 many frames got no cut.  A cut on the forearm side of the wrist is positive.
 
-Run: ``PYTHONPATH=src .venv/bin/python benchmarks/wrist.py [--scale 0.5] [--step 1]``
+Run: ``PYTHONPATH=src .venv/bin/python studies/wrist.py [--scale 0.5] [--step 1]``
 """
 
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import numpy as np
 
+from handvar.data import example_path
 from handvar.vision.keypoints import read_keypoints
 from handvar.vision.sources import open_source
 from handvar.vision.wrist import forearm_wrist, palm_wrist, wrist_from_keypoints
 
-DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
-VIDEO = DATA / "dex-human-hand-video.mp4"
-KEYPOINTS = DATA / "dex-human-hand-video-keypoints.npy"
+VIDEO = example_path("video")
+KEYPOINTS = example_path("video-keypoints")
 GROUPS = {"all": (0, 621), "fist 255-280": (255, 281), "edge-on 459-620": (459, 621)}
 
 

@@ -10,7 +10,7 @@ to the truth, mm, and the silhouette IoU, without and with; then how many cases 
 farther from the truth with re-seeding, and the time of `digit_reseeds` (the starts
 rendered and scored) per call.
 
-Run: ``PYTHONPATH=src .venv/bin/python benchmarks/digit_reseeds.py``
+Run: ``PYTHONPATH=src .venv/bin/python studies/digit_reseeds.py``
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The adaptive bank steering the tracker: its weights, open loop vs closed loop (design §16).
 
-Run:  .venv/bin/python benchmarks/bank_closed_loop.py [--store STORE] [--trials N]
+Run:  .venv/bin/python studies/bank_closed_loop.py [--store STORE] [--trials N]
 
 On the 175-frame benchmark sequence (taken from an experiment store, or rendered),
 prints
