@@ -434,6 +434,10 @@ def track(
 
     opened, full_rig, used = None, None, detected  # the recording; its rig; the keypoints
     stage_seconds = {}
+    # A recording with keypoints and recovery is tracked online: each frame read once,
+    # its keypoints carried forward, its silhouette computed only if the frame needs it.
+    online = recording and detected is not None and recover and carry != "both"
+    stream = None
     if recording:
         from handvar.vision.sources import open_source
 
@@ -441,6 +445,22 @@ def track(
         full_rig = opened.rig if scale == 1.0 else open_source(list(spec.paths), calib, fov=fov).rig
         total = opened.n_frames if frames is None else min(frames, opened.n_frames)
         clock = time.perf_counter()
+    if online:
+        from handvar.io import Sequence
+
+        if len(detected) != opened.n_cameras:
+            raise ValueError(
+                f"keypoints: expected one file per camera ({opened.n_cameras}); got {len(detected)}"
+            )
+        stream = opened.online(detected, stop=frames, carry=carry == "forward")
+        sequence = Sequence(
+            name=Path(opened.readers[0].path).stem, fps=opened.fps, rig=opened.rig,
+            masks=opened.lazy_masks(total),
+            provenance={"source": [str(r.path) for r in opened.readers], "scale": scale,
+                        "calibrated": opened.calibrated},
+        )  # fmt: skip
+        used = None
+    elif recording:
         # With keypoints and recovery the wrist is cut while tracking (at the detected
         # wrist, else at the tracked model's); otherwise here.
         sequence = opened.to_sequence(
@@ -490,17 +510,26 @@ def track(
         from handvar.tracking.recovery import track_with_recovery
 
         n = sequence.n_frames if frames is None else min(frames, sequence.n_frames)
-        masks = (np.asarray(sequence.masks[t]) for t in range(n))
+        if stream is not None:
+            given: list = []
+            masks = _online_masks(stream, given)
+            at = given.__getitem__
+        else:
+            masks = (np.asarray(sequence.masks[t]) for t in range(n))
+            at = None if used is None else _keypoints_at(used)
         if bar is not None:
             masks = bar(f"tracking {sequence.name}", n)(masks)
         extra = {} if recovery is None else {"settings": recovery}
         if on_frame is not None:
             extra["on_frame"] = on_frame
         recovered = track_with_recovery(
-            tracker, masks, x0, keypoints=None if used is None else _keypoints_at(used),
+            tracker, masks, x0, keypoints=at,
             cut_wrist=opened is not None and detected is not None, **extra,
         )  # fmt: skip
         result, quality = recovered.track, recovered.quality
+        hand_model = tracker.hand  # the shape adapted to the first frames
+        if stream is not None:
+            used = _as_keypoints(given, len(sequence.rig))
         search_seconds = np.asarray(recovered.init_seconds, dtype=float)
     else:
         result = tracker.track(
@@ -591,6 +620,30 @@ def _first_pose(init, sequence, recover: bool, label: str) -> np.ndarray | None:
     if recover:
         return None  # searched in the first frame
     raise ValueError(f"{label}: the sequence has no ground truth; give the first pose with init")
+
+
+def _online_masks(stream, given: list):
+    """The masks callables of `VideoSource.online`'s frames; each frame's keypoints are
+    appended to `given` before its masks are yielded (`track_with_recovery` asks for
+    frame i's keypoints after taking its masks)."""
+    for _, masks, kps in stream:
+        given.append(None if all(k is None for k in kps) else kps)
+        yield masks
+
+
+def _as_keypoints(given: list, n_cams: int) -> list:
+    """The keypoints given frame by frame, as one `Keypoints2D` per camera."""
+    from handvar.vision.keypoints import Keypoints2D
+
+    out = []
+    for j in range(n_cams):
+        a = np.full((len(given), 21, 3), np.nan)
+        a[:, :, 2] = 0.0
+        for t, kps in enumerate(given):
+            if kps is not None and kps[j] is not None:
+                a[t] = kps[j]
+        out.append(Keypoints2D.from_array(a, name=f"camera {j}"))
+    return out
 
 
 def _keypoints_at(keypoints):

@@ -395,6 +395,7 @@ class Recovery:
         self.init_seconds: list[float] = []
         self._refiner: Tracker | None = None
         self._shape_frames: list | None = [] if settings.shape is not None else None
+        self.shape_seconds = 0.0  # the shape fit's time, within its frame's
 
     # -- one frame ------------------------------------------------------------------
 
@@ -515,7 +516,7 @@ class Recovery:
         self.tracker.reset(fit.poses[-1])
         self.previous = fit.poses[-1]
         self.scale = PriorScale()
-        self.init_seconds.append(time.perf_counter() - t0)
+        self.shape_seconds = time.perf_counter() - t0
 
     def no_hand(self, masks) -> bool:
         """Rule 3: no silhouette, or none where the predicted hand would be."""

@@ -361,6 +361,76 @@ class VideoSource:
             for j, k in enumerate(scaled)
         ]
 
+    def online(self, keypoints, stop: int | None = None, *, carry: bool = True,
+               settings=None, model=None):  # fmt: skip
+        """The recording frame by frame for a track with keypoints, nothing computed ahead.
+
+        Yields, per frame, its index, a callable that computes the frame's silhouettes
+        (skin mask and `clean_mask`, no wrist cut; empty where no skin) only when
+        called, once, and the keypoints of every camera: the detection, else with
+        `carry` the last detection carried forward by optical flow
+        (`handvar.vision.carry.KeypointCarrier`, design §14.5), else None.  A frame
+        with keypoints then costs no silhouette when the tracker does not ask for it.
+
+        Parameters
+        ----------
+        keypoints : sequence of Keypoints2D or None
+            Per camera, the detections in the pixels of the recording (full resolution).
+        stop : int, optional
+            Frames 0 to ``stop - 1`` only.
+        carry : bool, keyword-only
+            Carry the detections forward between them.
+        settings : handvar.vision.carry.CarrySettings, keyword-only, optional
+        model : SkinModel or HistogramSkinModel, keyword-only, optional
+            Skin classifier; one `SkinModel()` for the whole run by default.
+
+        Yields
+        ------
+        index : int
+        masks : callable
+            ``masks()`` → (n_cams, H, W) bool.
+        keypoints : list of (21, 3) ndarray or None
+            Per camera, in the delivered (scaled) frames' pixels.
+        """
+        from handvar.vision.carry import CARRY_SETTINGS, KeypointCarrier
+        from handvar.vision.skin import SkinModel
+
+        scaled = self.scaled_keypoints(keypoints)
+        model = SkinModel() if model is None else model
+        settings = CARRY_SETTINGS if settings is None else settings
+        carriers = [KeypointCarrier(settings) if carry else None for _ in range(self.n_cameras)]
+        for index, images in self.frames(0, stop):
+            kps = []
+            for j, image in enumerate(images):
+                k = scaled[j] if scaled is not None else None
+                det = k.frame(index) if k is not None and index < k.n_frames else None
+                if det is not None and not (det[:, 2] > 0).any():
+                    det = None
+                if carriers[j] is not None and k is not None:
+                    det = carriers[j].step(image, det)
+                kps.append(det)
+            yield index, _OnceMasks(self, images, index, model), kps
+
+    def lazy_masks(self, stop: int | None = None, model=None):
+        """The silhouettes of frames 0 to ``stop - 1`` as a `handvar.io.FrameStack` whose
+        frames are computed when indexed (for a `Sequence` whose masks are needed only
+        for a few frames, e.g. the overlays of a track made `online`)."""
+        from handvar.io import FrameStack
+
+        n = self.n_frames if stop is None else min(int(stop), self.n_frames)
+        source = self
+
+        class _Silhouettes(FrameStack):
+            def frame(self, t: int) -> np.ndarray:
+                if not -n <= t < n:
+                    raise IndexError(f"t: expected a frame index in [0, {n}); got {t}")
+                t = t % n
+                index, images = next(source.frames(t, t + 1))
+                return _OnceMasks(source, images, index, model)()
+
+        w, h = self.image_size
+        return _Silhouettes(np.full((n, self.n_cameras), "", dtype=object), "mask", (w, h))
+
     def to_sequence(
         self,
         start: int = 0,
@@ -510,3 +580,29 @@ def open_source(
         fps = next((r.fps for r in readers if r.fps), SOURCE_SETTINGS.fps)
     fps = as_float(fps, "fps", minimum=0.0, exclusive_minimum=True)
     return VideoSource(readers, rig, fps, scale, calibrated)
+
+
+class _OnceMasks:
+    """One frame's silhouettes, computed on the first call (`VideoSource.online`)."""
+
+    def __init__(self, source, images, index, model) -> None:
+        self.source, self.images, self.index, self.model = source, images, index, model
+        self._masks = None
+
+    def __call__(self) -> np.ndarray:
+        if self._masks is None:
+            from handvar.vision.silhouette import EmptySilhouetteError, silhouettes_from_frames
+            from handvar.vision.skin import SkinModel
+
+            model = SkinModel() if self.model is None else self.model
+            masks = []
+            for j, image in enumerate(self.images):
+                try:
+                    masks += silhouettes_from_frames(
+                        [image], model, wrist=False, frame=self.index,
+                        cameras=[self.source.names[j]],
+                    )  # fmt: skip
+                except EmptySilhouetteError:
+                    masks.append(np.zeros(image.shape[:2], dtype=bool))
+            self._masks = np.stack(masks)
+        return self._masks
