@@ -294,7 +294,9 @@ class Track:
                 columns[f"{joint}_{c}"] = self.joints[:, j, i]
         if self.quality is not None:
             for f in dataclasses.fields(self.quality):
-                columns[f.name] = np.asarray(getattr(self.quality, f.name))[:T]
+                value = np.asarray(getattr(self.quality, f.name))
+                if value.ndim == 1:  # per frame (the per-keypoint distances are not)
+                    columns[f.name] = value[:T]
         return pd.DataFrame(columns, index=pd.RangeIndex(T, name="frame"))
 
 
@@ -398,7 +400,7 @@ def track(
         frames = as_int(frames, "frames", minimum=1)
     scale = as_float(scale, "scale", minimum=0.0, exclusive_minimum=True)
     hand_length = as_float(hand_length, "hand_length", minimum=0.0, exclusive_minimum=True)
-    one_of(hand, SIDES, "hand")
+    one_of(hand, (*SIDES, "auto"), "hand")
     one_of(model, MODELS, "model")
     if carry is not None:
         one_of(carry, CARRY, "carry")
@@ -433,6 +435,12 @@ def track(
     bar = _progress_bar if progress else None
 
     opened, full_rig, used = None, None, detected  # the recording; its rig; the keypoints
+    outside = 0  # keypoints dropped as lying outside the frames
+    if hand == "auto" and (detected is None or not recording):
+        raise ValueError(
+            "hand: auto expected a recording with keypoints with handedness; got "
+            + ("no keypoints" if detected is None else f"the {spec.kind} sequence {label!r}")
+        )
     stage_seconds = {}
     # A recording with keypoints and recovery is tracked online: each frame read once,
     # its keypoints carried forward, its silhouette computed only if the frame needs it.
@@ -445,6 +453,13 @@ def track(
         full_rig = opened.rig if scale == 1.0 else open_source(list(spec.paths), calib, fov=fov).rig
         total = opened.n_frames if frames is None else min(frames, opened.n_frames)
         clock = time.perf_counter()
+        if detected is not None:
+            from handvar.vision.keypoints import check_keypoints
+
+            detected, hand, dropped = check_keypoints(
+                detected, opened.n_frames, [r.size for r in opened.readers], hand
+            )
+            outside = dropped
     if online:
         from handvar.io import Sequence
 
@@ -539,7 +554,11 @@ def track(
     stage_seconds["tracking"] = time.perf_counter() - clock
     T = result.poses.shape[0]
     points = result.joints.reshape(-1, 3)
-    projected = np.stack([cam.project(points).reshape(T, -1, 2) for cam in full_rig.cameras])
+    finite = np.isfinite(points).all(axis=1)  # no pose before the hand is first seen
+    projected = np.full((len(full_rig), len(points), 2), np.nan)
+    for j, cam in enumerate(full_rig.cameras):
+        projected[j, finite] = cam.project(points[finite])
+    projected = projected.reshape(len(full_rig), T, -1, 2)
     seen = None
     if detected is not None:
         seen = np.zeros(T, dtype=bool)
@@ -550,6 +569,7 @@ def track(
         "hand_length": hand_length, "model": model, "scale": scale, "init": init is not None,
         "keypoints": detected is not None, "keypoint_every": keypoint_every, "carry": carry,
         "keypoint_tips": keypoint_tips, "recover": recover, "frames": frames,
+        "hand": hand, "outside_keypoints": outside,
     }  # fmt: skip
     return Track(
         poses=result.poses, joints=result.joints, projected=projected, quality=quality,

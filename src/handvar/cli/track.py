@@ -55,8 +55,10 @@ def _check_predictor(ctx, param, value: str) -> str:
               help="Also write overlay.mp4.")  # fmt: skip
 @click.option("--hand-length", type=_FiniteRange(min=50.0, max=400.0), default=185.0,
               show_default=True, help="Hand length of the model, mm (as for `init`).")  # fmt: skip
-@click.option("--hand", "side", type=click.Choice(("right", "left")), default="right",
-              show_default=True, help="Which hand is tracked (as for `init`).")  # fmt: skip
+@click.option("--hand", "side", type=click.Choice(("right", "left", "auto")),
+              default="right", show_default=True,
+              help="Which hand is tracked (as for `init`); auto: the side of the keypoints' "
+                   "handedness (a .npz of `handvar keypoints`).")  # fmt: skip
 @click.option("--model", type=click.Choice(("spheres", "mesh")), default="spheres",
               show_default=True, help="Surface of the tracked hand model.")  # fmt: skip
 @click.option("--keypoints", "keypoint_files", multiple=True, type=click.Path(dir_okay=False),
@@ -120,6 +122,12 @@ def track_command(
     written = result.save(out, video=video)
     if "video_error" in written:
         click.echo(f"handvar: note: no video ({written['video_error']})", err=True)
+    if result.options.get("outside_keypoints"):
+        click.echo(
+            f"handvar: note: {result.options['outside_keypoints']} keypoints more than half "
+            f"a frame outside the frames were left out",
+            err=True,
+        )
 
     T, fit = result.n_frames, result.result
     # all-in: reading the frames, silhouettes, keypoints, fit, recovery and searches
@@ -131,8 +139,7 @@ def track_command(
     click.echo(
         f"{result.name}: {T} frames, predictor {predictor}, seed {seed}: "
         f"{fit.iterations.mean():.1f} iterations/frame, {fps:.1f} frames/s all-in{searches} "
-        f"-> {out}"
-        + (f" (with {written['video'].name})" if "video" in written else "")
+        f"-> {out}" + (f" (with {written['video'].name})" if "video" in written else "")
     )
     if result.quality is not None:
         text = f"fit quality: {result.quality.summary()}"
@@ -162,7 +169,7 @@ def track_command(
 OPTION_NAMES = {
     "source": "SEQ", "keypoints": "--keypoints", "keypoint_every": "--keypoint-every",
     "carry": "--carry", "calib": "--calib", "fov": "--fov", "model": "--model",
-    "init": "--init",
+    "init": "--init", "hand": "--hand",
 }  # fmt: skip
 
 

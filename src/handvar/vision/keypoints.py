@@ -67,6 +67,7 @@ __all__ = [
     "PALM",
     "Keypoints2D",
     "as_frame_keypoints",
+    "check_keypoints",
     "check_output_suffix",
     "read_keypoints",
     "write_keypoints",
@@ -306,6 +307,90 @@ def as_frame_keypoints(value, name: str = "keypoints") -> np.ndarray:
             f"{name}: expected keypoints of shape (21, 2) or (21, 3); got shape {a.shape}"
         )
     return Keypoints2D.from_array(a[None], name=name).frame(0)
+
+
+def check_keypoints(keypoints, n_frames: int, sizes, hand: str):
+    """Check a recording's keypoints before tracking; return them cleaned and the side.
+
+    - Each camera's keypoints must have the recording's `n_frames` frames and at least
+      one frame with a detected point.
+    - Coordinates all within [−0.5, 1.5] on a frame larger than 16 pixels are normalised
+      coordinates, not pixels: an error.
+    - Points more than half a frame beyond its border are not the hand's: they are
+      dropped (missing), and their count returned.
+    - `hand` "auto" takes the side of the keypoints' handedness (`Keypoints2D.side`);
+      a side that the handedness contradicts is an error.
+
+    Parameters
+    ----------
+    keypoints : list of Keypoints2D or None
+        Per camera (None: a camera without), pixels of the full-resolution frames.
+    n_frames : int
+        Frames of the recording.
+    sizes : sequence of (int, int)
+        Per camera the full-resolution frame size (width, height).
+    hand : {"right", "left", "auto"}
+
+    Returns
+    -------
+    keypoints : list of Keypoints2D or None
+    side : {"right", "left"}
+    dropped : int
+        Points dropped as outside the frames.
+
+    Raises
+    ------
+    ValueError
+        Naming the keypoints (the file) or ``hand``, what was expected and what came.
+    """
+    out, dropped, sides = [], 0, set()
+    for k, (w, h) in zip(keypoints, sizes, strict=True):
+        if k is None:
+            out.append(None)
+            continue
+        if k.n_frames != n_frames:
+            raise ValueError(
+                f"{k.name}: expected keypoints of {n_frames} frames (the recording's); "
+                f"got {k.n_frames}"
+            )
+        present = k.present
+        if not present.any():
+            raise ValueError(
+                f"{k.name}: expected at least one frame with a detected point; got none"
+            )
+        xy = k.xy[present]
+        if max(w, h) > 16 and xy.min() >= -0.5 and xy.max() <= 1.5:
+            raise ValueError(
+                f"{k.name}: expected pixels of the {w}x{h} frames; got coordinates all "
+                f"within [{xy.min():.2f}, {xy.max():.2f}] (normalised coordinates?)"
+            )
+        margin = 0.5 * np.array([w, h])
+        outside = present & (
+            (k.xy < -margin - 0.5).any(axis=2)
+            | (k.xy > np.array([w, h]) - 0.5 + margin).any(axis=2)
+        )
+        if outside.any():
+            dropped += int(outside.sum())
+            k = k._with(k.xy, np.where(outside, 0.0, k.confidence))
+        side = k.side()
+        if side is not None:
+            sides.add(side)
+        out.append(k)
+    if len(sides) > 1:
+        raise ValueError("keypoints: expected one hand; got right in one camera, left in another")
+    seen = next(iter(sides), None)
+    if hand == "auto":
+        if seen is None:
+            raise ValueError(
+                "hand: auto expected keypoints with handedness (a .npz written by handvar "
+                "keypoints); got none"
+            )
+        return out, seen, dropped
+    if seen is not None and seen != hand:
+        raise ValueError(
+            f"hand: expected the side the keypoints' handedness gives ({seen}); got {hand}"
+        )
+    return out, hand, dropped
 
 
 # --- files -----------------------------------------------------------------------------
