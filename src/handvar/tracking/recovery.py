@@ -411,9 +411,11 @@ class Recovery:
                 (lambda: self._masks(lazy(), kps)) if self.settings.keypoint_iou else None,
                 kps, world,
             )  # fmt: skip
+        if with_keypoints and not self.started:  # before the hand was first seen
+            return _Frame(None, self._nan_pose(), no_hand=True)
         masks = self._masks(masks() if callable(masks) else masks, None)
         empty = not masks.any()
-        if with_keypoints and (not self.started or self.no_hand(masks)):
+        if with_keypoints and self.no_hand(masks):
             return _Frame(None, self._nan_pose(), empty=empty, no_hand=True)
         return self.silhouette_frame(masks, empty)
 

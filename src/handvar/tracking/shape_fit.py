@@ -68,7 +68,7 @@ class ShapeFitSettings:
         |log factor| at most; 0.3 (a bone 35 % longer or 26 % shorter than the average
         proportions give).
     iterations : int
-        Levenberg–Marquardt steps; 15.
+        Levenberg–Marquardt steps at most; 8.
     min_points : int
         A frame takes part when at least this many keypoints are present in one
         camera; 18.
@@ -77,7 +77,7 @@ class ShapeFitSettings:
     frames: int = 12
     spread: float = 0.08
     bound: float = 0.3
-    iterations: int = 15
+    iterations: int = 8
     min_points: int = 18
 
     def __post_init__(self) -> None:
