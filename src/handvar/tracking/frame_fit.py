@@ -46,6 +46,7 @@ from handvar.tracking.keypoint_cost import TIPS, hand_length, keypoint_points
 from handvar.validate import as_float, as_int, one_of
 
 __all__ = [
+    "CHECK_THRESHOLD",
     "FRAME_FIT_DEFAULTS",
     "FrameFit",
     "FrameFitSettings",
@@ -55,6 +56,9 @@ __all__ = [
     "honoured",
     "reinitialise",
 ]
+
+#: The keypoint check's distance, hand sizes (docs/keypoint-fit.md, "the check").
+CHECK_THRESHOLD = 0.2
 
 #: Parameter groups of the temporal prior: translation (mm), palm rotation, fingers (°).
 _GROUPS = (slice(0, 3), slice(3, 6), slice(6, N_PARAMS))
@@ -421,7 +425,7 @@ def reinitialise(
 
 
 def honoured(
-    distances, rejected, *, threshold: float = 0.2, share: float = 0.98
+    distances, rejected, *, threshold: float = CHECK_THRESHOLD, share: float = 0.98
 ) -> tuple[bool, float, int]:
     """Whether a track honours its keypoints (docs/keypoint-fit.md, "the check").
 

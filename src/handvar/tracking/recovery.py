@@ -47,6 +47,7 @@ from handvar.hand.anthropometry import MIDDLE_MCP, WRIST, HandShape
 from handvar.params import N_PARAMS
 from handvar.predictors import NoMotion
 from handvar.tracking.frame_fit import (
+    CHECK_THRESHOLD,
     FRAME_FIT_DEFAULTS,
     FrameFitSettings,
     PriorScale,
@@ -302,6 +303,11 @@ class RecoverySettings:
         Also measure the silhouette IoU of the fit on frames with keypoints; False: the
         keypoint-first fit does not use the silhouette, so a frame with keypoints
         needs none (its IoU is NaN) and costs no silhouette, wrist cut or rendering.
+    restart : bool
+        Rule 2 also for a keypoint fit that is not lost but leaves a kept keypoint
+        farther than the keypoint check's 0.2 hand sizes: the fit from the prediction
+        fell into a local minimum the keypoints alone may avoid.  The direct fit is kept
+        when it leaves fewer keypoints rejected or off; the predictor is not restarted.
     prior_steps : int
         Levenberg–Marquardt steps with the temporal prior after the fit to the
         keypoints alone (rule 1); 3.  0: no temporal prior.
@@ -321,6 +327,7 @@ class RecoverySettings:
     reseed_margin: float = 0.02
     no_hand_iou: float = 0.3
     keypoint_iou: bool = False
+    restart: bool = True
     prior_steps: int = 3
     frame_fit: FrameFitSettings = FRAME_FIT_DEFAULTS
     shape: ShapeFitSettings | None = SHAPE_FIT_DEFAULTS
@@ -333,6 +340,7 @@ class RecoverySettings:
         as_float(self.reseed_margin, "reseed_margin", minimum=0.0, maximum=1.0)
         as_float(self.no_hand_iou, "no_hand_iou", minimum=0.0, maximum=1.0)
         as_instance(self.keypoint_iou, bool, "keypoint_iou")
+        as_instance(self.restart, bool, "restart")
         as_int(self.prior_steps, "prior_steps", minimum=0)
         as_instance(self.frame_fit, FrameFitSettings, "frame_fit")
         if self.shape is not None:
@@ -451,15 +459,20 @@ class Recovery:
                     kps, self.rig, self.hand, fit.pose, prior=prediction, prior_scale=scale,
                     world=world, settings=self._prior_settings,
                 )  # fmt: skip
-        if fit is None or (self.settings.reinit and self._lost(fit)):
+        lost = fit is None or self._lost(fit)
+        restart = not lost and self.settings.restart and _off(fit) > 0
+        if fit is None or (self.settings.reinit and (lost or restart)):
             t1 = time.perf_counter()
             direct = reinitialise(kps, self.rig, self.hand, world=world,
                                   settings=self.fit_settings)  # fmt: skip
-            self.init_seconds.append(time.perf_counter() - t1)
+            if lost:
+                self.init_seconds.append(time.perf_counter() - t1)
             if direct is not None and (fit is None or _fit_score(direct) < _fit_score(fit)):
-                fit, again = direct, True
-                tracker.reset(direct.pose)
-                self.scale = PriorScale()
+                fit = direct
+                if lost:  # a re-initialisation: the predictor restarts there
+                    again = True
+                    tracker.reset(direct.pose)
+                    self.scale = PriorScale()
         if fit is None:  # no palm to start from: nothing to track yet
             return _Frame(None, self._nan_pose(), keypoints=True, no_hand=not self.started)
         if not again:
@@ -656,9 +669,17 @@ def _at(values, i):
     return values[i] if i < len(values) else None
 
 
+def _off(fit) -> int:
+    """Kept keypoints of a keypoint fit farther than the keypoint check's 0.2 hand sizes
+    (in the fit's hand size)."""
+    d = fit.distances[~fit.rejected & ~np.isnan(fit.distances)]
+    return int(np.sum(d > CHECK_THRESHOLD))
+
+
 def _fit_score(fit) -> tuple[int, float]:
-    """Order of two keypoint fits of one frame, best lowest: fewer rejected, then closer."""
-    return (fit.n_rejected, fit.error)
+    """Order of two keypoint fits of one frame, best lowest: fewer keypoints rejected or
+    off (`_off`), then closer."""
+    return (fit.n_rejected + _off(fit), fit.error)
 
 
 def _better(a, b) -> bool:
