@@ -149,10 +149,10 @@ def track_command(
             text += f" ({int(result.detections.sum())} with a detection, the others carried)"
         click.echo(text)
         if result.detections is not None:
-            ok, worst, n_rejected = result.quality.check()
+            ok, worst, n_rejected = result.quality.check(frames=result.detections)
             click.echo(
-                f"keypoint check: {'holds' if ok else 'FAILS'} (on every frame with "
-                f"keypoints the joints lie within 0.2 hand sizes of at least 98 % of the "
+                f"keypoint check: {'holds' if ok else 'FAILS'} (on every frame with a "
+                f"detection the joints lie within 0.2 hand sizes of at least 98 % of the "
                 f"keypoints kept; worst frame {100 * worst:.1f} %); {n_rejected} "
                 f"keypoints rejected as outliers"
             )

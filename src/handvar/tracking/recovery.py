@@ -145,11 +145,21 @@ class TrackQuality:
         if self.distances is None:
             object.__setattr__(self, "distances", np.full((n, 1, 21), np.nan))
 
-    def check(self, threshold: float = 0.2, share: float = 0.98) -> tuple[bool, float, int]:
-        """The keypoint check (`handvar.tracking.frame_fit.honoured`) of this track."""
-        rejected = np.zeros(self.distances.shape, dtype=bool)
-        ok, worst, _ = honoured(self.distances, rejected, threshold=threshold, share=share)
-        return ok, worst, int(self.rejected.sum())
+    def check(
+        self, threshold: float = CHECK_THRESHOLD, share: float = 0.98, frames=None
+    ) -> tuple[bool, float, int]:
+        """The keypoint check (`handvar.tracking.frame_fit.honoured`) of this track.
+
+        `frames`: a (T,) bool mask of the frames checked, e.g. those with a detection
+        (not carried keypoints); all frames with keypoints by default.  The rejected
+        count is over the same frames.
+        """
+        keep = np.ones(len(self.lost), dtype=bool) if frames is None else np.asarray(frames)
+        keep = keep[: len(self.lost)]
+        d = self.distances[: len(keep)][keep]
+        ok, worst, _ = honoured(d, np.zeros(d.shape, dtype=bool), threshold=threshold,
+                                share=share)  # fmt: skip
+        return ok, worst, int(self.rejected[: len(keep)][keep].sum())
 
     def summary(self) -> str:
         """One line: frames lost, re-initialised and empty, IoU minimum and mean."""
