@@ -463,6 +463,8 @@ def honoured(
         raise ValueError(
             f"distances, rejected: expected two (T, n_cams, 21) arrays; got {d.shape}, {rej.shape}"
         )
+    if not len(d):
+        return True, float("nan"), 0
     kept = ~np.isnan(d) & ~rej
     n_kept = kept.reshape(len(d), -1).sum(axis=1)
     near = (kept & (np.nan_to_num(d, nan=np.inf) <= threshold)).reshape(len(d), -1).sum(axis=1)
