@@ -537,8 +537,11 @@ def track(
         extra = {} if recovery is None else {"settings": recovery}
         if on_frame is not None:
             extra["on_frame"] = on_frame
+        world = None  # the detector's metric 3D, a weak cue of the fit (first camera)
+        if detected is not None and detected[0] is not None and detected[0].world is not None:
+            world = detected[0].world.__getitem__
         recovered = track_with_recovery(
-            tracker, masks, x0, keypoints=at,
+            tracker, masks, x0, keypoints=at, world=world,
             cut_wrist=opened is not None and detected is not None, **extra,
         )  # fmt: skip
         result, quality = recovered.track, recovered.quality

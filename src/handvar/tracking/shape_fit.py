@@ -16,9 +16,10 @@ poses and θ minimise together
 with E_frame the keypoint-first fit's robust reprojection terms (and the detector's 3D
 where given, `handvar.tracking.frame_fit`), each pose within the joint limits, and a
 prior on θ of σ_θ (`ShapeFitSettings.spread`, the spread of the published proportions
-between adults).  One camera without the detector's 3D cannot tell a large hand far
-away from a small one near: there s is not fitted and the hand keeps its given length
-(wrist to middle fingertip); a stereo rig or the detector's metric 3D fit it too.
+between adults).  One camera cannot tell a large hand far away from a small one near:
+there s is not fitted and the hand keeps its given length (wrist to middle fingertip);
+a stereo rig fits it too.  The detector's 3D (MediaPipe's world landmarks, at the size
+of its own average hand) shapes the proportions but does not set s.
 
 It is solved by Levenberg–Marquardt on the stacked problem (the poses' blocks
 eliminated by their Schur complement): the poses' Jacobians are exact
@@ -104,8 +105,7 @@ class ShapeFit:
     poses : (N, 26) ndarray
         The frames' poses fitted with it.
     metric : bool
-        Whether s was fitted (a stereo rig or the detector's 3D) or kept the given
-        hand length.
+        Whether s was fitted (a stereo rig) or kept the given hand length.
     """
 
     shape: HandShape
@@ -201,7 +201,10 @@ def fit_shape(
             f"keypoints; got shape {poses.shape}"
         )
     worlds = [None] * n if world is None else list(world)
-    metric = len(rig) > 1 or any(w is not None and np.isfinite(w).all() for w in worlds)
+    # The detector's 3D shapes the proportions but does not set the scale: MediaPipe's
+    # world landmarks come at the size of its own average hand (on the fingerspelling
+    # clip they would make the hand 216 mm long; benchmarks in docs/keypoint-fit.md).
+    metric = len(rig) > 1
     base = hand.shape
     kps = [_clean(k, len(rig), frame_settings.min_confidence) for k in keypoints]
     s = dataclasses.replace(frame_settings, iterations=1, polish=0)
