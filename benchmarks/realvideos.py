@@ -22,7 +22,12 @@ flow between (K = 5).  Printed per video and K:
   frame needs one, fit, rules, quality: the time between two frames' ends): median,
   and the worst one-second window (mean over any fps consecutive frames).
 
-Run: ``PYTHONPATH=src python benchmarks/realvideos.py [--every 1,5] [--videos NAME,...]``
+With ``--world`` the fingerspelling and counting clips are tracked with MediaPipe's world
+landmarks (``-mediapipe.npz``) as the fit's weak 3D cue; the last column is the tracked
+hand's length (the shape fit keeps the given 185 mm with one camera).
+
+Run: ``PYTHONPATH=src python benchmarks/realvideos.py [--every 1,5] [--videos NAME,...]
+[--world]``
 """
 
 from __future__ import annotations
@@ -35,20 +40,26 @@ import numpy as np
 from handvar.data import example_path
 from handvar.pipeline import track
 from handvar.tracking.recovery import pck
-from handvar.vision.keypoints import read_keypoints
+from handvar.vision.keypoints import Keypoints2D, read_keypoints
 from handvar.vision.sources import open_source
 
 VIDEOS = ("video", "fingerspelling", "counting")
 
 
-def run(name: str, every: int, seed: int = 0) -> dict:
-    """Track video `name` with the detections of every `every`-th frame; score it."""
+def run(name: str, every: int, seed: int = 0, world: bool = False) -> dict:
+    """Track video `name` with the detections of every `every`-th frame; score it.
+    `world`: with MediaPipe's world landmarks (``<name>-mediapipe``) as the fit's cue."""
     path, kp_path = example_path(name), example_path(f"{name}-keypoints")
     w, h = open_source(path).image_size
+    given_kp = read_keypoints(kp_path)
+    if world:
+        with np.load(example_path(f"{name}-mediapipe")) as z:
+            given_kp = Keypoints2D(given_kp.xy, given_kp.confidence, given_kp.name,
+                                   world=z["world_mm"])  # fmt: skip
     stamps: list[float] = []
     t0 = time.perf_counter()
     tr = track(
-        path, keypoints=kp_path, scale=640.0 / max(w, h), keypoint_every=every, seed=seed,
+        path, keypoints=given_kp, scale=640.0 / max(w, h), keypoint_every=every, seed=seed,
         on_frame=lambda *_: stamps.append(time.perf_counter()),
     )  # fmt: skip
     seconds = np.diff([t0, *stamps])
@@ -73,7 +84,7 @@ def run(name: str, every: int, seed: int = 0) -> dict:
         "pck_withheld": float(np.nanmean(scores[withheld])) if withheld.any() else np.nan,
         "pck_all": float(np.nanmean(scores[seen])),
         "median_ms": 1e3 * float(np.median(seconds)), "worst_ms": 1e3 * float(rolling.max()),
-        "size": tr.sequence.masks.shape[:1:-1],
+        "size": tr.sequence.masks.shape[:1:-1], "length": tr.shape.length,
     }  # fmt: skip
 
 
@@ -91,22 +102,27 @@ def main() -> None:
     ap.add_argument("--every", default="1,5")
     ap.add_argument("--videos", default=",".join(VIDEOS))
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument(
+        "--world",
+        action="store_true",
+        help="with MediaPipe's world landmarks (fingerspelling, counting)",
+    )
     args = ap.parse_args()
     print(
         "video | K | frames (detections given) | no hand | lost | re-init | keypoint check "
         "(worst frame, frames failing, rejected) | carried: worst frame | PCK withheld | PCK all | "
-        "ms/frame median | worst 1 s"
+        "ms/frame median | worst 1 s | hand length mm"
     )
     for name in args.videos.split(","):
         for every in (int(v) for v in args.every.split(",")):
-            r = run(name, every, args.seed)
+            r = run(name, every, args.seed, args.world)
             w, h = r["size"]
             print(f"{name} ({w}x{h}) | {every} | {r['frames']} ({r['given']}) | {r['no_hand']} | "
                   f"{r['lost']} | {r['reinit']} | {'holds' if r['check'] else 'fails'} "
                   f"({100 * r['worst']:.1f} %, {r['failing']}, {r['rejected']}) | "
                   f"{100 * r['carried'][1]:.1f} % | "
                   f"{r['pck_withheld']:.3f} | {r['pck_all']:.3f} | {r['median_ms']:.1f} | "
-                  f"{r['worst_ms']:.1f}", flush=True)  # fmt: skip
+                  f"{r['worst_ms']:.1f} | {r['length']:.0f}", flush=True)  # fmt: skip
 
 
 if __name__ == "__main__":

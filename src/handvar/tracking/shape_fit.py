@@ -140,14 +140,18 @@ def adapt_shape(shape: HandShape, factors) -> HandShape:
         raise ValueError(f"factors: expected {_N} positive numbers; got {f!r}")
     s, p, digits = f[0], f[1], f[2:]
     along = np.array([1.0, p, 1.0])
+    segments = s * shape.segments * digits[:, None]
+    bases = s * shape.bases * along
+    # the hand length follows the wrist → middle-fingertip distance
+    tip = (bases[2, 1] + segments[2].sum()) / (shape.bases[2, 1] + shape.segments[2].sum())
     return dataclasses.replace(
         shape,
-        segments=s * shape.segments * digits[:, None],
-        bases=s * shape.bases * along,
+        segments=segments,
+        bases=bases,
         radii=s * shape.radii,
         palm_centres=s * shape.palm_centres * along,
         palm_radii=s * shape.palm_radii,
-        length=s * shape.length,
+        length=tip * shape.length,
         breadth=s * shape.breadth,
     )
 
@@ -202,8 +206,7 @@ def fit_shape(
         )
     worlds = [None] * n if world is None else list(world)
     # The detector's 3D shapes the proportions but does not set the scale: MediaPipe's
-    # world landmarks come at the size of its own average hand (on the fingerspelling
-    # clip they would make the hand 216 mm long; benchmarks in docs/keypoint-fit.md).
+    # world landmarks come at the size of its own average hand (docs/keypoint-fit.md).
     metric = len(rig) > 1
     base = hand.shape
     kps = [_clean(k, len(rig), frame_settings.min_confidence) for k in keypoints]
@@ -287,7 +290,7 @@ def fit_shape(
             break
     shape = _shape_of(base, theta, metric)
     factors = np.exp(theta)
-    factors[0] = shape.length / base.length
+    factors[0] = shape.breadth / base.breadth  # s
     model = HandModel(shape, surface=hand.surface)
     x = np.stack([fit_frame(k, rig, model, xi, world=w, settings=frame_settings).pose
                   for k, xi, w in zip(keypoints, x, worlds, strict=True)])  # fmt: skip
