@@ -27,15 +27,13 @@ from handvar.tracking.costs import CostSettings
 from handvar.tracking.outputs import quality_captions
 from handvar.tracking.recovery import (
     RecoverySettings,
-    _score,
     digit_reseeds,
     joint_distances,
     pck,
     track_with_recovery,
 )
-from handvar.tracking.refine import RefineSettings
 from handvar.tracking.smd import SMDSettings
-from handvar.tracking.tracker import Tracker, TrackerSettings
+from handvar.tracking.tracker import QualitySettings, Tracker, TrackerSettings
 from handvar.vision.keypoints import read_keypoints
 from handvar.vision.silhouette import EmptySilhouetteError, silhouettes_from_frames
 from handvar.vision.sources import open_source
@@ -178,13 +176,14 @@ def test_a_poor_fit_is_refined_and_the_predictor_learns_the_refined_pose(short_s
     frames = [np.asarray(seq.masks[t]) for t in range(3)]
     x0 = seq.truth.poses[0].copy()
     x0[:3] += (30.0, 0.0, 0.0)  # 3 cm off, and only 2 iterations a frame: a poor fit
-    short = TrackerSettings(smd=SMDSettings(max_iterations=2))
+    # lost under IoU 0.8: the refinement is for lost fits
+    short = TrackerSettings(
+        smd=SMDSettings(max_iterations=2), quality=QualitySettings(lost_iou=0.8)
+    )
 
     def run(refine_iterations):
         tracker = Tracker(seq.rig, HandModel(), Decelerating(1.0), np.random.default_rng(0), short)
-        settings = RecoverySettings(
-            reinit=False, refine_iterations=refine_iterations, refine_without_keypoints=True
-        )
+        settings = RecoverySettings(reinit=False, refine_iterations=refine_iterations)
         return track_with_recovery(tracker, frames, x0, settings=settings)
 
     plain, refined = run(0), run(100)
@@ -196,77 +195,6 @@ def test_a_poor_fit_is_refined_and_the_predictor_learns_the_refined_pose(short_s
     np.testing.assert_allclose(refined.track.starts[1], refined.track.poses[0], atol=1e-9)
     err = np.linalg.norm(refined.track.joints[0] - seq.truth.joints[0], axis=1).mean()
     assert err < np.linalg.norm(plain.track.joints[0] - seq.truth.joints[0], axis=1).mean()
-
-
-def test_where_keypoints_and_silhouette_disagree_a_lighter_keypoint_term_may_win(short_sequence):
-    # keypoints like a detector's on a hand edge-on: the fingertips short, 0.25 hand
-    # sizes towards their MCPs; the silhouettes are the true ones
-    seq = short_sequence
-    hand, x = HandModel(), seq.truth.poses[0]
-    kps = projected_keypoints(hand, seq.rig, x)
-    for k in kps:
-        size = np.linalg.norm(k[9, :2] - k[0, :2])
-        for tip, mcp in ((8, 5), (12, 9), (16, 13), (20, 17)):
-            d = k[mcp, :2] - k[tip, :2]
-            k[tip, :2] += 0.25 * size * d / np.linalg.norm(d)
-
-    def run(weight, steps):
-        smd_only = TrackerSettings(refine=RefineSettings(steps=steps))
-        tracker = Tracker(seq.rig, hand, NoMotion(), np.random.default_rng(0), smd_only)
-        settings = RecoverySettings(reinit=False, refine_iou=1.0, refine_keypoint_weight=weight)
-        frames = [np.asarray(seq.masks[0])]
-        return track_with_recovery(tracker, frames, x, keypoints=[kps], settings=settings).quality
-
-    # SMD alone (no Levenberg–Marquardt steps): the lighter keypoint term wins
-    full, lighter = run(1.0, 0), run(0.3, 0)
-    assert lighter.iou[0] > full.iou[0]
-    assert lighter.keypoint_error[0] <= RecoverySettings().refit_keypoint_error
-    # the tracker's own refinement (Tukey's loss drops the short tips) does as well
-    assert run(1.0, 2).iou[0] >= lighter.iou[0] - 0.01
-
-
-@pytest.mark.parametrize("shift", [0.14, 0.16])
-def test_a_detector_offset_within_the_band_is_left_to_the_silhouette(short_sequence, shift):
-    # every point but the wrist detected `shift` hand sizes sideways of the truth, the
-    # silhouettes true: the lighter keypoint term's fit sits between the two, off the
-    # keypoints by more than the re-fit threshold (0.1) but within the band (0.15)
-    seq = short_sequence
-    hand, x = HandModel(), seq.truth.poses[0]
-    kps = projected_keypoints(hand, seq.rig, x)
-    for k in kps:
-        along = k[9, :2] - k[0, :2]
-        k[1:, :2] += shift * np.array([-along[1], along[0]])
-
-    def run(band):
-        tracker = Tracker(seq.rig, hand, NoMotion(), np.random.default_rng(0))
-        settings = RecoverySettings(reinit=False, refine_iou=1.0, refine_keypoint_band=band)
-        frames = [np.asarray(seq.masks[0])]
-        return track_with_recovery(tracker, frames, x, keypoints=[kps], settings=settings)
-
-    strict, banded = run(0.1), run(RecoverySettings().refine_keypoint_band)
-    assert 0.1 < banded.quality.keypoint_error[0] <= 0.15
-    assert banded.quality.iou[0] > strict.quality.iou[0] + 0.02  # measured 0.93 vs 0.90
-    off = [np.linalg.norm(r.track.joints[0] - seq.truth.joints[0], axis=1).mean()
-           for r in (strict, banded)]  # fmt: skip
-    assert off[1] < 0.7 * off[0], off  # mm; measured 2.3 vs 4.2 and 2.9 vs 4.9
-
-
-def test_fits_are_ordered_by_lost_then_keypoints_down_to_the_band_then_iou():
-    def fit(lost, error, iou):
-        return type("F", (), {"lost": lost, "keypoint_error": error, "mean_iou": iou})()
-
-    band = 0.1
-    order = [  # worst first
-        None,
-        fit(True, 0.01, 0.95),
-        fit(False, 0.3, 0.95),
-        fit(False, 0.2, 0.80),
-        fit(False, 0.09, 0.80),
-        fit(False, 0.05, 0.85),  # both within the band: the IoU decides
-    ]
-    scores = [_score(f, band) for f in order]
-    assert scores == sorted(scores) and len(set(scores)) == len(scores)
-    assert _score(fit(False, np.nan, 0.9), band) > _score(fit(False, np.nan, 0.8), band)
 
 
 def test_digit_reseeds_change_one_digit_to_a_named_shape_best_iou_first():
@@ -321,18 +249,16 @@ def test_recovery_settings_are_checked():
         RecoverySettings(refine_iou=1.5)
     with pytest.raises(ValueError, match="refine_iterations"):
         RecoverySettings(refine_iterations=-1)
-    with pytest.raises(ValueError, match="refine_keypoint_weight"):
-        RecoverySettings(refine_keypoint_weight=0.0)
-    with pytest.raises(TypeError, match="refine_without_keypoints"):
-        RecoverySettings(refine_without_keypoints=1)
+    with pytest.raises(ValueError, match="no_hand_iou"):
+        RecoverySettings(no_hand_iou=1.5)
+    with pytest.raises(TypeError, match="keypoint_iou"):
+        RecoverySettings(keypoint_iou=1)
     with pytest.raises(TypeError, match="refine_iterations"):
         RecoverySettings(refine_iterations=2.5)
     with pytest.raises(ValueError, match="reseed_digits"):
         RecoverySettings(reseed_digits=-1)
     with pytest.raises(ValueError, match="reseed_margin"):
         RecoverySettings(reseed_margin=2.0)
-    with pytest.raises(ValueError, match="refine_keypoint_band"):
-        RecoverySettings(refine_keypoint_band=-0.1)
 
 
 # --- keypoints through the source --------------------------------------------------------
@@ -390,7 +316,6 @@ def test_the_first_30_frames_hold_with_keypoints_every_5th():
     assert with_detection.sum() == 6
     assert q.keypoints.all()  # carried to every frame between
     assert not q.lost.any()
-    assert q.iou.min() >= 0.8
     assert scores[~with_detection].mean() >= 0.9
 
 
@@ -408,15 +333,6 @@ def test_the_whole_video_keeps_pck_and_is_never_lost_with_keypoints_every_5th(wh
     assert not q.lost.any(), np.flatnonzero(q.lost)
 
 
-@pytest.mark.slow
-def test_the_whole_video_keeps_iou(whole_video):
-    # measured 0.8002 (frame 478) on seed 0: frames sit near 0.8, and over seeds 0-11 one
-    # seed (8) has a frame under it (docs/results/real-video.md)
-    result, _, _ = whole_video
-    q = result.quality
-    assert q.iou.min() >= 0.8, (q.iou.min(), int(q.iou.argmin()))
-
-
 # --- the command ---------------------------------------------------------------------------
 
 
@@ -430,8 +346,9 @@ def test_track_with_keypoints_writes_the_quality(tmp_path, carry):
         + ([] if carry else ["--carry", "none"]),
     )  # fmt: skip
     assert res.exit_code == 0, res.output
-    assert "0 lost, 0 re-initialised, 0 empty" in res.output
-    assert "frames/s and 1 pose search in " in res.output  # frame 0's, timed apart
+    # frame 0 is fitted directly to its keypoints: the one re-initialisation
+    assert "0 lost, 1 re-initialised, 0 empty" in res.output
+    assert "frames/s all-in" in res.output and "1 re-initialisation in " in res.output
     table = np.loadtxt(out / "quality.csv", delimiter=",", skiprows=1)
     assert table.shape == (6, 8)
     if carry:  # the default on a recording: keypoints on every frame, 2 of them detected
@@ -443,7 +360,7 @@ def test_track_with_keypoints_writes_the_quality(tmp_path, carry):
         assert table[:, 7].tolist() == [1, 0, 0, 0, 0, 1]  # keypoints on frames 0 and 5
         assert np.isnan(table[1:5, 2]).all() and np.isfinite(table[[0, 5], 2]).all()
     with np.load(out / "track.npz") as npz:
-        assert np.allclose(npz["iou"][:, 0], table[:, 1], atol=1e-4)
+        assert np.allclose(npz["iou"][:, 0], table[:, 1], atol=1e-4, equal_nan=True)
         assert npz["with_keypoints"].tolist() == table[:, 7].astype(bool).tolist()
 
 
@@ -515,24 +432,3 @@ def test_track_without_recovery_still_uses_the_keypoints(tmp_path):
     assert "fit quality" not in res.output
     with np.load(out / "track.npz") as npz:
         assert np.isfinite(npz["keypoint_error"]).all()  # measured: the tracker had them
-
-
-def test_a_fit_not_lost_is_searched_again_only_from_keypoints_that_give_a_pose(short_sequence):
-    # refine_iou = 1: every keypoint frame counts as poor; the fit itself is not lost
-    seq = short_sequence
-    hand, x = HandModel(), seq.truth.poses[0]
-    frames = [np.asarray(seq.masks[0])]
-    settings = RecoverySettings(refine_iou=1.0, refine_iterations=1)
-    full = projected_keypoints(hand, seq.rig, x)
-    no_palm = [k.copy() for k in full]
-    for k in no_palm:
-        k[13, 2] = 0.0  # the ring MCP missing: no camera shows the whole palm
-
-    def reinit(kps):
-        tracker = Tracker(seq.rig, hand, NoMotion(), np.random.default_rng(0))
-        q = track_with_recovery(tracker, frames, x, keypoints=[kps], settings=settings).quality
-        assert not q.lost[0]
-        return bool(q.reinit[0])
-
-    # without the palm the search would be the silhouette's, which ignores the keypoints
-    assert reinit(full) and not reinit(no_palm)

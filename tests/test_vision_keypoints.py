@@ -22,6 +22,7 @@ from handvar.vision.keypoints import (
 
 VIDEO = example_path("video")
 SHIPPED = example_path("video-keypoints")
+DATA = SHIPPED.parent
 
 
 def random_keypoints(seed: int, T: int = 6, conf: bool = True) -> np.ndarray:
@@ -130,7 +131,7 @@ def test_missing_file_and_wrong_suffix(tmp_path):
     with pytest.raises(ValueError, match=r"nothere\.npy: expected a keypoint file"):
         read_keypoints(tmp_path / "nothere.npy")
     (tmp_path / "kp.txt").write_text("1 2\n")
-    with pytest.raises(ValueError, match=r"kp\.txt: expected a \.npy or \.csv"):
+    with pytest.raises(ValueError, match=r"kp\.txt: expected a \.npy, \.csv or \.npz"):
         read_keypoints(tmp_path / "kp.txt")
     with pytest.raises(ValueError, match=r"out\.json: expected a file name ending"):
         write_keypoints(tmp_path / "out.json", random_keypoints(0))
@@ -224,3 +225,87 @@ def test_mediapipe_on_the_video_matches_the_shipped_keypoints(tmp_path):
     np.testing.assert_allclose(
         read_keypoints(out).confidence, 1.0 - shipped.confidence[:3], atol=1e-6
     )
+
+
+# --- what the detector knows besides the points (.npz) ---------------------------------------
+
+
+def _example_details(name):
+    """A shipped clip's MediaPipe output (examples/data/*-mediapipe.npz) as `Keypoints2D`."""
+    from handvar.vision.mediapipe import handedness_side
+
+    z = np.load(DATA / f"{name}-mediapipe.npz")
+    xy = z["landmarks_px"]
+    labels = [handedness_side(str(v)) if v else "" for v in z["handedness"]]
+    return Keypoints2D(xy, np.where(np.isnan(xy).any(axis=2), 0.0, 1.0), name,
+                       world=z["world_mm"], handedness=np.array(labels))  # fmt: skip
+
+
+def test_npz_keypoints_round_trip_with_their_extras_and_old_files_still_read(tmp_path):
+    kp = _example_details("tfjs-asl-hand")
+    path = tmp_path / "k.npz"
+    write_keypoints(path, kp)
+    back = read_keypoints(path)
+    np.testing.assert_array_equal(back.to_array(), kp.to_array())
+    np.testing.assert_array_equal(back.world, kp.world)
+    with np.load(path) as z:  # read by NumPy alone: the documented keys
+        assert sorted(z.files) == ["handedness", "keypoints", "world"]
+        np.testing.assert_array_equal(z["world"], kp.world)
+    assert back.depth is None and back.presence is None
+    # .npy keeps the points only, and reads as before
+    write_keypoints(tmp_path / "k.npy", kp)
+    old = read_keypoints(tmp_path / "k.npy")
+    assert old.world is None and old.handedness is None
+    np.testing.assert_array_equal(old.xy, kp.xy)
+    # thinning and scaling carry the extras; a thinned frame loses them
+    thin = kp.every(5).scaled(0.5)
+    assert np.isnan(thin.world[1]).all() and thin.handedness[1] == ""
+    np.testing.assert_array_equal(thin.world[5], kp.world[5])
+
+
+def test_a_bad_npz_names_the_file_and_the_array(tmp_path):
+    path = tmp_path / "k.npz"
+    np.savez(path, points=np.zeros((2, 21, 2)))
+    with pytest.raises(ValueError, match=r"k\.npz: expected a \.npz with a 'keypoints' array"):
+        read_keypoints(path)
+    np.savez(path, keypoints=np.zeros((2, 21, 2)), world=np.zeros((3, 21, 3)))
+    with pytest.raises(ValueError, match=r"expected world of shape \(2, 21, 3\); got \(3, 21, 3\)"):
+        read_keypoints(path)
+    np.savez(path, keypoints=np.zeros((2, 21, 2)), handedness=np.array(["Left", ""]))
+    with pytest.raises(ValueError, match="expected handedness right, left or empty; got 'Left'"):
+        read_keypoints(path)
+
+
+@pytest.mark.parametrize("name", ["tfjs-asl-hand", "boreep-counting"])
+def test_the_side_from_mediapipes_handedness_of_the_shipped_clips(name):
+    # MediaPipe labels as if the image were mirrored: its "Left" on these ordinary
+    # recordings is the right hand each shows (examples/data/README.md)
+    z = np.load(DATA / f"{name}-mediapipe.npz")
+    labels = {str(v) for v in z["handedness"] if v}
+    assert labels == {"Left"}
+    assert _example_details(name).side() == "right"
+    # the same labels of a selfie (mirrored) recording are literal
+    from handvar.vision.mediapipe import handedness_side
+
+    assert handedness_side("Left", mirrored=True) == "left"
+
+
+@pytest.mark.slow
+def test_mediapipe_on_the_mirrored_video_sees_a_left_hand(tmp_path):
+    pytest.importorskip("mediapipe")
+    import cv2
+
+    folder = tmp_path / "mirrored"
+    folder.mkdir()
+    cap = cv2.VideoCapture(str(DATA / "tfjs-asl-hand.mp4"))
+    for i in range(20):
+        ok, frame = cap.read()
+        assert ok
+        cv2.imwrite(str(folder / f"{i:03d}.png"), frame[:, ::-1])
+    out = tmp_path / "k.npz"
+    for source, side in ((DATA / "tfjs-asl-hand.mp4", "right"), (folder, "left")):
+        res = CliRunner().invoke(
+            main, ["keypoints", str(source), "--out", str(out), "--frames", "20", "--hand", "auto"]
+        )
+        assert res.exit_code == 0, res.output
+        assert read_keypoints(out).side() == side

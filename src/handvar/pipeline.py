@@ -382,7 +382,9 @@ class Track:
                 columns[f"{joint}_{c}"] = self.joints[:, j, i]
         if self.quality is not None:
             for f in dataclasses.fields(self.quality):
-                columns[f.name] = np.asarray(getattr(self.quality, f.name))[:T]
+                value = np.asarray(getattr(self.quality, f.name))
+                if value.ndim == 1:  # per frame (the per-keypoint distances are not)
+                    columns[f.name] = value[:T]
         if self.dropped is not None:
             columns["dropped"] = np.asarray(self.dropped, dtype=bool)
         if self.latency is not None:
@@ -555,7 +557,7 @@ def track(
         frames = as_int(frames, "frames", minimum=1)
     scale = as_float(scale, "scale", minimum=0.0, exclusive_minimum=True)
     hand_length = as_float(hand_length, "hand_length", minimum=0.0, exclusive_minimum=True)
-    one_of(hand, SIDES, "hand")
+    one_of(hand, (*SIDES, "auto"), "hand")
     one_of(model, MODELS, "model")
     if carry is not None:
         one_of(carry, CARRY, "carry")
@@ -607,6 +609,12 @@ def track(
     bar = _progress_bar if progress else None
 
     opened, full_rig, used = None, None, detected  # the recording; its rig; the keypoints
+    outside = 0  # keypoints dropped as lying outside the frames
+    if hand == "auto" and (detected is None or not recording):
+        raise ValueError(
+            "hand: auto expected a recording with keypoints with handedness; got "
+            + ("no keypoints" if detected is None else f"the {spec.kind} sequence {label!r}")
+        )
     stage_seconds = {}
     stream = None  # the online form (module notes)
     if live:
@@ -621,6 +629,17 @@ def track(
             if scale == 1.0
             else open_source(list(spec.paths), calib, fov=fov, allow_short=allow_short).rig
         )
+        if detected is not None:
+            from handvar.vision.keypoints import check_keypoints
+
+            detected, hand, outside = check_keypoints(
+                detected, opened.n_frames, [r.size for r in opened.readers], hand
+            )
+            if len(detected) != opened.n_cameras:
+                raise ValueError(
+                    f"keypoints: expected one file per camera ({opened.n_cameras}); "
+                    f"got {len(detected)}"
+                )
     if recording and not live and recover and carry != "both":  # frame by frame
         stream = _Stream(opened, detected, carry=carry, frames=frames, realtime=realtime)
     elif recording and not live:  # the whole recording first (carry both looks ahead)
@@ -682,7 +701,8 @@ def track(
         try:
             recovered = track_with_recovery(
                 tracker, masks, x0, keypoints=None if detected is None else stream.keypoints_at,
-                cut_wrist=detected is not None, on_frame=stream.on_frame(on_frame),
+                world=_world_cue(detected), cut_wrist=detected is not None,
+                on_frame=stream.on_frame(on_frame),
                 **({} if recovery is None else {"settings": recovery}),
             )  # fmt: skip
         except ValueError:
@@ -690,6 +710,7 @@ def track(
                 stream.source.check_some_hand(stream.masks)  # the recording's own word
             raise
         result, quality = _with_dropped(recovered, stream.rows(), stream.n_frames)
+        hand_model = tracker.hand  # the shape adapted to the first frames
         search_seconds = np.asarray(recovered.init_seconds, dtype=float)
         sequence, used = stream.sequence(), stream.keypoints(opened.names)
         latency = stream.latency()
@@ -710,9 +731,11 @@ def track(
             extra["on_frame"] = on_frame
         recovered = track_with_recovery(
             tracker, masks, x0, keypoints=None if used is None else _keypoints_at(used),
-            cut_wrist=opened is not None and detected is not None, **extra,
+            world=_world_cue(detected), cut_wrist=opened is not None and detected is not None,
+            **extra,
         )  # fmt: skip
         result, quality = recovered.track, recovered.quality
+        hand_model = tracker.hand  # the shape adapted to the first frames
         search_seconds = np.asarray(recovered.init_seconds, dtype=float)
     else:
         result = tracker.track(
@@ -738,6 +761,7 @@ def track(
         "keypoints": detected is not None, "keypoint_every": keypoint_every, "carry": carry,
         "keypoint_tips": keypoint_tips, "recover": recover, "frames": frames,
         "realtime": realtime or live,
+        "hand": hand, "outside_keypoints": outside,
     }  # fmt: skip
     return Track(
         poses=result.poses, joints=result.joints, projected=projected, quality=quality,
@@ -816,6 +840,16 @@ def _first_pose(init, truth, recover: bool, label: str) -> np.ndarray | None:
     raise ValueError(f"{label}: the sequence has no ground truth; give the first pose with init")
 
 
+def _world_cue(detected):
+    """The detector's metric 3D of the first camera, frame by frame (`world[i]`), or None.
+
+    A weak cue of the keypoint fit (docs/keypoint-fit.md), where the keypoint file has it.
+    """
+    if detected is None or detected[0] is None or detected[0].world is None:
+        return None
+    return detected[0].world.__getitem__
+
+
 def _keypoints_at(keypoints):
     """Frame i's keypoints of every camera, for `track_with_recovery`."""
 
@@ -885,6 +919,26 @@ def paced_frames(frames, fps: float, dropped: list, *, clock=time.perf_counter, 
         item = following
 
 
+class _Once:
+    """A frame's silhouettes, computed on the first call (a keypoint frame may not ask)."""
+
+    def __init__(self, compute: Callable[[], np.ndarray]) -> None:
+        self._compute: Callable[[], np.ndarray] | None = compute
+        self._value: np.ndarray | None = None
+
+    def __call__(self) -> np.ndarray:
+        if self._value is None:
+            if self._compute is None:
+                raise RuntimeError("the frame's silhouettes were released before computed")
+            self._value = self._compute()
+        return self._value
+
+    def release(self) -> np.ndarray | None:
+        """The silhouettes if they were computed, else None; the frame is let go."""
+        self._compute = None
+        return self._value
+
+
 class _Stream:
     """The per-frame steps ahead of the tracker, one frame at a time (docs/live-and-batch.md).
 
@@ -936,12 +990,18 @@ class _Stream:
         for index, seconds, images in self._feed():
             if self.t0 is None:
                 self.t0 = self.clock() - seconds
-            clock = self.clock()
-            masks = frame_silhouettes(
-                images, self.model, index=index, names=self.source.names, wrist=wrist,
-                allow_empty=True,
-            )  # fmt: skip
-            self.seconds["silhouettes"] += self.clock() - clock
+
+            def silhouettes(images=images, index=index):
+                clock = self.clock()
+                masks = frame_silhouettes(
+                    images, self.model, index=index, names=self.source.names, wrist=wrist,
+                    allow_empty=True,
+                )  # fmt: skip
+                self.seconds["silhouettes"] += self.clock() - clock
+                return masks
+
+            # With keypoints a frame's silhouettes are computed only if the fit asks.
+            masks = silhouettes() if self.scaled is None else _Once(silhouettes)
             clock = self.clock()
             self.kps.append(self._keypoints(index, images))
             self.seconds["keypoints"] += self.clock() - clock
@@ -949,6 +1009,8 @@ class _Stream:
             self.capture.append(seconds)
             self.masks.append(masks)
             yield masks
+            if isinstance(masks, _Once):  # keep what was computed, not the frame's images
+                self.masks[-1] = masks.release()
         self.exhausted = True
 
     def _keypoints(self, index: int, images) -> list | None:
@@ -973,8 +1035,8 @@ class _Stream:
 
         def done(i, pose, quality, masks):
             self.finish.append(self.clock() - self.t0)
-            if user is not None:
-                user(self.indices[i], pose, quality, masks)
+            if user is not None:  # a frame fitted to keypoints alone: its silhouettes now
+                user(self.indices[i], pose, quality, masks() if callable(masks) else masks)
 
         return done
 
@@ -1003,13 +1065,28 @@ class _Stream:
         return out
 
     def sequence(self):
-        """The tracked silhouettes as a `handvar.io.Sequence`; dropped frames empty."""
-        if not self.live:  # a recording in which no frame shows a hand is refused
+        """The tracked silhouettes as a `handvar.io.Sequence`; dropped frames empty.
+
+        Where frames were fitted to keypoints without their silhouettes, a recording's
+        are computed when the overlays ask for them (`VideoSource.lazy_masks`).
+        """
+        if self.scaled is None and not self.live:  # no hand in any frame is refused
             self.source.check_some_hand(self.masks)
+        if not self.live and any(m is None for m in self.masks):
+            from handvar.io import Sequence
+
+            return Sequence(
+                name=Path(self.source.readers[0].path).stem, fps=self.source.fps,
+                rig=self.source.rig, masks=self.source.lazy_masks(self.n_frames),
+                provenance={"source": [str(r.path) for r in self.source.readers],
+                            "scale": self.source.scale, "calibrated": self.source.calibrated},
+            )  # fmt: skip
+        shape = next((m.shape for m in self.masks if m is not None), None)
         rows = self.rows()
-        masks = [np.zeros_like(self.masks[0])] * self.n_frames
+        masks = [np.zeros(shape, dtype=bool)] * self.n_frames
         for r, m in zip(rows, self.masks, strict=True):
-            masks[r] = m
+            if m is not None:
+                masks[r] = m
         indices = np.arange(self.n_frames) + (self.indices[0] - rows[0])
         return self.source.sequence_of(indices, masks)
 

@@ -115,7 +115,7 @@ def init_command(
             masks = np.stack([cut_wrist(m, k) for m, k in zip(masks, kps, strict=True)])
     hand = HandModel(HandShape.from_size(hand_length, side=side))
     result = initial_pose(masks, rig, hand, keypoints=kps, rng=np.random.default_rng(seed))
-    if not result.iou >= INIT_MIN_IOU:
+    if not (result.iou >= INIT_MIN_IOU or _explains_keypoints(result, kps)):
         raise ValueError(
             f"SOURCES: expected a silhouette the hand model fits (IoU >= {INIT_MIN_IOU:g}); "
             f"the best fit of frame {frame} has IoU {result.iou:.3f}; nothing written"
@@ -149,6 +149,25 @@ def init_command(
         + f") -> {out}"
         + (f", {overlay}" if overlay else "")
     )
+
+
+def _explains_keypoints(result, kps) -> bool:
+    """A pose fitted to the frame's keypoints whose mean error is within the lost rule's
+    keypoint error (hand sizes of the detector's wrist → middle MCP): with keypoints the
+    keypoints judge the first pose, as they judge every frame's fit
+    (docs/keypoint-fit.md); a silhouette that takes in a sleeve or a background of skin
+    colour does not reject it."""
+    import numpy as np
+
+    from handvar.tracking.tracker import QualitySettings
+
+    if kps is None or result.shape != "keypoints" or not np.isfinite(result.keypoint_error):
+        return False
+    sizes = [np.linalg.norm(k[9, :2] - k[0, :2]) for k in kps if k is not None
+             and k[0, 2] > 0 and k[9, 2] > 0]  # fmt: skip
+    if not sizes:
+        return False
+    return result.keypoint_error / max(sizes) <= QualitySettings().lost_keypoint_error
 
 
 def _frame_keypoints(files, sources, frame, scale):

@@ -10,9 +10,12 @@ from handvar.cli.common import _one_line_errors
 @click.command("keypoints")
 @click.argument("video", type=click.Path())
 @click.option("--out", type=click.Path(dir_okay=False), required=True,
-              help="Keypoint file to write: .npy (T, 21, 3) or .csv (63 columns).")  # fmt: skip
-@click.option("--hand", type=click.Choice(["right", "left"]), default="right",
-              show_default=True, help="Which hand to keep.")  # fmt: skip
+              help="Keypoint file to write: .npz (the points with the detector's world "
+                   "landmarks, depth, presence and handedness), .npy (T, 21, 3) or .csv "
+                   "(63 columns).")  # fmt: skip
+@click.option("--hand", type=click.Choice(["right", "left", "auto"]), default="right",
+              show_default=True,
+              help="Which hand to keep; auto: the most confident, its side stored.")  # fmt: skip
 @click.option("--mirrored", is_flag=True,
               help="The video is mirrored (a selfie camera).")  # fmt: skip
 @click.option("--frames", "n_frames", type=click.IntRange(min=1), default=None,
@@ -36,7 +39,7 @@ def keypoints_command(video, out, hand, mirrored, n_frames) -> None:
     from handvar.vision.keypoints import check_output_suffix, write_keypoints
 
     check_output_suffix(out)  # fail before detecting, not after
-    check_output_file(out, "--out", suffixes=(".npy", ".csv"))
+    check_output_file(out, "--out", suffixes=(".npy", ".csv", ".npz"))
     try:
         from tqdm import tqdm
 
@@ -45,15 +48,18 @@ def keypoints_command(video, out, hand, mirrored, n_frames) -> None:
     except ImportError:  # pragma: no cover - tqdm is a core dependency
         progress = None
     try:
-        array = detect_video(
-            video, hand=hand, mirrored=mirrored, frames=n_frames, progress=progress
-        )
+        kp = detect_video(
+            video, hand=hand, mirrored=mirrored, frames=n_frames, progress=progress,
+            details=True,
+        )  # fmt: skip
     except MissingExtraError as exc:
         raise ValueError(str(exc)) from None
-    write_keypoints(out, array)
-    found = int(np.count_nonzero(array[:, 0, 2] > 0))
-    sure = int(np.count_nonzero(array[:, 0, 2] >= 0.5))
+    write_keypoints(out, kp)
+    c = kp.confidence[:, 0]
+    found = int(np.count_nonzero(c > 0))
+    sure = int(np.count_nonzero(c >= 0.5))
+    side = hand if hand != "auto" else f"{kp.side() or 'no'} (auto)"
     click.echo(
-        f"{video}: {hand} hand in {found} of {len(array)} frames "
+        f"{video}: {side} hand in {found} of {kp.n_frames} frames "
         f"({sure} with confidence >= 0.5) -> {out}"
     )

@@ -55,8 +55,10 @@ def _check_predictor(ctx, param, value: str) -> str:
               help="Also write overlay.mp4.")  # fmt: skip
 @click.option("--hand-length", type=_FiniteRange(min=50.0, max=400.0), default=185.0,
               show_default=True, help="Hand length of the model, mm (as for `init`).")  # fmt: skip
-@click.option("--hand", "side", type=click.Choice(("right", "left")), default="right",
-              show_default=True, help="Which hand is tracked (as for `init`).")  # fmt: skip
+@click.option("--hand", "side", type=click.Choice(("right", "left", "auto")),
+              default="right", show_default=True,
+              help="Which hand is tracked (as for `init`); auto: the side of the keypoints' "
+                   "handedness (a .npz of `handvar keypoints`).")  # fmt: skip
 @click.option("--model", type=click.Choice(("spheres", "mesh")), default="spheres",
               show_default=True, help="Surface of the tracked hand model.")  # fmt: skip
 @click.option("--keypoints", "keypoint_files", multiple=True, type=click.Path(dir_okay=False),
@@ -180,17 +182,25 @@ def track_command(
     written = result.save(out, video=video)
     if "video_error" in written:
         click.echo(f"handvar: note: no video ({written['video_error']})", err=True)
+    if result.options.get("outside_keypoints"):
+        click.echo(
+            f"handvar: note: {result.options['outside_keypoints']} keypoints more than half "
+            f"a frame outside the frames were left out",
+            err=True,
+        )
 
     T, fit = result.n_frames, result.result
     tracked = T if result.dropped is None else int(T - result.dropped.sum())
-    fps = tracked / max(float(fit.seconds.sum()), 1e-9)
-    searches = ""  # the pose searches of the recovery are not in the tracker's time
+    # all-in: reading the frames, silhouettes, keypoints, fit, recovery and searches
+    fps = tracked / max(float(sum(result.stage_seconds.values())), 1e-9)
+    searches = ""
     if len(result.search_seconds):
         n_search, s_search = len(result.search_seconds), float(result.search_seconds.sum())
-        searches = f" and {n_search} pose search{'es' * (n_search != 1)} in {s_search:.1f} s"
+        searches = f", {n_search} re-initialisation{'s' * (n_search != 1)} in {s_search:.1f} s"
     click.echo(
         f"{result.name}: {T} frames, predictor {predictor}, seed {seed}: "
-        f"{fit.iterations.sum() / tracked:.1f} iterations/frame, {fps:.1f} frames/s{searches} "
+        f"{fit.iterations.sum() / tracked:.1f} iterations/frame, {fps:.1f} frames/s all-in"
+        f"{searches} "
         f"-> {out}" + (f" (with {written['video'].name})" if "video" in written else "")
     )
     if result.quality is not None:
@@ -205,6 +215,14 @@ def track_command(
             )  # the frames tracked
             text += f" ({int(seen.sum())} with a detection, the others carried)"
         click.echo(text)
+        if result.detections is not None:
+            ok, worst, n_rejected = result.quality.check(frames=result.detections)
+            click.echo(
+                f"keypoint check: {'holds' if ok else 'FAILS'} (on every frame with a "
+                f"detection the joints lie within 0.2 hand sizes of at least 98 % of the "
+                f"keypoints kept; worst frame {100 * worst:.1f} %); {n_rejected} "
+                f"keypoints rejected as outliers"
+            )
     truth = result.sequence.truth
     if truth is not None:
         from handvar.evaluation.metrics import mean_joint_error
@@ -350,6 +368,7 @@ OPTION_NAMES = {
     "source": "SEQ", "keypoints": "--keypoints", "keypoint_every": "--keypoint-every",
     "carry": "--carry", "calib": "--calib", "fov": "--fov", "model": "--model",
     "init": "--init", "realtime": "--realtime", "recordings": "SEQ", "out": "--out",
+    "hand": "--hand",
 }  # fmt: skip
 
 

@@ -22,6 +22,12 @@ EXAMPLES: dict[str, str] = {
     "video-keypoints": "dex-human-hand-video-keypoints.npy",
     "video-landmarks": "dex-human-hand-landmarks.npy",
     "htrack": "htrack-fingerfist.txt",
+    "fingerspelling": "tfjs-asl-hand.mp4",
+    "fingerspelling-keypoints": "tfjs-asl-hand-keypoints.npy",
+    "fingerspelling-mediapipe": "tfjs-asl-hand-mediapipe.npz",
+    "counting": "boreep-counting.mp4",
+    "counting-keypoints": "boreep-counting-keypoints.npy",
+    "counting-mediapipe": "boreep-counting-mediapipe.npz",
 }
 
 
@@ -33,7 +39,9 @@ def example_path(name: str) -> Path:
     name : str
         One of `EXAMPLES`: ``"video"`` (the monocular video of a right hand),
         ``"video-keypoints"`` (its MediaPipe keypoints), ``"video-landmarks"`` (its
-        MediaPipe world landmarks), ``"htrack"`` (recorded hand poses of htrack).
+        MediaPipe world landmarks), ``"htrack"`` (recorded hand poses of htrack);
+        ``"fingerspelling"`` and ``"counting"`` (two more real videos of a right hand)
+        with their ``-keypoints`` and ``-mediapipe`` files (examples/data/README.md).
 
     Returns
     -------

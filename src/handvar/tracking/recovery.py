@@ -1,38 +1,35 @@
-"""Lost frames and recovery: re-initialisation where the fit is lost (§14.3).
+"""Tracking a recording frame by frame: the keypoint-first fit and a few rules.
 
-The tracker reports every frame's fit quality (`Tracker.step`, design §13): the
-silhouette IoU of the fitted model per camera, the final cost, the distance of the
-projected joints to the frame's keypoints in hand sizes, and whether the frame is
-*lost* (mean IoU below `QualitySettings.lost_iou`, or keypoint error above
-`QualitySettings.lost_keypoint_error`).
+`Recovery` (and `track_with_recovery`, one call) tracks frame by frame; the rules, and
+why each exists, are in docs/keypoint-fit.md:
 
-`track_with_recovery` tracks frame by frame and, on a lost frame (or a keypoint frame
-whose fit drifted from its keypoints, `RecoverySettings.refit_keypoint_error`), searches
-the pose again in that frame (`handvar.tracking.init.initial_pose`: from the frame's
-keypoints when it has them, else the coarse silhouette search), restarts the tracker
-there (which resets the motion predictor) and tracks the frame again.  A fit of poor
-quality (lost, drifting, or on a frame with keypoints a silhouette IoU below
-`RecoverySettings.refine_iou`) is first *refined*: the optimiser continues from it, with
-fresh gains, for `RecoverySettings.refine_iterations` more iterations; on a frame with
-keypoints a fit still poor after that is searched again from the keypoints.  A fit
-whose silhouette IoU is still below `RecoverySettings.refine_iou`, with or without
-keypoints, is then started again with one digit at a time set to a named hand shape's
-(`digit_reseeds`, `RecoverySettings.reseed_digits`): the silhouette cost cannot bring
-out a finger folded inside the silhouette.  On a frame with keypoints a fit still poor
-is refined once more with the keypoint term's weight lowered
-(`RecoverySettings.refine_keypoint_weight`).  Of all the fits of a frame the best by
-its own quality is kept (`_score`: not lost, then the keypoint error down to the re-fit
-threshold, then the higher IoU), and the motion predictor learns that one (its state
-before the frame is restored when the kept fit is not the last one made).  A frame
-still lost after that stays flagged.  A frame with no
-silhouette in any camera is not judged: it is carried by the prediction and flagged
-*empty* (the tracker leaves a single empty camera out of the fit).  Optionally the loop
-cuts the forearm off the silhouettes itself, at the detected wrist or, between keypoint
-frames, at the wrist of the model fitted to the previous frame (``cut_wrist``).
+1. A frame with keypoints (detected, or carried by optical flow) is fitted to them by
+   the keypoint-first fit (`handvar.tracking.frame_fit.fit_frame`) from the motion
+   predictor's prediction, which also enters as the temporal prior, weighted by the
+   predictor's recent accuracy (`PriorScale`).  The silhouettes are not in that fit;
+   their IoU with the fitted model is only reported.
+2. Such a fit is *lost* when its kept keypoints lie farther than
+   `QualitySettings.lost_keypoint_error` hand sizes on average or it rejects more than
+   half of them; it is then fitted again directly from the keypoints
+   (`reinitialise`, no grid search), the better of the two kept (fewer rejected, then
+   closer), and the predictor restarts there.
+3. In a track with keypoints, a frame without any whose silhouette is empty or does not
+   overlap the model at the predicted pose (`RecoverySettings.no_hand_iou`) is flagged
+   *no hand* and not fitted; the next frame with keypoints re-acquires the hand.
+4. Any other frame is fitted by the paper's silhouette tracker (`Tracker.step`) from
+   the prediction.  In a track without keypoints a lost fit is refined, then searched
+   again from the silhouettes (`handvar.tracking.init.initial_pose`), and a fit under
+   `RecoverySettings.refine_iou` re-seeded digit by digit (`digit_reseeds`), as
+   design §14.3 describes.
+
+Optionally the loop cuts the forearm off the silhouettes at the detected wrist or, on
+frames without keypoints, at the wrist of the model fitted to the previous frame
+(``cut_wrist``).
 
 For evaluation against a detector, `joint_distances` and `pck` measure the projected
 joints against keypoints in the detector's own hand size (its wrist → middle-MCP
-distance in that frame), independent of the model.
+distance in that frame), independent of the model; `TrackQuality.check` is the
+keypoint check of docs/keypoint-fit.md.
 """
 
 from __future__ import annotations
@@ -46,19 +43,29 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
+from handvar.hand.anthropometry import MIDDLE_MCP, WRIST, HandShape
 from handvar.params import N_PARAMS
 from handvar.predictors import NoMotion
+from handvar.tracking.frame_fit import (
+    CHECK_THRESHOLD,
+    FRAME_FIT_DEFAULTS,
+    FrameFitSettings,
+    PriorScale,
+    fit_frame,
+    honoured,
+    reinitialise,
+)
 from handvar.tracking.init import InitSettings, initial_pose
-from handvar.tracking.keypoint_cost import keypoint_points
-from handvar.tracking.keypoint_fit import palm_seen
-from handvar.tracking.tracker import Tracker, TrackResult
+from handvar.tracking.keypoint_cost import frame_keypoints, keypoint_points
+from handvar.tracking.shape_fit import SHAPE_FIT_DEFAULTS, ShapeFitSettings, fit_shape
+from handvar.tracking.tracker import FrameResult, Tracker, TrackResult, silhouette_iou
 from handvar.validate import as_float, as_instance, as_int
 
 __all__ = [
     "RECOVERY_DEFAULTS",
     "FrameQuality",
     "RecoveredTrack",
+    "Recovery",
     "RecoverySettings",
     "TrackQuality",
     "digit_reseeds",
@@ -109,6 +116,13 @@ class TrackQuality:
         Frames with no silhouette in any camera (carried by the prediction).
     keypoints : (T,) bool ndarray
         Frames that had keypoints.
+    no_hand : (T,) bool ndarray
+        Frames flagged *no hand* (no keypoints, no plausible silhouette; not fitted).
+    rejected : (T,) int ndarray
+        Keypoints the fit rejected as outliers, per frame.
+    distances : (T, n_cams, 21) ndarray
+        Distance of each projected joint to its keypoint in the detector's hand size
+        (`joint_distances`), NaN where no keypoint or rejected; all NaN when not given.
     """
 
     iou: np.ndarray
@@ -118,6 +132,34 @@ class TrackQuality:
     reinit: np.ndarray
     empty: np.ndarray
     keypoints: np.ndarray
+    no_hand: np.ndarray | None = None
+    rejected: np.ndarray | None = None
+    distances: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        n = len(self.lost)
+        if self.no_hand is None:
+            object.__setattr__(self, "no_hand", np.zeros(n, dtype=bool))
+        if self.rejected is None:
+            object.__setattr__(self, "rejected", np.zeros(n, dtype=np.int64))
+        if self.distances is None:
+            object.__setattr__(self, "distances", np.full((n, 1, 21), np.nan))
+
+    def check(
+        self, threshold: float = CHECK_THRESHOLD, share: float = 0.98, frames=None
+    ) -> tuple[bool, float, int]:
+        """The keypoint check (`handvar.tracking.frame_fit.honoured`) of this track.
+
+        `frames`: a (T,) bool mask of the frames checked, e.g. those with a detection
+        (not carried keypoints); all frames with keypoints by default.  The rejected
+        count is over the same frames.
+        """
+        keep = np.ones(len(self.lost), dtype=bool) if frames is None else np.asarray(frames)
+        keep = keep[: len(self.lost)]
+        d = self.distances[: len(keep)][keep]
+        ok, worst, _ = honoured(d, np.zeros(d.shape, dtype=bool), threshold=threshold,
+                                share=share)  # fmt: skip
+        return ok, worst, int(self.rejected[: len(keep)][keep].sum())
 
     def summary(self) -> str:
         """One line: frames lost, re-initialised and empty, IoU minimum and mean."""
@@ -125,7 +167,7 @@ class TrackQuality:
         iou = self.iou[tracked]
         text = (
             f"{int(self.lost.sum())} lost, {int(self.reinit.sum())} re-initialised, "
-            f"{int(self.empty.sum())} empty"
+            f"{int(self.empty.sum())} empty, {int(self.no_hand.sum())} no hand"
         )
         if iou.size:
             text += f"; silhouette IoU min {iou.min():.3f} (frame "
@@ -139,12 +181,16 @@ class RecoveredTrack:
 
     A refined frame's ``track.iterations`` counts the refinements' iterations too (so
     it may exceed the tracker's ``max_iterations``); its row of ``track.costs`` keeps
-    the first ``max_iterations`` of them.
+    the first ``max_iterations`` of them.  `init_seconds` are the re-initialisations'
+    times, `seconds` each frame's whole wall time in `Recovery.frame` (fit, rules,
+    quality).
     """
 
     track: TrackResult
     quality: TrackQuality
     init_seconds: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    seconds: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    shape: HandShape | None = None
 
 
 def _present(kps) -> bool:
@@ -163,7 +209,7 @@ def joint_distances(x, hand, rig, keypoints, *, tips: str = "end") -> np.ndarray
     keypoints : sequence of (21, 3) array_like or None
         One per camera (None: none there): x, y in that camera's pixels, confidence.
     tips : {"end", "pad"}, keyword-only
-        G(x)'s fingertips, or the centres of their pads (`keypoint_points`, §14.6).
+        G(x)'s fingertips, or the centres of their pads (`keypoint_points`, design §14.6).
 
     Returns
     -------
@@ -225,107 +271,429 @@ def _quiet_step(tracker: Tracker, masks, kps):
             return None
 
 
-def _score(r, keypoint_error: float) -> tuple[bool, float, float]:
-    """Order of the fits of one frame by their own quality, best highest.
-
-    Not lost first; then the lower keypoint error, down to `keypoint_error` (fits that
-    close to their keypoints tie: the keypoints cannot tell them apart, the silhouette
-    can); then the higher mean IoU.  Without keypoints only the IoU decides.
-    """
+def _score(r) -> tuple[bool, float]:
+    """Order of the silhouette fits of one frame by their own quality, best highest:
+    not lost first, then the higher mean IoU."""
     if r is None:
-        return (False, -math.inf, -math.inf)
-    e = r.keypoint_error
+        return (False, -math.inf)
     iou = r.mean_iou
-    return (
-        not r.lost,
-        0.0 if math.isnan(e) else -max(e, keypoint_error),
-        -1.0 if math.isnan(iou) else iou,
-    )
+    return (not r.lost, -1.0 if math.isnan(iou) else iou)
 
 
 @dataclass(frozen=True)
 class RecoverySettings:
-    """When `track_with_recovery` searches the pose again (§14.3; the paper has no rule).
+    """The rules of `Recovery` (docs/keypoint-fit.md, "recovery"; the paper has none).
 
     Attributes
     ----------
     reinit : bool
-        Search the pose again on a lost frame (False: only flag it).
-    refit_keypoint_error : float
-        Also search it again, from the keypoints, on a frame with keypoints whose fit
-        is off them by more than this, mean over the points, hand sizes (not lost, but
-        drifting).  0.1 is half the radius of PCK@0.2, the measure of §14.4: a fit off
-        by more than that on average has points outside it.  ``inf`` turns it off.
+        Re-initialise a lost frame (False: only flag it): from its keypoints by a direct
+        fit (`handvar.tracking.frame_fit.reinitialise`), or, in a track without
+        keypoints, by the silhouette search (`handvar.tracking.init.initial_pose`).
     refine_iou : float
-        Refine a fit on a frame with keypoints whose mean silhouette IoU is below this
-        (and any lost or drifting fit): continue the optimisation from it (§14.3).  0.8,
-        the IoU asked of every frame in §14.4; 0 refines only lost and drifting fits.
-        A frame without keypoints is not refined for its IoU alone (unless
-        `refine_without_keypoints`): without keypoints a higher IoU is no sign of a
-        better pose (§14.1, §14.3).
+        In a track without keypoints, a fit whose mean silhouette IoU is below this
+        after the refinement and the search is tried again with one digit at a time
+        set to a named hand shape's (`reseed_digits`); 0.8, the IoU asked of every
+        frame in design §14.4.
     refine_iterations : int
-        Iterations of that refinement, from the fit with the optimiser's initial
-        gains; 100.  0 turns refinement off.
-    refine_without_keypoints : bool
-        Refine frames without keypoints for their IoU too; False (§14.3 says what it
-        did on the example video).
+        In a track without keypoints, a lost fit is first refined for this many more
+        iterations from the optimiser's initial gains; 100.  0 turns refinement off.
     reseed_digits : int
-        A fit whose mean silhouette IoU is still below `refine_iou` after the
-        refinement and the search, with or without keypoints, is tried again with one
-        digit at a time set to a named hand shape's (`digit_reseeds`): this many of
-        those starts, the best by their silhouette IoU before any fit, are refined, and
-        one is kept if better by the order of `_score` (§14.3 step 5); 4.  0 turns it
-        off.  The silhouette cost cannot move a digit that lies inside the silhouette
-        (a thumb across the palm) to where the silhouette shows it.
+        How many digit re-seeds (`digit_reseeds`) are refined; 4.  0 turns it off.
     reseed_margin : float
-        On a frame without keypoints a re-seeded fit must raise the IoU by at least
-        this much to be kept, 0.02: there the IoU is the only judge, and a digit moved
-        for a smaller gain is as likely to be wrong as right.
-    refine_keypoint_weight : float
-        On a frame with keypoints whose fit is still poor after that (and after the
-        search), one more refinement with the keypoint term's weight scaled by this
-        (0.3: w_k = 30 for the tracker's 100, §14.2): where the detector and the
-        silhouette disagree, the silhouette gets a larger say, and the fit is kept
-        if better by the order of `_score` (its joints within `refit_keypoint_error`
-        of the keypoints, or a lost fit no longer lost), or under
-        `refine_keypoint_band` (its recorded cost is that of the scaled weight).  1
-        turns it off.
-    refine_keypoint_band : float
-        That last refinement is also kept when it raises the silhouette IoU, is not
-        lost and its joints stay within this many hand sizes of the keypoints (mean
-        over the points); 0.15, three quarters of the PCK@0.2 radius.  It runs only on a
-        frame still under `refine_iou` after every other fit: there the detector and
-        the silhouette disagree (on the hand edge-on the detected MCPs lie up to 0.27
-        hand sizes from where the silhouette puts them, §14.4), and the silhouette may
-        decide what the keypoints leave within this band.  Set it to
-        `refit_keypoint_error` to keep only fits by `_score`'s order.
+        A re-seeded fit must raise the IoU by at least this much to be kept, 0.02:
+        the IoU is the only judge there, and a digit moved for a smaller gain is as
+        likely to be wrong as right.
+    no_hand_iou : float
+        In a track with keypoints, a frame without any whose silhouette overlaps the
+        model at the predicted pose by less than this IoU (or has none) is flagged
+        *no hand* and not fitted; 0.3, the lowest IoU `handvar init` accepts of a
+        hand (design §13.4).
+    keypoint_iou : bool
+        Also measure the silhouette IoU of the fit on frames with keypoints; False: the
+        keypoint-first fit does not use the silhouette, so a frame with keypoints
+        needs none (its IoU is NaN) and costs no silhouette, wrist cut or rendering.
+    restart : bool
+        Rule 2 also for a keypoint fit that is not lost but leaves a kept keypoint
+        farther than the keypoint check's 0.2 hand sizes: the fit from the prediction
+        fell into a local minimum the keypoints alone may avoid.  The direct fit is kept
+        when it leaves fewer keypoints rejected or off; the predictor is not restarted.
+    prior_steps : int
+        Levenberg–Marquardt steps with the temporal prior after the fit to the
+        keypoints alone (rule 1); 3.  0: no temporal prior.
+    frame_fit : FrameFitSettings
+        The keypoint-first fit's settings (its ``tips`` replaced by the tracker's
+        ``CostSettings.keypoint_tips``).
+    shape : ShapeFitSettings or None
+        In a track with keypoints, the hand's proportions are fitted to the first
+        frames whose keypoint fit is not lost (`handvar.tracking.shape_fit`) and held
+        fixed after; None keeps the given shape.
     """
 
     reinit: bool = True
-    refit_keypoint_error: float = 0.1
     refine_iou: float = 0.8
     refine_iterations: int = 100
-    refine_without_keypoints: bool = False
     reseed_digits: int = 4
     reseed_margin: float = 0.02
-    refine_keypoint_weight: float = 0.3
-    refine_keypoint_band: float = 0.15
+    no_hand_iou: float = 0.3
+    keypoint_iou: bool = False
+    restart: bool = True
+    prior_steps: int = 3
+    frame_fit: FrameFitSettings = FRAME_FIT_DEFAULTS
+    shape: ShapeFitSettings | None = SHAPE_FIT_DEFAULTS
 
     def __post_init__(self) -> None:
         as_instance(self.reinit, bool, "reinit")
-        as_float(self.refit_keypoint_error, "refit_keypoint_error", minimum=0.0,
-                 exclusive_minimum=True)  # fmt: skip
         as_float(self.refine_iou, "refine_iou", minimum=0.0, maximum=1.0)
         as_int(self.refine_iterations, "refine_iterations", minimum=0)
-        as_instance(self.refine_without_keypoints, bool, "refine_without_keypoints")
         as_int(self.reseed_digits, "reseed_digits", minimum=0)
         as_float(self.reseed_margin, "reseed_margin", minimum=0.0, maximum=1.0)
-        as_float(self.refine_keypoint_weight, "refine_keypoint_weight", minimum=0.0,
-                 maximum=1.0, exclusive_minimum=True)  # fmt: skip
-        as_float(self.refine_keypoint_band, "refine_keypoint_band", minimum=0.0)
+        as_float(self.no_hand_iou, "no_hand_iou", minimum=0.0, maximum=1.0)
+        as_instance(self.keypoint_iou, bool, "keypoint_iou")
+        as_instance(self.restart, bool, "restart")
+        as_int(self.prior_steps, "prior_steps", minimum=0)
+        as_instance(self.frame_fit, FrameFitSettings, "frame_fit")
+        if self.shape is not None:
+            as_instance(self.shape, ShapeFitSettings, "shape")
 
 
 RECOVERY_DEFAULTS = RecoverySettings()
+
+
+@dataclass
+class _Frame:
+    """What `Recovery` keeps of one frame."""
+
+    result: object  # FrameResult or None
+    pose: np.ndarray
+    reinit: bool = False
+    empty: bool = False
+    keypoints: bool = False
+    no_hand: bool = False
+    rejected: int = 0
+    distances: np.ndarray | None = None
+
+
+class Recovery:
+    """Track frame by frame with the keypoint-first fit and a few rules (module notes).
+
+    Parameters
+    ----------
+    tracker : Tracker
+        Its rig, hand, predictor, generator and settings are used.
+    settings : RecoverySettings, keyword-only
+    init_settings : InitSettings, keyword-only, optional
+        Settings of the silhouette pose search.
+    cut_wrist : bool, keyword-only
+        Cut the silhouettes at the wrist (`track_with_recovery`).
+    """
+
+    def __init__(
+        self,
+        tracker: Tracker,
+        *,
+        settings: RecoverySettings = RECOVERY_DEFAULTS,
+        init_settings: InitSettings | None = None,
+        cut_wrist: bool = False,
+    ) -> None:
+        self.tracker = as_instance(tracker, Tracker, "tracker")
+        self.settings = as_instance(settings, RecoverySettings, "settings")
+        self.fit_settings = dataclasses.replace(
+            settings.frame_fit, tips=tracker.settings.cost.keypoint_tips
+        )
+        self._prior_settings = dataclasses.replace(
+            self.fit_settings, iterations=max(settings.prior_steps, 1)
+        )
+        self.init_kw = {} if init_settings is None else {"settings": init_settings}
+        self.cut_wrist = cut_wrist
+        self.hand, self.rig = tracker.hand, tracker.rig
+        self.scale = PriorScale()
+        self.previous: np.ndarray | None = None  # the last finite pose
+        self.started = False
+        self.init_seconds: list[float] = []
+        self._refiner: Tracker | None = None
+        self._shape_frames: list | None = [] if settings.shape is not None else None
+        self.shape_seconds = 0.0  # the shape fit's time, within its frame's
+
+    # -- one frame ------------------------------------------------------------------
+
+    def frame(self, masks, kps, world=None, *, with_keypoints: bool = False) -> _Frame:
+        """Track one frame: masks (n_cams, H, W), keypoints per camera or None.
+
+        `with_keypoints`: the track has keypoints (so a frame without them may be a
+        frame without a hand).
+        """
+        if kps is not None:
+            lazy = masks if callable(masks) else (lambda: masks)
+            return self.keypoint_frame(
+                (lambda: self._masks(lazy(), kps)) if self.settings.keypoint_iou else None,
+                kps, world,
+            )  # fmt: skip
+        if with_keypoints and not self.started:  # before the hand was first seen
+            return _Frame(None, self._nan_pose(), no_hand=True)
+        masks = self._masks(masks() if callable(masks) else masks, None)
+        empty = not masks.any()
+        if with_keypoints and self.no_hand(masks):
+            return _Frame(None, self._nan_pose(), empty=empty, no_hand=True)
+        return self.silhouette_frame(masks, empty)
+
+    def _masks(self, masks, kps) -> np.ndarray:
+        masks = np.asarray(masks, dtype=bool)
+        if masks.ndim == 2:
+            masks = masks[None]
+        if self.cut_wrist:
+            masks = _cut(masks, kps, self.previous, self.hand, self.rig)
+        return masks
+
+    def keypoint_frame(self, masks, kps, world=None) -> _Frame:
+        """Rule 1: the keypoint-first fit from the prediction; rule 2: a lost one is
+        fitted again directly from the keypoints, and the better kept.
+
+        `masks`: a callable giving the frame's silhouettes, for their IoU with the fit
+        (`RecoverySettings.keypoint_iou`), or None (IoU not measured).
+        """
+        t0 = time.perf_counter()
+        tracker = self.tracker
+        fit, again = None, False
+        scale = self.scale
+        if self.started:
+            # the keypoints alone first, from the prediction: how far that fit lies from
+            # the prediction is the predictor's accuracy (measured after the prior had
+            # pulled the fit towards the prediction it would confirm itself)
+            prediction = tracker.prediction()
+            fit = fit_frame(kps, self.rig, self.hand, prediction, world=world,
+                            settings=self.fit_settings)  # fmt: skip
+            if tracker.frames_tracked > 0 and self.settings.prior_steps:
+                scale = self.scale.update(fit.pose, prediction)
+                fit = fit_frame(
+                    kps, self.rig, self.hand, fit.pose, prior=prediction, prior_scale=scale,
+                    world=world, settings=self._prior_settings,
+                )  # fmt: skip
+        lost = fit is None or self._lost(fit)
+        restart = not lost and self.settings.restart and _off(fit) > 0
+        if fit is None or (self.settings.reinit and (lost or restart)):
+            t1 = time.perf_counter()
+            direct = reinitialise(kps, self.rig, self.hand, world=world,
+                                  settings=self.fit_settings)  # fmt: skip
+            if lost:
+                self.init_seconds.append(time.perf_counter() - t1)
+            if direct is not None and (fit is None or _fit_score(direct) < _fit_score(fit)):
+                fit = direct
+                if lost:  # a re-initialisation: the predictor restarts there
+                    again = True
+                    tracker.reset(direct.pose)
+                    self.scale = PriorScale()
+        if fit is None:  # no palm to start from: nothing to track yet
+            return _Frame(None, self._nan_pose(), keypoints=True, no_hand=not self.started)
+        if not again:
+            self.scale = scale
+        tracker.accept(fit.pose)
+        self.started = True
+        self.previous = fit.pose
+        t2 = time.perf_counter()
+        iou = np.full(len(self.rig), np.nan)
+        empty = np.zeros(len(self.rig), dtype=bool)
+        if masks is not None:
+            m = masks()
+            empty = ~m.any(axis=(1, 2))
+            kp = frame_keypoints(kps, len(self.rig))
+            iou = tracker._quality(fit.pose, m, kp, empty)[0]
+        t3 = time.perf_counter()
+        result = FrameResult(
+            fit.pose, fit.pose, np.empty(0), 0, np.array([t3 - t2, t2 - t0, 0.0]), iou,
+            fit.cost, fit.error, self._lost(fit), empty,
+        )  # fmt: skip
+        distances = joint_distances(fit.pose, self.hand, self.rig, kps,
+                                    tips=self.fit_settings.tips)  # fmt: skip
+        out = _Frame(result, fit.pose, again, bool(empty.all()), True, False, fit.n_rejected,
+                     np.where(fit.rejected, np.nan, distances))  # fmt: skip
+        if self._shape_frames is not None and not result.lost:
+            self._adapt(out, kps, world)
+        return out
+
+    def _adapt(self, frame: _Frame, kps, world) -> None:
+        """The shape fit (`RecoverySettings.shape`): keep the frame while fewer than
+        `ShapeFitSettings.frames` are kept; with that many, fit the hand's proportions
+        to them, track with that hand from now on and re-fit their poses with it."""
+        s = self.settings.shape
+        kp = frame_keypoints(kps, len(self.rig))
+        if int((kp[:, :, 2] > 0).sum(axis=1).max()) < s.min_points:
+            return
+        self._shape_frames.append((frame, kps, world))
+        if len(self._shape_frames) < s.frames:
+            return
+        from handvar.hand import HandModel
+
+        frames, self._shape_frames = self._shape_frames, None
+        t0 = time.perf_counter()
+        fit = fit_shape([k for _, k, _ in frames], self.rig, self.hand,
+                        [f.pose for f, _, _ in frames], world=[w for _, _, w in frames],
+                        settings=s, frame_settings=self.fit_settings)  # fmt: skip
+        self.hand = HandModel(fit.shape, surface=self.hand.surface)
+        self.tracker.set_hand(self.hand)
+        if self._refiner is not None:
+            self._refiner.set_hand(self.hand)
+        for (f, k, _), x in zip(frames, fit.poses, strict=True):
+            f.pose = x
+            f.result = dataclasses.replace(f.result, pose=x)
+            d = joint_distances(x, self.hand, self.rig, k, tips=self.fit_settings.tips)
+            f.distances = np.where(np.isnan(f.distances), np.nan, d)
+        self.tracker.reset(fit.poses[-1])
+        self.previous = fit.poses[-1]
+        self.scale = PriorScale()
+        self.shape_seconds = time.perf_counter() - t0
+
+    def no_hand(self, masks) -> bool:
+        """Rule 3: no silhouette, or none where the predicted hand would be."""
+        if not masks.any():
+            return True
+        if self.previous is None:
+            return False
+        from handvar.render import silhouettes
+
+        model = silhouettes(self.hand, self.tracker.prediction(), self.rig)
+        iou = silhouette_iou(model, masks)
+        return not np.nanmax(iou) >= self.settings.no_hand_iou
+
+    def silhouette_frame(self, masks, empty: bool) -> _Frame:
+        """The paper's silhouette tracker from the prediction, as without keypoints;
+        rules 4-6 (a track without keypoints): a lost fit is refined, then searched
+        again, and one under `refine_iou` re-seeded digit by digit."""
+        s, tracker = self.settings, self.tracker
+        if not self.started and not empty:
+            if self.previous is None:
+                self._search(masks)
+            self.started = True
+        if not self.started:
+            return _Frame(None, self._nan_pose(), empty=True)
+        before = copy.deepcopy(tracker.predictor)
+        best = _quiet_step(tracker, masks, None)
+        base, learned, again = before, True, False
+        if not empty and best is not None and best.lost and s.refine_iterations:
+            refined = self._refine(best, masks)
+            if _better(refined, best):
+                best, learned = refined, False
+        if s.reinit and not empty and (best is None or best.lost):
+            self._search(masks)
+            again, learned = True, False
+            restarted = copy.deepcopy(tracker.predictor)
+            r2 = _quiet_step(tracker, masks, None)
+            if _better(r2, best):
+                best, base, learned = r2, restarted, True
+            if r2 is not None and r2.lost and s.refine_iterations:
+                refined = self._refine(r2, masks)
+                if _better(refined, best):
+                    best, base, learned = refined, restarted, False
+        if (s.reseed_digits and s.refine_iterations and not empty and best is not None
+                and best.mean_iou < s.refine_iou):  # fmt: skip
+            for start in digit_reseeds(best.pose, self.hand, self.rig, masks, s.reseed_digits):
+                refined = self._refine(dataclasses.replace(best, pose=start), masks)
+                if (refined is not None and refined.mean_iou >= best.mean_iou + s.reseed_margin
+                        and _better(refined, best)):  # fmt: skip
+                    best, learned = refined, False
+        if best is not None and not learned:  # the predictor learns the fit kept
+            if tracker.frames_tracked == 0:
+                tracker.reset(best.pose)
+            _restore(tracker, base)
+            tracker.predictor.update(best.pose)
+        if best is None:  # diverged and not recovered: keep the last finite pose
+            pose = self._nan_pose()
+            if self.previous is not None:
+                tracker.reset(self.previous)
+        else:
+            pose = self.previous = best.pose
+        return _Frame(best, pose, again, empty)
+
+    # -- helpers ----------------------------------------------------------------------
+
+    def _lost(self, fit) -> bool:
+        """A keypoint fit is lost when its kept keypoints lie farther than the lost
+        rule's keypoint error on average, or when it rejects more than half of them."""
+        present = int((~np.isnan(fit.distances)).sum())
+        q = self.tracker.settings.quality
+        return bool(fit.error > q.lost_keypoint_error or fit.n_rejected > 0.5 * present)
+
+    def _nan_pose(self) -> np.ndarray:
+        return np.full(N_PARAMS, np.nan) if self.previous is None else self.previous
+
+    def _search(self, masks) -> None:
+        t0 = time.perf_counter()
+        tracker = self.tracker
+        result = initial_pose(masks, self.rig, self.hand, rng=tracker.rng,
+                              tracker_settings=tracker.settings, **self.init_kw)  # fmt: skip
+        tracker.reset(result.pose)
+        self.init_seconds.append(time.perf_counter() - t0)
+
+    def _refine(self, r, masks):
+        """`r` refined: the optimiser continues from it, with fresh gains, no motion."""
+        tracker = self.tracker
+        if self._refiner is None:
+            smd = dataclasses.replace(
+                tracker.settings.smd, max_iterations=self.settings.refine_iterations
+            )
+            # its own generator, spawned from the tracker's without drawing from it
+            self._refiner = Tracker(self.rig, self.hand, NoMotion(), tracker.rng.spawn(1)[0],
+                                    dataclasses.replace(tracker.settings, smd=smd))  # fmt: skip
+        self._refiner.reset(r.pose)
+        r2 = _quiet_step(self._refiner, masks, None)
+        if r2 is None:
+            return None
+        return dataclasses.replace(
+            r2, start=r.start, costs=np.concatenate([r.costs, r2.costs]),
+            iterations=r.iterations + r2.iterations, seconds=r.seconds + r2.seconds,
+        )  # fmt: skip
+
+    # -- a whole track ----------------------------------------------------------------
+
+    def run(self, frames: Iterable, x0=None, *, keypoints=None, world=None,
+            on_frame: Callable | None = None) -> RecoveredTrack:  # fmt: skip
+        """Track `frames` from `x0` (`track_with_recovery`)."""
+        if x0 is not None:
+            self.tracker.reset(x0)
+            self.previous = np.asarray(x0, dtype=float)
+            self.started = True
+        out: list[_Frame] = []
+        seconds: list[float] = []
+        for i, masks in enumerate(frames):
+            t0 = time.perf_counter()
+            kps = _at(keypoints, i)
+            kps = kps if _present(kps) else None
+            w = _at(world, i)
+            f = self.frame(masks, kps, w, with_keypoints=keypoints is not None)
+            seconds.append(time.perf_counter() - t0)
+            out.append(f)
+            if on_frame is not None:
+                on_frame(i, f.pose, _frame_quality(f.result, f.empty or f.no_hand), masks)
+        if not out:
+            raise ValueError("frames: expected at least one frame; got none")
+        max_it = self.tracker.settings.smd.max_iterations
+        return _assemble(out, self.hand, len(self.rig), max_it, self.init_seconds,
+                         np.asarray(seconds))  # fmt: skip
+
+
+def _at(values, i):
+    if values is None:
+        return None
+    if callable(values):
+        return values(i)
+    return values[i] if i < len(values) else None
+
+
+def _off(fit) -> int:
+    """Kept keypoints of a keypoint fit farther than the keypoint check's 0.2 hand sizes
+    (in the fit's hand size)."""
+    d = fit.distances[~fit.rejected & ~np.isnan(fit.distances)]
+    return int(np.sum(d > CHECK_THRESHOLD))
+
+
+def _fit_score(fit) -> tuple[int, float]:
+    """Order of two keypoint fits of one frame, best lowest: fewer keypoints rejected or
+    off (`_off`), then closer."""
+    return (fit.n_rejected + _off(fit), fit.error)
+
+
+def _better(a, b) -> bool:
+    return _score(a) > _score(b)
 
 
 def track_with_recovery(
@@ -334,12 +702,13 @@ def track_with_recovery(
     x0=None,
     *,
     keypoints: Sequence | Callable | None = None,
+    world: Sequence | Callable | None = None,
     settings: RecoverySettings = RECOVERY_DEFAULTS,
     init_settings: InitSettings | None = None,
     cut_wrist: bool = False,
     on_frame: Callable | None = None,
 ) -> RecoveredTrack:
-    """Track frame by frame, refine poor fits, re-initialise lost ones (module notes).
+    """Track frame by frame with the keypoint-first fit and the recovery's rules.
 
     Parameters
     ----------
@@ -349,27 +718,26 @@ def track_with_recovery(
     frames : iterable of (n_cams, H, W) bool array_like
         The silhouettes of each frame, in order.
     x0 : (26,) array_like, optional
-        Pose at the first frame; by default `initial_pose` of the first frame.
+        Pose at the first frame; by default fitted to the first frame's keypoints, or
+        searched in its silhouettes (a track without keypoints).
     keypoints : sequence or callable, keyword-only, optional
         ``keypoints[i]`` (or ``keypoints(i)``) for the i-th frame: per camera a (21, 3)
         array (x, y in the masks' pixels, confidence) or None, or None for a frame
-        without keypoints.  They go into the tracker's cost, its quality and the
-        re-initialisation.
+        without keypoints.
+    world : sequence or callable, keyword-only, optional
+        ``world[i]``: the detector's 3D joints of frame i, (21, 3) mm in the first
+        camera's axes (any origin), or None: a weak cue of the fit.
     settings : RecoverySettings, keyword-only
-        When to search the pose again.
     init_settings : InitSettings, keyword-only, optional
-        Settings of the pose search.
+        Settings of the silhouette pose search.
     cut_wrist : bool, keyword-only
         `frames` are silhouettes with the forearm still on; cut each camera's at the
-        wrist here (`handvar.vision.silhouette.cut_wrist`), across the wrist → middle
-        MCP line through the wrist point: the detected one on a frame with keypoints,
-        else the previous frame's fitted model's (`model_wrist_keypoints`); before any
-        fit, where the forearm's width changes.  Meant for tracks with keypoints, which keep
-        the model, and so its wrist, anchored.
+        wrist here (`handvar.vision.silhouette.cut_wrist`): the detected one on a frame
+        with keypoints, else the previous frame's fitted model's
+        (`model_wrist_keypoints`).
     on_frame : callable, keyword-only, optional
         Called as ``on_frame(i, pose, quality, masks)`` after each frame, quality a
-        `FrameQuality` and masks the silhouettes tracked (for overlays written while
-        tracking).
+        `FrameQuality` and masks the silhouettes given.
 
     Returns
     -------
@@ -381,176 +749,13 @@ def track_with_recovery(
     ValueError
         No frame, or without `x0` no frame with a silhouette to search the pose in.
     """
-    as_instance(tracker, Tracker, "tracker")
-    as_instance(settings, RecoverySettings, "settings")
-    init_kw = {} if init_settings is None else {"settings": init_settings}
-    hand, rig = tracker.hand, tracker.rig
-    max_it = tracker.settings.smd.max_iterations
-
-    def frame_keypoints(i):
-        if keypoints is None:
-            return None
-        kps = (
-            keypoints(i) if callable(keypoints) else (keypoints[i] if i < len(keypoints) else None)
-        )
-        return kps if _present(kps) else None
-
-    def search(masks, kps):
-        t0 = time.perf_counter()
-        result = initial_pose(
-            masks, rig, hand, keypoints=kps, rng=tracker.rng,
-            tracker_settings=tracker.settings, **init_kw,
-        )  # fmt: skip
-        tracker.reset(result.pose)
-        return time.perf_counter() - t0
-
-    refiners: dict[float, Tracker] = {}  # continue a fit: no motion, refine_iterations
-
-    def refine(r, masks, kps, weight: float = 1.0):
-        """`r` refined, the keypoint term's weight scaled by `weight`."""
-        if weight not in refiners:
-            smd = dataclasses.replace(
-                tracker.settings.smd, max_iterations=settings.refine_iterations
-            )
-            cost = tracker.settings.cost
-            cost = dataclasses.replace(cost, weight_keypoints=weight * cost.weight_keypoints)
-            # its own generator, spawned from the tracker's without drawing from it: the
-            # frames that need no refinement are fitted with the same draws as without it
-            refiners[weight] = Tracker(
-                rig, hand, NoMotion(), tracker.rng.spawn(1)[0],
-                dataclasses.replace(tracker.settings, smd=smd, cost=cost),
-            )  # fmt: skip
-        refiner = refiners[weight]
-        refiner.reset(r.pose)
-        r2 = _quiet_step(refiner, masks, kps)
-        if r2 is None:
-            return None
-        return dataclasses.replace(
-            r2, start=r.start, costs=np.concatenate([r.costs, r2.costs]),
-            iterations=r.iterations + r2.iterations, seconds=r.seconds + r2.seconds,
-        )  # fmt: skip
-
-    def drifting(r, kps) -> bool:
-        return kps is not None and r.keypoint_error > settings.refit_keypoint_error
-
-    def poor(r, kps) -> bool:
-        if r is None or settings.refine_iterations == 0:
-            return False
-        # without keypoints a higher IoU is no better pose (§14.1): refined only when lost
-        judged = kps is not None or settings.refine_without_keypoints
-        return r.lost or drifting(r, kps) or (judged and r.mean_iou < settings.refine_iou)
-
-    def better(a, b) -> bool:
-        thr = settings.refit_keypoint_error
-        return _score(a, thr) > _score(b, thr)
-
-    results, flags, init_seconds = [], [], []
-    previous = None if x0 is None else np.asarray(x0, dtype=float)
-    started = False
-    for i, masks in enumerate(frames):
-        masks = np.asarray(masks, dtype=bool)
-        if masks.ndim == 2:
-            masks = masks[None]
-        kps = frame_keypoints(i)
-        if cut_wrist:
-            masks = _cut(masks, kps, previous, hand, rig)
-        empty = not masks.any()
-        if not started and not empty:
-            if x0 is None:
-                init_seconds.append(search(masks, kps))
-            else:
-                tracker.reset(x0)
-            started = True
-        if not started:  # nothing seen yet: nothing to track from
-            pose = np.full(N_PARAMS, np.nan) if previous is None else previous
-            results.append(None)
-            flags.append((pose, False, True, kps is not None))
-            if on_frame is not None:
-                on_frame(i, pose, FrameQuality(math.nan, math.nan, math.nan, False), masks)
-            continue
-        before = copy.deepcopy(tracker.predictor)  # its state before this frame
-        r = _quiet_step(tracker, masks, kps)
-        # `learned`: the tracker's predictor was last updated with `best`
-        best, base, learned = r, before, True
-        if not empty and poor(r, kps):
-            refined = refine(r, masks, kps)
-            if better(refined, best):
-                best, learned = refined, False
-        again = False
-        if (
-            settings.reinit
-            and not empty
-            and (
-                best is None
-                or best.lost
-                or (palm_seen(kps) and (drifting(best, kps) or poor(best, kps)))
-            )
-        ):  # a fit not lost is searched again only from keypoints that give a pose
-            init_seconds.append(search(masks, kps))
-            again, learned = True, False
-            restarted = copy.deepcopy(tracker.predictor)
-            r2 = _quiet_step(tracker, masks, kps)
-            if better(r2, best):
-                best, base, learned = r2, restarted, True
-            if poor(r2, kps):
-                refined = refine(r2, masks, kps)
-                if better(refined, best):
-                    best, base, learned = refined, restarted, False
-        if (
-            settings.reseed_digits
-            and settings.refine_iterations
-            and not empty
-            and best is not None
-            and best.mean_iou < settings.refine_iou
-        ):  # a digit the silhouette cannot move: start it elsewhere (§14.3 step 5)
-            gain = settings.reseed_margin if kps is None else 0.0
-            for start in digit_reseeds(best.pose, hand, rig, masks, settings.reseed_digits):
-                refined = refine(dataclasses.replace(best, pose=start), masks, kps)
-                if (
-                    refined is not None
-                    and refined.mean_iou >= best.mean_iou + gain
-                    and better(refined, best)
-                ):
-                    best, learned = refined, False
-        w = settings.refine_keypoint_weight
-        if kps is not None and w < 1.0 and poor(best, kps):  # silhouette and keypoints disagree
-            refined = refine(best, masks, kps, w)
-            if better(refined, best) or (
-                refined is not None
-                and not refined.lost
-                and refined.keypoint_error <= settings.refine_keypoint_band
-                and refined.mean_iou > best.mean_iou
-            ):  # a better silhouette fit, the joints within the band (§14.3 step 6)
-                best, learned = refined, False
-        if best is not None and not learned:  # the predictor learns the fit kept
-            if tracker.frames_tracked == 0:  # the restart's step diverged
-                tracker.reset(best.pose)
-            _restore(tracker, base)
-            tracker.predictor.update(best.pose)
-        r = best
-        if r is None:  # diverged and not recovered: keep the last finite pose
-            pose = np.full(N_PARAMS, np.nan) if previous is None else previous
-            if previous is not None:
-                tracker.reset(previous)
-        else:
-            pose = r.pose
-            previous = pose
-        results.append(r)
-        flags.append((pose, again, empty, kps is not None))
-        if on_frame is not None:
-            on_frame(i, pose, _frame_quality(r, empty), masks)
-    if not results:
-        raise ValueError("frames: expected at least one frame; got none")
-    if not started and x0 is None:
-        raise ValueError(
-            f"frames: expected a frame with a silhouette to search the first pose in; "
-            f"all {len(results)} are empty"
-        )
-    return _assemble(results, flags, hand, len(rig), max_it, init_seconds)
+    recovery = Recovery(tracker, settings=settings, init_settings=init_settings,
+                        cut_wrist=cut_wrist)  # fmt: skip
+    return recovery.run(frames, x0, keypoints=keypoints, world=world, on_frame=on_frame)
 
 
 def digit_reseeds(x, hand, rig, masks, n: int) -> list[np.ndarray]:
-    """Starts for a new fit: `x` with one digit set to a named hand shape's (§14.3).
+    """Starts for a new fit: `x` with one digit set to a named hand shape's (design §14.3).
 
     For each digit and each named shape (`handvar.hand.kinematics.POSE_NAMES`), the
     digit's abduction and three flexions are set to that shape's; a setting within 10°
@@ -620,7 +825,7 @@ def _cut_at_joint(k: np.ndarray) -> np.ndarray:
     `cut_wrist` cuts `WristCutSettings.keypoint_offset` (a) hand sizes beyond the wrist
     point, towards the forearm; moving the point a / (1 + a) of the way to the middle
     MCP cancels that.  The tracked model ends at its wrist joint, which is the point a
-    detector marks, so the silhouette it is fitted to ends there too (§14.3).
+    detector marks, so the silhouette it is fitted to ends there too (design §14.3).
     """
     from handvar.vision.wrist import WRIST_CUT_SETTINGS
 
@@ -661,44 +866,51 @@ def _frame_quality(r, empty: bool) -> FrameQuality:
     return FrameQuality(r.mean_iou, r.keypoint_error, r.cost, bool(r.lost and not empty))
 
 
-def _assemble(results, flags, hand, n_cams, max_it, init_seconds) -> RecoveredTrack:
-    """The `TrackResult` and `TrackQuality` of the frames' results."""
-    n = len(results)
-    poses = np.array([f[0] for f in flags])
+def _assemble(frames, hand, n_cams, max_it, init_seconds, seconds) -> RecoveredTrack:
+    """The `TrackResult` and `TrackQuality` of the frames kept by `Recovery`."""
+    n = len(frames)
+    poses = np.array([f.pose for f in frames])
     costs = np.full((n, max_it), np.nan)
     starts = poses.copy()
     iterations = np.zeros(n, dtype=np.int64)
-    seconds = np.zeros((n, 3))
+    parts = np.zeros((n, 3))
     iou = np.full((n, n_cams), np.nan)
     final = np.full(n, np.nan)
     kp_err = np.full(n, np.nan)
     lost = np.zeros(n, dtype=bool)
     empty_cams = np.zeros((n, n_cams), dtype=bool)
-    for t, (r, f) in enumerate(zip(results, flags, strict=True)):
-        empty_cams[t] = f[2]
+    distances = np.full((n, n_cams, 21), np.nan)
+    for t, f in enumerate(frames):
+        empty_cams[t] = f.empty or f.no_hand
+        if f.distances is not None:
+            distances[t] = f.distances
+        r = f.result
         if r is None:
-            lost[t] = not f[2]
+            lost[t] = not (f.empty or f.no_hand)
             continue
         starts[t] = r.start
         costs[t, : r.iterations] = r.costs[:max_it]
         iterations[t] = r.iterations
-        seconds[t] = r.seconds
+        parts[t] = r.seconds
         iou[t], final[t], kp_err[t] = r.iou, r.cost, r.keypoint_error
         empty_cams[t] = r.empty
-        lost[t] = r.lost and not f[2]
+        lost[t] = r.lost and not f.empty
     joints = np.stack(
         [hand.joints(x) if np.all(np.isfinite(x)) else np.full((21, 3), np.nan) for x in poses]
     )
     track = TrackResult(
-        poses, joints, starts, costs, iterations, seconds, iou, final, kp_err, lost, empty_cams
+        poses, joints, starts, costs, iterations, parts, iou, final, kp_err, lost, empty_cams
     )
     quality = TrackQuality(
         iou=track.mean_iou,
         keypoint_error=kp_err,
         cost=final,
         lost=lost,
-        reinit=np.array([f[1] for f in flags]),
-        empty=np.array([f[2] for f in flags]),
-        keypoints=np.array([f[3] for f in flags]),
+        reinit=np.array([f.reinit for f in frames]),
+        empty=np.array([f.empty for f in frames]),
+        keypoints=np.array([f.keypoints for f in frames]),
+        no_hand=np.array([f.no_hand for f in frames]),
+        rejected=np.array([f.rejected for f in frames], dtype=np.int64),
+        distances=distances,
     )
-    return RecoveredTrack(track, quality, np.array(init_seconds))
+    return RecoveredTrack(track, quality, np.array(init_seconds), seconds, hand.shape)

@@ -331,10 +331,21 @@ class Tracker:
         settings = TrackerSettings() if settings is None else settings
         as_instance(settings, TrackerSettings, "settings")
         self.rig = rig
-        self.hand = hand
         self.predictor = predictor
         self.rng = rng
         self.settings = settings
+        self.set_hand(hand)
+        self._x0: np.ndarray | None = None
+        self._n = 0
+
+    def set_hand(self, hand) -> None:
+        """Track with the model `hand` from now on (e.g. a shape adapted to the person,
+        `handvar.tracking.shape_fit`); the predictor and the track so far are kept."""
+        from handvar.hand.kinematics import HandModel
+
+        hand = as_instance(hand, HandModel, "hand")
+        rig, settings = self.rig, self.settings
+        self.hand = hand
         if hand.surface == "mesh":  # the skinned mesh (design §15)
             from handvar.tracking.mesh_cost import MeshSilhouetteCost
 
@@ -350,8 +361,6 @@ class Tracker:
         )  # fmt: skip
         self._refine_cost = type(self.cost)(hand, rig, dense)
         self._length = hand_length(hand)
-        self._x0: np.ndarray | None = None
-        self._n = 0
 
     def reset(self, x0) -> None:
         """Start a new track at pose `x0` (26,): the next frame's starting pose.
@@ -367,6 +376,29 @@ class Tracker:
     def frames_tracked(self) -> int:
         """Frames tracked since the last `reset`."""
         return self._n
+
+    def prediction(self) -> np.ndarray:
+        """The next frame's starting pose (26,): x0 after `reset`, else the predictor's.
+
+        As `step` starts from it: clamped to the joint limits and moved in front of
+        every camera.
+        """
+        if self._x0 is None:
+            raise ValueError("x0: expected a starting pose; call reset(x0) first")
+        if self._n == 0:
+            start = self._x0.copy()
+        else:
+            start = clamp(check_pose(self.predictor.predict(), "predictor.predict()"))
+        return clamp(self._front(start))
+
+    def accept(self, x) -> None:
+        """Take pose `x` (26,) as the frame's fit made elsewhere: the predictor learns it.
+
+        For a frame fitted outside `step` (the keypoint-first fit,
+        `handvar.tracking.frame_fit`); the next `prediction` follows from it.
+        """
+        self.predictor.update(check_pose(x, "x"))
+        self._n += 1
 
     def prepare(self, masks) -> FrameData:
         """The per-frame preprocessing of `masks` (distance fields), for `step(frame=...)`.

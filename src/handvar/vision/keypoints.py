@@ -24,6 +24,17 @@ Files
   optional header row (any first row with a cell that is not a number); empty cells
   and ``nan`` are missing.  `write_keypoints` writes 63 columns with the header
   ``x0,y0,c0,…``.
+- ``.npz``: ``keypoints`` (T, 21, 2|3) as the ``.npy``, and what a detector may know
+  besides, each optional: ``world`` (T, 21, 3) its metric 3D points, mm, in axes of
+  the camera (x right, y down, z away from it), any origin (MediaPipe's world
+  landmarks are hand-centred); ``depth`` (T, 21) each point's depth relative to the
+  wrist, in the detector's units (MediaPipe's landmark z, about the image width);
+  ``presence`` (T,) the probability that a hand is there; ``handedness`` (T,) the side
+  of the hand seen, ``"right"``, ``"left"`` or ``""`` (unknown), as the image shows it
+  (MediaPipe's label, which assumes a mirrored image, is turned into that by the
+  adapter, `handvar.vision.mediapipe`).  NaN (or ``""``) where missing.  The ``.npy``
+  and ``.csv`` formats hold only the first part, and files without the rest read
+  as before.
 
 Examples
 --------
@@ -56,6 +67,7 @@ __all__ = [
     "PALM",
     "Keypoints2D",
     "as_frame_keypoints",
+    "check_keypoints",
     "check_output_suffix",
     "read_keypoints",
     "write_keypoints",
@@ -100,8 +112,13 @@ class Keypoints2D:
     xy: np.ndarray
     confidence: np.ndarray
     name: str = "keypoints"
+    world: np.ndarray | None = None
+    depth: np.ndarray | None = None
+    presence: np.ndarray | None = None
+    handedness: np.ndarray | None = None
 
     def __post_init__(self) -> None:
+        self._check_extras()
         xy = np.array(self.xy, dtype=float)
         c = np.array(self.confidence, dtype=float)
         if xy.ndim != 3 or xy.shape[1:] != (N_KEYPOINTS, 2) or c.shape != xy.shape[:2]:
@@ -116,6 +133,56 @@ class Keypoints2D:
         c.flags.writeable = False
         object.__setattr__(self, "xy", xy)
         object.__setattr__(self, "confidence", c)
+
+    def _check_extras(self) -> None:
+        n = np.shape(self.xy)[0] if np.ndim(self.xy) == 3 else None
+        for field_, tail in (("world", (N_KEYPOINTS, 3)), ("depth", (N_KEYPOINTS,)),
+                             ("presence", ()), ("handedness", ())):  # fmt: skip
+            value = getattr(self, field_)
+            if value is None:
+                continue
+            if field_ == "handedness":
+                a = np.array(value, dtype=str)
+                bad = sorted(set(a.ravel().tolist()) - {"right", "left", ""})
+                if bad:
+                    raise ValueError(
+                        f"{self.name}: expected handedness right, left or empty; got {bad[0]!r}"
+                    )
+            else:
+                a = np.array(value, dtype=float)
+                if np.isinf(a).any():
+                    raise ValueError(f"{self.name}: expected finite {field_} or NaN; got infinity")
+            if a.shape != (n, *tail):
+                raise ValueError(
+                    f"{self.name}: expected {field_} of shape {(n, *tail)}; got {a.shape}"
+                )
+            a.flags.writeable = False
+            object.__setattr__(self, field_, a)
+
+    def _with(self, xy, confidence, keep=None) -> Keypoints2D:
+        """These keypoints with new points, the extras kept (missing where not `keep`)."""
+        extras = {}
+        for name in ("world", "depth", "presence", "handedness"):
+            v = getattr(self, name)
+            if v is not None and keep is not None:
+                blank = "" if name == "handedness" else np.nan
+                v = np.where(keep.reshape((-1,) + (1,) * (v.ndim - 1)), v, blank)
+            extras[name] = v
+        return Keypoints2D(xy, confidence, self.name, **extras)
+
+    def side(self) -> str | None:
+        """The side of the hand by its frames' handedness: "right" or "left", the one
+        of most frames with a detection (weighted by the presence when given); None
+        without handedness."""
+        if self.handedness is None:
+            return None
+        seen = self.present.any(axis=1) & (self.handedness != "")
+        w = np.ones(self.n_frames) if self.presence is None else np.nan_to_num(self.presence)
+        votes = {side: float(w[seen & (self.handedness == side)].sum())
+                 for side in ("right", "left")}  # fmt: skip
+        if votes["right"] == votes["left"]:
+            return None
+        return max(votes, key=votes.get)
 
     @classmethod
     def from_array(cls, array, *, name: str = "keypoints") -> Keypoints2D:
@@ -204,7 +271,7 @@ class Keypoints2D:
         else:
             w, h = (as_int(v, "size", minimum=1) for v in size)
             s = np.array([max(1, round(w * factor)) / w, max(1, round(h * factor)) / h])
-        return Keypoints2D((self.xy + 0.5) * s - 0.5, self.confidence, self.name)
+        return self._with((self.xy + 0.5) * s - 0.5, self.confidence)
 
     def every(self, k: int, *, offset: int = 0) -> Keypoints2D:
         """Keep every `k`-th frame (``t ≡ offset mod k``); the others become missing.
@@ -216,7 +283,7 @@ class Keypoints2D:
         offset = as_int(offset, "offset", minimum=0)
         keep = (np.arange(self.n_frames) - offset) % k == 0
         conf = np.where(keep[:, None], self.confidence, 0.0)
-        return Keypoints2D(self.xy, conf, self.name)
+        return self._with(self.xy, conf, keep)
 
 
 def as_frame_keypoints(value, name: str = "keypoints") -> np.ndarray:
@@ -240,6 +307,90 @@ def as_frame_keypoints(value, name: str = "keypoints") -> np.ndarray:
             f"{name}: expected keypoints of shape (21, 2) or (21, 3); got shape {a.shape}"
         )
     return Keypoints2D.from_array(a[None], name=name).frame(0)
+
+
+def check_keypoints(keypoints, n_frames: int, sizes, hand: str):
+    """Check a recording's keypoints before tracking; return them cleaned and the side.
+
+    - Each camera's keypoints must have the recording's `n_frames` frames and at least
+      one frame with a detected point.
+    - Coordinates all within [−0.5, 1.5] on a frame larger than 16 pixels are normalised
+      coordinates, not pixels: an error.
+    - Points more than half a frame beyond its border are not the hand's: they are
+      dropped (missing), and their count returned.
+    - `hand` "auto" takes the side of the keypoints' handedness (`Keypoints2D.side`);
+      a side that the handedness contradicts is an error.
+
+    Parameters
+    ----------
+    keypoints : list of Keypoints2D or None
+        Per camera (None: a camera without), pixels of the full-resolution frames.
+    n_frames : int
+        Frames of the recording.
+    sizes : sequence of (int, int)
+        Per camera the full-resolution frame size (width, height).
+    hand : {"right", "left", "auto"}
+
+    Returns
+    -------
+    keypoints : list of Keypoints2D or None
+    side : {"right", "left"}
+    dropped : int
+        Points dropped as outside the frames.
+
+    Raises
+    ------
+    ValueError
+        Naming the keypoints (the file) or ``hand``, what was expected and what came.
+    """
+    out, dropped, sides = [], 0, set()
+    for k, (w, h) in zip(keypoints, sizes, strict=True):
+        if k is None:
+            out.append(None)
+            continue
+        if k.n_frames != n_frames:
+            raise ValueError(
+                f"{k.name}: expected keypoints of {n_frames} frames (the recording's); "
+                f"got {k.n_frames}"
+            )
+        present = k.present
+        if not present.any():
+            raise ValueError(
+                f"{k.name}: expected at least one frame with a detected point; got none"
+            )
+        xy = k.xy[present]
+        if max(w, h) > 16 and xy.min() >= -0.5 and xy.max() <= 1.5:
+            raise ValueError(
+                f"{k.name}: expected pixels of the {w}x{h} frames; got coordinates all "
+                f"within [{xy.min():.2f}, {xy.max():.2f}] (normalised coordinates?)"
+            )
+        margin = 0.5 * np.array([w, h])
+        outside = present & (
+            (k.xy < -margin - 0.5).any(axis=2)
+            | (k.xy > np.array([w, h]) - 0.5 + margin).any(axis=2)
+        )
+        if outside.any():
+            dropped += int(outside.sum())
+            k = k._with(k.xy, np.where(outside, 0.0, k.confidence))
+        side = k.side()
+        if side is not None:
+            sides.add(side)
+        out.append(k)
+    if len(sides) > 1:
+        raise ValueError("keypoints: expected one hand; got right in one camera, left in another")
+    seen = next(iter(sides), None)
+    if hand == "auto":
+        if seen is None:
+            raise ValueError(
+                "hand: auto expected keypoints with handedness (a .npz written by handvar "
+                "keypoints); got none"
+            )
+        return out, seen, dropped
+    if seen is not None and seen != hand:
+        raise ValueError(
+            f"hand: expected the side the keypoints' handedness gives ({seen}); got {hand}"
+        )
+    return out, hand, dropped
 
 
 # --- files -----------------------------------------------------------------------------
@@ -322,7 +473,7 @@ def read_keypoints(path: str | os.PathLike) -> Keypoints2D:
     path = Path(path)
     name = str(path)
     if not path.is_file():
-        raise ValueError(f"{name}: expected a keypoint file (.npy or .csv); got no such file")
+        raise ValueError(f"{name}: expected a keypoint file (.npy, .csv or .npz); got no such file")
     suffix = path.suffix.lower()
     if suffix == ".npy":
         try:
@@ -334,23 +485,47 @@ def read_keypoints(path: str | os.PathLike) -> Keypoints2D:
             array = _read_csv(path)
         except UnicodeDecodeError:
             raise ValueError(f"{name}: expected a text CSV file; got binary data") from None
+    elif suffix == ".npz":
+        return _read_npz(path)
     else:
-        raise ValueError(f"{name}: expected a .npy or .csv keypoint file; got {suffix!r}")
+        raise ValueError(f"{name}: expected a .npy, .csv or .npz keypoint file; got {suffix!r}")
     return Keypoints2D.from_array(array, name=name)
+
+
+#: The optional arrays of a ``.npz`` keypoint file (module notes).
+_EXTRAS = ("world", "depth", "presence", "handedness")
+
+
+def _read_npz(path: Path) -> Keypoints2D:
+    name = str(path)
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+    except (ValueError, OSError, EOFError) as exc:
+        raise ValueError(f"{name}: expected a NumPy .npz archive; got {exc}") from None
+    if "keypoints" not in arrays:
+        raise ValueError(
+            f"{name}: expected a .npz with a 'keypoints' array; got {sorted(arrays) or 'none'}"
+        )
+    kp = Keypoints2D.from_array(arrays["keypoints"], name=name)
+    return Keypoints2D(kp.xy, kp.confidence, name,
+                       **{k: arrays.get(k) for k in _EXTRAS})  # fmt: skip
 
 
 def check_output_suffix(path: str | os.PathLike) -> Path:
     """Check that `path` names a keypoint file `write_keypoints` can write."""
     path = Path(path)
-    if path.suffix.lower() not in (".npy", ".csv"):
+    if path.suffix.lower() not in (".npy", ".csv", ".npz"):
         raise ValueError(
-            f"{path}: expected a file name ending in .npy or .csv; got {path.suffix!r}"
+            f"{path}: expected a file name ending in .npy, .csv or .npz; got {path.suffix!r}"
         )
     return path
 
 
 def write_keypoints(path: str | os.PathLike, keypoints: Keypoints2D | np.ndarray) -> None:
-    """Write keypoints as ``.npy`` (T, 21, 3) or ``.csv`` (63 columns with a header).
+    """Write keypoints as ``.npy`` (T, 21, 3), ``.csv`` (63 columns with a header) or
+    ``.npz`` (with the world points, depth, presence and handedness given; module
+    notes).  Only the ``.npz`` keeps those.
 
     The file is written atomically (`handvar.atomic.write_atomic`).
 
@@ -370,6 +545,13 @@ def write_keypoints(path: str | os.PathLike, keypoints: Keypoints2D | np.ndarray
         def write(tmp: str) -> None:
             with open(tmp, "wb") as fh:
                 np.save(fh, array)
+
+    elif suffix == ".npz":
+        extras = {k: getattr(keypoints, k) for k in _EXTRAS if getattr(keypoints, k) is not None}
+
+        def write(tmp: str) -> None:
+            with open(tmp, "wb") as fh:
+                np.savez_compressed(fh, keypoints=array, **extras)
 
     elif suffix == ".csv":
         buf = io.StringIO()

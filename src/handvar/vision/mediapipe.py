@@ -16,7 +16,14 @@ Choices
 - Video mode (``static_image_mode=False``): the landmark model tracks the hand from the
   previous frame and the palm detector runs only when it is lost.
 - Handedness: MediaPipe labels hands as if the image were mirrored (a selfie camera).
-  For an ordinary camera (``mirrored=False``, the default) its "Left" is the right hand.
+  For an ordinary camera (``mirrored=False``, the default) its "Left" is the right hand
+  (`handedness_side`); the keypoint file stores the side the image shows.  The same
+  video mirrored shows the other hand, and the side read from it is the other one.
+- ``hand="auto"``: the most confident hand of either side is kept, its side stored.
+- What the detector knows besides the points (``details=True``, the ``.npz`` keypoint
+  file): the world landmarks (metres × 1000: mm, hand-centred, axes of the image), each
+  landmark's relative depth (its z, about the image width), the handedness; the legacy
+  API reports no presence score, so presence is 1 where a hand was found, else 0.
 - The asked-for hand: of the hands found in a frame (up to two), the one most probably
   of the asked side — probability ``score`` if its label is that side, ``1 − score``
   otherwise.  Its 21 points get that probability as their confidence (the legacy API
@@ -36,7 +43,13 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-__all__ = ["MEDIAPIPE_VERSION", "MissingExtraError", "detect_keypoints", "detect_video"]
+__all__ = [
+    "MEDIAPIPE_VERSION",
+    "MissingExtraError",
+    "detect_keypoints",
+    "detect_video",
+    "handedness_side",
+]
 
 #: The MediaPipe release the adapter was written and checked against.
 MEDIAPIPE_VERSION = "0.10.21"
@@ -58,25 +71,48 @@ def _hands_module():
     return mp.solutions.hands
 
 
+def handedness_side(label: str, mirrored: bool = False) -> str:
+    """The side of a hand MediaPipe labelled `label` ("Left" or "Right").
+
+    MediaPipe labels as if the image were mirrored; in an ordinary (not `mirrored`)
+    image its "Left" is a right hand.
+
+    Examples
+    --------
+    >>> handedness_side("Left"), handedness_side("Left", mirrored=True)
+    ('right', 'left')
+    """
+    if label not in ("Left", "Right"):
+        raise ValueError(f"label: expected Left or Right; got {label!r}")
+    side = label.lower()
+    if mirrored:
+        return side
+    return "right" if side == "left" else "left"
+
+
 def detect_keypoints(
     frames: Iterable[np.ndarray],
     *,
     hand: str = "right",
     mirrored: bool = False,
+    details: bool = False,
     model_complexity: int = 1,
     min_detection_confidence: float = 0.5,
     min_tracking_confidence: float = 0.5,
-) -> np.ndarray:
+):
     """Run MediaPipe Hands on consecutive BGR frames and keep one hand per frame.
 
     Parameters
     ----------
     frames : iterable of (H, W, 3) uint8 ndarray
         BGR colour frames in order (one video).
-    hand : {"right", "left"}, keyword-only
-        Which hand to keep (module notes).
+    hand : {"right", "left", "auto"}, keyword-only
+        Which hand to keep (module notes); "auto": the most confident of either side.
     mirrored : bool, keyword-only
         True for a mirrored (selfie) video, where MediaPipe's labels are literal.
+    details : bool, keyword-only
+        Return a `Keypoints2D` with the world landmarks, depth, presence and
+        handedness (module notes) instead of the array.
     model_complexity : {0, 1}, keyword-only
         MediaPipe's landmark model (1: the full one).
     min_detection_confidence, min_tracking_confidence : float, keyword-only
@@ -84,16 +120,15 @@ def detect_keypoints(
 
     Returns
     -------
-    (T, 21, 3) float64 ndarray
+    (T, 21, 3) float64 ndarray or Keypoints2D
         x, y (pixels of the frame, centres at integers) and the confidence that the
         points belong to the asked hand; NaN and 0 where no hand was found.
     """
-    if hand not in ("right", "left"):
-        raise ValueError(f"hand: expected one of right, left; got {hand!r}")
+    if hand not in ("right", "left", "auto"):
+        raise ValueError(f"hand: expected one of right, left, auto; got {hand!r}")
     solution = _hands_module()
-    # MediaPipe's label of the asked hand.
-    want = hand.capitalize() if mirrored else {"right": "Left", "left": "Right"}[hand]
     out: list[np.ndarray] = []
+    world, depth, sides = [], [], []
     with solution.Hands(
         static_image_mode=False,
         max_num_hands=2,
@@ -112,22 +147,42 @@ def detect_keypoints(
             result = detector.process(cv2.cvtColor(image, cv2.COLOR_BGR2RGB))
             row = np.full((21, 3), np.nan)
             row[:, 2] = 0.0
+            w3, z, seen = np.full((21, 3), np.nan), np.full(21, np.nan), ""
             best = -1.0
-            for landmarks, side in zip(
-                result.multi_hand_landmarks or (), result.multi_handedness or (), strict=True
+            hands = result.multi_hand_landmarks or ()
+            metric = getattr(result, "multi_hand_world_landmarks", None) or [None] * len(hands)
+            for landmarks, side, world_lm in zip(
+                hands, result.multi_handedness or (), metric, strict=True
             ):
                 label = side.classification[0]
-                p = label.score if label.label == want else 1.0 - label.score
+                found = handedness_side(label.label, mirrored)
+                # the probability that this hand is the asked one
+                p = label.score if hand in ("auto", found) else 1.0 - label.score
                 if p > best:
-                    best = p
-                    pts = np.array([(lm.x, lm.y) for lm in landmarks.landmark])
+                    best, seen = p, found
+                    pts = np.array([(lm.x, lm.y, lm.z) for lm in landmarks.landmark])
                     row[:, 0] = pts[:, 0] * w - 0.5
                     row[:, 1] = pts[:, 1] * h - 0.5
                     row[:, 2] = p
+                    z = pts[:, 2]
+                    if world_lm is not None:
+                        w3 = 1000.0 * np.array([(lm.x, lm.y, lm.z) for lm in world_lm.landmark])
             out.append(row)
+            world.append(w3)
+            depth.append(z)
+            sides.append(seen)
     if not out:
         raise ValueError("frames: expected at least one frame; got none")
-    return np.stack(out)
+    array = np.stack(out)
+    if not details:
+        return array
+    from handvar.vision.keypoints import Keypoints2D
+
+    kp = Keypoints2D.from_array(array)
+    return Keypoints2D(
+        kp.xy, kp.confidence, kp.name, world=np.stack(world), depth=np.stack(depth),
+        presence=kp.present.any(axis=1).astype(float), handedness=np.array(sides),
+    )  # fmt: skip
 
 
 def _read_frames(path: Path, stop: int | None) -> Iterator[np.ndarray]:
@@ -169,7 +224,7 @@ def detect_video(
     Parameters
     ----------
     path : path-like
-    hand : {"right", "left"}, keyword-only
+    hand : {"right", "left", "auto"}, keyword-only
     frames : int, optional, keyword-only
         Only the first `frames` frames.
     progress : callable, optional, keyword-only
@@ -179,7 +234,7 @@ def detect_video(
 
     Returns
     -------
-    (T, 21, 3) float64 ndarray
+    (T, 21, 3) float64 ndarray or Keypoints2D
         As `detect_keypoints`, in the pixels of the full-resolution frames.
     """
     _hands_module()  # fail before reading anything

@@ -402,6 +402,33 @@ class VideoSource:
             for j, k in enumerate(scaled)
         ]
 
+    def lazy_masks(self, stop: int | None = None, model=None):
+        """The silhouettes of frames 0 to ``stop - 1`` as a `handvar.io.FrameStack` whose
+        frames are computed when indexed (skin mask and clean-up, no wrist cut; empty
+        where no skin), for a `Sequence` whose masks are needed only for a few frames:
+        the overlays of a track whose frames were fitted to keypoints alone."""
+        from handvar.io import FrameStack
+        from handvar.vision.skin import SkinModel
+
+        model = SkinModel() if model is None else model
+
+        n = self.n_frames if stop is None else min(int(stop), self.n_frames)
+        source = self
+
+        class _Silhouettes(FrameStack):
+            def frame(self, t: int) -> np.ndarray:
+                if not -n <= t < n:
+                    raise IndexError(f"t: expected a frame index in [0, {n}); got {t}")
+                t = t % n
+                index, images = next(source.frames(t, t + 1))
+                return frame_silhouettes(
+                    images, model, index=index, names=source.names, wrist=False,
+                    allow_empty=True,
+                )  # fmt: skip
+
+        w, h = self.image_size
+        return _Silhouettes(np.full((n, self.n_cameras), "", dtype=object), "mask", (w, h))
+
     def to_sequence(
         self,
         start: int = 0,

@@ -1,0 +1,129 @@
+"""The three real videos tracked by `handvar.track` with their MediaPipe keypoints: lost
+frames, the keypoint check, PCK against the detector on withheld frames, and the all-in
+time per frame.
+
+Videos (`handvar.data.example_path`): the example video (``video``, 1280×720), the
+fingerspelling clip (``fingerspelling``, 620×1080) and the counting clip
+(``counting``, 640×480, no hand in its first ~110 and last ~90 frames), each with the
+MediaPipe keypoints of every frame.  Each is tracked as `handvar track` does, online
+(frames resized so that the longer side is 640 px; monocular, assumed camera; a right
+hand of 185 mm; RVAR predictor, seed 0; the first pose fitted to the first keypoints),
+with the detections of every frame (K = 1) or of every 5th, carried forward by optical
+flow between (K = 5).  Printed per video and K:
+
+- frames, frames with a detection given, no-hand frames, lost, re-initialised;
+- the keypoint check (`TrackQuality.check`: on every frame with a detection given the
+  joints within 0.2 hand sizes of at least 98 % of the keypoints kept), the frames that
+  fail it and the keypoints rejected; with K > 1, the same check's worst frame on the
+  frames with carried keypoints;
+- PCK@0.2 against the detector's keypoints (its own hand size) over the frames whose
+  detections were withheld (K > 1), and over all frames with a detection;
+- ms per frame all-in (reading and resizing the frame, carrying, silhouette where a
+  frame needs one, fit, rules, quality: the time between two frames' ends): median,
+  and the worst one-second window (mean over any fps consecutive frames).
+
+With ``--world`` the fingerspelling and counting clips are tracked with MediaPipe's world
+landmarks (``-mediapipe.npz``) as the fit's weak 3D cue; the last column is the tracked
+hand's length (the shape fit keeps the given 185 mm with one camera).
+
+Run: ``PYTHONPATH=src python benchmarks/realvideos.py [--every 1,5] [--videos NAME,...]
+[--world]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from handvar.data import example_path
+from handvar.pipeline import track
+from handvar.tracking.recovery import pck
+from handvar.vision.keypoints import Keypoints2D, read_keypoints
+from handvar.vision.sources import open_source
+
+VIDEOS = ("video", "fingerspelling", "counting")
+
+
+def run(name: str, every: int, seed: int = 0, world: bool = False) -> dict:
+    """Track video `name` with the detections of every `every`-th frame; score it.
+    `world`: with MediaPipe's world landmarks (``<name>-mediapipe``) as the fit's cue."""
+    path, kp_path = example_path(name), example_path(f"{name}-keypoints")
+    w, h = open_source(path).image_size
+    given_kp = read_keypoints(kp_path)
+    if world:
+        with np.load(example_path(f"{name}-mediapipe")) as z:
+            given_kp = Keypoints2D(given_kp.xy, given_kp.confidence, given_kp.name,
+                                   world=z["world_mm"])  # fmt: skip
+    stamps: list[float] = []
+    t0 = time.perf_counter()
+    tr = track(
+        path, keypoints=given_kp, scale=640.0 / max(w, h), keypoint_every=every, seed=seed,
+        on_frame=lambda *_: stamps.append(time.perf_counter()),
+    )  # fmt: skip
+    seconds = np.diff([t0, *stamps])
+    q, hand = tr.quality, tr.hand
+    detected = read_keypoints(kp_path)
+    n = tr.n_frames
+    seen = detected.present[:n].any(axis=1)
+    scores = np.array(
+        [pck(tr.poses[t], hand, tr.rig, [detected.frame(t)]) if seen[t] else np.nan
+         for t in range(n)]
+    )  # fmt: skip
+    given = seen & (np.arange(n) % every == 0)
+    withheld = seen & ~given
+    window = max(1, round(tr.fps or 30))
+    rolling = np.convolve(seconds, np.ones(window) / window, mode="valid")
+    ok, worst, rejected = q.check(frames=given)
+    return {
+        "frames": n, "given": int(given.sum()), "no_hand": int(q.no_hand.sum()),
+        "lost": int(q.lost.sum()), "reinit": int(q.reinit.sum()), "check": ok,
+        "worst": worst, "failing": _failing(q, given), "rejected": rejected,
+        "carried": q.check(frames=q.keypoints & ~given)[:2],
+        "pck_withheld": float(np.nanmean(scores[withheld])) if withheld.any() else np.nan,
+        "pck_all": float(np.nanmean(scores[seen])),
+        "median_ms": 1e3 * float(np.median(seconds)), "worst_ms": 1e3 * float(rolling.max()),
+        "size": tr.sequence.masks.shape[:1:-1], "length": tr.shape.length,
+    }  # fmt: skip
+
+
+def _failing(q, frames) -> int:
+    """Frames of `frames` whose kept keypoints fail the check's 98 %."""
+    d = q.distances[frames].reshape(int(np.sum(frames)), -1)
+    kept = ~np.isnan(d)
+    n = kept.sum(axis=1)
+    near = (kept & (np.nan_to_num(d, nan=np.inf) <= 0.2)).sum(axis=1)
+    return int(np.sum((n > 0) & (near < 0.98 * n)))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--every", default="1,5")
+    ap.add_argument("--videos", default=",".join(VIDEOS))
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument(
+        "--world",
+        action="store_true",
+        help="with MediaPipe's world landmarks (fingerspelling, counting)",
+    )
+    args = ap.parse_args()
+    print(
+        "video | K | frames (detections given) | no hand | lost | re-init | keypoint check "
+        "(worst frame, frames failing, rejected) | carried: worst frame | PCK withheld | PCK all | "
+        "ms/frame median | worst 1 s | hand length mm"
+    )
+    for name in args.videos.split(","):
+        for every in (int(v) for v in args.every.split(",")):
+            r = run(name, every, args.seed, args.world)
+            w, h = r["size"]
+            print(f"{name} ({w}x{h}) | {every} | {r['frames']} ({r['given']}) | {r['no_hand']} | "
+                  f"{r['lost']} | {r['reinit']} | {'holds' if r['check'] else 'fails'} "
+                  f"({100 * r['worst']:.1f} %, {r['failing']}, {r['rejected']}) | "
+                  f"{100 * r['carried'][1]:.1f} % | "
+                  f"{r['pck_withheld']:.3f} | {r['pck_all']:.3f} | {r['median_ms']:.1f} | "
+                  f"{r['worst_ms']:.1f} | {r['length']:.0f}", flush=True)  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,475 @@
+"""The keypoint-first fit of one frame (design: docs/keypoint-fit.md).
+
+On a frame with 2D keypoints (detected, or carried by optical flow), the keypoints are
+the primary observation and the pose x (26 parameters, `handvar.params`) minimises
+
+    E(x) = Σ_j Σ_i c_ij ρ(d_ij(x) / σ_k)  +  Σ_p ((x_p − x̂_p) / σ_p)²
+           + Σ_i |(W(x)_i − W(x)_0) − (w_i − w_0)|² / σ_w²          (only with w given)
+
+within the joint limits, where
+
+- d_ij = |π_j(G_i(x)) − k_ij| / s_j is the distance of joint i's projection in camera j
+  to its keypoint, in hand sizes (s_j: the model's wrist → middle-MCP length seen in
+  camera j, `hand_size_px`), c_ij the keypoint's confidence, σ_k the detector's noise
+  (`FrameFitSettings.noise`, hand sizes) and ρ the soft-L1 loss ρ(u) = 2(√(1 + u²) − 1)
+  (quadratic for small u, linear beyond: a gross error pulls with a bounded force);
+- x̂ is the motion predictor's prediction and σ_p its recent accuracy per parameter
+  group (`PriorScale`): the temporal prior (paper §3's predictor, here a residual
+  rather than only the starting point); its weight follows how well the predictor
+  predicted the last frames;
+- W(x) are the joints in the first camera's frame and w the detector's own 3D joints
+  (MediaPipe's world landmarks, metric), both relative to the wrist, σ_w their noise
+  (`FrameFitSettings.world_noise`): a weak cue, used only when the detector gives it.
+
+E is minimised by Levenberg–Marquardt on the exact Jacobians of G(x)
+(`handvar.tracking.keypoint_cost.keypoint_points`) and of the projection
+(`handvar.camera.Camera.project_jacobian`), the soft-L1 loss by iteratively
+reweighted least squares, each step projected onto the joint limits.  A keypoint still
+farther than `FrameFitSettings.reject` hand sizes from its joint at convergence is
+*rejected*: it gets weight 0 and the fit takes a few more steps without it; the number
+of rejected keypoints is reported per frame (`FrameFit.rejected`).
+
+`reinitialise` starts the same fit from the perspective-n-point palm poses of the
+frame's keypoints (`handvar.tracking.keypoint_fit.palm_candidates`), without a prior:
+a direct re-initialisation with no grid search.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
+from handvar.params import LOWER, N_PARAMS, UPPER, clamp
+from handvar.tracking.keypoint_cost import TIPS, hand_length, keypoint_points
+from handvar.validate import as_float, as_int, one_of
+
+__all__ = [
+    "CHECK_THRESHOLD",
+    "FRAME_FIT_DEFAULTS",
+    "FrameFit",
+    "FrameFitSettings",
+    "PriorScale",
+    "fit_frame",
+    "hand_size_px",
+    "honoured",
+    "reinitialise",
+]
+
+#: The keypoint check's distance, hand sizes (docs/keypoint-fit.md, "the check").
+CHECK_THRESHOLD = 0.2
+
+#: Parameter groups of the temporal prior: translation (mm), palm rotation, fingers (°).
+_GROUPS = (slice(0, 3), slice(3, 6), slice(6, N_PARAMS))
+
+
+@dataclass(frozen=True)
+class FrameFitSettings:
+    """Settings of the keypoint-first fit (module notes; chosen on the benchmarks with
+    ground truth, docs/keypoint-fit.md).
+
+    Attributes
+    ----------
+    noise : float
+        σ_k, the detector's per-point noise, hand sizes; 0.05 (a detector's typical
+        error on a hand of 100 px is about 5 px).
+    huber : float
+        Scale of the Huber loss on d, hand sizes; 0.1 (twice the noise: a point
+        beyond pulls with a bounded force).
+    reject : float
+        A keypoint farther than this from its fitted joint, hand sizes, is rejected as
+        an outlier; 0.25: five times the noise (a Gaussian error that far is one in
+        10⁵), a quarter beyond the PCK@0.2 radius, so that the check of `honoured`
+        (within 0.2 of the kept points) can still fail.
+    world_noise : float
+        σ_w, noise of the detector's 3D joints relative to the wrist, mm; 20.
+    iterations : int
+        Levenberg–Marquardt steps at most (before the outliers are dropped); 12.
+    polish : int
+        Steps after the outliers are dropped; 3.
+    tolerance : float
+        Stop when a step lowers E by less than this fraction; 1e-3.
+    tips : {"end", "pad"}
+        The model point a detected fingertip is compared with
+        (`handvar.tracking.keypoint_cost.keypoint_attachment`).
+    min_confidence : float
+        Keypoints of lower confidence are left out; 0.05.
+    """
+
+    noise: float = 0.05
+    huber: float = 0.1
+    reject: float = 0.25
+    world_noise: float = 20.0
+    iterations: int = 12
+    polish: int = 3
+    tolerance: float = 1e-3
+    tips: str = "end"
+    min_confidence: float = 0.05
+
+    def __post_init__(self) -> None:
+        as_float(self.noise, "noise", minimum=0.0, exclusive_minimum=True)
+        as_float(self.reject, "reject", minimum=0.0, exclusive_minimum=True)
+        as_float(self.world_noise, "world_noise", minimum=0.0, exclusive_minimum=True)
+        as_int(self.iterations, "iterations", minimum=1)
+        as_int(self.polish, "polish", minimum=0)
+        one_of(self.tips, TIPS, "tips")
+        as_float(self.min_confidence, "min_confidence", minimum=0.0, maximum=1.0)
+
+
+FRAME_FIT_DEFAULTS = FrameFitSettings()
+
+
+@dataclass(frozen=True)
+class PriorScale:
+    """The temporal prior's σ per parameter group from the predictor's recent accuracy.
+
+    σ_g² is an exponential moving average (rate `rate`) of the mean squared difference
+    between the fitted pose and the prediction over group g (translation, palm
+    rotation, finger angles), times `inflate`², floored at `floor` (mm, °, °).  Before
+    any frame, σ is `initial`: a weak prior.  `update` returns the new scale.
+
+    Attributes
+    ----------
+    sigma : (3,) tuple of float
+        Current σ per group: mm, degrees, degrees.
+    """
+
+    sigma: tuple[float, float, float] = (50.0, 30.0, 30.0)
+    rate: float = 0.2
+    inflate: float = 2.0
+    floor: tuple[float, float, float] = (3.0, 3.0, 5.0)
+
+    def per_parameter(self) -> np.ndarray:
+        """(26,) σ of every parameter."""
+        out = np.empty(N_PARAMS)
+        for g, s in zip(_GROUPS, self.sigma, strict=True):
+            out[g] = s
+        return out
+
+    def update(self, fitted, predicted) -> PriorScale:
+        """The scale after a frame fitted at `fitted` where `predicted` was predicted."""
+        d = np.asarray(fitted, float) - np.asarray(predicted, float)
+        if not np.all(np.isfinite(d)):
+            return self
+        new = []
+        for g, s, lo in zip(_GROUPS, self.sigma, self.floor, strict=True):
+            ms = float(np.mean(d[g] ** 2)) * self.inflate**2
+            var = (1 - self.rate) * s * s + self.rate * ms
+            new.append(max(lo, float(np.sqrt(var))))
+        return PriorScale(tuple(new), self.rate, self.inflate, self.floor)
+
+
+@dataclass(frozen=True, eq=False)
+class FrameFit:
+    """The result of `fit_frame`.
+
+    Attributes
+    ----------
+    pose : (26,) ndarray
+        mm and degrees.
+    distances : (n_cams, 21) ndarray
+        d_ij at the pose, hand sizes; NaN where no keypoint.
+    rejected : (n_cams, 21) bool ndarray
+        Keypoints rejected as outliers.
+    cost : float
+        E at the pose.
+    iterations : int
+        Levenberg–Marquardt steps taken.
+    """
+
+    pose: np.ndarray
+    distances: np.ndarray
+    rejected: np.ndarray
+    cost: float
+    iterations: int
+
+    @property
+    def n_rejected(self) -> int:
+        """Keypoints rejected in this frame."""
+        return int(self.rejected.sum())
+
+    @property
+    def error(self) -> float:
+        """Mean d_ij over the kept keypoints, hand sizes (NaN if none)."""
+        d = self.distances[~self.rejected & ~np.isnan(self.distances)]
+        return float(d.mean()) if d.size else float("nan")
+
+
+def hand_size_px(hand, x, camera) -> float:
+    """The model's wrist → middle-MCP length seen by `camera` at its palm depth, pixels."""
+    G = hand.joints(x)
+    z = camera.camera_from_world(0.5 * (G[WRIST] + G[MIDDLE_MCP])[None])[0, 2]
+    return 0.5 * (camera.fx + camera.fy) * hand_length(hand) / max(float(z), 1.0)
+
+
+def _clean(keypoints, n_cams: int, least: float) -> np.ndarray:
+    kp = np.zeros((n_cams, 21, 3))
+    if keypoints is None:
+        return kp
+    for j, k in enumerate(keypoints):
+        if k is None:
+            continue
+        k = np.asarray(k, dtype=float)
+        ok = (k[:, 2] >= max(least, 1e-12)) & np.isfinite(k[:, :2]).all(axis=1)
+        kp[j, ok] = k[ok]
+    return kp
+
+
+class _Problem:
+    """Residual rows of E (module notes) and their Jacobian, for one frame.
+
+    Each keypoint gives two rows r = √c β(d) e / σ_k, e the pixel error over the hand
+    size s_j, with β(d)² = 2ρ(d)/d² of Huber's loss (scale `FrameFitSettings.huber`),
+    so that ½|r|² = c ρ(d) / σ_k²; their Jacobian holds β at the current point (the
+    iteratively reweighted Gauss–Newton step).  s_j is the model's hand size at the
+    starting pose, held fixed in the frame: measured at the current pose it would
+    reward moving the hand towards the camera (the errors shrink in hand sizes).
+    Then the temporal prior's rows and the detector's 3D rows.
+    """
+
+    def __init__(self, hand, rig, kp, prior, sigma, world, settings, start):
+        self.hand, self.rig, self.kp, self.s = hand, rig, kp, settings
+        self.prior, self.sigma, self.world = prior, sigma, world
+        self.length = hand_length(hand)
+        self.sizes = np.array([hand_size_px(hand, start, cam) for cam in rig])
+        self.present = [np.flatnonzero(k[:, 2] > 0) for k in kp]
+        self.R0 = rig.cameras[0].R
+
+    def rows(self, x, jacobian: bool = True):
+        """Residual rows r (½ rᵀr = E) and, with `jacobian`, their Jacobian J."""
+        s = self.s
+        if jacobian:
+            G, JG = keypoint_points(self.hand, x, s.tips, jacobian=True)
+        else:
+            G, JG = keypoint_points(self.hand, x, s.tips), None
+        rows, jac = [], []
+        for j, cam in enumerate(self.rig):
+            ok = self.present[j]
+            if not ok.size:
+                continue
+            px, Jp = cam.project_jacobian(G[ok], jacobian=jacobian)
+            e = (px - self.kp[j, ok, :2]) / self.sizes[j]
+            d = np.sqrt((e**2).sum(axis=1))
+            h = s.huber
+            beta = np.where(d <= h, 1.0, np.sqrt(np.maximum(2.0 * h * (d - 0.5 * h), 0.0))
+                            / np.maximum(d, 1e-12))  # fmt: skip
+            w = (np.sqrt(self.kp[j, ok, 2]) * beta / s.noise)[:, None]
+            rows.append((w * e).ravel())
+            if jacobian:
+                Je = np.einsum("nij,njp->nip", Jp, JG[ok]) / self.sizes[j]
+                jac.append((w[:, :, None] * Je).reshape(-1, N_PARAMS))
+        if self.prior is not None:
+            rows.append((x - self.prior) / self.sigma)
+            if jacobian:
+                jac.append(np.diag(1.0 / self.sigma))
+        if self.world is not None:
+            W = (G - G[WRIST]) @ self.R0.T
+            ok = np.isfinite(self.world).all(axis=1)
+            ok[WRIST] = False
+            w = self.world - self.world[WRIST]
+            rows.append(((W[ok] - w[ok]) / s.world_noise).ravel())
+            if jacobian:
+                JW = np.einsum("ab,nbp->nap", self.R0, JG - JG[WRIST][None])
+                jac.append((JW[ok] / s.world_noise).reshape(-1, N_PARAMS))
+        r = np.concatenate(rows) if rows else np.zeros(0)
+        if not jacobian:
+            return r, None
+        return r, (np.concatenate(jac) if jac else np.zeros((0, N_PARAMS)))
+
+    def distances(self, x) -> np.ndarray:
+        """d_ij at `x` (n_cams, 21) in hand sizes (the model's at `x`); NaN where none."""
+        G = keypoint_points(self.hand, x, self.s.tips)
+        d = np.full(self.kp.shape[:2], np.nan)
+        for j, cam in enumerate(self.rig):
+            ok = self.present[j]
+            if ok.size:
+                px = cam.project(G[ok])
+                d[j, ok] = np.linalg.norm(px - self.kp[j, ok, :2], axis=1) / hand_size_px(
+                    self.hand, x, cam
+                )
+        return d
+
+
+def _solve(problem: _Problem, x, steps: int) -> tuple[np.ndarray, float, int]:
+    """Levenberg–Marquardt on ½|r|², each step projected on the joint limits."""
+    lam = 1e-3
+    r, J = problem.rows(x)
+    cost = 0.5 * float(r @ r)
+    taken = 0
+    for _ in range(steps):
+        A = J.T @ J
+        g = J.T @ r
+        diag = np.maximum(np.diag(A), 1e-9)
+        improved = False
+        for _ in range(6):
+            step = np.linalg.solve(A + lam * np.diag(diag), -g)
+            x_new = np.clip(x + step, LOWER, UPPER)
+            r2, _ = problem.rows(x_new, jacobian=False)
+            c2 = 0.5 * float(r2 @ r2)
+            if c2 < cost:
+                improved = True
+                break
+            lam *= 10.0
+        taken += 1
+        if not improved:
+            break
+        rel = (cost - c2) / max(cost, 1e-12)
+        x, cost = x_new, c2
+        lam = max(lam / 10.0, 1e-7)
+        if rel < problem.s.tolerance:
+            break
+        r, J = problem.rows(x)
+    return x, cost, taken
+
+
+def fit_frame(
+    keypoints,
+    rig,
+    hand,
+    start,
+    *,
+    prior=None,
+    prior_scale: PriorScale | None = None,
+    world=None,
+    settings: FrameFitSettings = FRAME_FIT_DEFAULTS,
+) -> FrameFit:
+    """Fit the pose to one frame's keypoints from `start` (module notes).
+
+    Parameters
+    ----------
+    keypoints : sequence of (21, 3) array_like or None
+        Per camera x, y (pixels of that camera's images) and confidence; None or NaN
+        where missing.
+    rig : Rig
+    hand : HandModel
+    start : (26,) array_like
+        Starting pose.
+    prior : (26,) array_like, keyword-only, optional
+        The prediction x̂ of the temporal prior; None: no prior.
+    prior_scale : PriorScale, keyword-only, optional
+        Its σ (`PriorScale()` by default).
+    world : (21, 3) array_like, keyword-only, optional
+        The detector's 3D joints, mm, axes of the first camera (any origin); NaN rows
+        are left out.
+    settings : FrameFitSettings, keyword-only
+
+    Returns
+    -------
+    FrameFit
+
+    Examples
+    --------
+    >>> from handvar.camera import Rig
+    >>> from handvar.hand import HandModel, named_pose
+    >>> hand, rig, x = HandModel(), Rig.default(), named_pose("point")
+    >>> kps = [np.column_stack([c.project(hand.joints(x)), np.ones(21)]) for c in rig]
+    >>> fit = fit_frame(kps, rig, hand, x + 2.0)
+    >>> bool(fit.error < 0.01), fit.n_rejected
+    (True, 0)
+    """
+    n_cams = len(rig)
+    kp = _clean(keypoints, n_cams, settings.min_confidence)
+    x = np.clip(clamp(np.asarray(start, dtype=float)), LOWER, UPPER)
+    sigma = None
+    if prior is not None:
+        prior = np.asarray(prior, dtype=float)
+        sigma = (PriorScale() if prior_scale is None else prior_scale).per_parameter()
+    if world is not None:
+        world = np.asarray(world, dtype=float)
+        if world.shape != (21, 3) or not np.isfinite(world[WRIST]).all():
+            world = None
+    problem = _Problem(hand, rig, kp, prior, sigma, world, settings, x)
+    x, cost, n = _solve(problem, x, settings.iterations)
+    d = problem.distances(x)
+    present = kp[:, :, 2] > 0
+    rejected = present & (d > settings.reject)
+    if rejected.any() and settings.polish:
+        kept = kp.copy()
+        kept[rejected] = 0.0
+        problem = _Problem(hand, rig, kept, prior, sigma, world, settings, x)
+        x, cost, m = _solve(problem, x, settings.polish)
+        n += m
+        d = problem.distances(x)
+        d[rejected] = _Problem(hand, rig, kp, None, None, None, settings, x).distances(x)[rejected]
+        rejected = present & (d > settings.reject)
+    return FrameFit(x, d, rejected, cost, n)
+
+
+def reinitialise(
+    keypoints, rig, hand, *, world=None, settings: FrameFitSettings = FRAME_FIT_DEFAULTS
+) -> FrameFit | None:
+    """The pose of a frame from its keypoints alone: `fit_frame` from every palm pose.
+
+    The perspective-n-point palm poses of each camera's keypoints
+    (`handvar.tracking.keypoint_fit.palm_candidates`, four per camera) with the fingers
+    open are fitted without a prior, and the fit of the lowest cost is kept.  None
+    when no camera shows the wrist and the four MCPs.
+    """
+    from handvar.hand.kinematics import named_pose
+    from handvar.tracking.keypoint_fit import palm_candidates
+
+    kp = _clean(keypoints, len(rig), settings.min_confidence)
+    best = None
+    base = named_pose("open")
+    for cam, k in zip(rig, kp, strict=True):
+        if not (k[:, 2] > 0).any():
+            continue
+        for p in palm_candidates(np.where(k[:, 2:] > 0, k, np.nan), cam, hand):
+            x0 = base.copy()
+            x0[:6] = p
+            fit = fit_frame(kp, rig, hand, x0, world=world, settings=settings)
+            if best is None or fit.cost < best.cost:
+                best = fit
+    return best
+
+
+def honoured(
+    distances, rejected, *, threshold: float = CHECK_THRESHOLD, share: float = 0.98
+) -> tuple[bool, float, int]:
+    """Whether a track honours its keypoints (docs/keypoint-fit.md, "the check").
+
+    On every frame with keypoints, the fitted joints must project within `threshold`
+    hand sizes of at least `share` of the keypoints the fit did not reject.
+
+    Parameters
+    ----------
+    distances : (T, n_cams, 21) array_like
+        Per frame the distance of every projected joint to its keypoint, hand sizes;
+        NaN where there is no keypoint.
+    rejected : (T, n_cams, 21) bool array_like
+        The keypoints the fit rejected.
+    threshold, share : float, keyword-only
+
+    Returns
+    -------
+    ok : bool
+        Every frame with kept keypoints passes.
+    worst : float
+        The lowest share of kept keypoints within `threshold` over the frames (NaN
+        when no frame has keypoints).
+    n_rejected : int
+        Keypoints rejected over the whole track.
+
+    Examples
+    --------
+    >>> d = np.array([[[0.1, 0.5, np.nan]]]); r = np.array([[[False, True, False]]])
+    >>> honoured(d, r)
+    (True, 1.0, 1)
+    """
+    d = np.asarray(distances, dtype=float)
+    rej = np.asarray(rejected, dtype=bool)
+    if d.shape != rej.shape or d.ndim != 3:
+        raise ValueError(
+            f"distances, rejected: expected two (T, n_cams, 21) arrays; got {d.shape}, {rej.shape}"
+        )
+    if not len(d):
+        return True, float("nan"), 0
+    kept = ~np.isnan(d) & ~rej
+    n_kept = kept.reshape(len(d), -1).sum(axis=1)
+    near = (kept & (np.nan_to_num(d, nan=np.inf) <= threshold)).reshape(len(d), -1).sum(axis=1)
+    frames = n_kept > 0
+    if not frames.any():
+        return True, float("nan"), int(rej.sum())
+    shares = near[frames] / n_kept[frames]
+    return bool(np.all(shares >= share)), float(shares.min()), int(rej.sum())

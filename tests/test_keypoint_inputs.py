@@ -1,0 +1,76 @@
+"""Wrong keypoints given with a recording: a one-line error naming them, or a flagged
+frame, never a silent wrong track (`handvar.vision.keypoints.check_keypoints`)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from handvar.cli import main
+from handvar.data import example_path
+from handvar.pipeline import track
+from handvar.vision.keypoints import Keypoints2D, read_keypoints, write_keypoints
+
+VIDEO = example_path("video")
+
+
+@pytest.fixture(scope="module")
+def detected():
+    return read_keypoints(example_path("video-keypoints"))
+
+
+def with_side(kp, side):
+    return Keypoints2D(kp.xy, kp.confidence, "k.npz",
+                       handedness=np.where(kp.present.any(axis=1), side, ""))  # fmt: skip
+
+
+def test_keypoints_of_another_length_than_the_video(detected, tmp_path):
+    short = Keypoints2D(detected.xy[:-1], detected.confidence[:-1], "short.npy")
+    with pytest.raises(ValueError, match=r"short\.npy: expected keypoints of 621 frames "
+                                         r"\(the recording's\); got 620"):  # fmt: skip
+        track(VIDEO, keypoints=short, frames=2)
+    write_keypoints(tmp_path / "short.npy", short)
+    res = CliRunner().invoke(main, ["track", str(VIDEO), "--keypoints", str(tmp_path / "short.npy"),
+                                    "--out", str(tmp_path / "t")])  # fmt: skip
+    assert res.exit_code == 2 and len(res.output.strip().splitlines()) == 1, res.output
+    assert "expected keypoints of 621 frames" in res.output
+    assert not (tmp_path / "t").exists()
+
+
+def test_keypoints_without_any_point_or_in_normalised_coordinates(detected):
+    empty = Keypoints2D(np.full_like(detected.xy, np.nan), np.zeros_like(detected.confidence),
+                        "empty.npy")  # fmt: skip
+    with pytest.raises(ValueError, match=r"empty\.npy: expected at least one frame with a "):
+        track(VIDEO, keypoints=empty, frames=2)
+    unit = Keypoints2D(detected.xy / np.array([1280.0, 720.0]), detected.confidence, "unit.npy")
+    with pytest.raises(ValueError, match=r"unit\.npy: expected pixels of the 1280x720 frames"):
+        track(VIDEO, keypoints=unit, frames=2)
+
+
+def test_all_nan_frames_are_tracked_without_keypoints_and_points_far_outside_are_dropped(
+    detected,
+):
+    xy, c = detected.xy.copy(), detected.confidence.copy()
+    xy[2:4], c[2:4] = np.nan, 0.0  # two frames without a detection
+    xy[1, 8] = (5000.0, 300.0)  # the index tip three frames to the right
+    tr = track(VIDEO, keypoints=Keypoints2D(xy, c, "k.npy"), scale=0.5, frames=6,
+               keypoint_every=1, carry="none")  # fmt: skip
+    q = tr.quality
+    assert q.keypoints.tolist() == [True, True, False, False, True, True]
+    assert tr.options["outside_keypoints"] == 1
+    assert not q.lost.any() and np.isfinite(tr.poses).all()
+
+
+def test_a_left_hand_tracked_as_right_is_an_error_and_auto_takes_the_handedness(detected, tmp_path):
+    left = with_side(detected, "left")
+    with pytest.raises(ValueError, match=r"hand: expected the side the keypoints' handedness "
+                                         r"gives \(left\); got right"):  # fmt: skip
+        track(VIDEO, keypoints=left, frames=2)
+    write_keypoints(tmp_path / "k.npz", with_side(detected, "right"))
+    res = CliRunner().invoke(main, ["track", str(VIDEO), "--keypoints", str(tmp_path / "k.npz"),
+                                    "--hand", "auto", "--scale", "0.5", "--frames", "3",
+                                    "--out", str(tmp_path / "t"), "--no-video"])  # fmt: skip
+    assert res.exit_code == 0, res.output
+    with pytest.raises(ValueError, match="hand: auto expected a recording with keypoints"):
+        track(VIDEO, hand="auto", frames=2)

@@ -1,0 +1,128 @@
+"""The keypoint-first fit (docs/keypoint-fit.md): its result against the pose the
+keypoints were made from, its outlier rejection, the keypoint check, and the recovery's
+keypoint rules on synthetic frames whose truth is known."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from handvar.camera import Rig
+from handvar.hand import HandModel, named_pose
+from handvar.predictors import RVAR
+from handvar.synth import make_sequence, synthetic_keypoints
+from handvar.tracking.frame_fit import PriorScale, fit_frame, honoured, reinitialise
+from handvar.tracking.recovery import Recovery, track_with_recovery
+from handvar.tracking.tracker import Tracker
+
+
+def keypoints(hand, rig, x):
+    return [np.column_stack([cam.project(hand.joints(x)), np.ones(21)]) for cam in rig]
+
+
+@pytest.fixture(scope="module")
+def mono_sequence():
+    seq = make_sequence("benchmark", n_frames=40)
+    rig = Rig([seq.rig.cameras[0]], [seq.rig.names[0]])
+    return seq, rig
+
+
+def test_exact_keypoints_are_fitted_from_a_start_off_and_nothing_is_rejected():
+    hand, rig, x = HandModel(), Rig.default(), named_pose("point")
+    start = x.copy()
+    start[:3] += (15.0, -10.0, 20.0)
+    start[6:] += 8.0
+    fit = fit_frame(keypoints(hand, rig, x), rig, hand, start)
+    assert fit.n_rejected == 0
+    assert fit.error < 0.005  # hand sizes
+    assert np.linalg.norm(hand.joints(fit.pose) - hand.joints(x), axis=1).mean() < 2.0  # mm
+
+
+def test_a_gross_error_is_rejected_and_does_not_pull_the_fit():
+    hand, rig, x = HandModel(), Rig.default(), named_pose("open")
+    kps = keypoints(hand, rig, x)
+    size = np.linalg.norm(kps[0][9, :2] - kps[0][0, :2])
+    kps[0][8, :2] += 0.8 * size  # the index tip 0.8 hand sizes off in one camera
+    fit = fit_frame(kps, rig, hand, x + 3.0)
+    assert fit.rejected[0, 8] and fit.n_rejected == 1
+    assert np.linalg.norm(hand.joints(fit.pose)[8] - hand.joints(x)[8]) < 5.0  # mm
+
+
+def test_the_temporal_prior_pulls_towards_the_prediction_by_its_scale():
+    # no keypoints beyond the palm: the fingers are settled by the prior alone
+    hand, rig, x = HandModel(), Rig.default(), named_pose("open")
+    kps = keypoints(hand, rig, x)
+    for k in kps:
+        k[[i for i in range(21) if i not in (0, 5, 9, 13, 17)], 2] = 0.0
+    prediction = named_pose("fist")
+    prediction[:6] = x[:6]
+    fit = fit_frame(kps, rig, hand, prediction, prior=prediction)
+    np.testing.assert_allclose(fit.pose[6:], prediction[6:], atol=0.5)
+    # a scale that grows with the predictor's misses, bounded below by the floor
+    s = PriorScale()
+    for _ in range(50):
+        s = s.update(prediction, prediction)
+    assert s.sigma == s.floor
+    assert s.update(prediction + 20.0, prediction).sigma[0] > s.floor[0]
+
+
+def test_reinitialise_finds_the_pose_from_keypoints_alone():
+    hand, rig = HandModel(), Rig.default()
+    for name in ("open", "point"):
+        x = named_pose(name)
+        fit = reinitialise(keypoints(hand, rig, x), rig, hand)
+        assert fit.error < 0.02, name
+        assert np.linalg.norm(hand.joints(fit.pose) - hand.joints(x), axis=1).mean() < 5.0
+
+
+def test_honoured_against_hand_counted_frames():
+    d = np.full((2, 1, 21), 0.1)
+    r = np.zeros((2, 1, 21), dtype=bool)
+    assert honoured(d, r) == (True, 1.0, 0)
+    d[1, 0, 3] = 0.3  # one of 21 kept points out: 20/21 = 95 % < 98 %
+    ok, worst, _ = honoured(d, r)
+    assert not ok and worst == pytest.approx(20 / 21)
+    r[1, 0, 3] = True  # rejected: no longer counted, but counted as rejected
+    assert honoured(d, r) == (True, 1.0, 1)
+    with pytest.raises(ValueError, match="distances, rejected"):
+        honoured(d[0], r)
+
+
+def test_a_track_with_noisy_keypoints_holds_and_the_check_holds(mono_sequence):
+    seq, rig = mono_sequence
+    hand = HandModel()
+    # 3 px noise, and on every 4th frame a fingertip 0.6 hand sizes off (a gross error)
+    kp = synthetic_keypoints(seq, 3.0, 0.0, np.random.default_rng(5))[:, :1]
+    size = np.linalg.norm(kp[:, 0, 9, :2] - kp[:, 0, 0, :2], axis=1)
+    kp[::4, 0, 12, 0] += 0.6 * size[::4]
+    tracker = Tracker(rig, hand, RVAR(), np.random.default_rng(0))
+    masks = [np.asarray(seq.masks[t])[:1] for t in range(seq.n_frames)]
+    result = track_with_recovery(tracker, masks, keypoints=lambda i: list(kp[i]))
+    q = result.quality
+    assert not q.lost.any()
+    ok, worst, n_rejected = q.check()
+    assert ok, worst
+    assert q.rejected[::4].all() and n_rejected <= 12  # the 10 gross errors, few others
+    err = np.linalg.norm(result.track.joints - seq.truth.joints, axis=2).mean()
+    assert err < 20.0  # mm, mono; measured about 10
+
+
+def test_frames_without_keypoints_or_hand_are_flagged_no_hand_and_the_hand_reacquired(
+    mono_sequence,
+):
+    seq, rig = mono_sequence
+    hand = HandModel()
+    masks = [np.asarray(seq.masks[t])[:1] for t in range(12)]
+    for t in (0, 1, 2, 6, 7):
+        masks[t] = np.zeros_like(masks[t])  # no hand
+    kps = [None if t in (0, 1, 2, 6, 7) else keypoints(hand, rig, seq.truth.poses[t])
+           for t in range(12)]  # fmt: skip
+    tracker = Tracker(rig, hand, RVAR(), np.random.default_rng(0))
+    recovery = Recovery(tracker)
+    result = recovery.run(masks, keypoints=kps)
+    q = result.quality
+    assert q.no_hand.tolist() == [t in (0, 1, 2, 6, 7) for t in range(12)]
+    assert np.isnan(result.track.poses[:3]).all()  # not started before the hand
+    assert q.reinit[3] and not q.lost.any()
+    err = np.linalg.norm(result.track.joints[8:] - seq.truth.joints[8:12], axis=2).mean()
+    assert err < 10.0  # mm, after the hand came back
