@@ -666,6 +666,11 @@ class Recovery:
                 on_frame(i, f.pose, _frame_quality(f.result, f.empty or f.no_hand), masks)
         if not out:
             raise ValueError("frames: expected at least one frame; got none")
+        if not self.started and keypoints is None:
+            raise ValueError(
+                f"frames: expected a frame with a silhouette to search the first pose in; "
+                f"all {len(out)} are empty"
+            )
         max_it = self.tracker.settings.smd.max_iterations
         return _assemble(out, self.hand, len(self.rig), max_it, self.init_seconds,
                          np.asarray(seconds))  # fmt: skip
