@@ -872,7 +872,10 @@ def _progress_bar(desc: str, total: int | None):
 # --- the online form: one frame at a time ------------------------------------------------
 
 
-def paced_frames(frames, fps: float, dropped: list, *, clock=time.perf_counter, sleep=time.sleep):
+def paced_frames(
+    frames, fps: float, dropped: list, *, clock=time.perf_counter, sleep=time.sleep,
+    origin: list | None = None,
+):  # fmt: skip
     """Play `frames` at their own rate, skipping those the consumer had no time for.
 
     A wall clock starts when the first frame is handed out; frame i's capture time is
@@ -890,6 +893,9 @@ def paced_frames(frames, fps: float, dropped: list, *, clock=time.perf_counter, 
         Receives the indices of the frames skipped.
     clock, sleep : callable, keyword-only
         Seconds, and waiting (for tests: a simulated clock).
+    origin : list, keyword-only, optional
+        Receives the clock's reading when the first frame was handed out (the zero of
+        the capture times).
 
     Yields
     ------
@@ -903,6 +909,8 @@ def paced_frames(frames, fps: float, dropped: list, *, clock=time.perf_counter, 
     if item is None:
         return
     first, t0 = item[0], clock()
+    if origin is not None:
+        origin.append(t0)
 
     def capture(index: int) -> float:
         return (index - first) / fps
@@ -972,6 +980,7 @@ class _Stream:
         self.dropped: list[int] = []
         self.seconds = {"silhouettes": 0.0, "keypoints": 0.0}
         self.exhausted = False  # every frame read without an error
+        self.origin: list[float] = []  # paced playback: when its clock started
 
     def _feed(self):
         if self.live:
@@ -979,7 +988,9 @@ class _Stream:
             return self.source.stream(self.stop, clock=self.clock)
         frames = self.source.frames(0, self.stop)
         if self.realtime:
-            return paced_frames(frames, self.source.fps, self.dropped, clock=self.clock)
+            return paced_frames(
+                frames, self.source.fps, self.dropped, clock=self.clock, origin=self.origin
+            )
         return ((i, i / self.source.fps, images) for i, images in frames)
 
     def frames(self):
@@ -988,8 +999,8 @@ class _Stream:
 
         wrist = self.scaled is None  # with keypoints the tracker cuts the wrist
         for index, seconds, images in self._feed():
-            if self.t0 is None:
-                self.t0 = self.clock() - seconds
+            if self.t0 is None:  # the zero of the capture times
+                self.t0 = self.origin[0] if self.origin else self.clock() - seconds
 
             def silhouettes(images=images, index=index):
                 clock = self.clock()
