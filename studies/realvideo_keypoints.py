@@ -237,8 +237,6 @@ def main() -> None:
     parser.add_argument("--refine-iterations", type=int,
                         default=RECOVERY_DEFAULTS.refine_iterations,
                         help="iterations of the refinement of a poor fit (0: none)")  # fmt: skip
-    parser.add_argument("--refine-without-keypoints", action="store_true",
-                        help="refine frames without keypoints for their IoU too")  # fmt: skip
     parser.add_argument("--carry", choices=("forward", "both", "none"), default="forward",
                         help="carry the keypoints between detections (design §14.5)")  # fmt: skip
     parser.add_argument("--tips", choices=("end", "pad"), default="pad",
@@ -247,10 +245,7 @@ def main() -> None:
     parser.add_argument("--breakdown", action="store_true",
                         help="split each frame's misfit: heel band, fingertips, rest")  # fmt: skip
     args = parser.parse_args()
-    settings = RecoverySettings(
-        refine_iterations=args.refine_iterations,
-        refine_without_keypoints=args.refine_without_keypoints,
-    )
+    settings = RecoverySettings(refine_iterations=args.refine_iterations)
     print(
         f"example video, scale {args.scale:g}, hand {args.hand_length:g} mm, RVAR, "
         f"seed {args.seed}, fingertips at the {args.tips}; PCK@0.2 of G(x) against the "
