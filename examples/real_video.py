@@ -51,6 +51,7 @@ import handvar
 from handvar.data import example_path
 from handvar.render import silhouettes
 from handvar.render.overlay import overlay_frame
+from handvar.tracking.outputs import quality_captions
 from handvar.vision.sources import open_source
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -160,8 +161,8 @@ def main() -> None:
     # PNG strips: the picked frames at full resolution (the same poses drawn through the
     # camera scaled back up), cropped to one box around the hand, one row.
     captions = [
-        f"IoU {iou:.2f}" + ("  LOST" if gone else "") + ("  kp" if k else "")
-        for iou, gone, k in zip(q.iou, q.lost, with_detection, strict=True)
+        text + ("  detected" if k else "")
+        for text, k in zip(quality_captions(q), with_detection, strict=True)
     ]
     for name, chosen in (("real-video-strip.png", picks), ("real-video-hard-frames.png", hard)):
         if not chosen:

@@ -118,19 +118,26 @@ def quality_captions(quality) -> list[str]:
     ...       empty=np.array([False, False]))
     >>> quality_captions(q)
     ['IoU 0.91', 'IoU 0.30  kp 0.62  re-init  LOST']
+    >>> quality_captions(Q(iou=np.array([np.nan]), keypoint_error=np.array([0.05]),
+    ...                    lost=np.array([False]), reinit=np.array([False]),
+    ...                    empty=np.array([False])))
+    ['kp 0.05']
     """
     lines = []
     for t in range(len(quality.iou)):
         if quality.empty[t]:
             lines.append("empty silhouette")
             continue
-        text = f"IoU {quality.iou[t]:.2f}"
+        parts = []  # a keypoint frame fitted without its silhouette has no IoU
+        if np.isfinite(quality.iou[t]):
+            parts.append(f"IoU {quality.iou[t]:.2f}")
         if np.isfinite(quality.keypoint_error[t]):
-            text += f"  kp {quality.keypoint_error[t]:.2f}"
+            parts.append(f"kp {quality.keypoint_error[t]:.2f}")
         if quality.reinit[t]:
-            text += "  re-init"
+            parts.append("re-init")
         if quality.lost[t]:
-            text += "  LOST"
+            parts.append("LOST")
+        text = "  ".join(parts)
         lines.append(text)
     return lines
 
