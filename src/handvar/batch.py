@@ -226,28 +226,13 @@ def track_many(
     todo = [i for i, n in enumerate(names) if n not in done]
     computed, failed = [], {}
     if todo:
-        own = None
-        if client is None:
-            if scheduler is not None:
-                from distributed import Client
+        from handvar.evaluation.experiment import cluster_client
 
-                client = Client(scheduler)
-                own = (client, None)
-            else:
-                from handvar.evaluation.experiment import local_client
-
-                own = local_client(workers)
-                client = own[0]
-        try:
+        with cluster_client(client, scheduler, workers) as running:
             _run(
-                client, task, recordings, names, keypoints, targets, todo, options, video,
+                running, task, recordings, names, keypoints, targets, todo, options, video,
                 rounds, progress, computed, failed, on_done,
             )  # fmt: skip
-        finally:
-            if own is not None:
-                own[0].close()
-                if own[1] is not None:
-                    own[1].close()
     return BatchSummary(
         root, tuple(names), done, tuple(computed), failed, time.perf_counter() - start
     )

@@ -14,6 +14,7 @@ yet done.  The same configuration gives the same store (all arrays but ``timings
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
 import time
@@ -160,6 +161,28 @@ def local_client(workers: int | None):
     return Client(cluster), cluster
 
 
+@contextlib.contextmanager
+def cluster_client(client=None, scheduler: str | None = None, workers: int | None = None):
+    """The Dask client to run on: `client` if given, else one connected to `scheduler`,
+    else an embedded cluster of `workers` processes (`local_client`); the ones made here
+    are closed on exit."""
+    if client is not None:
+        yield client
+        return
+    if scheduler is not None:
+        from distributed import Client
+
+        own = (Client(scheduler), None)
+    else:
+        own = local_client(workers)
+    try:
+        yield own[0]
+    finally:
+        own[0].close()
+        if own[1] is not None:
+            own[1].close()
+
+
 def run_experiment(
     config: ExperimentConfig,
     store: str | os.PathLike,
@@ -237,25 +260,10 @@ def _run_locked(config, path, client, scheduler, workers, progress, rounds, on_w
     todo = [(p, t) for t in range(N) for p in range(P) if not done[p, t]]
     computed = 0
     if todo:
-        own = None
-        if client is None:
-            if scheduler is not None:
-                from distributed import Client
-
-                client = Client(scheduler)
-                own = (client, None)
-            else:
-                own = local_client(workers)
-                client = own[0]
-        try:
+        with cluster_client(client, scheduler, workers) as running:
             computed = _run_tasks(
-                client, config, sequence, path, todo, done, writes, progress, rounds, on_written
+                running, config, sequence, path, todo, done, writes, progress, rounds, on_written
             )
-        finally:
-            if own is not None:
-                own[0].close()
-                if own[1] is not None:
-                    own[1].close()
     # Scores a run stopped before writing (they are written after each trial).
     ds = open_store(path)
     done = ds["done"].values
