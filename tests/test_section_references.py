@@ -27,11 +27,6 @@ _QUALIFIED = re.compile(
     rf"\b(?:paper|design) (?:{_NUMBER}(?:,| and| or) )*$",
 )
 
-# Not yet qualified; the strict xfail below fails once one of them is, so this list
-# can only shrink.
-UNQUALIFIED = ("src/handvar/tracking/keypoint_fit.py",)
-
-
 def bare_references(text: str) -> list[tuple[int, str]]:
     """(line number, line) of every section sign in `text` that names no owner."""
     found = []
@@ -57,15 +52,8 @@ def _bare_in(path: Path) -> list[str]:
 def test_every_section_reference_names_paper_or_design():
     bad = []
     for path in _code_files():
-        if path.relative_to(ROOT).as_posix() not in UNQUALIFIED:
-            bad += _bare_in(path)
+        bad += _bare_in(path)
     assert not bad, "section references without 'paper' or 'design':\n" + "\n".join(bad)
-
-
-@pytest.mark.xfail(strict=True, reason="section references not yet qualified")
-@pytest.mark.parametrize("rel", UNQUALIFIED)
-def test_the_unqualified_files_still_have_bare_references(rel):
-    assert _bare_in(ROOT / rel) == []
 
 
 @pytest.mark.parametrize(

@@ -1,4 +1,4 @@
-"""The pose whose projected joints G(x) fit given 2D keypoints (§14.1).
+"""The pose whose projected joints G(x) fit given 2D keypoints (design §14.1).
 
 Used by the initial pose (`handvar.tracking.init.initial_pose` with ``keypoints``): a
 silhouette cannot tell the palm from the back of the hand, nor see fingers folded in
@@ -52,7 +52,7 @@ __all__ = [
 
 @dataclass(frozen=True)
 class KeypointFitSettings:
-    """Settings of `fit_keypoints` (§14.1; the paper has no keypoints).
+    """Settings of `fit_keypoints` (design §14.1; the paper has no keypoints).
 
     Attributes
     ----------
