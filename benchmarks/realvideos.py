@@ -108,6 +108,8 @@ def main() -> None:
         help="with MediaPipe's world landmarks (fingerspelling, counting)",
     )
     args = ap.parse_args()
+    if args.world and args.videos == ",".join(VIDEOS):  # only the clips have world points
+        args.videos = "fingerspelling,counting"
     print(
         "video | K | frames (detections given) | no hand | lost | re-init | keypoint check "
         "(worst frame, frames failing, rejected) | carried: worst frame | PCK withheld | PCK all | "
