@@ -359,8 +359,10 @@ def slow_smooth_league():
     return ratios
 
 
-# Where the open-loop bank does not meet the rule (1.030 measured): outlier frames on
-# slow smooth motion pull weight onto the experts that carry the whole step forward.
+# Where the open-loop bank does not meet the rule (1.030 measured): the series' first
+# outlier, after a slow clean start that put the weight on the second-difference
+# autoregression, is carried about three times over into one prediction
+# (docs/predictors-notes.md).
 _KNOWN_MISS = "4000-5999 slowed 4x +5% outliers"
 
 
