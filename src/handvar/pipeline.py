@@ -438,10 +438,15 @@ def _default_shape(poses: np.ndarray, joints: np.ndarray, path: Path) -> HandSha
 
 
 def _project(rig: Rig, joints: np.ndarray) -> np.ndarray:
-    """(n_cameras, T, 21, 2) pixels of the (T, 21, 3) `joints` in every camera of `rig`."""
+    """(n_cameras, T, 21, 2) pixels of the (T, 21, 3) `joints` in every camera of `rig`;
+    NaN where a frame has no pose (before the hand was first seen)."""
     T = joints.shape[0]
     points = joints.reshape(-1, 3)
-    return np.stack([cam.project(points).reshape(T, -1, 2) for cam in rig.cameras])
+    finite = np.isfinite(points).all(axis=1)
+    projected = np.full((len(rig), len(points), 2), np.nan)
+    for c, cam in enumerate(rig.cameras):
+        projected[c, finite] = cam.project(points[finite])
+    return projected.reshape(len(rig), T, -1, 2)
 
 
 def _scalar(value: np.ndarray):
@@ -744,12 +749,7 @@ def track(
         )  # fmt: skip
     stage_seconds["tracking"] = time.perf_counter() - clock
     T = result.poses.shape[0]
-    points = result.joints.reshape(-1, 3)
-    finite = np.isfinite(points).all(axis=1)  # not before the first frame tracked
-    projected = np.full((len(full_rig), len(points), 2), np.nan)
-    for c, cam in enumerate(full_rig.cameras):
-        projected[c, finite] = cam.project(points[finite])
-    projected = projected.reshape(len(full_rig), T, -1, 2)
+    projected = _project(full_rig, result.joints)
     seen = None
     if detected is not None:
         seen = np.zeros(T, dtype=bool)

@@ -11,8 +11,9 @@ within the joint limits, where
 - d_ij = |π_j(G_i(x)) − k_ij| / s_j is the distance of joint i's projection in camera j
   to its keypoint, in hand sizes (s_j: the model's wrist → middle-MCP length seen in
   camera j, `hand_size_px`), c_ij the keypoint's confidence, σ_k the detector's noise
-  (`FrameFitSettings.noise`, hand sizes) and ρ the soft-L1 loss ρ(u) = 2(√(1 + u²) − 1)
-  (quadratic for small u, linear beyond: a gross error pulls with a bounded force);
+  (`FrameFitSettings.noise`, hand sizes) and ρ Huber's loss of scale
+  `FrameFitSettings.huber` (quadratic for small d, linear beyond: a gross error pulls
+  with a bounded force);
 - x̂ is the motion predictor's prediction and σ_p its recent accuracy per parameter
   group (`PriorScale`): the temporal prior (paper §3's predictor, here a residual
   rather than only the starting point); its weight follows how well the predictor
@@ -23,7 +24,7 @@ within the joint limits, where
 
 E is minimised by Levenberg–Marquardt on the exact Jacobians of G(x)
 (`handvar.tracking.keypoint_cost.keypoint_points`) and of the projection
-(`handvar.camera.Camera.project_jacobian`), the soft-L1 loss by iteratively
+(`handvar.camera.Camera.project_jacobian`), Huber's loss by iteratively
 reweighted least squares, each step projected onto the joint limits.  A keypoint still
 farther than `FrameFitSettings.reject` hand sizes from its joint at convergence is
 *rejected*: it gets weight 0 and the fit takes a few more steps without it; the number
@@ -231,7 +232,6 @@ class _Problem:
     def __init__(self, hand, rig, kp, prior, sigma, world, settings, start):
         self.hand, self.rig, self.kp, self.s = hand, rig, kp, settings
         self.prior, self.sigma, self.world = prior, sigma, world
-        self.length = hand_length(hand)
         self.sizes = np.array([hand_size_px(hand, start, cam) for cam in rig])
         self.present = [np.flatnonzero(k[:, 2] > 0) for k in kp]
         self.R0 = rig.cameras[0].R
