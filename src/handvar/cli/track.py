@@ -206,14 +206,16 @@ def track_command(
     if result.quality is not None:
         text = f"fit quality: {result.quality.summary()}"
         if result.detections is not None:
-            text += f"; keypoints on {int(result.quality.keypoints.sum())} frames"
+            with_kp = int(result.quality.keypoints.sum())
+            text += f"; keypoints on {with_kp} frames"
         if result.options["carry"] != "none":
             seen = (
                 result.detections
                 if result.dropped is None
                 else (result.detections & ~result.dropped)
             )  # the frames tracked
-            text += f" ({int(seen.sum())} with a detection, the others carried)"
+            if int(seen.sum()) < with_kp:
+                text += f" ({int(seen.sum())} with a detection, the others carried)"
         click.echo(text)
         if result.detections is not None:
             ok, worst, n_rejected = result.quality.check(frames=result.detections)
