@@ -28,7 +28,8 @@ keypoints and for each fit:
 
 The scored points are the detector's (G(x) with the fingertips at the pad centres,
 design §14.6) for the truth, the raw keypoints and the fit (its poses through a hand
-model of the length and side the commands were given).
+model of the shape the track fitted, `handvar.tracking.shape_fit`, read back with
+`handvar.Track.load`).
 
 Run: ``PYTHONPATH=src .venv/bin/python studies/realistic.py`` (about 5–10 minutes on
 two cores); ``--quick`` for a one-minute subset; ``--out DIR`` keeps the generated cases
@@ -56,8 +57,7 @@ from handvar.evaluation.metrics import (
     pck_2d,
 )
 from handvar.evaluation.realistic import SKIN_TONES, read_case, realistic_case
-from handvar.hand import HandModel
-from handvar.hand.anthropometry import HandShape
+from handvar.pipeline import Track
 from handvar.tracking.keypoint_cost import keypoint_points
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -180,9 +180,12 @@ def run_fit(case_dir: Path, spec: Spec, every: int, out: Path) -> tuple[float, P
 
 
 def fit_points(out: Path, side: str) -> tuple[np.ndarray, np.ndarray | None]:
-    """The fit's scored points (T, 21, 3) mm from its poses, and its lost flags."""
+    """The fit's scored points (T, 21, 3) mm from its poses through the hand it tracked
+    with (`side` checked against it), and its lost flags."""
     poses = np.loadtxt(out / "poses.csv", delimiter=",", skiprows=1, ndmin=2)
-    hand = HandModel(HandShape.from_size(HAND_LENGTH, side=side))
+    hand = Track.load(out).hand  # the shape the track fitted (shape_fit), not the given one
+    if hand.shape.side != side:
+        raise RuntimeError(f"{out}: tracked a {hand.shape.side} hand; expected {side}")
     points = np.stack([keypoint_points(hand, x, "pad") if np.isfinite(x).all()
                        else np.full((21, 3), np.nan) for x in poses])  # fmt: skip
     lost = None
