@@ -7,8 +7,9 @@ import click
 from handvar.cli.common import _FiniteRange, _one_line_errors, _open_recordings, _recording_options
 
 
-def _frame_silhouettes(sources, calib, fov, scale, frame, wrist, threshold):
-    """Rig, BGR images (or None) and masks of frame `frame` of a sequence or recordings."""
+def _frame_silhouettes(sources, calib, fov, scale, frame, wrist, threshold, allow_empty=False):
+    """Rig, BGR images (or None) and masks of frame `frame` of a sequence or recordings;
+    `allow_empty`: an empty silhouette, or one that is not a hand, is taken as empty."""
     import os
 
     if len(sources) == 1 and os.path.isfile(os.path.join(sources[0], "sequence.json")):
@@ -17,7 +18,9 @@ def _frame_silhouettes(sources, calib, fov, scale, frame, wrist, threshold):
         rig, masks = _sequence_frame_masks(sources[0], frame)
         return rig, None, masks
     source = _open_recordings(sources, calib, fov, scale)
-    for _, images, masks in source.silhouettes(frame, frame + 1, wrist=wrist, threshold=threshold):
+    for _, images, masks in source.silhouettes(
+        frame, frame + 1, wrist=wrist, threshold=threshold, allow_empty=allow_empty
+    ):
         return source.rig, images, masks
     raise ValueError(
         f"--frame: expected a frame of the recording ({source.n_frames} frames); got {frame}"
@@ -107,12 +110,16 @@ def init_command(
         check_output_file(overlay, "--overlay", suffixes=(".png",))
     kps = _frame_keypoints(keypoint_files, sources, frame, scale)
     cut_here = wrist and kps is None
-    rig, images, masks = _frame_silhouettes(sources, calib, fov, scale, frame, cut_here, threshold)
+    # with keypoints they place the hand: a silhouette that is not a hand (skin colour
+    # everywhere) does not stop the fit, which keeps the pose only if it explains them
+    rig, images, masks = _frame_silhouettes(sources, calib, fov, scale, frame, cut_here,
+                                            threshold, allow_empty=kps is not None)  # fmt: skip
     if kps is not None:
         from handvar.vision.wrist import cut_wrist
 
         if wrist:
-            masks = np.stack([cut_wrist(m, k) for m, k in zip(masks, kps, strict=True)])
+            masks = np.stack([cut_wrist(m, k) if m.any() else m
+                              for m, k in zip(masks, kps, strict=True)])  # fmt: skip
     hand = HandModel(HandShape.from_size(hand_length, side=side))
     result = initial_pose(masks, rig, hand, keypoints=kps, rng=np.random.default_rng(seed))
     if not (result.iou >= INIT_MIN_IOU or _explains_keypoints(result, kps)):

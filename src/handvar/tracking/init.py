@@ -256,7 +256,7 @@ def silhouette_iou(rendered, observed) -> float:
     return float(np.mean(np.where(union > 0, inter / np.maximum(union, 1), 1.0)))
 
 
-def _check_masks(masks, rig: Rig) -> np.ndarray:
+def _check_masks(masks, rig: Rig, *, allow_empty: bool = False) -> np.ndarray:
     m = np.asarray(masks)
     if m.ndim == 2:
         m = m[None]
@@ -270,7 +270,7 @@ def _check_masks(masks, rig: Rig) -> np.ndarray:
                 f"masks: camera {rig.names[j]!r} is calibrated for {cam.size[0]}x{cam.size[1]} "
                 f"images; got masks of {m.shape[2]}x{m.shape[1]}"
             )
-        if not m[j].any():
+        if not allow_empty and not m[j].any():
             raise ValueError(f"masks: expected a non-empty silhouette in camera {rig.names[j]!r}")
     return m.astype(bool, copy=False)
 
@@ -440,7 +440,9 @@ def initial_pose(
         The frame's 2D keypoints per camera (None for a camera without), in the pixels
         of the masks, confidence in the third column, NaN where missing (module notes;
         `handvar.vision.keypoints`).  The silhouette search is the fallback when no
-        camera shows the wrist and the four MCPs.
+        camera shows the wrist and the four MCPs.  With keypoints a silhouette may be
+        empty (skin colour nowhere, or everywhere): the keypoints place the hand and the
+        silhouette refinement is skipped.
     settings : InitSettings, keyword-only
         Search grid and effort.
     rng : numpy.random.Generator, keyword-only, optional
@@ -455,7 +457,8 @@ def initial_pose(
     Raises
     ------
     ValueError
-        If the masks do not match the rig (count, size) or a silhouette is empty.
+        If the masks do not match the rig (count, size) or a silhouette the pose is
+        searched in is empty.
 
     Examples
     --------
@@ -473,7 +476,7 @@ def initial_pose(
     as_instance(rig, Rig, "rig", what="a handvar.camera.Rig")
     as_instance(settings, InitSettings, "settings")
     hand = HandModel() if hand is None else hand
-    m = _check_masks(masks, rig)
+    m = _check_masks(masks, rig, allow_empty=keypoints is not None)
     rng = np.random.default_rng(0) if rng is None else rng
     as_instance(rng, np.random.Generator, "rng", what="a numpy.random.Generator")
 
@@ -481,6 +484,7 @@ def initial_pose(
         result = _keypoint_pose(m, rig, hand, keypoints, settings, rng, tracker_settings)
         if result is not None:
             return result
+        _check_masks(m, rig)  # the silhouette search needs a silhouette in every camera
     views = [_search_view(m[j], cam, settings.search_size) for j, cam in enumerate(rig)]
     rotations = candidate_rotations(rig.cameras[0], settings)
     poses, scores, shapes = [], [], []
@@ -536,7 +540,7 @@ def _keypoint_pose(m, rig, hand, keypoints, settings, rng, tracker_settings):
     pose, error = fit.pose, fit.error
     iou = silhouette_iou(silhouettes(hand, pose, rig), m)
     fit_iou = iou
-    if settings.refine_passes:
+    if settings.refine_passes and m.any(axis=(1, 2)).all():  # refined where there is one
         tracker = Tracker(rig, hand, NoMotion(), rng, tracker_settings)
         tracker.reset(pose)
         for _ in range(settings.refine_passes):
