@@ -155,3 +155,33 @@ def test_init_command_with_keypoints(tmp_path):
         main, ["init", str(video), "--keypoints", str(kp), "--keypoints", str(kp)]
     )
     assert bad.exit_code == 2 and "expected one file per source (1); got 2" in bad.output
+
+
+@pytest.mark.parametrize("wall", ["skin", "none"])
+def test_init_command_with_keypoints_needs_no_silhouette(tmp_path, wall):
+    """With keypoints the keypoints place the hand: a frame whose skin colour fills the
+    image (not a hand) or is nowhere still gives the pose that explains them."""
+    import cv2
+
+    x = named_pose("spread")
+    k = noisy_keypoints(x, MONO, seed=2)[0]
+    w, h = MONO.cameras[0].size
+    colour = (120, 150, 210) if wall == "skin" else (40, 160, 40)  # BGR: skin, green
+    folder = tmp_path / "frames"
+    folder.mkdir()
+    cv2.imwrite(str(folder / "0000.png"), np.full((h, w, 3), colour, np.uint8))
+    np.save(tmp_path / "kp.npy", k[None])
+    MONO.save(tmp_path / "calib.yml")
+    out = tmp_path / "x0.txt"
+    res = CliRunner().invoke(
+        main, ["init", str(folder), "--calib", str(tmp_path / "calib.yml"),
+               "--keypoints", str(tmp_path / "kp.npy"), "--out", str(out)],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    pose = np.loadtxt(out)
+    G = keypoint_points(HAND, pose, "end")
+    assert np.linalg.norm(MONO.cameras[0].project(G) - k[:, :2], axis=1).mean() < 6.0
+    # without keypoints, the same frame is refused
+    res = CliRunner().invoke(main, ["init", str(folder), "--calib", str(tmp_path / "calib.yml"),
+                                    "--out", str(tmp_path / "y.txt")])  # fmt: skip
+    assert res.exit_code == 2 and not (tmp_path / "y.txt").exists()
