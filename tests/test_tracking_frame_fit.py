@@ -126,3 +126,32 @@ def test_frames_without_keypoints_or_hand_are_flagged_no_hand_and_the_hand_reacq
     assert q.reinit[3] and not q.lost.any()
     err = np.linalg.norm(result.track.joints[8:] - seq.truth.joints[8:12], axis=2).mean()
     assert err < 10.0  # mm, after the hand came back
+
+
+@pytest.mark.parametrize("digit", [1, 2, 3, 4])
+def test_a_digit_left_in_a_wrong_minimum_is_fitted_again_from_the_named_shapes(digit):
+    """Ground truth: a fist whose prediction has one finger open.  From the prediction
+    the fit rejects that finger's keypoints and stays open; the digit re-seeding
+    (`RecoverySettings.keypoint_reseeds`) finds the fist."""
+    import dataclasses
+
+    from handvar.params import digit_angles
+    from handvar.predictors import NoMotion
+    from handvar.tracking.recovery import RECOVERY_DEFAULTS
+
+    hand, full = HandModel(), Rig.default()
+    rig = Rig([full.cameras[0]], [full.names[0]])
+    truth = named_pose("fist")
+    start = truth.copy()
+    angles = digit_angles(digit)
+    start[angles] = named_pose("open")[angles]
+    errors = {}
+    for seeds in ((), ("open", "fist")):
+        tracker = Tracker(rig, hand, NoMotion(), np.random.default_rng(0))
+        settings = dataclasses.replace(RECOVERY_DEFAULTS, keypoint_reseeds=seeds, shape=None)
+        recovery = Recovery(tracker, settings=settings)
+        recovery.run([None], start, keypoints=[keypoints(hand, rig, truth)])
+        pose = tracker.prediction()  # NoMotion: the pose kept
+        errors[seeds] = np.linalg.norm(hand.joints(pose) - hand.joints(truth), axis=1).max()
+    assert errors[()] > 50.0  # mm: the finger left open
+    assert errors[("open", "fist")] < 2.0

@@ -53,17 +53,25 @@ def test_the_carried_points_follow_a_known_motion():
         np.testing.assert_allclose(carried.confidence[t], 0.9)  # the detector's, times 1
 
 
-def test_a_point_whose_surroundings_change_is_dropped():
+@pytest.mark.parametrize("hold", [0.0, 0.5])
+def test_a_point_whose_surroundings_change_is_held_or_dropped(hold):
     base = texture()
     later = base.copy()
     later[60:100, 60:100] = texture(seed=7)[60:100, 60:100]  # something moved in front
-    frames = [shifted(base, 0, 0), shifted(later, 0, 0), shifted(later, 0, 0)]
+    frames = [shifted(base, 2, 0), shifted(later, 0, 0), shifted(later, 0, 0)]
     detected = np.full((3, 21, 3), np.nan)
     detected[0, :2] = [[80.0, 80.0, 1.0], [30.0, 30.0, 1.0]]  # occluded, and not
-    carried = carry_keypoints(frames, Keypoints2D.from_array(detected))
-    assert carried.present[1:, 1].all() and not carried.present[1:, 0].any()
+    carried = carry_keypoints(frames, Keypoints2D.from_array(detected), CarrySettings(hold=hold))
+    assert carried.present[1:, 1].all()
+    np.testing.assert_allclose(carried.xy[1:, 1], [[28.0, 30.0]] * 2, atol=0.05)  # followed
+    np.testing.assert_allclose(carried.confidence[1:, 1], 1.0)
+    if hold:  # held where the detection put it, at a lower confidence
+        assert carried.present[1:, 0].all()
+        np.testing.assert_allclose(carried.xy[1:, 0], 80.0)
+        np.testing.assert_allclose(carried.confidence[1:, 0], hold)
+    else:
+        assert not carried.present[1:, 0].any()
     assert not carried.present[:, 2:].any()  # missing points are not invented
-    np.testing.assert_allclose(carried.xy[1:, 1], 30.0, atol=0.05)
 
 
 def test_detections_pass_unchanged_and_restart_the_carry():
@@ -110,7 +118,8 @@ def test_the_carrier_names_its_wrong_inputs():
 def test_on_the_example_video_the_carried_points_agree_with_the_withheld_detections(both, kept):
     source = open_source(VIDEO, scale=0.5)
     detected = read_keypoints(KEYPOINTS)
-    carried = source.carried_keypoints([detected.every(5)], both=both)[0]
+    followed = CarrySettings(hold=0.0)  # the points the flow followed, not those held
+    carried = source.carried_keypoints([detected.every(5)], None, followed, both=both)[0]
     truth = source.scaled_keypoints([detected])[0]
     between = np.flatnonzero(np.arange(truth.n_frames) % 5 != 0)
     size = np.linalg.norm(truth.xy[between, MIDDLE_MCP] - truth.xy[between, WRIST], axis=1)
@@ -150,8 +159,9 @@ def test_both_ways_recovers_a_point_lost_forwards():
     detected = np.full((5, 21, 3), np.nan)
     detected[[0, 4], 0] = [80.0, 80.0, 1.0]
     kp = Keypoints2D.from_array(detected)
-    forward = carry_keypoints(frames, kp)
-    both = carry_keypoints(frames, kp, both=True)
+    dropping = CarrySettings(hold=0.0)
+    forward = carry_keypoints(frames, kp, dropping)
+    both = carry_keypoints(frames, kp, dropping, both=True)
     assert not forward.present[1:4, 0].any()  # dropped at the occlusion, not recovered
     assert both.present[2:4, 0].all() and not both.present[1, 0]
     np.testing.assert_allclose(both.xy[2:4, 0], 80.0, atol=0.05)

@@ -44,7 +44,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from handvar.hand.anthropometry import MIDDLE_MCP, WRIST, HandShape
-from handvar.params import N_PARAMS
+from handvar.hand.kinematics import POSE_NAMES, named_pose
+from handvar.params import N_PARAMS, digit_angles
 from handvar.predictors import NoMotion
 from handvar.tracking.frame_fit import (
     CHECK_THRESHOLD,
@@ -59,7 +60,7 @@ from handvar.tracking.init import InitSettings, initial_pose
 from handvar.tracking.keypoint_cost import frame_keypoints, keypoint_points
 from handvar.tracking.shape_fit import SHAPE_FIT_DEFAULTS, ShapeFitSettings, fit_shape
 from handvar.tracking.tracker import FrameResult, Tracker, TrackResult, silhouette_iou
-from handvar.validate import as_float, as_instance, as_int
+from handvar.validate import as_float, as_instance, as_int, one_of
 
 __all__ = [
     "RECOVERY_DEFAULTS",
@@ -313,11 +314,20 @@ class RecoverySettings:
         Also measure the silhouette IoU of the fit on frames with keypoints; False: the
         keypoint-first fit does not use the silhouette, so a frame with keypoints
         needs none (its IoU is NaN) and costs no silhouette, wrist cut or rendering.
+    keypoint_reseeds : tuple of str
+        Rule 1's second look: a keypoint fit that leaves a keypoint of a digit rejected,
+        or kept but farther than the keypoint check's 0.2 hand sizes, is fitted again
+        with that digit's four angles started from each of these named hand shapes
+        (`handvar.hand.kinematics.POSE_NAMES`), the others where they were; the better
+        fit by keypoints (fewer rejected or off, then closer) is kept.  ("open",
+        "fist"); () turns it off.
     restart : bool
         Rule 2 also for a keypoint fit that is not lost but leaves a kept keypoint
         farther than the keypoint check's 0.2 hand sizes: the fit from the prediction
         fell into a local minimum the keypoints alone may avoid.  The direct fit is kept
         when it leaves fewer keypoints rejected or off; the predictor is not restarted.
+        False: on the realistic benchmark it made the fit worse (docs/keypoint-fit.md,
+        "rules"); it helps only the example video's keypoint check.
     prior_steps : int
         Levenberg–Marquardt steps with the temporal prior after the fit to the
         keypoints alone (rule 1); 3.  0: no temporal prior.
@@ -337,7 +347,8 @@ class RecoverySettings:
     reseed_margin: float = 0.02
     no_hand_iou: float = 0.3
     keypoint_iou: bool = False
-    restart: bool = True
+    keypoint_reseeds: tuple[str, ...] = ("open", "fist")
+    restart: bool = False
     prior_steps: int = 3
     frame_fit: FrameFitSettings = FRAME_FIT_DEFAULTS
     shape: ShapeFitSettings | None = SHAPE_FIT_DEFAULTS
@@ -350,6 +361,9 @@ class RecoverySettings:
         as_float(self.reseed_margin, "reseed_margin", minimum=0.0, maximum=1.0)
         as_float(self.no_hand_iou, "no_hand_iou", minimum=0.0, maximum=1.0)
         as_instance(self.keypoint_iou, bool, "keypoint_iou")
+        as_instance(self.keypoint_reseeds, tuple, "keypoint_reseeds")
+        for name in self.keypoint_reseeds:
+            one_of(name, POSE_NAMES, "keypoint_reseeds")
         as_instance(self.restart, bool, "restart")
         as_int(self.prior_steps, "prior_steps", minimum=0)
         as_instance(self.frame_fit, FrameFitSettings, "frame_fit")
@@ -469,6 +483,8 @@ class Recovery:
                     kps, self.rig, self.hand, fit.pose, prior=prediction, prior_scale=scale,
                     world=world, settings=self._prior_settings,
                 )  # fmt: skip
+        if fit is not None and self.settings.keypoint_reseeds and not self._lost(fit):
+            fit = self._reseed_digits(fit, kps, world, prediction, scale)
         lost = fit is None or self._lost(fit)
         restart = not lost and self.settings.restart and _off(fit) > 0
         if fit is None or (self.settings.reinit and (lost or restart)):
@@ -510,6 +526,37 @@ class Recovery:
         if self._shape_frames is not None and not result.lost:
             self._adapt(out, kps, world)
         return out
+
+    def _reseed_digits(self, fit, kps, world, prediction, scale):
+        """Rule 1's second look (`RecoverySettings.keypoint_reseeds`): each digit with a
+        keypoint rejected or off is fitted again from the named shapes' angles; the
+        best fit by `_fit_score` is kept.
+
+        Why: a digit that the fit from the prediction left in a wrong local minimum
+        (a finger bent the wrong way after a fast motion) has its keypoints rejected as
+        outliers, and once rejected they no longer pull it back; the prediction carries
+        the wrong digit into the next frame.  A fresh start of that digit alone lets its
+        keypoints decide again, without moving the palm or the other digits.
+        """
+        d = np.nan_to_num(fit.distances, nan=0.0)
+        bad = (fit.rejected | (d > CHECK_THRESHOLD)).any(axis=0)
+        digits = sorted({(int(i) - 1) // 4 for i in np.flatnonzero(bad) if i > 0})
+        with_prior = self.tracker.frames_tracked > 0 and self.settings.prior_steps
+        for digit in digits:
+            angles = digit_angles(digit)
+            for name in self.settings.keypoint_reseeds:
+                start = fit.pose.copy()
+                start[angles] = named_pose(name)[angles]
+                again = fit_frame(kps, self.rig, self.hand, start, world=world,
+                                  settings=self.fit_settings)  # fmt: skip
+                if with_prior:
+                    again = fit_frame(
+                        kps, self.rig, self.hand, again.pose, prior=prediction,
+                        prior_scale=scale, world=world, settings=self._prior_settings,
+                    )  # fmt: skip
+                if _fit_score(again) < _fit_score(fit):
+                    fit = again
+        return fit
 
     def _adapt(self, frame: _Frame, kps, world) -> None:
         """The shape fit (`RecoverySettings.shape`): keep the frame while fewer than
@@ -786,8 +833,7 @@ def digit_reseeds(x, hand, rig, masks, n: int) -> list[np.ndarray]:
     list of (26,) ndarray
         At most `n` poses, each differing from `x` in one digit's four angles.
     """
-    from handvar.hand.kinematics import POSE_NAMES, named_pose
-    from handvar.params import DIGITS, digit_angles
+    from handvar.params import DIGITS
     from handvar.render import silhouettes
     from handvar.tracking.init import silhouette_iou
 

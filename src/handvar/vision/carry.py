@@ -12,8 +12,11 @@ brightness difference Σ_w (I_t(q + p' − p) − I_{t-1}(q))², coarse to fine 
 pyramid.  A point is kept only if the flow found it both ways: tracked back from p' to
 I_{t-1} it must land within `CarrySettings.max_error` pixels of p (the forward–backward
 check of Kalal, Mikolajczyk and Matas, 2010).  A point that fails it, or that OpenCV
-reports as not found, is dropped until the next detection: a dropped point is missing,
-not guessed.  The carried points keep the detector's confidence times
+reports as not found, is no longer followed until the next detection: it is *held* where
+it was last followed, with its confidence times `CarrySettings.hold` (0 drops it).  A
+point the flow loses is mostly a fast one (a fingertip flicking); where it was last seen
+is a better guess of it than the motion prediction's, but a weaker one than a point
+followed.  The carried points keep the detector's confidence times
 `CarrySettings.confidence`.  Nothing is carried more than `CarrySettings.max_frames`
 frames past a detection.
 
@@ -56,6 +59,11 @@ class CarrySettings:
     max_frames : int
         Frames after a detection beyond which nothing is carried; 30 (one second of
         video at 30 fps).
+    hold : float
+        Factor on the detector's confidence of a point the flow lost, held where it
+        was last followed (module notes); 0 drops it.  0.5, chosen among 0, 0.5 and 1
+        on the realistic benchmark and the three real videos with keypoints every 5th
+        frame (docs/keypoint-fit.md, "rules").
     """
 
     window: int = 15
@@ -63,6 +71,7 @@ class CarrySettings:
     max_error: float = 1.0
     confidence: float = 1.0
     max_frames: int = 30
+    hold: float = 0.5
 
     def __post_init__(self) -> None:
         as_int(self.window, "window", minimum=3)
@@ -71,6 +80,7 @@ class CarrySettings:
         as_float(self.confidence, "confidence", minimum=0.0, maximum=1.0,
                  exclusive_minimum=True)  # fmt: skip
         as_int(self.max_frames, "max_frames", minimum=1)
+        as_float(self.hold, "hold", minimum=0.0, maximum=1.0)
 
 
 CARRY_SETTINGS = CarrySettings()
@@ -123,6 +133,7 @@ class KeypointCarrier:
         self._grey: np.ndarray | None = None  # the previous frame
         self._points: np.ndarray | None = None  # (21, 1, 2) float32, being carried
         self._confidence = np.zeros(N_KEYPOINTS)  # 0: not carried
+        self._followed = np.zeros(N_KEYPOINTS, dtype=bool)  # else held
         self._age = 0  # frames since the last detection
 
     def step(self, image, keypoints=None) -> np.ndarray | None:
@@ -152,24 +163,27 @@ class KeypointCarrier:
         if detected is not None and np.any(detected[:, 2] > 0):
             self._points = np.nan_to_num(detected[:, :2]).astype(np.float32)[:, None, :]
             self._confidence = detected[:, 2].copy()
+            self._followed = self._confidence > 0
             self._age = 0
             return detected
         self._age += 1
         if self._points is None or previous is None or self._age > self.settings.max_frames:
             return None
         self._carry(previous, grey)
-        if not np.any(self._confidence > 0):
+        factor = np.where(self._followed, self.settings.confidence, self.settings.hold)
+        confidence = self._confidence * factor
+        ok = confidence > 0
+        if not ok.any():
             return None
         out = np.full((N_KEYPOINTS, 3), np.nan)
         out[:, 2] = 0.0
-        ok = self._confidence > 0
         out[ok, :2] = self._points[ok, 0]
-        out[ok, 2] = self._confidence[ok] * self.settings.confidence
+        out[ok, 2] = confidence[ok]
         return out
 
     def _carry(self, previous: np.ndarray, grey: np.ndarray) -> None:
-        """Move the carried points from `previous` to `grey`; drop those that fail."""
-        ok = self._confidence > 0
+        """Move the followed points from `previous` to `grey`; hold those that fail."""
+        ok = self._followed
         if not ok.any():
             return
         p0 = np.ascontiguousarray(self._points[ok])
@@ -179,8 +193,8 @@ class KeypointCarrier:
         kept = (found[:, 0] == 1) & (found_back[:, 0] == 1) & (error <= self.settings.max_error)
         kept &= np.isfinite(p1[:, 0]).all(axis=1)
         index = np.flatnonzero(ok)
-        self._points[index] = p1
-        self._confidence[index[~kept]] = 0.0
+        self._points[index[kept]] = p1[kept]  # a lost point stays where it was last followed
+        self._followed[index[~kept]] = False
 
 
 def carry_keypoints(
