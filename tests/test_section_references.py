@@ -27,6 +27,7 @@ _QUALIFIED = re.compile(
     rf"\b(?:paper|design) (?:{_NUMBER}(?:,| and| or) )*$",
 )
 
+
 def bare_references(text: str) -> list[tuple[int, str]]:
     """(line number, line) of every section sign in `text` that names no owner."""
     found = []
