@@ -182,18 +182,13 @@ def run_fit(case_dir: Path, spec: Spec, every: int, out: Path) -> tuple[float, P
 def fit_points(out: Path, side: str) -> tuple[np.ndarray, np.ndarray | None]:
     """The fit's scored points (T, 21, 3) mm from its poses through the hand it tracked
     with (`side` checked against it), and its lost flags."""
-    poses = np.loadtxt(out / "poses.csv", delimiter=",", skiprows=1, ndmin=2)
-    hand = Track.load(out).hand  # the shape the track fitted (shape_fit), not the given one
+    track = Track.load(out)
+    hand = track.hand  # the shape the track fitted (shape_fit), not the given one
     if hand.shape.side != side:
         raise RuntimeError(f"{out}: tracked a {hand.shape.side} hand; expected {side}")
     points = np.stack([keypoint_points(hand, x, "pad") if np.isfinite(x).all()
-                       else np.full((21, 3), np.nan) for x in poses])  # fmt: skip
-    lost = None
-    if (out / "quality.csv").exists():
-        with open(out / "quality.csv") as fh:
-            header = fh.readline().strip().split(",")
-        q = np.loadtxt(out / "quality.csv", delimiter=",", skiprows=1, ndmin=2)
-        lost = q[:, header.index("lost")].astype(bool)
+                       else np.full((21, 3), np.nan) for x in track.poses])  # fmt: skip
+    lost = None if track.quality is None else np.asarray(track.quality.lost, dtype=bool)
     return points, lost
 
 

@@ -477,12 +477,9 @@ class Recovery:
             prediction = tracker.prediction()
             fit = fit_frame(kps, self.rig, self.hand, prediction, world=world,
                             settings=self.fit_settings)  # fmt: skip
-            if tracker.frames_tracked > 0 and self.settings.prior_steps:
+            if self._with_prior():
                 scale = self.scale.update(fit.pose, prediction)
-                fit = fit_frame(
-                    kps, self.rig, self.hand, fit.pose, prior=prediction, prior_scale=scale,
-                    world=world, settings=self._prior_settings,
-                )  # fmt: skip
+                fit = self._prior_stage(fit, kps, world, prediction, scale)
         if fit is not None and self.settings.keypoint_reseeds and not self._lost(fit):
             fit = self._reseed_digits(fit, kps, world, prediction, scale)
         lost = fit is None or self._lost(fit)
@@ -541,7 +538,6 @@ class Recovery:
         d = np.nan_to_num(fit.distances, nan=0.0)
         bad = (fit.rejected | (d > CHECK_THRESHOLD)).any(axis=0)
         digits = sorted({(int(i) - 1) // 4 for i in np.flatnonzero(bad) if i > 0})
-        with_prior = self.tracker.frames_tracked > 0 and self.settings.prior_steps
         for digit in digits:
             angles = digit_angles(digit)
             for name in self.settings.keypoint_reseeds:
@@ -549,14 +545,20 @@ class Recovery:
                 start[angles] = named_pose(name)[angles]
                 again = fit_frame(kps, self.rig, self.hand, start, world=world,
                                   settings=self.fit_settings)  # fmt: skip
-                if with_prior:
-                    again = fit_frame(
-                        kps, self.rig, self.hand, again.pose, prior=prediction,
-                        prior_scale=scale, world=world, settings=self._prior_settings,
-                    )  # fmt: skip
+                if self._with_prior():
+                    again = self._prior_stage(again, kps, world, prediction, scale)
                 if _fit_score(again) < _fit_score(fit):
                     fit = again
         return fit
+
+    def _with_prior(self) -> bool:
+        """Whether rule 1 has its second stage, the temporal prior."""
+        return self.tracker.frames_tracked > 0 and self.settings.prior_steps > 0
+
+    def _prior_stage(self, fit, kps, world, prediction, scale):
+        """Rule 1's second stage: `fit` continued with the temporal prior of σ `scale`."""
+        return fit_frame(kps, self.rig, self.hand, fit.pose, prior=prediction,
+                         prior_scale=scale, world=world, settings=self._prior_settings)  # fmt: skip
 
     def _adapt(self, frame: _Frame, kps, world) -> None:
         """The shape fit (`RecoverySettings.shape`): keep the frame while fewer than
