@@ -95,3 +95,11 @@ def test_bad_shape_arrays_raise():
         HandShape(**{**fields, "radii": s.radii * 4})
     with pytest.raises(TypeError, match="breadth: expected a positive hand breadth in mm"):
         HandShape(**{**fields, "breadth": None})
+
+
+def test_joint_digit_names_each_joints_digit():
+    from handvar.hand.anthropometry import JOINT_DIGIT, JOINTS
+    from handvar.params import DIGITS
+
+    for name, digit in zip(JOINTS, JOINT_DIGIT, strict=True):
+        assert name.split("_")[0] == ("wrist" if digit == -1 else DIGITS[digit])

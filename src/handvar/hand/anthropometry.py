@@ -61,6 +61,9 @@ JOINTS: tuple[str, ...] = (
 #: Indices into `JOINTS` of the wrist and the middle finger's MCP joint: the two points
 #: that give a hand's size and direction in an image (keypoint scale, wrist cut).
 WRIST, MIDDLE_MCP = JOINTS.index("wrist"), JOINTS.index("middle_mcp")
+#: The digit (0 thumb … 4 little, `handvar.params.DIGITS`) each of `JOINTS` belongs to;
+#: −1 for the wrist.
+JOINT_DIGIT: tuple[int, ...] = (-1, *(i // 4 for i in range(20)))
 
 #: Abduction sign per digit: abduction `a` turns the digit by ``Rz(ABDUCTION_SIGN[k]·a)``
 #: about the palm normal, so positive values move the thumb, index and middle finger
@@ -382,6 +385,7 @@ __all__ = [
     "BONES",
     "DIGITS",
     "JOINTS",
+    "JOINT_DIGIT",
     "SIDES",
     "HandProportions",
     "HandShape",

@@ -25,6 +25,7 @@ import numpy as np
 
 from handvar.atomic import temporary_name, write_png
 from handvar.camera import Camera, Rig
+from handvar.hand.anthropometry import JOINT_DIGIT
 from handvar.render.silhouettes import silhouettes
 from handvar.validate import as_array, as_float, as_instance
 
@@ -119,11 +120,11 @@ def draw_overlay(
     for i, j in SKELETON:
         if not (finite[i] and finite[j]):
             continue
-        colour = _PALM_RGB if (i != 0 and j - i != 1) else _DIGIT_RGB[(max(i, j) - 1) // 4]
+        colour = _PALM_RGB if (i != 0 and j - i != 1) else _DIGIT_RGB[JOINT_DIGIT[max(i, j)]]
         cv2.line(img, tuple(pts[i]), tuple(pts[j]), colour, thickness, cv2.LINE_AA, shift)
     for i in range(21):
         if finite[i]:
-            colour = (255, 255, 255) if i == 0 else _DIGIT_RGB[(i - 1) // 4]
+            colour = (255, 255, 255) if i == 0 else _DIGIT_RGB[JOINT_DIGIT[i]]
             cv2.circle(img, tuple(pts[i]), (thickness + 2) << shift, colour, -1, cv2.LINE_AA, shift)
     return img
 

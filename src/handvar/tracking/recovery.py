@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from handvar.hand.anthropometry import MIDDLE_MCP, WRIST, HandShape
+from handvar.hand.anthropometry import JOINT_DIGIT, MIDDLE_MCP, WRIST, HandShape
 from handvar.hand.kinematics import POSE_NAMES, named_pose
 from handvar.params import N_PARAMS, digit_angles
 from handvar.predictors import NoMotion
@@ -537,7 +537,7 @@ class Recovery:
         """
         d = np.nan_to_num(fit.distances, nan=0.0)
         bad = (fit.rejected | (d > CHECK_THRESHOLD)).any(axis=0)
-        digits = sorted({(int(i) - 1) // 4 for i in np.flatnonzero(bad) if i > 0})
+        digits = sorted({JOINT_DIGIT[i] for i in np.flatnonzero(bad)} - {-1})
         for digit in digits:
             angles = digit_angles(digit)
             for name in self.settings.keypoint_reseeds:
