@@ -55,6 +55,7 @@ __all__ = [
     "fit_frame",
     "hand_size_px",
     "honoured",
+    "keypoint_distances",
     "reinitialise",
 ]
 
@@ -394,6 +395,16 @@ def fit_frame(
         d[rejected] = _Problem(hand, rig, kp, None, None, None, settings, x).distances(x)[rejected]
         rejected = present & (d > settings.reject)
     return FrameFit(x, d, rejected, cost, n)
+
+
+def keypoint_distances(
+    keypoints, rig, hand, x, *, settings: FrameFitSettings = FRAME_FIT_DEFAULTS
+) -> np.ndarray:
+    """d_ij of `fit_frame` at pose `x`: (n_cams, 21) distances of the projected joints to
+    the keypoints, in the model's hand sizes at `x`; NaN where there is no keypoint."""
+    kp = _clean(keypoints, len(rig), settings.min_confidence)
+    x = np.asarray(x, dtype=float)
+    return _Problem(hand, rig, kp, None, None, None, settings, x).distances(x)
 
 
 def reinitialise(

@@ -50,10 +50,12 @@ from handvar.predictors import NoMotion
 from handvar.tracking.frame_fit import (
     CHECK_THRESHOLD,
     FRAME_FIT_DEFAULTS,
+    FrameFit,
     FrameFitSettings,
     PriorScale,
     fit_frame,
     honoured,
+    keypoint_distances,
     reinitialise,
 )
 from handvar.tracking.init import InitSettings, initial_pose
@@ -482,6 +484,8 @@ class Recovery:
                 fit = self._prior_stage(fit, kps, world, prediction, scale)
         if fit is not None and self.settings.keypoint_reseeds and not self._lost(fit):
             fit = self._reseed_digits(fit, kps, world, prediction, scale)
+        if fit is not None and len(self.rig) > 1:
+            fit = self._leave_camera_out(fit, kps, world, prediction, scale)
         lost = fit is None or self._lost(fit)
         restart = not lost and self.settings.restart and _off(fit) > 0
         if fit is None or (self.settings.reinit and (lost or restart)):
@@ -550,6 +554,39 @@ class Recovery:
                 if _fit_score(again) < _fit_score(fit):
                     fit = again
         return fit
+
+    def _leave_camera_out(self, fit, kps, world, prediction, scale):
+        """Rule 1 in a rig of cameras: a fit that rejects more than half of some camera's
+        keypoints is fitted again (as rule 1, from the prediction) without the camera
+        whose keypoints lie farthest from the prediction's projection (median over its
+        points, hand sizes); that fit is kept if every camera left in keeps at least
+        half of its keypoints, the camera left out counted as rejected.
+
+        Why: a detector that places the whole hand wrongly in one camera (a shift, the
+        other hand) leaves a fit that compromises between the cameras and rejects points
+        in all of them.  Which camera is wrong the keypoints of two cameras cannot tell
+        (each alone is explained by some pose); the motion can.
+        """
+        kp = frame_keypoints(kps, len(self.rig))
+        present = kp[:, :, 2] > 0
+        cameras = np.flatnonzero(present.any(axis=1))
+        if len(cameras) < 2 or not np.any(_rejected_share(fit, present) > 0.5):
+            return fit
+        d = keypoint_distances(kps, self.rig, self.hand, prediction, settings=self.fit_settings)
+        j = cameras[int(np.argmax([np.nanmedian(d[c]) for c in cameras]))]
+        kept = [None if i == j else k for i, k in enumerate(kps)]
+        again = fit_frame(kept, self.rig, self.hand, prediction, world=world,
+                          settings=self.fit_settings)  # fmt: skip
+        if self._with_prior():
+            again = self._prior_stage(again, kept, world, prediction, scale)
+        share = _rejected_share(again, present)
+        share[j] = 0.0
+        if np.any(share > 0.5):
+            return fit
+        d = keypoint_distances(kps, self.rig, self.hand, again.pose, settings=self.fit_settings)
+        rejected = again.rejected.copy()
+        rejected[j] = present[j]
+        return FrameFit(again.pose, d, rejected, again.cost, again.iterations)
 
     def _with_prior(self) -> bool:
         """Whether rule 1 has its second stage, the temporal prior."""
@@ -657,10 +694,14 @@ class Recovery:
 
     def _lost(self, fit) -> bool:
         """A keypoint fit is lost when its kept keypoints lie farther than the lost
-        rule's keypoint error on average, or when it rejects more than half of them."""
-        present = int((~np.isnan(fit.distances)).sum())
+        rule's keypoint error on average, or when it rejects more than half of them in
+        every camera that has some (a camera left out whole by `_leave_camera_out` does
+        not make the frame lost)."""
+        present = ~np.isnan(fit.distances)
+        cameras = present.any(axis=1)
         q = self.tracker.settings.quality
-        return bool(fit.error > q.lost_keypoint_error or fit.n_rejected > 0.5 * present)
+        most = cameras.any() and bool(np.all(_rejected_share(fit, present)[cameras] > 0.5))
+        return bool(fit.error > q.lost_keypoint_error or most)
 
     def _nan_pose(self) -> np.ndarray:
         return np.full(N_PARAMS, np.nan) if self.previous is None else self.previous
@@ -731,6 +772,11 @@ def _at(values, i):
     if callable(values):
         return values(i)
     return values[i] if i < len(values) else None
+
+
+def _rejected_share(fit, present) -> np.ndarray:
+    """Per camera, the share of its keypoints `fit` rejected (0 for a camera without)."""
+    return fit.rejected.sum(axis=1) / np.maximum(present.sum(axis=1), 1)
 
 
 def _off(fit) -> int:
