@@ -336,6 +336,17 @@ def test_the_whole_video_keeps_pck_and_is_never_lost_with_keypoints_every_5th(wh
 # --- the command ---------------------------------------------------------------------------
 
 
+def test_a_recording_is_carried_both_ways_by_default_past_its_last_detection():
+    # the frames after the last detection (11, 12) are given out when the recording ends
+    # (tests/test_live_batch.py compares the carry with the whole recording's)
+    detected = read_keypoints(KEYPOINTS)
+    t = handvar.track(VIDEO, keypoints=detected, frames=13, keypoint_every=5, scale=0.5)
+    assert t.options["carry"] == "both"
+    whole = open_source(VIDEO, scale=0.5).carried_keypoints([detected.every(5)], 13, both=True)
+    np.testing.assert_array_equal(t.keypoints[0].to_array(), whole[0].to_array()[:13])
+    assert t.keypoints[0].present[11:].any(axis=1).all()
+
+
 @pytest.mark.parametrize("carry", [False, True])
 def test_track_with_keypoints_writes_the_quality(tmp_path, carry):
     out = tmp_path / "rv"

@@ -11,8 +11,11 @@ re-initialisation of lost frames) on recordings and wherever there are keypoints
 
 The defaults it decides:
 
-- ``carry``: "forward" for a recording with keypoints (online: from the last
-  detection), else "none";
+- ``carry``: "both" for a recording with keypoints (from the last detection and back
+  from the next, a frame waiting for the next detection: on the realistic benchmark and
+  the three real videos this tracks the frames between closer than "forward",
+  docs/keypoint-fit.md), "forward" when played in real time or live (causal), else
+  "none";
 - ``keypoint_tips``: "pad" on a recording (a detector marks the pad, design §14.6),
   "end" on a sequence (its keypoints are G(x) projected);
 - ``recover``: on for a recording and wherever there are keypoints;
@@ -24,11 +27,12 @@ The defaults it decides:
 
 The online form.  A recording with recovery is tracked one frame at a time: each frame
 read (or, with ``realtime``, the newest frame each time the tracker is free, after
-`paced_frames`; or a live camera's), its silhouettes, its keypoints (carried forward by
-optical flow) and its fit follow each other, and nothing is computed ahead.  The frames
-skipped in real time stay in the track, flagged ``dropped``, holding the last tracked
-pose.  Only ``carry="both"`` (which waits for the next detection) and ``recover=False``
-read the whole recording first (docs/live-and-batch.md).
+`paced_frames`; or a live camera's), its silhouettes, its keypoints (carried by optical
+flow) and its fit follow each other.  Carried both ways, the frames up to the next
+detection are read before the first of them is fitted (`_Stream._keyed`); nothing else
+is computed ahead.  The frames skipped in real time stay in the track, flagged
+``dropped``, holding the last tracked pose.  Only ``recover=False`` reads the whole
+recording first (docs/live-and-batch.md).
 """
 
 from __future__ import annotations
@@ -518,7 +522,8 @@ def track(
         Use the keypoints of every K-th frame only (a slower detector).
     carry : {"forward", "both", "none"}, optional
         Carry the detections by optical flow over the frames without one (recordings
-        with keypoints only); default "forward" there, else "none".
+        with keypoints only); default "both" there ("forward" with ``realtime`` or a
+        live camera), else "none".
     keypoint_tips : {"end", "pad"}, optional
         Model point a detected fingertip is compared with; default "pad" on a recording,
         "end" on a sequence.
@@ -598,8 +603,9 @@ def track(
             f"keypoints for {carry}; got {got}"
         )
     recording = spec.kind in ("recording", "camera")
-    if carry is None:
-        carry = "forward" if detected is not None and recording else "none"
+    if carry is None:  # both ways on a recording read from disk: the better guess
+        carry = "none" if detected is None or not recording else (
+            "forward" if realtime or live else "both")  # fmt: skip
     if recover is None:
         recover = recording or detected is not None
     if (recovery is not None or on_frame is not None) and not recover:
@@ -645,9 +651,9 @@ def track(
                     f"keypoints: expected one file per camera ({opened.n_cameras}); "
                     f"got {len(detected)}"
                 )
-    if recording and not live and recover and carry != "both":  # frame by frame
+    if recording and not live and recover:  # frame by frame
         stream = _Stream(opened, detected, carry=carry, frames=frames, realtime=realtime)
-    elif recording and not live:  # the whole recording first (carry both looks ahead)
+    elif recording and not live:  # the whole recording first (without recovery)
         total = opened.n_frames if frames is None else min(frames, opened.n_frames)
         clock = time.perf_counter()
         # With keypoints and recovery the wrist is cut while tracking (at the detected
@@ -958,16 +964,18 @@ class _Stream:
     """
 
     def __init__(self, source, detected, *, carry: str, frames: int | None, realtime: bool):
-        from handvar.vision.carry import KeypointCarrier
+        from handvar.vision.carry import KeypointCarrier, TwoWayCarrier
         from handvar.vision.skin import SkinModel
 
         self.source = source
         self.live = not hasattr(source, "frames")
         self.realtime = realtime or self.live
         self.scaled = None if detected is None else source.scaled_keypoints(detected)
-        self.carriers = None
-        if self.scaled is not None and carry == "forward":
-            self.carriers = [KeypointCarrier() for _ in self.scaled]
+        self.carriers = None  # per camera, carrying forward, or both ways with a delay
+        if self.scaled is not None and carry in ("forward", "both"):
+            kind = KeypointCarrier if carry == "forward" else TwoWayCarrier
+            self.carriers = [kind() for _ in self.scaled]
+        self.two_way = carry == "both"
         self.stop = frames
         self.model = SkinModel()
         self.clock = time.perf_counter
@@ -998,7 +1006,7 @@ class _Stream:
         from handvar.vision.sources import frame_silhouettes
 
         wrist = self.scaled is None  # with keypoints the tracker cuts the wrist
-        for index, seconds, images in self._feed():
+        for index, seconds, images, kps in self._keyed(self._feed()):
             if self.t0 is None:  # the zero of the capture times
                 self.t0 = self.origin[0] if self.origin else self.clock() - seconds
 
@@ -1013,9 +1021,7 @@ class _Stream:
 
             # With keypoints a frame's silhouettes are computed only if the fit asks.
             masks = silhouettes() if self.scaled is None else _Once(silhouettes)
-            clock = self.clock()
-            self.kps.append(self._keypoints(index, images))
-            self.seconds["keypoints"] += self.clock() - clock
+            self.kps.append(kps)
             self.indices.append(index)
             self.capture.append(seconds)
             self.masks.append(masks)
@@ -1024,9 +1030,51 @@ class _Stream:
                 self.masks[-1] = masks.release()
         self.exhausted = True
 
-    def _keypoints(self, index: int, images) -> list | None:
-        if self.scaled is None:
-            return None
+    def _keyed(self, feed):
+        """``(index, seconds, images, keypoints)`` of each frame of `feed`, in order.
+
+        Carried forward (or not at all) a frame's keypoints are known when it is read.
+        Carried both ways (`TwoWayCarrier`), frames are held until every camera's
+        keypoints of them are final: the frames up to the next detection are read
+        first (at most `CarrySettings.max_frames`), and the silhouettes of the frames
+        held are computed only when the fit asks, as for any frame.
+        """
+        if self.scaled is None or not self.two_way:
+            for index, seconds, images in feed:
+                clock = self.clock()
+                kps = None if self.scaled is None else self._carry(index, images)
+                self.seconds["keypoints"] += self.clock() - clock
+                yield index, seconds, images, kps
+            return
+        held: list = []  # (n, index, seconds, images) read, keypoints not final yet
+        final: list[dict] = [{} for _ in self.scaled]  # per camera: n → keypoints
+
+        def ready():
+            while held and all(held[0][0] in f for f in final):
+                n, index, seconds, images = held.pop(0)
+                kps = [f.pop(n) for f in final]
+                kps = [None if k is None or index >= k.n_frames else p
+                       for k, p in zip(self.scaled, kps, strict=True)]  # fmt: skip
+                yield index, seconds, images, kps
+
+        for n, (index, seconds, images) in enumerate(feed):
+            clock = self.clock()
+            held.append((n, index, seconds, images))
+            for j, k in enumerate(self.scaled):
+                if k is None:
+                    final[j][n] = None
+                else:
+                    detection = k.frame(index) if index < k.n_frames else None
+                    final[j].update(self.carriers[j].step(images[j], detection))
+            self.seconds["keypoints"] += self.clock() - clock
+            yield from ready()
+        for f, k, carrier in zip(final, self.scaled, self.carriers, strict=True):
+            if k is not None:
+                f.update(carrier.flush())
+        yield from ready()
+
+    def _carry(self, index: int, images) -> list:
+        """Per camera this frame's keypoints: detected, or carried forward."""
         out = []
         for j, k in enumerate(self.scaled):
             if k is None or index >= k.n_frames:

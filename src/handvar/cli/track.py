@@ -69,7 +69,8 @@ def _check_predictor(ctx, param, value: str) -> str:
 @click.option("--carry", type=click.Choice(("forward", "both", "none")), default=None,
               help="Carry the detected keypoints by optical flow over the frames without "
               "any: from the last detection (online), also back from the next one (waits "
-              "for it), or not [default: forward for recordings with --keypoints].")  # fmt: skip
+              "for it, at most 30 frames), or not [default: both for recordings with "
+              "--keypoints, forward with --realtime or --camera].")  # fmt: skip
 @click.option("--keypoint-tips", type=click.Choice(("end", "pad")), default=None,
               help="Model point a detected fingertip is compared with: the end of the "
               "finger or the centre of its pad (where MediaPipe marks it; design §14.6) "
@@ -109,8 +110,9 @@ def track_command(
 
     With --keypoints (one file per camera), every K-th frame's keypoints
     (--keypoint-every) place the wrist cut and pull the fit. On a recording the
-    detected points are carried by optical flow over the frames between (--carry
-    forward, or both ways), and the tracker and the motion predictor carry the rest.
+    detected points are carried by optical flow over the frames between (both ways
+    by default, --carry forward online), and the tracker and the motion predictor carry
+    the rest.
     With recovery (--recover) each frame's fit is checked (silhouette IoU, distance to
     the keypoints), a poor fit is refined, and a lost frame is searched again (from its
     keypoints when it has them); the summary says how many.

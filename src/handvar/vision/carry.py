@@ -20,9 +20,12 @@ followed.  The carried points keep the detector's confidence times
 `CarrySettings.confidence`.  Nothing is carried more than `CarrySettings.max_frames`
 frames past a detection.
 
-Carrying is causal (frame t uses frames t−1 and t and the detections up to t), so it
-runs online beside the tracker (`KeypointCarrier`); `carry_keypoints` carries a whole
-recording's keypoints at once.
+Carried forward it is causal (frame t uses frames t−1 and t and the detections up to
+t), so it runs online beside the tracker (`KeypointCarrier`).  Carried both ways, each
+detection is also followed backwards over the frames since the previous one and the two
+are blended (`TwoWayCarrier`): a frame's keypoints wait for the next detection, at most
+`CarrySettings.max_frames` frames.  `carry_keypoints` carries a whole recording's
+keypoints at once.
 """
 
 from __future__ import annotations
@@ -36,7 +39,13 @@ import numpy as np
 from handvar.validate import as_array, as_float, as_instance, as_int
 from handvar.vision.keypoints import N_KEYPOINTS, Keypoints2D, as_frame_keypoints
 
-__all__ = ["CARRY_SETTINGS", "CarrySettings", "KeypointCarrier", "carry_keypoints"]
+__all__ = [
+    "CARRY_SETTINGS",
+    "CarrySettings",
+    "KeypointCarrier",
+    "TwoWayCarrier",
+    "carry_keypoints",
+]
 
 
 @dataclass(frozen=True)
@@ -197,6 +206,92 @@ class KeypointCarrier:
         self._followed[index[~kept]] = False
 
 
+class TwoWayCarrier:
+    """Keypoints of one camera carried both ways between detections, with a delay.
+
+    Give it every frame in order with that frame's detection (or None), as to
+    `KeypointCarrier`; `step` returns the frames whose keypoints are now final, in order,
+    as ``(t, keypoints)`` pairs (t counting the frames given from 0, keypoints as
+    `KeypointCarrier.step` returns them).  A detection frame is final at once, and so
+    are the frames before it: their points carried forward from the previous detection
+    and backwards from this one are blended (`_blend`).  A frame is held back until
+    the next detection, or until `CarrySettings.max_frames` frames have passed (no
+    detection would be carried back to it): the delay is at most that many frames, and
+    as many frames are kept.  `flush` gives out the frames still held after the last.
+
+    Examples
+    --------
+    >>> frames = np.zeros((3, 64, 64), np.uint8)
+    >>> for t in range(3):
+    ...     frames[t, 20:40, 20 + 2 * t:40 + 2 * t] = 255
+    >>> first, last = np.full((21, 3), np.nan), np.full((21, 3), np.nan)
+    >>> first[0], last[0] = (20.0, 20.0, 1.0), (24.0, 20.0, 1.0)
+    >>> carrier = TwoWayCarrier()
+    >>> [t for t, _ in carrier.step(frames[0], first)], carrier.step(frames[1])
+    ([0], [])
+    >>> [(t, np.round(k[0], 1).tolist()) for t, k in carrier.step(frames[2], last)][0]
+    (1, [22.0, 20.0, 1.0])
+    """
+
+    def __init__(self, settings: CarrySettings = CARRY_SETTINGS) -> None:
+        self.settings = as_instance(settings, CarrySettings, "settings")
+        self._forward = KeypointCarrier(settings)
+        self._t = -1  # the frame given last
+        self._last: int | None = None  # the frame of the last detection
+        self._gap: list[tuple[int, np.ndarray, np.ndarray | None]] = []  # t, grey, forward
+
+    def step(self, image, keypoints=None) -> list[tuple[int, np.ndarray | None]]:
+        """Give frame t (the next) and its detection; the frames now final, in order."""
+        self._t += 1
+        grey = _grey(image, "image")
+        forward = self._forward.step(grey, keypoints)
+        detection = None if keypoints is None else as_frame_keypoints(keypoints, "keypoints")
+        if detection is not None and np.any(detection[:, 2] > 0):
+            out = self._blend(grey, detection)
+            self._last, self._gap = self._t, []
+            return [*out, (self._t, forward)]
+        self._gap.append((self._t, grey, forward))
+        if len(self._gap) > self.settings.max_frames:  # beyond any detection's reach back
+            t, _, k = self._gap.pop(0)
+            return [(t, k)]
+        return []
+
+    def flush(self) -> list[tuple[int, np.ndarray | None]]:
+        """The frames still held (after the last detection): carried forward only."""
+        out, self._gap = [(t, k) for t, _, k in self._gap], []
+        return out
+
+    def _blend(self, grey, detection) -> list[tuple[int, np.ndarray | None]]:
+        """Carry `detection` back over the held frames and blend (module notes).
+
+        A point carried both ways is the mean of the two weighted by the nearness of
+        each detection, w_f = k_b / (k_f + k_b) on the forward point, which is k_f
+        frames after its detection (none before the first: w_f = 0), and 1 − w_f on the
+        backward one, k_b frames before this detection; a point carried one way only is
+        that one.
+        """
+        back = KeypointCarrier(self.settings)
+        back.step(grey, detection)
+        out = []
+        reach = True  # the backward carry still has points
+        for t, g, f in reversed(self._gap):
+            b = back.step(g) if reach else None
+            reach = b is not None
+            if b is None:
+                out.append((t, f))
+                continue
+            if f is None:
+                out.append((t, b))
+                continue
+            fwd, bwd = f[:, 2] > 0, b[:, 2] > 0
+            k_b = self._t - t
+            w = 0.0 if self._last is None else k_b / ((t - self._last) + k_b)
+            mixed = w * np.nan_to_num(f) + (1.0 - w) * np.nan_to_num(b)
+            k = np.where((fwd & bwd)[:, None], mixed, np.where(bwd[:, None], b, f))
+            out.append((t, k))
+        return out[::-1]
+
+
 def carry_keypoints(
     images: Iterable,
     keypoints: Keypoints2D,
@@ -215,7 +310,7 @@ def carry_keypoints(
         The detections (`Keypoints2D.every` for a detector at a lower rate).
     settings : CarrySettings, optional
     both : bool, keyword-only
-        Also carry the next detection backwards, and blend (module notes, design §14.5): not
+        Also carry the next detection backwards, and blend (`TwoWayCarrier`): not
         causal, a frame's keypoints wait for the next detection.
 
     Returns
@@ -225,46 +320,19 @@ def carry_keypoints(
     """
     as_instance(keypoints, Keypoints2D, "keypoints")
     as_instance(both, bool, "both")
-    carrier = KeypointCarrier(settings)
+    carrier = TwoWayCarrier(settings) if both else KeypointCarrier(settings)
     out = keypoints.to_array()
-    last = None  # the frame of the last detection
-    gap: list[tuple[int, np.ndarray]] = []  # the grey frames since, at most max_frames
+
+    def put(t, k):
+        if k is not None:
+            out[t] = k
+
     for t, image in enumerate(images):
         if t >= keypoints.n_frames:
             break
-        grey = _grey(image, "images")
-        detection = keypoints.frame(t)
-        k = carrier.step(grey, detection)
-        if k is not None:
-            out[t] = k
-        if not both:
-            continue
-        if np.any(detection[:, 2] > 0):
-            if gap:
-                _blend_backwards(out, gap, last, t, grey, detection, settings)
-            last, gap = t, []
-        else:
-            gap = [*gap[-settings.max_frames + 1 :], (t, grey)]
+        k = carrier.step(_grey(image, "images"), keypoints.frame(t))
+        for done in k if both else [(t, k)]:
+            put(*done)
+    for done in carrier.flush() if both else []:
+        put(*done)
     return Keypoints2D.from_array(out, name=keypoints.name)
-
-
-def _blend_backwards(out, gap, last, t_next, grey, detection, settings) -> None:
-    """Carry `detection` of frame `t_next` back over the frames of `gap`; blend into `out`.
-
-    A point carried both ways is the mean of the two weighted by the nearness of each
-    detection, w_f = k_b / (k_f + k_b) on the forward point, which is k_f frames after
-    its detection (at frame `last`, None before any), and 1 − w_f on the backward one,
-    k_b frames before `t_next`; a point carried one way only is that one.
-    """
-    back = KeypointCarrier(settings)
-    back.step(grey, detection)
-    for t, g in reversed(gap):
-        b = back.step(g)
-        if b is None:
-            return  # nothing left to carry further back
-        f = out[t]
-        fwd, bwd = f[:, 2] > 0, b[:, 2] > 0
-        k_b = t_next - t
-        w = 0.0 if last is None else k_b / ((t - last) + k_b)
-        mixed = w * f + (1.0 - w) * b
-        out[t] = np.where((fwd & bwd)[:, None], mixed, np.where(bwd[:, None], b, f))
