@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test test-slow lint bench clean
+.PHONY: demo test test-slow test-mediapipe lint bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -36,10 +36,22 @@ lint: $(STAMP)
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -m slow
 
+# MediaPipe pins numpy < 2: its extra lives in a virtual environment of its own, where
+# the tests that run the detector (skipped elsewhere) run.
+MP_VENV := .venv-mediapipe
+$(MP_VENV)/.installed: pyproject.toml
+	$(PYTHON) -m venv $(MP_VENV)
+	$(MP_VENV)/bin/python -m pip install --quiet --upgrade pip
+	$(MP_VENV)/bin/python -m pip install --quiet -e '.[test,mediapipe]'
+	touch $@
+
+test-mediapipe: $(MP_VENV)/.installed
+	$(MP_VENV)/bin/python -m pytest -m "slow or not slow" tests/test_vision_keypoints.py
+
 # Every timing benchmark of benchmarks/ (the accuracy studies are in studies/, each run
 # on its own: studies/README.md).
 bench: $(STAMP)
 	for b in benchmarks/*.py; do echo "== $$b"; $(BIN)/python $$b || exit 1; done
 
 clean:
-	rm -rf $(VENV) build src/*.egg-info demo
+	rm -rf $(VENV) $(MP_VENV) build src/*.egg-info demo

@@ -31,6 +31,14 @@ design §14.6) for the truth, the raw keypoints and the fit (its poses through a
 model of the shape the track fitted, `handvar.tracking.shape_fit`, read back with
 `handvar.Track.load`).
 
+With ``--detector mediapipe`` the keypoints are MediaPipe Hands' on the rendered
+frames instead (``handvar keypoints CAM --hand SIDE``, run by ``--mediapipe-python``, the
+Python of an environment with ``handvar[mediapipe]``: `make test-mediapipe` makes one in
+``.venv-mediapipe``), given to the fit as (T, 21, 2) pixel files as a user with a
+detector's points only would; the first row scores the detector: its 2D points, and
+its 3D (the world landmarks, hand-centred, in camera 0's axes) in the wrist-relative
+columns.
+
 Run: ``PYTHONPATH=src .venv/bin/python studies/realistic.py`` (about 5–10 minutes on
 two cores); ``--quick`` for a one-minute subset; ``--out DIR`` keeps the generated cases
 (and the fits) in DIR; ``--cases`` to run only the cases whose name contains a string.
@@ -59,6 +67,7 @@ from handvar.evaluation.metrics import (
 from handvar.evaluation.realistic import SKIN_TONES, read_case, realistic_case
 from handvar.pipeline import Track
 from handvar.tracking.keypoint_cost import keypoint_points
+from handvar.vision.keypoints import read_keypoints
 
 ROOT = Path(__file__).resolve().parents[1]
 VIDEO = ROOT / "examples" / "data" / "dex-human-hand-video.mp4"
@@ -156,27 +165,63 @@ def generate(spec: Spec, directory: Path):
     return case
 
 
-def run_fit(case_dir: Path, spec: Spec, every: int, out: Path) -> tuple[float, Path]:
-    """``handvar init`` then ``handvar track`` on the case's files; wall time (s), out dir."""
+def run_fit(
+    case_dir: Path, spec: Spec, every: int, out: Path, keypoints: list[Path] | None = None
+) -> tuple[float, Path]:
+    """``handvar init`` then ``handvar track`` on the case's files; wall time (s), out dir.
+    `keypoints`: one file per camera (default: the simulated detector's).  Where the
+    first frame has neither keypoints nor a silhouette (`init` says so), ``track`` runs
+    without ``--init``, as that message advises."""
     cams = [str(case_dir / f"cam{j}") for j in range(spec.cameras)]
+    if keypoints is None:
+        keypoints = [case_dir / f"keypoints{j}.npy" for j in range(spec.cameras)]
     kps = []
-    for j in range(spec.cameras):
-        kps += ["--keypoints", str(case_dir / f"keypoints{j}.npy")]
+    for path in keypoints:
+        kps += ["--keypoints", str(path)]
     common = ["--calib", str(case_dir / "calib.yml"), "--hand", spec.side,
               "--hand-length", str(HAND_LENGTH)]  # fmt: skip
     out.parent.mkdir(parents=True, exist_ok=True)
     x0 = out.parent / f"{out.name}-x0.txt"
     env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
     start = time.perf_counter()
-    for cmd in (
-        [*HANDVAR, "init", *cams, *common, *kps, "--out", str(x0)],
-        [*HANDVAR, "track", ",".join(cams), *common, "--init", str(x0), *kps,
-         "--keypoint-every", str(every), "--out", str(out), "--no-video"],
-    ):  # fmt: skip
-        done = subprocess.run(cmd, capture_output=True, text=True, env=env)
-        if done.returncode != 0:
-            raise RuntimeError(f"{' '.join(cmd)}\n{done.stderr.strip()}")
+    init = [*HANDVAR, "init", *cams, *common, *kps, "--out", str(x0)]
+    done = subprocess.run(init, capture_output=True, text=True, env=env)
+    start_at = ["--init", str(x0)]
+    if done.returncode != 0 and "expected keypoints or a hand's silhouette" in done.stderr:
+        start_at = []
+    elif done.returncode != 0:
+        raise RuntimeError(f"{' '.join(init)}\n{done.stderr.strip()}")
+    cmd = [*HANDVAR, "track", ",".join(cams), *common, *start_at, *kps,
+           "--keypoint-every", str(every), "--out", str(out), "--no-video"]  # fmt: skip
+    done = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    if done.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)}\n{done.stderr.strip()}")
     return time.perf_counter() - start, out
+
+
+def mediapipe_keypoints(case_dir: Path, spec: Spec, python: str) -> tuple[list[Path], dict]:
+    """MediaPipe Hands on the case's frames, as a user would run it (``handvar keypoints``
+    in an environment with the ``mediapipe`` extra, `python`): per camera the (T, 21, 2)
+    pixel file the tracker is given, ``mediapipe{j}.npy``, and the detector's own
+    estimate: ``xy`` (n_cams, T, 21, 2) and camera 0's world landmarks ``world``
+    (T, 21, 3) mm, NaN where no hand was found.  Kept in `case_dir` once made."""
+    paths, xy, world = [], [], None
+    for j in range(spec.cameras):
+        npz = case_dir / f"mediapipe{j}.npz"
+        if not npz.exists():
+            cmd = [python, "-m", "handvar", "keypoints", str(case_dir / f"cam{j}"),
+                   "--out", str(npz), "--hand", spec.side]  # fmt: skip
+            done = subprocess.run(cmd, capture_output=True, text=True)
+            if done.returncode != 0:
+                raise RuntimeError(f"{' '.join(cmd)}\n{done.stderr.strip()}")
+        kp = read_keypoints(npz)
+        points = np.where(kp.present[..., None], kp.xy, np.nan)
+        np.save(case_dir / f"mediapipe{j}.npy", points)
+        paths.append(case_dir / f"mediapipe{j}.npy")
+        xy.append(points)
+        if j == 0 and kp.world is not None:
+            world = np.where(kp.present[..., None], kp.world, np.nan)
+    return paths, {"xy": np.stack(xy), "world": world}
 
 
 def fit_points(out: Path, side: str) -> tuple[np.ndarray, np.ndarray | None]:
@@ -192,20 +237,25 @@ def fit_points(out: Path, side: str) -> tuple[np.ndarray, np.ndarray | None]:
     return points, lost
 
 
-def scores(case, points_2d, points_3d, lost, seconds) -> dict[str, float]:
-    """The table's figures of one estimate (module docstring)."""
+def scores(case, points_2d, points_3d, lost, seconds, truth_axes=None) -> dict[str, float]:
+    """The table's figures of one estimate (module docstring).  `truth_axes`: a rotation
+    the true joints are turned by before the 3D figures (a detector's 3D in the axes of
+    camera 0); frames where the estimate has no point are left out of the 3D figures."""
     truth_2d = case.truth_2d.reshape(-1, 21, 2)
     est_2d = points_2d.reshape(-1, 21, 2)
     row = {"pck": pck_2d(truth_2d, est_2d), "px": mean_point_error(truth_2d, est_2d)[0]}
     if points_3d is None:
         row.update(mpjpe=np.nan, pa=np.nan, auc=np.nan, abs=np.nan)
     else:
-        wrist = joint_errors(case.joints, points_3d, alignment="wrist")
+        truth = case.joints if truth_axes is None else case.joints @ np.asarray(truth_axes).T
+        seen = np.isfinite(points_3d).all(axis=(1, 2))
+        truth, points_3d = truth[seen], points_3d[seen]
+        wrist = joint_errors(truth, points_3d, alignment="wrist")
         row.update(
             mpjpe=float(np.nanmean(wrist)),
-            pa=float(np.nanmean(joint_errors(case.joints, points_3d, alignment="procrustes"))),
+            pa=float(np.nanmean(joint_errors(truth, points_3d, alignment="procrustes"))),
             auc=auc_pck_3d(wrist),
-            abs=float(np.nanmean(joint_errors(case.joints, points_3d, alignment="none"))),
+            abs=float(np.nanmean(joint_errors(truth, points_3d, alignment="none"))),
         )
     row["lost"] = float(np.sum(lost)) if lost is not None else np.nan
     row["ms"] = 1000.0 * seconds / case.n_frames if seconds is not None else np.nan
@@ -260,6 +310,16 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=None, help="keep the cases in DIR")
     parser.add_argument("--cases", default="", help="only cases whose name contains this")
     parser.add_argument("--no-fit", action="store_true", help="score the raw keypoints only")
+    parser.add_argument(
+        "--detector", choices=("simulated", "mediapipe"), default="simulated",
+        help="the keypoints given to the fit: the simulated detector's, or MediaPipe Hands "
+        "run on the rendered frames (its 3D, the world landmarks, scored in the first row)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--mediapipe-python", default=sys.executable,
+        help="the Python of an environment with handvar[mediapipe] (MediaPipe pins "
+        "numpy < 2: install it apart)",
+    )  # fmt: skip
     args = parser.parse_args()
 
     todo = [s for s in specs(args.quick) if args.cases in s.name]
@@ -275,13 +335,21 @@ def main() -> None:
             gen = time.perf_counter() - t0
             label = (f"{spec.name} ({spec.background}, {spec.distractor}, {spec.skin}, "
                      f"{case.n_frames} fr)")  # fmt: skip
-            raw_lost = case.missed[0]
-            rows.append((label, "keypoints", scores(case, case.keypoints, None, raw_lost, None)))
+            given = None  # the simulated detector's keypoints files
+            if args.detector == "mediapipe":
+                given, detector = mediapipe_keypoints(case_dir, spec, args.mediapipe_python)
+                raw_lost = ~np.isfinite(detector["xy"][0]).all(axis=(1, 2))
+                raw = scores(case, detector["xy"], detector["world"], raw_lost, None,
+                             truth_axes=case.rig.cameras[0].R)  # fmt: skip
+                raw["abs"] = np.nan  # hand-centred: no absolute position
+            else:
+                raw = scores(case, case.keypoints, None, case.missed[0], None)
+            rows.append((label, "keypoints", raw))
             if not args.no_fit:
                 for every in (1, 5):
-                    out = base / "fits" / f"{spec.name}-every{every}"
+                    out = base / "fits" / f"{spec.name}-{args.detector}-every{every}"
                     try:
-                        seconds, out = run_fit(case_dir, spec, every, out)
+                        seconds, out = run_fit(case_dir, spec, every, out, given)
                         pts, lost = fit_points(out, spec.side)
                         proj = np.stack([cam.project(pts.reshape(-1, 3)).reshape(-1, 21, 2)
                                          for cam in case.rig])  # fmt: skip

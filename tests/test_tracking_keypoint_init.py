@@ -185,3 +185,11 @@ def test_init_command_with_keypoints_needs_no_silhouette(tmp_path, wall):
     res = CliRunner().invoke(main, ["init", str(folder), "--calib", str(tmp_path / "calib.yml"),
                                     "--out", str(tmp_path / "y.txt")])  # fmt: skip
     assert res.exit_code == 2 and not (tmp_path / "y.txt").exists()
+    if wall == "none":  # and a frame the detector missed: nothing to place the hand by
+        np.save(tmp_path / "missed.npy", np.full((1, 21, 2), np.nan))
+        res = CliRunner().invoke(
+            main, ["init", str(folder), "--calib", str(tmp_path / "calib.yml"),
+                   "--keypoints", str(tmp_path / "missed.npy"), "--out", str(tmp_path / "z.txt")],
+        )  # fmt: skip
+        assert res.exit_code == 2 and not (tmp_path / "z.txt").exists()
+        assert "--keypoints: expected keypoints or a hand's silhouette in frame 0" in res.output

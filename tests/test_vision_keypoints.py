@@ -291,19 +291,20 @@ def test_the_side_from_mediapipes_handedness_of_the_shipped_clips(name):
 
 
 @pytest.mark.slow
-def test_mediapipe_on_the_mirrored_video_sees_a_left_hand(tmp_path):
+@pytest.mark.parametrize("video", ["dex-human-hand-video.mp4", "tfjs-asl-hand.mp4"])
+def test_mediapipe_on_the_mirrored_video_sees_a_left_hand(tmp_path, video):
     pytest.importorskip("mediapipe")
     import cv2
 
     folder = tmp_path / "mirrored"
     folder.mkdir()
-    cap = cv2.VideoCapture(str(DATA / "tfjs-asl-hand.mp4"))
+    cap = cv2.VideoCapture(str(DATA / video))
     for i in range(20):
         ok, frame = cap.read()
         assert ok
         cv2.imwrite(str(folder / f"{i:03d}.png"), frame[:, ::-1])
     out = tmp_path / "k.npz"
-    for source, side in ((DATA / "tfjs-asl-hand.mp4", "right"), (folder, "left")):
+    for source, side in ((DATA / video, "right"), (folder, "left")):
         res = CliRunner().invoke(
             main, ["keypoints", str(source), "--out", str(out), "--frames", "20", "--hand", "auto"]
         )

@@ -72,16 +72,22 @@ def main() -> None:
 
 
 def _quiet_native_logs() -> None:
-    """Silence OpenCV's and its FFmpeg backend's logging on standard error (design §13.4).
+    """Silence OpenCV's, its FFmpeg backend's and asyncio's logging on standard error
+    (design §13.4).
 
     A damaged video makes FFmpeg print lines such as ``moov atom not found`` before our
     own one-line message; the failure is reported by us instead.  Set before OpenCV
-    loads its FFmpeg backend; a value the user set in the environment is kept.
+    loads its FFmpeg backend; a value the user set in the environment is kept.  A Zarr
+    store's write that fails (a full disk) leaves the store's other writes, running at
+    once on its event loop, with their errors unretrieved: asyncio would print each
+    with a traceback after our line, when the futures are collected.
     """
+    import logging
     import os
 
     os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # AV_LOG_QUIET
     os.environ.setdefault("OPENCV_LOG_LEVEL", "SILENT")
+    logging.getLogger("asyncio").setLevel(logging.CRITICAL)
 
 
 for _command in (

@@ -120,6 +120,12 @@ def init_command(
         if wrist:
             masks = np.stack([cut_wrist(m, k) if m.any() else m
                               for m, k in zip(masks, kps, strict=True)])  # fmt: skip
+    if kps is not None and not any(np.any(k[:, 2] > 0) for k in kps) and not masks.any():
+        raise ValueError(
+            f"--keypoints: expected keypoints or a hand's silhouette in frame {frame}; got "
+            "neither (`handvar track` without --init starts where the keypoints begin); "
+            "nothing written"
+        )
     hand = HandModel(HandShape.from_size(hand_length, side=side))
     result = initial_pose(masks, rig, hand, keypoints=kps, rng=np.random.default_rng(seed))
     if not (result.iou >= INIT_MIN_IOU or _explains_keypoints(result, kps)):
