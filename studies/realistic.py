@@ -37,7 +37,8 @@ Python of an environment with ``handvar[mediapipe]``: `make test-mediapipe` make
 ``.venv-mediapipe``), given to the fit as (T, 21, 2) pixel files as a user with a
 detector's points only would; the first row scores the detector: its 2D points, and
 its 3D (the world landmarks, hand-centred, in camera 0's axes) in the wrist-relative
-columns.
+columns.  ``--world`` gives the fit the detector's ``.npz`` instead, its world
+landmarks as the fit's weak 3D cue.
 
 Run: ``PYTHONPATH=src .venv/bin/python studies/realistic.py`` (about 5–10 minutes on
 two cores); ``--quick`` for a one-minute subset; ``--out DIR`` keeps the generated cases
@@ -199,10 +200,13 @@ def run_fit(
     return time.perf_counter() - start, out
 
 
-def mediapipe_keypoints(case_dir: Path, spec: Spec, python: str) -> tuple[list[Path], dict]:
+def mediapipe_keypoints(
+    case_dir: Path, spec: Spec, python: str, world: bool = False
+) -> tuple[list[Path], dict]:
     """MediaPipe Hands on the case's frames, as a user would run it (``handvar keypoints``
     in an environment with the ``mediapipe`` extra, `python`): per camera the (T, 21, 2)
-    pixel file the tracker is given, ``mediapipe{j}.npy``, and the detector's own
+    pixel file the tracker is given, ``mediapipe{j}.npy`` (with `world`, the detector's
+    ``.npz``: its world landmarks the fit's weak 3D cue), and the detector's own
     estimate: ``xy`` (n_cams, T, 21, 2) and camera 0's world landmarks ``world``
     (T, 21, 3) mm, NaN where no hand was found.  Kept in `case_dir` once made."""
     paths, xy, world = [], [], None
@@ -217,7 +221,7 @@ def mediapipe_keypoints(case_dir: Path, spec: Spec, python: str) -> tuple[list[P
         kp = read_keypoints(npz)
         points = np.where(kp.present[..., None], kp.xy, np.nan)
         np.save(case_dir / f"mediapipe{j}.npy", points)
-        paths.append(case_dir / f"mediapipe{j}.npy")
+        paths.append(npz if world else case_dir / f"mediapipe{j}.npy")
         xy.append(points)
         if j == 0 and kp.world is not None:
             world = np.where(kp.present[..., None], kp.world, np.nan)
@@ -316,6 +320,10 @@ def main() -> None:
         "run on the rendered frames (its 3D, the world landmarks, scored in the first row)",
     )  # fmt: skip
     parser.add_argument(
+        "--world", action="store_true",
+        help="with --detector mediapipe: give the fit the detector's world landmarks too",
+    )  # fmt: skip
+    parser.add_argument(
         "--mediapipe-python", default=sys.executable,
         help="the Python of an environment with handvar[mediapipe] (MediaPipe pins "
         "numpy < 2: install it apart)",
@@ -337,7 +345,8 @@ def main() -> None:
                      f"{case.n_frames} fr)")  # fmt: skip
             given = None  # the simulated detector's keypoints files
             if args.detector == "mediapipe":
-                given, detector = mediapipe_keypoints(case_dir, spec, args.mediapipe_python)
+                given, detector = mediapipe_keypoints(case_dir, spec, args.mediapipe_python,
+                                                      args.world)  # fmt: skip
                 raw_lost = ~np.isfinite(detector["xy"][0]).all(axis=(1, 2))
                 raw = scores(case, detector["xy"], detector["world"], raw_lost, None,
                              truth_axes=case.rig.cameras[0].R)  # fmt: skip
@@ -347,7 +356,8 @@ def main() -> None:
             rows.append((label, "keypoints", raw))
             if not args.no_fit:
                 for every in (1, 5):
-                    out = base / "fits" / f"{spec.name}-{args.detector}-every{every}"
+                    world = "-world" if args.world else ""
+                    out = base / "fits" / f"{spec.name}-{args.detector}{world}-every{every}"
                     try:
                         seconds, out = run_fit(case_dir, spec, every, out, given)
                         pts, lost = fit_points(out, spec.side)

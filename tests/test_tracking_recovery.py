@@ -336,6 +336,21 @@ def test_the_whole_video_keeps_pck_and_is_never_lost_with_keypoints_every_5th(wh
 # --- the command ---------------------------------------------------------------------------
 
 
+def test_a_recording_that_starts_without_a_hand_writes_its_outputs(tmp_path):
+    # the counting clip's hand enters at frame ~110: the strip and the video draw the
+    # frames before it without a model (a NaN pose) instead of failing
+    clip = example_path("counting")
+    out = tmp_path / "out"
+    res = CliRunner().invoke(
+        main, ["track", str(clip), "--scale", "0.5", "--frames", "125", "--keypoints",
+               str(example_path("counting-keypoints")), "--out", str(out)],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    assert (out / "overlay.png").exists() and (out / "overlay.mp4").exists()
+    poses = np.loadtxt(out / "poses.csv", delimiter=",", skiprows=1)
+    assert np.isnan(poses[0]).all() and np.isfinite(poses[-1]).all()
+
+
 def test_a_recording_is_carried_both_ways_by_default_past_its_last_detection():
     # the frames after the last detection (11, 12) are given out when the recording ends
     # (tests/test_live_batch.py compares the carry with the whole recording's)

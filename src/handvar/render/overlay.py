@@ -77,8 +77,8 @@ def draw_overlay(
         RGB image, or a mask / grey image (drawn as grey).
     camera : Camera
         Camera of the image.
-    joints : (21, 3) array_like
-        Joint positions, mm (world).
+    joints : (21, 3) array_like or None
+        Joint positions, mm (world); None draws none (a frame without a hand).
     mask : (H, W) bool ndarray, optional
         A silhouette whose outline is drawn in yellow (e.g. the model's).
     thickness : int, optional
@@ -103,7 +103,8 @@ def draw_overlay(
             f"image: expected size {camera.size} (width, height) of the camera; "
             f"got {(img.shape[1], img.shape[0])}"
         )
-    joints = as_array(joints, "joints", (21, 3))
+    if joints is not None:
+        joints = as_array(joints, "joints", (21, 3))
     img = np.ascontiguousarray(img)
     if mask is not None:
         mask = np.asarray(mask)
@@ -113,6 +114,8 @@ def draw_overlay(
             mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE
         )
         cv2.drawContours(img, contours, -1, (255, 230, 0), 1, cv2.LINE_AA)
+    if joints is None:
+        return img
     shift = 4
     px = camera.project(joints)
     finite = np.all(np.isfinite(px), axis=1) & (np.abs(px) < 1e5).all(axis=1)
@@ -200,8 +203,11 @@ def overlay_views(hand, rig: Rig, backgrounds, pose, *, thickness: int = 2) -> l
     Returns
     -------
     list of (H, W, 3) uint8 ndarray
-        One RGB view per camera (`draw_overlay`).
+        One RGB view per camera (`draw_overlay`); a pose that is not finite (a frame
+        without a hand, a dropped frame before the first) draws no model.
     """
+    if not np.all(np.isfinite(np.asarray(pose, dtype=float))):
+        return [draw_overlay(b, cam, None) for b, cam in zip(backgrounds, rig, strict=True)]
     model = silhouettes(hand, pose, rig)
     joints = hand.joints(pose)
     return [
