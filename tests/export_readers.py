@@ -2,7 +2,8 @@
 
 The glTF reader takes the structure from pygltflib and does standard linear blend
 skinning itself (the glTF 2.0 specification's formula); the BVH reader takes bvhio's
-forward kinematics. Neither uses handvar's writers or kinematics.
+forward kinematics; the viewer page's figure is decoded from its script with `json`.
+None uses handvar's writers or kinematics.
 """
 
 from __future__ import annotations
@@ -137,3 +138,19 @@ def bvh_world_joints(path, names) -> np.ndarray:
             else:
                 out[t, i] = np.array(joints[name].PositionWorld)
     return out
+
+
+def plotly_page(html: str) -> tuple[list, dict, list]:
+    """The data, layout and animation frames of a page written by plotly's ``to_html``,
+    decoded from the arguments of its ``Plotly.newPlot`` and ``Plotly.addFrames`` calls
+    with the standard `json` module."""
+    import json
+    import re
+
+    decoder = json.JSONDecoder()
+    start = re.search(r"Plotly\.newPlot\(\s*\"[^\"]+\",\s*", html).end()
+    data, end = decoder.raw_decode(html, start)
+    layout, _ = decoder.raw_decode(html, re.compile(r",\s*").match(html, end).end())
+    start = re.search(r"Plotly\.addFrames\('[^']+',\s*", html).end()
+    frames, _ = decoder.raw_decode(html, start)
+    return data, layout, frames

@@ -209,3 +209,138 @@ def test_viewer_renders_in_headless_chromium(poses, tmp_path):
     assert image.std() > 10.0
     b, g, r = (image[..., i].astype(int) for i in range(3))
     assert np.sum((r > 150) & (g < 90) & (b < 90)) > 200
+
+
+# A track whose hand is absent on some frames: its pose there is NaN as a whole.
+ABSENT = [0, 1, 4, 5]  # leading and inner frames without a hand, of 8
+HELD_FROM = [2, 2, 2, 3, 3, 3, 6, 7]  # the tracked frame each one shows in BVH and glTF:
+# the last one before it, or the first one for the leading frames (by hand)
+
+
+@pytest.fixture(scope="module")
+def gappy(poses) -> np.ndarray:
+    """The first 8 frames of the benchmark track, without a hand on the frames ABSENT."""
+    out = poses[:8].copy()
+    out[ABSENT] = np.nan
+    return out
+
+
+def test_keypoint_json_has_no_points_on_frames_without_a_hand(poses, gappy):
+    hand, rig = HandModel(HandShape.from_size(185.0)), Rig.default()
+    conf = np.where(np.isin(np.arange(8), ABSENT), 0.0, 0.9)
+    doc = json.loads(json.dumps(keypoint_frames(gappy, hand, rig, confidence=conf)))
+    full = json.loads(json.dumps(keypoint_frames(poses[:8], hand, rig, confidence=conf)))
+    assert [f["frame"] for f in doc["frames"]] == list(range(8))
+    for t, frame in enumerate(doc["frames"]):
+        if t in ABSENT:
+            assert frame == {"frame": t, "confidence": 0.0, "world": None, "views": []}
+        else:
+            assert frame == full["frames"][t]  # the same points as with every frame tracked
+    assert {k: v for k, v in doc.items() if k != "frames"} == {
+        k: v for k, v in full.items() if k != "frames"
+    }
+
+
+def test_openpose_has_no_people_on_frames_without_a_hand(poses, gappy, tmp_path):
+    hand, rig = HandModel(HandShape.from_size(185.0, side="left")), Rig.default()
+    write_openpose(tmp_path / "gaps", openpose_frames(gappy, hand, rig), rig.names)
+    write_openpose(tmp_path / "full", openpose_frames(poses[:8], hand, rig), rig.names)
+    assert len(list((tmp_path / "gaps").iterdir())) == len(rig.names) * 8
+    for name in rig.names:
+        for t in range(8):
+            got = json.loads((tmp_path / "gaps" / openpose_name(name, t)).read_text())
+            if t in ABSENT:
+                assert got == {"version": 1.3, "people": []}
+            else:
+                assert got == json.loads((tmp_path / "full" / openpose_name(name, t)).read_text())
+
+
+@pytest.mark.parametrize("side", SIDES)
+def test_bvh_holds_the_last_tracked_pose_on_frames_without_a_hand(poses, gappy, side, tmp_path):
+    shape = HandShape.from_size(170.0, side=side)
+    path = tmp_path / "track.bvh"
+    path.write_text(bvh_text(gappy, shape, fps=25.0))
+    got = bvh_world_joints(path, bvh_joint_order())  # bvhio
+    hand = HandModel(shape)
+    want = np.stack([hand.joints(poses[f]) for f in HELD_FROM])
+    assert got.shape == (8, 21, 3)
+    assert np.abs(got - want).max() <= 0.1
+    assert path.read_text() == bvh_text(poses[HELD_FROM], shape, fps=25.0)  # filled by hand
+
+
+def test_gltf_holds_the_last_tracked_pose_on_frames_without_a_hand(poses, gappy, tmp_path):
+    import pygltflib
+
+    from tests.export_readers import accessor
+
+    shape = HandShape.from_size(185.0)
+    path = tmp_path / "track.glb"
+    path.write_bytes(glb_bytes(gappy, shape, fps=25.0))
+    gltf = pygltflib.GLTF2().load(str(path))
+    for sampler in gltf.animations[0].samplers:  # a key on every frame, at t / fps
+        times = accessor(gltf, gltf.binary_blob(), sampler.input)[:, 0]
+        np.testing.assert_allclose(times, np.arange(8) / 25.0, rtol=1e-6)
+    frames = [0, 1, 2, 4, 5, 7]
+    got = gltf_skinned_vertices(path, frames)
+    want = mesh_vertices(shape, poses[[HELD_FROM[f] for f in frames]])
+    for i, f in enumerate(frames):
+        assert np.abs(got[f] * 1000.0 - want[i]).max() <= 0.5  # metres in the file
+    assert path.read_bytes() == glb_bytes(poses[HELD_FROM], shape, fps=25.0)
+
+
+def test_viewer_shows_no_skeleton_on_frames_without_a_hand(poses, gappy, tmp_path):
+    from handvar.export import write_viewer
+    from tests.export_readers import plotly_page
+
+    hand = HandModel()
+    joints = np.full((8, 21, 3), np.nan)
+    tracked = [t for t in range(8) if t not in ABSENT]
+    joints[tracked] = [hand.joints(poses[t]) for t in tracked]
+    page = write_viewer(tmp_path / "view.html", joints, rig=Rig.default(),
+                        quality=np.linspace(0.0, 0.9, 8))  # fmt: skip
+    data, layout, frames = plotly_page(page.read_text())
+    assert [f["name"] for f in frames] == [str(t) for t in range(8)]
+    assert len(layout["sliders"][0]["steps"]) == 8
+    for t, frame in enumerate(frames):
+        bones, dots = frame["data"][0], frame["data"][1]
+        if t in ABSENT:
+            assert all(v is None for trace in (bones, dots) for k in "xyz" for v in trace[k])
+        else:
+            np.testing.assert_allclose(np.array([dots[k] for k in "xyz"]).T, joints[t])
+            assert sum(v is not None for v in bones["x"]) == 40  # 20 bones, 2 ends each
+    assert all(v is None for v in data[1]["x"])  # the first frame, shown on opening
+
+
+def test_a_pose_nan_in_part_or_infinite_is_refused(gappy):
+    shape = HandShape.from_size(185.0)
+    hand, rig = HandModel(shape), Rig.default()
+    exporters = [
+        lambda p: keypoint_frames(p, hand, rig),
+        lambda p: openpose_frames(p, hand, rig),
+        lambda p: bvh_text(p, shape),
+        lambda p: glb_bytes(p, shape),
+    ]
+    part, inf = gappy.copy(), gappy.copy()
+    part[3, 7] = np.nan
+    inf[6, 0] = np.inf
+    for export in exporters:
+        with pytest.raises(ValueError, match=r"^poses: .*NaN in part of frame 3$"):
+            export(part)
+        with pytest.raises(ValueError, match=r"^poses: .*infinity in frame 6$"):
+            export(inf)
+    joints = np.stack([hand.joints(x) for x in gappy[[2, 3]]])
+    joints[1, 4, 2] = np.nan
+    with pytest.raises(ValueError, match=r"^joints: .*NaN in part of frame 1$"):
+        viewer_html(joints)
+    with pytest.raises(ValueError, match=r"^confidence: expected finite values"):
+        keypoint_frames(gappy, hand, rig, confidence=np.full(8, np.nan))
+
+
+def test_bvh_and_gltf_refuse_a_track_without_a_hand():
+    shape = HandShape.from_size(185.0)
+    nothing = np.full((3, 26), np.nan)
+    for export in (bvh_text, glb_bytes):
+        with pytest.raises(ValueError, match=r"^poses: expected a hand on at least one frame"):
+            export(nothing, shape)
+    doc = keypoint_frames(nothing, HandModel(shape), Rig.default())  # no points: fine
+    assert [f["world"] for f in doc["frames"]] == [None] * 3

@@ -26,15 +26,19 @@ from tests.export_readers import bvh_world_joints, gltf_skinned_vertices
 KNOWN = b"known bytes that must survive\n"
 
 
-def _saved_track(root: Path, side: str, length: float = 175.0, *, cameras=False) -> Path:
+def _saved_track(root: Path, side: str, length: float = 175.0, *, cameras=False, absent=()) -> Path:
+    """A 4-frame synthetic track saved in `root`; no hand (poses and joints NaN) on the
+    frames `absent`, as the tracker writes a frame where it found none."""
     from handvar.pipeline import Track
     from handvar.synth.sequences import make_sequence
     from handvar.tracking.tracker import TrackResult
 
     hand = HandModel(HandShape.from_size(length, side=side))
     seq = make_sequence("benchmark", n_frames=4, hand=hand)
-    poses, joints = seq.truth.poses, seq.truth.joints
+    poses, joints = seq.truth.poses.copy(), seq.truth.joints.copy()
     n, n_cams = len(poses), len(seq.rig)
+    projected = np.stack([c.project(joints.reshape(-1, 3)).reshape(n, 21, 2) for c in seq.rig])
+    poses[list(absent)], joints[list(absent)], projected[:, list(absent)] = np.nan, np.nan, np.nan
     result = TrackResult(
         poses=poses, joints=joints, starts=poses, costs=np.zeros((n, 1)),
         iterations=np.ones(n, dtype=int), seconds=np.zeros((n, 3)),
@@ -42,13 +46,12 @@ def _saved_track(root: Path, side: str, length: float = 175.0, *, cameras=False)
         lost=np.array([False, False, True, False]), empty=np.zeros((n, n_cams), dtype=bool),
     )  # fmt: skip
     rig = seq.rig if cameras else None
-    projected = np.stack([c.project(joints.reshape(-1, 3)).reshape(n, 21, 2) for c in seq.rig])
     track = Track(
         poses=poses, joints=joints, projected=projected if cameras else projected[:0],
         quality=None, rig=rig, shape=hand.shape, name=f"benchmark-{side}", predictor="rvar",
         seed=0, fps=seq.fps, result=result,
     )  # fmt: skip
-    out = root / (f"track_{side}" + ("_cameras" if cameras else ""))
+    out = root / (f"track_{side}" + ("_cameras" if cameras else "") + "_absent" * bool(absent))
     track.save(out, video=False, overlays=False)
     seq.rig.save(root / "rig.yml")
     return out
@@ -215,3 +218,57 @@ def test_bad_inputs_one_line_exit_2_nothing_damaged(tracks, tmp_path):
         (root / "locked").chmod(0o700)
     assert _snapshot(root) == before_root
     assert _snapshot(track) == before_track
+
+
+def test_export_and_view_a_track_with_frames_without_a_hand(tmp_path):
+    """No hand on frames 0 and 2 of 4: the keypoint files have no points there, BVH and
+    glTF hold the tracked pose (frame 1 for both), the viewer keeps every frame."""
+    track = _saved_track(tmp_path, "right", absent=(0, 2))
+    rig = str(tmp_path / "rig.yml")
+    truth = np.load(track / "track.npz")["poses"]
+    assert np.isnan(truth[[0, 2]]).all() and np.isfinite(truth[[1, 3]]).all()
+    shape = HandShape.from_size(175.0)
+    held = truth[[1, 1, 1, 3]]  # frame 0 before the first tracked one: the next one
+    for fmt, out in [("json", "k.json"), ("openpose", "op"), ("bvh", "t.bvh"), ("gltf", "t.glb")]:
+        res = _run("export", str(track), "--format", fmt, "--out", str(tmp_path / out),
+                   "--calib", rig)  # fmt: skip
+        assert res.exit_code == 0, res.output
+        assert "4 frames (2 without a hand)" in res.output
+    doc = json.loads((tmp_path / "k.json").read_text())
+    assert [f["world"] is None and f["views"] == [] for f in doc["frames"]] == [
+        True, False, True, False]  # fmt: skip
+    np.testing.assert_allclose(doc["frames"][3]["world"], HandModel(shape).joints(truth[3]),
+                               atol=1e-3)  # fmt: skip
+    people = [json.loads((tmp_path / "op" / f).read_text())["people"]
+              for f in sorted(os.listdir(tmp_path / "op"))]  # fmt: skip
+    assert len(people) == 8 and [p == [] for p in people] == [True, False, True, False] * 2
+    got = bvh_world_joints(tmp_path / "t.bvh", bvh_joint_order())
+    want = np.stack([HandModel(shape).joints(x) for x in held])
+    assert got.shape == (4, 21, 3) and np.abs(got - want).max() <= 0.1
+    from handvar.export.gltf import mesh_vertices
+
+    got = gltf_skinned_vertices(tmp_path / "t.glb", [0, 2])
+    want = mesh_vertices(shape, held[[0, 2]])
+    assert max(np.abs(got[f] * 1000.0 - want[i]).max() for i, f in enumerate([0, 2])) <= 0.5
+
+    res = _run("view", str(track), "--out", str(tmp_path / "v.html"), "--calib", rig)
+    assert res.exit_code == 0 and "4 frames (2 without a hand)" in res.output, res.output
+    from tests.export_readers import plotly_page
+
+    _, layout, frames = plotly_page((tmp_path / "v.html").read_text())
+    assert len(frames) == len(layout["sliders"][0]["steps"]) == 4
+
+
+def test_a_track_without_a_hand_is_refused_by_bvh_and_gltf(tmp_path):
+    track = _saved_track(tmp_path, "left", absent=range(4))
+    before = _snapshot(tmp_path)
+    for fmt in ("bvh", "gltf"):
+        res = CliRunner().invoke(main, ["export", str(track), "--format", fmt])
+        lines = res.output.strip().splitlines()
+        assert res.exit_code == 2 and len(lines) == 1, res.output
+        assert lines[0].startswith("handvar: error: TRACK_DIR: ") and "benchmark-left" in lines[0]
+    assert _snapshot(tmp_path) == before
+    res = _run("export", str(track), "--format", "json")  # no points on any frame: fine
+    assert res.exit_code == 0, res.output
+    frames = json.loads((track / "keypoints.json").read_text())["frames"]
+    assert [f["world"] for f in frames] == [None] * 4

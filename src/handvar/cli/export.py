@@ -41,6 +41,14 @@ def _confidence(track):
     return fit_confidence(track.result.iou, track.result.lost)
 
 
+def _frames(track) -> str:
+    """``T frames``, and how many of them have no hand (their poses NaN) if any."""
+    import numpy as np
+
+    absent = int(np.isnan(track.poses).all(axis=1).sum())
+    return f"{len(track.poses)} frames" + (f" ({absent} without a hand)" if absent else "")
+
+
 _calib_option = click.option(
     "--calib", type=click.Path(dir_okay=False), default=None,
     help="OpenCV calibration file of the cameras to project into, instead of the "
@@ -67,6 +75,8 @@ def export_command(track_dir, fmt, out, corrective, calib):
 
     Formats, frames, units and conventions: docs/outputs.md.
     """
+    import numpy as np
+
     from handvar.atomic import check_output_dir, check_output_file
     from handvar.hand.kinematics import HandModel
 
@@ -78,6 +88,11 @@ def export_command(track_dir, fmt, out, corrective, calib):
     else:
         check_output_file(out, "--out", suffixes=_SUFFIXES[fmt])
     track = _load(track_dir, calib)
+    if fmt in ("bvh", "gltf") and np.isnan(track.poses).all():
+        raise ValueError(
+            f"TRACK_DIR: expected a hand on at least one frame ({fmt} holds a pose on every "
+            f"frame); track {track.name} has none on its {len(track.poses)} frames"
+        )
     if fmt == "json":
         from handvar.export.keypoints import keypoint_frames, write_keypoints_json
 
@@ -100,7 +115,7 @@ def export_command(track_dir, fmt, out, corrective, calib):
         from handvar.export.gltf import write_glb
 
         write_glb(out, track.poses, track.shape, fps=track.fps, corrective=corrective)
-    click.echo(f"{track.name}: {len(track.poses)} frames, {track.shape.side} hand -> {out}")
+    click.echo(f"{track.name}: {_frames(track)}, {track.shape.side} hand -> {out}")
 
 
 @click.command("view")
@@ -128,4 +143,4 @@ def view_command(track_dir, out, calib):
     write_viewer(out, track.joints, rig=track.rig, quality=conf,
                  quality_label="fit confidence (IoU)", fps=track.fps,
                  title=f"handvar track: {track.name}")  # fmt: skip
-    click.echo(f"{track.name}: {len(track.poses)} frames -> {out}")
+    click.echo(f"{track.name}: {_frames(track)} -> {out}")

@@ -12,6 +12,9 @@ Every function here takes arrays and model objects (poses (T, 26), a `HandShape`
 - :mod:`~handvar.export.viewer`: one self-contained HTML page with the 3D skeleton over
   time, the cameras and the quality curve.
 
+A frame without a hand (its pose NaN as a whole) keeps its place in every one of them
+(:mod:`~handvar.export.absent`).
+
 The formats, frames, units and conventions are described in docs/outputs.md.
 """
 

@@ -21,6 +21,10 @@ Lengths in mm, angles in degrees. The BVH joints' world positions are then: the 
 at the wrist, each ``<digit>_base`` (and its first bone) at the CMC/MCP joint, the
 second and third bones at the next two joints, the end site at the tip: the 21 points
 of G(x) (`bvh_joint_order`).
+
+BVH has a value of every channel on every frame: a frame without a hand (its pose NaN
+as a whole) holds the last tracked pose, or before the first tracked frame the first
+one (`handvar.export.absent.held_poses`), so the motion keeps the recording's frames.
 """
 
 from __future__ import annotations
@@ -32,9 +36,10 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from handvar.atomic import write_atomic
+from handvar.export.absent import held_poses
 from handvar.hand.anthropometry import BONES, HandShape, bone_index
 from handvar.params import DIGITS
-from handvar.validate import as_array, as_instance
+from handvar.validate import as_instance
 
 __all__ = ["bvh_joint_order", "bvh_text", "write_bvh"]
 
@@ -77,7 +82,8 @@ def bvh_text(poses, shape: HandShape, *, fps: float | None = None) -> str:
     Parameters
     ----------
     poses : (T, 26) array_like
-        mm and degrees.
+        mm and degrees; NaN as a whole on a frame without a hand, which then holds a
+        tracked pose (`held_poses`).
     shape : HandShape
         The tracked hand (either side).
     fps : float, keyword-only, optional
@@ -86,8 +92,13 @@ def bvh_text(poses, shape: HandShape, *, fps: float | None = None) -> str:
     Returns
     -------
     str
+
+    Raises
+    ------
+    ValueError
+        If no frame has a hand, or a pose is NaN in part.
     """
-    poses = as_array(poses, "poses", (None, 26), what="poses")
+    poses = held_poses(poses)
     as_instance(shape, HandShape, "shape")
     fps = _DEFAULT_FPS if fps is None else float(fps)
     if not (np.isfinite(fps) and fps > 0):

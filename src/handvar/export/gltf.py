@@ -14,6 +14,9 @@ Layout (docs/outputs.md):
   (quaternions), LINEAR interpolation.
 
 Units are metres (glTF's), the frame is the world frame of the track's rig, unchanged.
+A frame without a hand (its pose NaN as a whole) keeps its key, holding the last
+tracked pose, or before the first tracked frame the first one
+(`handvar.export.absent.held_poses`).
 
 The model's mesh is not exactly linear blend skinning: a vertex's coordinates in each
 of its bones come from a per-bone registration (`SkinnedMesh`), not from one rest
@@ -41,6 +44,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from handvar.atomic import write_atomic
+from handvar.export.absent import held_poses
 from handvar.hand.anthropometry import BONES, HandShape, bone_index
 from handvar.hand.kinematics import HandModel, world_from_hand_rotation
 from handvar.params import DIGITS, N_PARAMS
@@ -222,7 +226,8 @@ def glb_bytes(
     Parameters
     ----------
     poses : (T, 26) array_like
-        mm and degrees.
+        mm and degrees; NaN as a whole on a frame without a hand, which then holds a
+        tracked pose (`held_poses`).
     shape : HandShape
         The tracked hand (either side).
     fps : float, keyword-only, optional
@@ -235,8 +240,13 @@ def glb_bytes(
     Returns
     -------
     bytes
+
+    Raises
+    ------
+    ValueError
+        If no frame has a hand, or a pose is NaN in part.
     """
-    poses = as_array(poses, "poses", (None, N_PARAMS), what="poses")
+    poses = as_array(poses, "poses", (None, N_PARAMS), finite=False, what="poses")
     as_instance(shape, HandShape, "shape")
     fps = _DEFAULT_FPS if fps is None else float(fps)
     if not (np.isfinite(fps) and fps > 0):
@@ -244,6 +254,7 @@ def glb_bytes(
     n = poses.shape[0]
     if n < 1:
         raise ValueError("poses: expected at least one frame; got 0")
+    poses = held_poses(poses)
     model, kin, bind, triangles, weights, R0, o0 = _skinning_setup(shape, model)
     buf = _Buffer()
     parents = _parents()

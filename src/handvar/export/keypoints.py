@@ -10,6 +10,9 @@ Two layouts (docs/outputs.md):
   per camera and frame with ``people[0].hand_right_keypoints_2d`` (or ``_left_``) as a
   flat ``[x, y, c] * 21`` and ``hand_*_keypoints_3d`` as ``[x, y, z, c] * 21``.
 
+A frame without a hand (its pose NaN as a whole, `handvar.export.absent`) is written
+without points: ``world`` null and no ``views`` in the JSON, no ``people`` in OpenPose's.
+
 The keypoints are G(x) (`HandModel.joints`) in the order of `JOINTS`, which is the
 21-point order of MediaPipe Hands and OpenPose's hand model.
 
@@ -28,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from handvar.atomic import OutputSet, check_output_dir, write_atomic
+from handvar.export.absent import hand_frames
 from handvar.hand.anthropometry import JOINTS
 from handvar.validate import as_array
 
@@ -134,10 +138,11 @@ def fit_confidence(iou, lost) -> np.ndarray:
 
 
 def _check_inputs(poses, hand, rig, confidence):
-    poses = as_array(poses, "poses", (None, 26), what="poses")
+    """The poses, which frames have a hand, and the confidences, checked."""
+    poses, present = hand_frames(poses, "poses", (None, 26))
     if confidence is not None:
         confidence = as_array(confidence, "confidence", (poses.shape[0],), what="confidences")
-    return poses, confidence
+    return poses, present, confidence
 
 
 def _views(hand, x, rig):
@@ -166,7 +171,7 @@ def keypoint_frames(poses, hand, rig=None, *, confidence=None) -> dict:
     Parameters
     ----------
     poses : (T, 26) array_like
-        The track's poses, mm and degrees.
+        The track's poses, mm and degrees; NaN as a whole on a frame without a hand.
     hand : HandModel
         The tracked model (its shape gives G(x) and the surface for visibility).
     rig : Rig, optional
@@ -181,9 +186,10 @@ def keypoint_frames(poses, hand, rig=None, *, confidence=None) -> dict:
         K, R, t, size) and ``frames``: per frame ``frame``, ``confidence``, ``world``
         (21 × 3 mm) and ``views``, per camera ``camera``, ``keypoints_2d`` (21 × 2
         pixels), ``keypoints_3d`` (21 × 3 mm, camera frame), ``visible`` and
-        ``in_image`` (21 booleans).
+        ``in_image`` (21 booleans). A frame without a hand has ``world`` null and
+        ``views`` empty.
     """
-    poses, confidence = _check_inputs(poses, hand, rig, confidence)
+    poses, present, confidence = _check_inputs(poses, hand, rig, confidence)
     cameras = [] if rig is None else [
         {"name": name, "K": cam.K.tolist(), "R": cam.R.tolist(), "t": cam.t.tolist(),
          "dist": cam.dist.tolist(), "size": list(cam.size)}
@@ -191,14 +197,13 @@ def keypoint_frames(poses, hand, rig=None, *, confidence=None) -> dict:
     ]  # fmt: skip
     frames = []
     for t, x in enumerate(poses):
-        joints = hand.joints(x)
         record = {
             "frame": t,
             "confidence": None if confidence is None else float(confidence[t]),
-            "world": _rounded(joints, 4),
+            "world": _rounded(hand.joints(x), 4) if present[t] else None,
             "views": [],
         }
-        if rig is not None:
+        if rig is not None and present[t]:
             _, views = _views(hand, x, rig)
             for name, (uv, cam, visible, inside) in zip(rig.names, views, strict=True):
                 record["views"].append({
@@ -234,11 +239,13 @@ def openpose_frames(poses, hand, rig, *, confidence=None, with_3d: bool = True) 
     (pixels) and, with `with_3d`, ``hand_*_keypoints_3d`` as ``[x, y, z, c] * 21``
     (mm, world frame); every other keypoint list is empty. The score ``c`` of a keypoint
     is the frame's confidence (1 without one) where it is visible and in the image,
-    else 0.
+    else 0. A frame without a hand is ``{"version": 1.3, "people": []}``, as OpenPose
+    writes a frame where it detected no one.
 
     Parameters
     ----------
     poses : (T, 26) array_like
+        mm and degrees; NaN as a whole on a frame without a hand.
     hand : HandModel
     rig : Rig
     confidence : (T,) array_like, keyword-only, optional
@@ -250,12 +257,16 @@ def openpose_frames(poses, hand, rig, *, confidence=None, with_3d: bool = True) 
     list of list of dict
         ``[camera][frame]``.
     """
-    poses, confidence = _check_inputs(poses, hand, rig, confidence)
+    poses, present, confidence = _check_inputs(poses, hand, rig, confidence)
     if rig is None:
         raise ValueError("rig: expected the cameras to project the keypoints into; got None")
     side = hand.shape.side
     out: list[list[dict]] = [[] for _ in rig.cameras]
     for t, x in enumerate(poses):
+        if not present[t]:
+            for per_camera in out:
+                per_camera.append({"version": 1.3, "people": []})
+            continue
         c = 1.0 if confidence is None else float(confidence[t])
         joints, views = _views(hand, x, rig)
         for j, (uv, _, visible, inside) in enumerate(views):

@@ -4,7 +4,8 @@ The page shows the hand's skeleton (the 21 keypoints and the bones between them)
 time in a 3D scene that turns with the mouse, the cameras of the rig as small frusta
 and, below, a per-frame quality curve. Play/pause buttons and a slider step through
 the frames; the quality curve's marker follows the slider, and a click on the curve
-jumps to that frame. Nothing is fetched over the network to view it.
+jumps to that frame. Nothing is fetched over the network to view it. A frame without
+a hand (its joints NaN as a whole) keeps its place on the slider and shows no skeleton.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from handvar.atomic import write_atomic
+from handvar.export.absent import hand_frames
 from handvar.hand.anthropometry import JOINTS
 from handvar.validate import as_array
 
@@ -39,20 +41,19 @@ def bone_pairs() -> list[tuple[int, int]]:
     return pairs
 
 
+def _coordinates(values) -> list:
+    """`values` as a list of floats, None for NaN (a gap, to plotly)."""
+    return [float(v) if np.isfinite(v) else None for v in values]
+
+
 def _segments(points: np.ndarray) -> tuple[list, list, list]:
-    """x, y, z lists of the bones as line pieces separated by None."""
-    xs: list = []
-    ys: list = []
-    zs: list = []
-    for a, b in bone_pairs():
-        for p in (points[a], points[b]):
-            xs.append(float(p[0]))
-            ys.append(float(p[1]))
-            zs.append(float(p[2]))
-        xs.append(None)
-        ys.append(None)
-        zs.append(None)
-    return xs, ys, zs
+    """x, y, z lists of the bones as line pieces separated by None (all None for NaN
+    points: nothing drawn)."""
+    pairs = np.array(bone_pairs())
+    pieces = np.full((len(pairs), 3, 3), np.nan)  # per bone: its two ends, then a gap
+    pieces[:, 0], pieces[:, 1] = points[pairs[:, 0]], points[pairs[:, 1]]
+    flat = pieces.reshape(-1, 3)
+    return _coordinates(flat[:, 0]), _coordinates(flat[:, 1]), _coordinates(flat[:, 2])
 
 
 def _frustum(camera, name: str, depth: float):
@@ -82,7 +83,8 @@ def viewer_html(
     Parameters
     ----------
     joints : (T, 21, 3) array_like
-        G(x) per frame, mm, world frame.
+        G(x) per frame, mm, world frame; NaN as a whole on a frame without a hand,
+        which shows no skeleton.
     rig : Rig, keyword-only, optional
         Cameras to draw.
     quality : (T,) array_like, keyword-only, optional
@@ -101,7 +103,7 @@ def viewer_html(
     import plotly.graph_objects as go
     from plotly.subplots import make_subplots
 
-    joints = as_array(joints, "joints", (None, len(JOINTS), 3), what="keypoints")
+    joints, present = hand_frames(joints, "joints", (None, len(JOINTS), 3), what="keypoints")
     n = joints.shape[0]
     if n < 1:
         raise ValueError("joints: expected at least one frame; got 0")
@@ -117,8 +119,9 @@ def viewer_html(
         xs, ys, zs = _segments(joints[t])
         bones = go.Scatter3d(x=xs, y=ys, z=zs, mode="lines", line={"color": "#d62728",
                              "width": 6}, name="bones", hoverinfo="skip")  # fmt: skip
-        dots = go.Scatter3d(x=joints[t, :, 0], y=joints[t, :, 1], z=joints[t, :, 2],
-                            mode="markers", marker={"size": 3, "color": "#1f77b4"},
+        x, y, z = (_coordinates(joints[t, :, i]) for i in range(3))
+        dots = go.Scatter3d(x=x, y=y, z=z, mode="markers",
+                            marker={"size": 3, "color": "#1f77b4"},
                             text=list(JOINTS), name="keypoints")  # fmt: skip
         return bones, dots
 
@@ -146,9 +149,11 @@ def viewer_html(
     still = {"frame": {"duration": 0, "redraw": True}, "transition": {"duration": 0},
              "mode": "immediate"}  # fmt: skip
     # The scene's extent: every frame's keypoints (and the cameras), fixed while playing.
-    pts = joints.reshape(-1, 3)
+    pts = joints[present].reshape(-1, 3)
     if rig is not None:
         pts = np.vstack([pts, [c.center for c in rig.cameras]])
+    if len(pts) == 0:  # no hand on any frame and no camera: an empty scene around 0
+        pts = np.zeros((1, 3))
     lo, hi = pts.min(axis=0) - 20.0, pts.max(axis=0) + 20.0
     fig.update_layout(
         title=title,
