@@ -201,11 +201,11 @@ def run_fit(
 
 
 def mediapipe_keypoints(
-    case_dir: Path, spec: Spec, python: str, world: bool = False
+    case_dir: Path, spec: Spec, python: str, with_world: bool = False
 ) -> tuple[list[Path], dict]:
     """MediaPipe Hands on the case's frames, as a user would run it (``handvar keypoints``
     in an environment with the ``mediapipe`` extra, `python`): per camera the (T, 21, 2)
-    pixel file the tracker is given, ``mediapipe{j}.npy`` (with `world`, the detector's
+    pixel file the tracker is given, ``mediapipe{j}.npy`` (`with_world`: the detector's
     ``.npz``: its world landmarks the fit's weak 3D cue), and the detector's own
     estimate: ``xy`` (n_cams, T, 21, 2) and camera 0's world landmarks ``world``
     (T, 21, 3) mm, NaN where no hand was found.  Kept in `case_dir` once made."""
@@ -221,11 +221,21 @@ def mediapipe_keypoints(
         kp = read_keypoints(npz)
         points = np.where(kp.present[..., None], kp.xy, np.nan)
         np.save(case_dir / f"mediapipe{j}.npy", points)
-        paths.append(npz if world else case_dir / f"mediapipe{j}.npy")
+        paths.append(npz if with_world else case_dir / f"mediapipe{j}.npy")
         xy.append(points)
         if j == 0 and kp.world is not None:
             world = np.where(kp.present[..., None], kp.world, np.nan)
     return paths, {"xy": np.stack(xy), "world": world}
+
+
+def project(rig, points: np.ndarray) -> np.ndarray:
+    """(n_cams, T, 21, 2) pixels of (T, 21, 3) points; NaN on frames without a pose (a
+    frame flagged without a hand: its points count as wrong in PCK)."""
+    out = np.full((len(rig), *points.shape[:2], 2), np.nan)
+    ok = np.isfinite(points).all(axis=(1, 2))
+    for j, cam in enumerate(rig):
+        out[j, ok] = cam.project(points[ok].reshape(-1, 3)).reshape(-1, 21, 2)
+    return out
 
 
 def fit_points(out: Path, side: str) -> tuple[np.ndarray, np.ndarray | None]:
@@ -361,8 +371,7 @@ def main() -> None:
                     try:
                         seconds, out = run_fit(case_dir, spec, every, out, given)
                         pts, lost = fit_points(out, spec.side)
-                        proj = np.stack([cam.project(pts.reshape(-1, 3)).reshape(-1, 21, 2)
-                                         for cam in case.rig])  # fmt: skip
+                        proj = project(case.rig, pts)
                         row = scores(case, proj, pts, lost, seconds)
                     except RuntimeError as exc:  # scored as every frame lost
                         print(f"{spec.name} every {every}: failed: {exc}", file=sys.stderr)

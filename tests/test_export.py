@@ -28,6 +28,7 @@ from handvar.export import (
     glb_bytes,
     joint_visibility,
     keypoint_frames,
+    keypoint_share,
     mesh_vertices,
     openpose_frames,
     viewer_html,
@@ -106,6 +107,25 @@ def test_visibility_of_open_hand_and_fist():
     tips = [JOINTS.index(f"{d}_tip") for d in ("index", "middle", "ring", "little")]
     assert not joint_visibility(hand, fist, back)[tips].any()
     assert joint_visibility(hand, fist, back)[JOINTS.index("wrist")]
+
+
+def test_keypoint_share_is_the_checks_measure_with_the_rejected_counted_out():
+    from handvar.tracking.frame_fit import honoured
+    from handvar.tracking.recovery import TrackQuality
+
+    d = np.array([[[0.1, 0.3, np.nan, 0.05]], [[np.nan] * 4], [[0.1, 0.1, 0.1, 0.1]]])
+    n = len(d)
+    quality = TrackQuality(
+        iou=np.full((n, 1), np.nan), keypoint_error=np.zeros(n), cost=np.zeros(n),
+        lost=np.zeros(n, bool), reinit=np.zeros(n, bool), empty=np.zeros((n, 1), bool),
+        keypoints=np.ones(n, bool), rejected=np.array([1, 0, 0]), distances=d,
+    )  # fmt: skip
+    share = keypoint_share(quality)
+    np.testing.assert_allclose(share, [2 / 4, np.nan, 1.0])
+    # the keypoint check's worst frame over the kept points alone is the share without them
+    assert honoured(d[[0]], np.zeros((1, 1, 4), bool))[1] == 2 / 3
+    conf = fit_confidence(quality.iou, quality.lost, share)
+    np.testing.assert_allclose(conf, [0.5, 0.0, 1.0])
 
 
 def test_fit_confidence_is_iou_and_zero_when_lost():

@@ -35,10 +35,12 @@ def _load(track_dir, calib):
 
 
 def _confidence(track):
-    """Per-frame fit confidence: the tracker's silhouette IoU, 0 on lost frames."""
-    from handvar.export.keypoints import fit_confidence
+    """Per-frame fit confidence: the tracker's silhouette IoU, or on frames fitted to
+    keypoints alone the share of them honoured; 0 on lost frames."""
+    from handvar.export.keypoints import fit_confidence, keypoint_share
 
-    return fit_confidence(track.result.iou, track.result.lost)
+    share = None if track.quality is None else keypoint_share(track.quality)
+    return fit_confidence(track.result.iou, track.result.lost, share)
 
 
 def _frames(track) -> str:

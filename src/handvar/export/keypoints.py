@@ -40,6 +40,7 @@ __all__ = [
     "joint_reach",
     "joint_visibility",
     "keypoint_frames",
+    "keypoint_share",
     "openpose_frames",
     "openpose_name",
     "write_keypoints_json",
@@ -111,30 +112,60 @@ def joint_visibility(hand, x, camera, *, tolerance: float = VISIBILITY_TOLERANCE
     return ahead & (gap <= joint_reach(hand) + tolerance)
 
 
-def fit_confidence(iou, lost) -> np.ndarray:
-    """Per-frame confidence of a fit in [0, 1]: its silhouette IoU, 0 on lost frames.
+def fit_confidence(iou, lost, keypoint_share=None) -> np.ndarray:
+    """Per-frame confidence of a fit in [0, 1]: its silhouette IoU, or on a frame fitted to
+    keypoints without a silhouette measured, the share of its keypoints the fit honours;
+    0 on lost frames.
 
     Parameters
     ----------
     iou : (T,) or (T, n_cameras) array_like
-        Silhouette IoU per frame (and camera; averaged over cameras). NaN counts 0.
+        Silhouette IoU per frame (and camera; averaged over cameras). NaN: not measured.
     lost : (T,) array_like of bool
         Frames whose fit failed.
+    keypoint_share : (T,) array_like, optional
+        Per frame the share of its keypoints within the keypoint check's distance of the
+        fitted joints, the rejected ones counted out (`keypoint_share`); NaN where the
+        frame had none. Used where the IoU is NaN; a frame with neither counts 0.
 
     Examples
     --------
     >>> fit_confidence([[0.9, 0.7], [0.95, 0.9]], [False, True]).tolist()
     [0.8, 0.0]
+    >>> fit_confidence([np.nan, 0.5], [False, False], keypoint_share=[0.95, 1.0]).tolist()
+    [0.95, 0.5]
     """
     q = np.asarray(iou, dtype=float)
     if q.ndim == 2:
-        q = np.nanmean(np.where(np.isnan(q).all(axis=1, keepdims=True), 0.0, q), axis=1)
+        n = np.sum(~np.isnan(q), axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            q = np.where(n > 0, np.nansum(q, axis=1) / n, np.nan)
     if q.ndim != 1:
         raise ValueError(f"iou: expected shape (T,) or (T, n_cameras); got shape {q.shape}")
     lost = np.asarray(lost, dtype=bool)
     if lost.shape != q.shape:
         raise ValueError(f"lost: expected shape {q.shape} (one per frame); got {lost.shape}")
+    if keypoint_share is not None:
+        share = as_array(keypoint_share, "keypoint_share", q.shape, finite=False,
+                         what="one value per frame")  # fmt: skip
+        q = np.where(np.isnan(q), share, q)
     return np.where(lost | np.isnan(q), 0.0, np.clip(q, 0.0, 1.0))
+
+
+def keypoint_share(quality, threshold: float = 0.2) -> np.ndarray:
+    """(T,) per frame the share of the keypoints within `threshold` hand sizes of the
+    fitted joints, rejected keypoints counted as not (the keypoint check's measure,
+    `handvar.tracking.frame_fit.honoured`); NaN on frames without keypoints.
+
+    `quality`: a track's `TrackQuality` (its ``distances``, NaN where no keypoint or
+    rejected, and ``rejected`` per frame).
+    """
+    d = np.asarray(quality.distances, dtype=float).reshape(len(quality.lost), -1)
+    kept = np.isfinite(d).sum(axis=1)
+    near = (np.nan_to_num(d, nan=np.inf) <= threshold).sum(axis=1)
+    total = kept + np.asarray(quality.rejected, dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(total > 0, near / total, np.nan)
 
 
 def _check_inputs(poses, hand, rig, confidence):
