@@ -117,6 +117,7 @@ EXPERIMENT = (
 )  # fmt: skip
 
 
+@pytest.mark.slow
 def test_a_second_experiment_on_a_store_waits_then_resumes_it(tmp_path):
     from handvar.evaluation.store import damaged_trials, open_store
 

@@ -185,6 +185,7 @@ def _chromium() -> str | None:
     return shutil.which("chromium") or shutil.which("chromium-browser")
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(_chromium() is None, reason="headless Chromium is not installed "
                     "(apt-get install chromium)")  # fmt: skip
 def test_viewer_renders_in_headless_chromium(poses, tmp_path):

@@ -125,6 +125,7 @@ def short_sequence():
     return make_sequence("benchmark", n_frames=6)
 
 
+@pytest.mark.slow
 def test_a_start_far_off_is_lost_then_recovered(short_sequence):
     seq = short_sequence
     hand = HandModel()
