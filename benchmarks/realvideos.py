@@ -27,7 +27,11 @@ flow between (K = 5).  Printed per video and K:
 
 With ``--world`` the fingerspelling and counting clips are tracked with MediaPipe's world
 landmarks (``-mediapipe.npz``) as the fit's weak 3D cue; the last column is the tracked
-hand's length (the shape fit keeps the given 185 mm with one camera).
+hand's length (the shape fit keeps the given 185 mm with one camera).  The column
+before it compares the fit's 3D with the detector's own on those two clips (its world
+landmarks, in the camera's axes): the mean distance of the joints relative to the
+wrist, mm, and the median angle of the rotation between the two hands (least squares
+over the 21 points), degrees; the detector's 3D is an estimate too, not the truth.
 
 Run: ``PYTHONPATH=src python benchmarks/realvideos.py [--every 1,5] [--videos NAME,...]
 [--world]``
@@ -88,7 +92,38 @@ def run(name: str, every: int, seed: int = 0, world: bool = False) -> dict:
         "pck_all": float(np.nanmean(scores[seen])),
         "median_ms": 1e3 * float(np.median(seconds)), "worst_ms": 1e3 * float(rolling.max()),
         "size": tr.sequence.masks.shape[:1:-1], "length": tr.shape.length,
+        "world": _against_world(name, tr, hand),
     }  # fmt: skip
+
+
+def _against_world(name: str, tr, hand) -> tuple[float, float]:
+    """The fit's joints against MediaPipe's world landmarks (module notes): mean
+    wrist-relative distance (mm) and median rotation angle (degrees); NaN without them."""
+    from handvar.data import EXAMPLES
+    from handvar.evaluation.metrics import joint_errors
+    from handvar.tracking.keypoint_cost import keypoint_points
+
+    if f"{name}-mediapipe" not in EXAMPLES:
+        return np.nan, np.nan
+    with np.load(example_path(f"{name}-mediapipe")) as z:
+        world = z["world_mm"][: tr.n_frames]
+    R = tr.rig.cameras[0].R
+    fit = np.full_like(world, np.nan)
+    for t, x in enumerate(tr.poses[: len(world)]):
+        if np.isfinite(x).all():
+            fit[t] = keypoint_points(hand, x, "pad") @ R.T
+    both = np.isfinite(fit).all(axis=(1, 2)) & np.isfinite(world).all(axis=(1, 2))
+    distance = float(np.mean(joint_errors(world[both], fit[both], alignment="wrist")))
+    angles = [_angle(f, w) for f, w in zip(fit[both], world[both], strict=True)]
+    return distance, float(np.median(angles))
+
+
+def _angle(a: np.ndarray, b: np.ndarray) -> float:
+    """Angle of the rotation that best turns the centred points `a` onto `b`, degrees."""
+    a, b = a - a.mean(axis=0), b - b.mean(axis=0)
+    u, _, vt = np.linalg.svd(b.T @ a)
+    r = u @ np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))]) @ vt
+    return float(np.degrees(np.arccos(np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0))))
 
 
 def _failing(q, frames) -> int:
@@ -120,7 +155,7 @@ def main() -> None:
     print(
         "video | K | frames (detections given) | no hand | lost | re-init | keypoint check "
         "(worst frame, frames failing, rejected) | carried: worst frame | PCK withheld | PCK all | "
-        "ms/frame median | worst 1 s | hand length mm"
+        "ms/frame median | worst 1 s | 3D vs MediaPipe's world: mm, deg | hand length mm"
     )
     for name in args.videos.split(","):
         for every in (int(v) for v in args.every.split(",")):
@@ -131,7 +166,12 @@ def main() -> None:
                   f"({100 * r['worst']:.1f} %, {r['failing']}, {r['rejected']}) | "
                   f"{100 * r['carried'][1]:.1f} % | "
                   f"{r['pck_withheld']:.3f} | {r['pck_all']:.3f} | {r['median_ms']:.1f} | "
-                  f"{r['worst_ms']:.1f} | {r['length']:.0f}", flush=True)  # fmt: skip
+                  f"{r['worst_ms']:.1f} | {_pair(r['world'])} | {r['length']:.0f}",
+                  flush=True)  # fmt: skip
+
+
+def _pair(values: tuple[float, float]) -> str:
+    return "–" if not np.isfinite(values[0]) else f"{values[0]:.1f}, {values[1]:.1f}"
 
 
 if __name__ == "__main__":
