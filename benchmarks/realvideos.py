@@ -86,7 +86,7 @@ def run(name: str, every: int, seed: int = 0, world: bool = False) -> dict:
     return {
         "frames": n, "given": int(given.sum()), "no_hand": int(q.no_hand.sum()),
         "lost": int(q.lost.sum()), "reinit": int(q.reinit.sum()), "check": ok,
-        "worst": worst, "failing": _failing(q, given), "rejected": rejected,
+        "worst": worst, "failing": q.failing(frames=given), "rejected": rejected,
         "carried": q.check(frames=q.keypoints & ~given)[:2],
         "pck_withheld": float(np.nanmean(scores[withheld])) if withheld.any() else np.nan,
         "pck_all": float(np.nanmean(scores[seen])),
@@ -124,15 +124,6 @@ def _angle(a: np.ndarray, b: np.ndarray) -> float:
     u, _, vt = np.linalg.svd(b.T @ a)
     r = u @ np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))]) @ vt
     return float(np.degrees(np.arccos(np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0))))
-
-
-def _failing(q, frames) -> int:
-    """Frames of `frames` whose kept keypoints fail the check's 98 %."""
-    d = q.distances[frames].reshape(int(np.sum(frames)), -1)
-    kept = ~np.isnan(d)
-    n = kept.sum(axis=1)
-    near = (kept & (np.nan_to_num(d, nan=np.inf) <= 0.2)).sum(axis=1)
-    return int(np.sum((n > 0) & (near < 0.98 * n)))
 
 
 def main() -> None:

@@ -23,6 +23,8 @@ keypoints and for each fit:
   keypoints are not triangulated here);
 - lost frames (quality.csv's ``lost``; for the raw keypoints, the missed frames of
   camera 0);
+- the keypoint check (docs/keypoint-fit.md) over the frames whose detection the fit was
+  given: the frames failing it, and the keypoints the fit rejected;
 - ms/frame all-in: the wall time of ``init`` plus ``track`` (process start-up included)
   over the frames.
 
@@ -240,7 +242,8 @@ def project(rig, points: np.ndarray) -> np.ndarray:
 
 def fit_points(out: Path, side: str) -> tuple[np.ndarray, np.ndarray | None]:
     """The fit's scored points (T, 21, 3) mm from its poses through the hand it tracked
-    with (`side` checked against it), and its lost flags."""
+    with (`side` checked against it), and its lost flags (`check` for its keypoint
+    check)."""
     track = Track.load(out)
     hand = track.hand  # the shape the track fitted (shape_fit), not the given one
     if hand.shape.side != side:
@@ -249,6 +252,17 @@ def fit_points(out: Path, side: str) -> tuple[np.ndarray, np.ndarray | None]:
                        else np.full((21, 3), np.nan) for x in track.poses])  # fmt: skip
     lost = None if track.quality is None else np.asarray(track.quality.lost, dtype=bool)
     return points, lost
+
+
+def check(out: Path, every: int) -> dict[str, float]:
+    """The fit's keypoint check (docs/keypoint-fit.md, "the check") over the frames whose
+    detection it was given: frames failing it, and the keypoints it rejected."""
+    quality = Track.load(out).quality
+    if quality is None:
+        return {"fail": np.nan, "rej": np.nan}
+    given = quality.keypoints & (np.arange(len(quality.lost)) % every == 0)
+    _, _, rejected = quality.check(frames=given)
+    return {"fail": float(quality.failing(frames=given)), "rej": float(rejected)}
 
 
 def scores(case, points_2d, points_3d, lost, seconds, truth_axes=None) -> dict[str, float]:
@@ -281,6 +295,7 @@ RUNS = ("keypoints", "fit every 1", "fit every 5")
 COLUMNS = (("pck", "PCK@0.2", "{:.3f}"), ("px", "2D px", "{:.1f}"), ("mpjpe", "MPJPE", "{:.1f}"),
            ("pa", "PA-MPJPE", "{:.1f}"), ("auc", "AUC 20-50", "{:.3f}"),
            ("abs", "abs 3D", "{:.1f}"), ("lost", "lost", "{:.0f}"),
+           ("fail", "check fails", "{:.0f}"), ("rej", "rejected", "{:.0f}"),
            ("ms", "ms/frame", "{:.0f}"))  # fmt: skip
 
 
@@ -309,7 +324,7 @@ def overall(rows, label: str, keep) -> list[tuple[str, str, dict]]:
         agg = {}
         for key, _, _ in COLUMNS:
             v = np.array([r.get(key, np.nan) for r in sel], dtype=float)
-            if key == "lost":
+            if key in ("lost", "fail", "rej"):
                 agg[key] = float(v.sum()) if np.isfinite(v).all() else np.nan
             else:
                 ok = np.isfinite(v)
@@ -372,7 +387,7 @@ def main() -> None:
                         seconds, out = run_fit(case_dir, spec, every, out, given)
                         pts, lost = fit_points(out, spec.side)
                         proj = project(case.rig, pts)
-                        row = scores(case, proj, pts, lost, seconds)
+                        row = scores(case, proj, pts, lost, seconds) | check(out, every)
                     except RuntimeError as exc:  # scored as every frame lost
                         print(f"{spec.name} every {every}: failed: {exc}", file=sys.stderr)
                         row = {"frames": case.n_frames, "lost": float(case.n_frames),

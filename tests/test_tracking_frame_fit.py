@@ -86,6 +86,18 @@ def test_honoured_against_hand_counted_frames():
     assert honoured(d, r) == (True, 1.0, 1)
     with pytest.raises(ValueError, match="distances, rejected"):
         honoured(d[0], r)
+    # a track's count of frames failing: frame 1 (a point out), not 0, not 2 (none kept)
+    from handvar.tracking.recovery import TrackQuality
+
+    d = np.concatenate([d, np.full((1, 1, 21), np.nan)])
+    n = len(d)
+    q = TrackQuality(
+        iou=np.full((n, 1), np.nan), keypoint_error=np.zeros(n), cost=np.zeros(n),
+        lost=np.zeros(n, bool), reinit=np.zeros(n, bool), empty=np.zeros((n, 1), bool),
+        keypoints=np.ones(n, bool), distances=d,
+    )  # fmt: skip
+    assert q.failing() == 1 and q.failing(frames=np.array([True, False, True])) == 0
+    assert q.check()[:2] == (False, pytest.approx(20 / 21))
 
 
 def test_a_track_with_noisy_keypoints_holds_and_the_check_holds(mono_sequence):

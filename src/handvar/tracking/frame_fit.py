@@ -55,6 +55,7 @@ __all__ = [
     "fit_frame",
     "hand_size_px",
     "honoured",
+    "honoured_shares",
     "keypoint_distances",
     "reinitialise",
 ]
@@ -468,19 +469,33 @@ def honoured(
     >>> honoured(d, r)
     (True, 1.0, 1)
     """
+    rej = np.asarray(rejected, dtype=bool)
+    shares = honoured_shares(distances, rej, threshold=threshold)
+    frames = ~np.isnan(shares)
+    if not frames.any():
+        return True, float("nan"), int(rej.sum())
+    shares = shares[frames]
+    return bool(np.all(shares >= share)), float(shares.min()), int(rej.sum())
+
+
+def honoured_shares(distances, rejected, *, threshold: float = CHECK_THRESHOLD) -> np.ndarray:
+    """(T,) per frame the share of the kept keypoints within `threshold` hand sizes of
+    the fitted joints (`honoured`'s measure); NaN on a frame without kept keypoints.
+
+    Examples
+    --------
+    >>> d = np.array([[[0.1, 0.5, np.nan]], [[np.nan] * 3]])
+    >>> honoured_shares(d, np.zeros(d.shape, bool)).tolist()
+    [0.5, nan]
+    """
     d = np.asarray(distances, dtype=float)
     rej = np.asarray(rejected, dtype=bool)
     if d.shape != rej.shape or d.ndim != 3:
         raise ValueError(
             f"distances, rejected: expected two (T, n_cams, 21) arrays; got {d.shape}, {rej.shape}"
         )
-    if not len(d):
-        return True, float("nan"), 0
     kept = ~np.isnan(d) & ~rej
     n_kept = kept.reshape(len(d), -1).sum(axis=1)
     near = (kept & (np.nan_to_num(d, nan=np.inf) <= threshold)).reshape(len(d), -1).sum(axis=1)
-    frames = n_kept > 0
-    if not frames.any():
-        return True, float("nan"), int(rej.sum())
-    shares = near[frames] / n_kept[frames]
-    return bool(np.all(shares >= share)), float(shares.min()), int(rej.sum())
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(n_kept > 0, near / np.maximum(n_kept, 1), np.nan)

@@ -55,6 +55,7 @@ from handvar.tracking.frame_fit import (
     PriorScale,
     fit_frame,
     honoured,
+    honoured_shares,
     keypoint_distances,
     reinitialise,
 )
@@ -163,6 +164,15 @@ class TrackQuality:
         ok, worst, _ = honoured(d, np.zeros(d.shape, dtype=bool), threshold=threshold,
                                 share=share)  # fmt: skip
         return ok, worst, int(self.rejected[: len(keep)][keep].sum())
+
+    def failing(self, threshold: float = CHECK_THRESHOLD, share: float = 0.98, frames=None) -> int:
+        """How many frames (of the (T,) bool mask `frames`, default all) fail the keypoint
+        check: they have kept keypoints, fewer than `share` of them within `threshold`."""
+        keep = np.ones(len(self.lost), dtype=bool) if frames is None else np.asarray(frames)
+        keep = keep[: len(self.lost)]
+        d = self.distances[: len(keep)][keep]
+        shares = honoured_shares(d, np.zeros(d.shape, dtype=bool), threshold=threshold)
+        return int(np.sum(~np.isnan(shares) & (np.nan_to_num(shares, nan=1.0) < share)))
 
     def summary(self) -> str:
         """One line: frames lost, re-initialised and empty, IoU minimum and mean."""
