@@ -487,6 +487,8 @@ def honoured_shares(distances, rejected, *, threshold: float = CHECK_THRESHOLD) 
     >>> d = np.array([[[0.1, 0.5, np.nan]], [[np.nan] * 3]])
     >>> honoured_shares(d, np.zeros(d.shape, bool)).tolist()
     [0.5, nan]
+    >>> honoured_shares(np.zeros((0, 1, 21)), np.zeros((0, 1, 21), bool)).shape
+    (0,)
     """
     d = np.asarray(distances, dtype=float)
     rej = np.asarray(rejected, dtype=bool)
@@ -495,7 +497,7 @@ def honoured_shares(distances, rejected, *, threshold: float = CHECK_THRESHOLD) 
             f"distances, rejected: expected two (T, n_cams, 21) arrays; got {d.shape}, {rej.shape}"
         )
     kept = ~np.isnan(d) & ~rej
-    n_kept = kept.reshape(len(d), -1).sum(axis=1)
-    near = (kept & (np.nan_to_num(d, nan=np.inf) <= threshold)).reshape(len(d), -1).sum(axis=1)
+    n_kept = kept.sum(axis=(1, 2))
+    near = (kept & (np.nan_to_num(d, nan=np.inf) <= threshold)).sum(axis=(1, 2))
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(n_kept > 0, near / np.maximum(n_kept, 1), np.nan)
