@@ -45,6 +45,7 @@ import time
 import numpy as np
 
 from handvar.data import example_path
+from handvar.evaluation.metrics import similarity
 from handvar.pipeline import track
 from handvar.tracking.recovery import pck
 from handvar.vision.keypoints import Keypoints2D, read_keypoints
@@ -119,10 +120,8 @@ def _against_world(name: str, tr, hand) -> tuple[float, float]:
 
 
 def _angle(a: np.ndarray, b: np.ndarray) -> float:
-    """Angle of the rotation that best turns the centred points `a` onto `b`, degrees."""
-    a, b = a - a.mean(axis=0), b - b.mean(axis=0)
-    u, _, vt = np.linalg.svd(b.T @ a)
-    r = u @ np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))]) @ vt
+    """Angle of the rotation of the similarity that best fits `a` to `b`, degrees."""
+    r = similarity(a, b)[1]
     return float(np.degrees(np.arccos(np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0))))
 
 

@@ -21,6 +21,7 @@ __all__ = [
     "r2_tilde",
     "r2_tilde_acceleration",
     "r2_tilde_joints",
+    "similarity",
     "similarity_align",
 ]
 
@@ -252,8 +253,8 @@ def pa_mpjpe(truth, estimate) -> float:
     return float(np.nanmean(joint_errors(truth, estimate, alignment="procrustes")))
 
 
-def similarity_align(source, target) -> np.ndarray:
-    """`source` moved by the similarity s R p + t that best fits it to `target`.
+def similarity(source, target) -> tuple[float, np.ndarray, np.ndarray]:
+    """The similarity p ↦ s R p + t that best fits `source` to `target`.
 
     Least squares over the points (Umeyama 1991): R a rotation (no reflection), s > 0.
 
@@ -263,7 +264,16 @@ def similarity_align(source, target) -> np.ndarray:
 
     Returns
     -------
-    (J, 3) ndarray
+    s : float
+    R : (3, 3) ndarray
+    t : (3,) ndarray
+
+    Examples
+    --------
+    >>> p = np.eye(3)
+    >>> s, R, t = similarity(p, 2.0 * p[:, [1, 0, 2]] * [1, -1, 1])
+    >>> round(s, 6), round(float(np.degrees(np.arccos((np.trace(R) - 1) / 2))), 6)
+    (2.0, 90.0)
     """
     X = np.asarray(source, dtype=float)
     Y = np.asarray(target, dtype=float)
@@ -276,8 +286,24 @@ def similarity_align(source, target) -> np.ndarray:
     D[-1] = np.sign(np.linalg.det(U @ Vt)) or 1.0  # a rotation, not a reflection
     R = (U * D) @ Vt
     var = (A**2).sum()
-    s = (S * D).sum() / var if var > 0 else 1.0
-    return s * A @ R.T + my
+    s = float((S * D).sum() / var) if var > 0 else 1.0
+    return s, R, my - s * mx @ R.T
+
+
+def similarity_align(source, target) -> np.ndarray:
+    """`source` moved by the similarity s R p + t that best fits it to `target`
+    (`similarity`).
+
+    Parameters
+    ----------
+    source, target : (J, 3) array_like
+
+    Returns
+    -------
+    (J, 3) ndarray
+    """
+    s, R, t = similarity(source, target)
+    return s * np.asarray(source, dtype=float) @ R.T + t
 
 
 def auc_pck_3d(errors, low: float = 20.0, high: float = 50.0, steps: int = 31) -> float:

@@ -246,15 +246,12 @@ def glb_bytes(
     ValueError
         If no frame has a hand, or a pose is NaN in part.
     """
-    poses = as_array(poses, "poses", (None, N_PARAMS), finite=False, what="poses")
+    poses = held_poses(poses)
     as_instance(shape, HandShape, "shape")
     fps = _DEFAULT_FPS if fps is None else float(fps)
     if not (np.isfinite(fps) and fps > 0):
         raise ValueError(f"fps: expected a positive frame rate; got {fps}")
     n = poses.shape[0]
-    if n < 1:
-        raise ValueError("poses: expected at least one frame; got 0")
-    poses = held_poses(poses)
     model, kin, bind, triangles, weights, R0, o0 = _skinning_setup(shape, model)
     buf = _Buffer()
     parents = _parents()

@@ -43,7 +43,7 @@ import numpy as np
 
 from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
 from handvar.params import LOWER, N_PARAMS, UPPER, clamp
-from handvar.tracking.keypoint_cost import TIPS, hand_length, keypoint_points
+from handvar.tracking.keypoint_cost import TIPS, frame_keypoints, hand_length, keypoint_points
 from handvar.validate import as_float, as_int, one_of
 
 __all__ = [
@@ -55,6 +55,7 @@ __all__ = [
     "fit_frame",
     "hand_size_px",
     "honoured",
+    "honoured_counts",
     "honoured_shares",
     "keypoint_distances",
     "reinitialise",
@@ -207,15 +208,12 @@ def hand_size_px(hand, x, camera) -> float:
 
 
 def _clean(keypoints, n_cams: int, least: float) -> np.ndarray:
-    kp = np.zeros((n_cams, 21, 3))
-    if keypoints is None:
-        return kp
-    for j, k in enumerate(keypoints):
-        if k is None:
-            continue
-        k = np.asarray(k, dtype=float)
-        ok = (k[:, 2] >= max(least, 1e-12)) & np.isfinite(k[:, :2]).all(axis=1)
-        kp[j, ok] = k[ok]
+    """`frame_keypoints` (all zero when none), the points of confidence under `least`
+    left out."""
+    kp = frame_keypoints(keypoints, n_cams)
+    if kp is None:
+        return np.zeros((n_cams, 21, 3))
+    kp[kp[:, :, 2] < least] = 0.0
     return kp
 
 
@@ -478,6 +476,29 @@ def honoured(
     return bool(np.all(shares >= share)), float(shares.min()), int(rej.sum())
 
 
+def honoured_counts(
+    distances, rejected, *, threshold: float = CHECK_THRESHOLD
+) -> tuple[np.ndarray, np.ndarray]:
+    """(T,) per frame the kept keypoints within `threshold` hand sizes of the fitted
+    joints, and (T,) the kept keypoints (`honoured`'s counts).
+
+    Examples
+    --------
+    >>> d = np.array([[[0.1, 0.5, np.nan]]])
+    >>> [c.tolist() for c in honoured_counts(d, np.zeros(d.shape, bool))]
+    [[1], [2]]
+    """
+    d = np.asarray(distances, dtype=float)
+    rej = np.asarray(rejected, dtype=bool)
+    if d.shape != rej.shape or d.ndim != 3:
+        raise ValueError(
+            f"distances, rejected: expected two (T, n_cams, 21) arrays; got {d.shape}, {rej.shape}"
+        )
+    kept = ~np.isnan(d) & ~rej
+    near = kept & (np.nan_to_num(d, nan=np.inf) <= threshold)
+    return near.sum(axis=(1, 2)), kept.sum(axis=(1, 2))
+
+
 def honoured_shares(distances, rejected, *, threshold: float = CHECK_THRESHOLD) -> np.ndarray:
     """(T,) per frame the share of the kept keypoints within `threshold` hand sizes of
     the fitted joints (`honoured`'s measure); NaN on a frame without kept keypoints.
@@ -490,14 +511,6 @@ def honoured_shares(distances, rejected, *, threshold: float = CHECK_THRESHOLD) 
     >>> honoured_shares(np.zeros((0, 1, 21)), np.zeros((0, 1, 21), bool)).shape
     (0,)
     """
-    d = np.asarray(distances, dtype=float)
-    rej = np.asarray(rejected, dtype=bool)
-    if d.shape != rej.shape or d.ndim != 3:
-        raise ValueError(
-            f"distances, rejected: expected two (T, n_cams, 21) arrays; got {d.shape}, {rej.shape}"
-        )
-    kept = ~np.isnan(d) & ~rej
-    n_kept = kept.sum(axis=(1, 2))
-    near = (kept & (np.nan_to_num(d, nan=np.inf) <= threshold)).sum(axis=(1, 2))
+    near, n_kept = honoured_counts(distances, rejected, threshold=threshold)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(n_kept > 0, near / np.maximum(n_kept, 1), np.nan)

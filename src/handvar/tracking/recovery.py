@@ -158,9 +158,7 @@ class TrackQuality:
         (not carried keypoints); all frames with keypoints by default.  The rejected
         count is over the same frames.
         """
-        keep = np.ones(len(self.lost), dtype=bool) if frames is None else np.asarray(frames)
-        keep = keep[: len(self.lost)]
-        d = self.distances[: len(keep)][keep]
+        keep, d = self._checked(frames)
         ok, worst, _ = honoured(d, np.zeros(d.shape, dtype=bool), threshold=threshold,
                                 share=share)  # fmt: skip
         return ok, worst, int(self.rejected[: len(keep)][keep].sum())
@@ -168,11 +166,15 @@ class TrackQuality:
     def failing(self, threshold: float = CHECK_THRESHOLD, share: float = 0.98, frames=None) -> int:
         """How many frames (of the (T,) bool mask `frames`, default all) fail the keypoint
         check: they have kept keypoints, fewer than `share` of them within `threshold`."""
-        keep = np.ones(len(self.lost), dtype=bool) if frames is None else np.asarray(frames)
-        keep = keep[: len(self.lost)]
-        d = self.distances[: len(keep)][keep]
+        _, d = self._checked(frames)
         shares = honoured_shares(d, np.zeros(d.shape, dtype=bool), threshold=threshold)
         return int(np.sum(~np.isnan(shares) & (np.nan_to_num(shares, nan=1.0) < share)))
+
+    def _checked(self, frames) -> tuple[np.ndarray, np.ndarray]:
+        """The mask of the frames checked (`frames`, default all) and their distances."""
+        keep = np.ones(len(self.lost), dtype=bool) if frames is None else np.asarray(frames)
+        keep = keep[: len(self.lost)]
+        return keep, self.distances[: len(keep)][keep]
 
     def summary(self) -> str:
         """One line: frames lost, re-initialised and empty, IoU minimum and mean."""

@@ -320,19 +320,19 @@ def carry_keypoints(
     """
     as_instance(keypoints, Keypoints2D, "keypoints")
     as_instance(both, bool, "both")
-    carrier = TwoWayCarrier(settings) if both else KeypointCarrier(settings)
+    # stops at the shorter: the keypoints' last frame or the last image
+    frames = zip(range(keypoints.n_frames), images, strict=False)
+    if both:
+        two_way = TwoWayCarrier(settings)
+        done = [d for t, image in frames
+                for d in two_way.step(_grey(image, "images"), keypoints.frame(t))]  # fmt: skip
+        done += two_way.flush()
+    else:
+        forward = KeypointCarrier(settings)
+        done = [(t, forward.step(_grey(image, "images"), keypoints.frame(t)))
+                for t, image in frames]  # fmt: skip
     out = keypoints.to_array()
-
-    def put(t, k):
+    for t, k in done:
         if k is not None:
             out[t] = k
-
-    for t, image in enumerate(images):
-        if t >= keypoints.n_frames:
-            break
-        k = carrier.step(_grey(image, "images"), keypoints.frame(t))
-        for done in k if both else [(t, k)]:
-            put(*done)
-    for done in carrier.flush() if both else []:
-        put(*done)
     return Keypoints2D.from_array(out, name=keypoints.name)
