@@ -160,10 +160,9 @@ def keypoint_share(quality, threshold: float = 0.2) -> np.ndarray:
     `quality`: a track's `TrackQuality` (its ``distances``, NaN where no keypoint or
     rejected, and ``rejected`` per frame).
     """
-    from handvar.tracking.frame_fit import honoured_counts
-
-    d = np.asarray(quality.distances, dtype=float)
-    near, kept = honoured_counts(d, np.zeros(d.shape, dtype=bool), threshold=threshold)
+    d = np.asarray(quality.distances, dtype=float)  # (T, n_cams, 21)
+    kept = np.isfinite(d).sum(axis=(1, 2))  # export sits below tracking (design §12)
+    near = (np.nan_to_num(d, nan=np.inf) <= threshold).sum(axis=(1, 2))
     total = kept + np.asarray(quality.rejected, dtype=float)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(total > 0, near / total, np.nan)
