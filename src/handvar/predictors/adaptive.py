@@ -5,7 +5,8 @@ motion (eq. 16), decelerating (eq. 22) at ρ = 0.2, 0.4, 0.6 and constant veloci
 (ρ = 1), the constant-velocity Kalman filter at three noise ratios (the default
 one of :class:`~handvar.predictors.KalmanCV` and two smoother ones), the One Euro
 filter, two autoregressions fitted online per coordinate (the velocity on the
-previous velocity, and the second difference of eq. 3 on the previous one), and the
+previous velocity, and the second difference of eq. 3 on the previous one; both on a
+copy of the series whose isolated gross errors are pulled back, ``ar_gate``), and the
 fast blend: RVAR's eq. 26 in the relative mode of eq. 27, per coordinate, between a
 block VAR(1) on second differences (eq. 2, 25; discounted least squares) and
 constant velocity, with eq. 28's weights 2^−(T−t).  For
@@ -97,6 +98,7 @@ _P11_0 = 1e4  # KalmanCV's initial velocity variance
 _PRIOR = np.zeros(_M)
 _FAST = EXPERTS.index("fast blend")
 _PRIOR[2] = 1.0  # decelerating ρ = 0.4, the paper's choice (paper §4), until errors are known
+_GATE_FRAMES = 10.0  # frames before the autoregressions' gate opens (its RMS needs a history)
 
 
 def hand_groups() -> list[list[int]]:
@@ -118,7 +120,8 @@ _AR0 = _OE0 + 2  # Σ v v₋₁, Σ v₋₁², Σ y y₋₁, Σ y₋₁², y_T
 _FB0 = _AR0 + 5  # fast blend: Σ a², Σ a b, Σ b², Σ a r, Σ b r, Σ r² (discounted by λ_F)
 _Y1 = _FB0 + 6  # y_{T−1}
 _SV = _Y1 + 1  # the block VAR's undamped prediction x_T + v_T + ŷ (eq. 5)
-_P0 = _SV + 1  # the experts' predictions, M rows
+_RB0 = _SV + 1  # the autoregressions' robust history: x̃_T, x̃_{T−1}, x̃_{T−2}, ỹ_T, Σ r̃², clipped
+_P0 = _RB0 + 6  # the experts' predictions, M rows
 _OUT = _P0 + _M  # the combined prediction
 _ROWS = _OUT + 1
 # cfg (the kernel's parameters): λ, λ_AR, α(f_d) of One Euro, f_cmin, β, rate, ridge,
@@ -201,6 +204,7 @@ def _bank_update(
     lam, lam_ar, oe_a_d, oe_min, oe_beta, rate, ridge, pool, n0 = cfg[:9]
     sweeps = int(cfg[9])
     gamma, lam_f, lam_v, max_step = cfg[10], cfg[11], cfg[12], cfg[13]
+    gate, gate_frames = cfg[14], cfg[15]
     n = int(aux[0])
     # 1. Score the experts' predictions of this frame: G_g = λ G_g + Σ_j e eᵀ.
     if n >= 1:
@@ -285,26 +289,54 @@ def _bank_update(
         S[_P0, j] = z
         for r in range(_RHOS.shape[0]):
             S[_P0 + 1 + r, j] = z + _RHOS[r] * v
-        # AR(1) on velocities: v̂ = b v_T, b by discounted least squares.
+        # The second difference y_T, for the fast blend's VAR.
         if n >= 2:
-            v1 = S[_X0 + 1, j] - S[_X0 + 2, j]
-            S[_AR0, j] = lam_ar * S[_AR0, j] + v * v1
+            S[_Y1, j] = S[_AR0 + 4, j]
+            S[_AR0 + 4, j] = z - 2.0 * S[_X0 + 1, j] + S[_X0 + 2, j]
+        # The two autoregressions run on a robust copy x̃ of the series: a value whose
+        # innovation against the AR(1)-acceleration prediction exceeds `gate` times
+        # its discounted RMS is pulled back to that bound (winsorised), so one gross
+        # error is not carried forward as a velocity and an acceleration.
+        zt = z
+        if n >= 1:
+            r = z - S[_P0 + 10, j]
+            wsum = (1.0 - lam_ar**n) / (1.0 - lam_ar)
+            bound = gate * np.sqrt(S[_RB0 + 4, j] / wsum)
+            if n <= gate_frames or abs(r) <= bound:
+                S[_RB0 + 5, j] = 0.0
+            elif S[_RB0 + 5, j] > 0.0:
+                # Two frames out of bounds in a row: a real change, not a gross error.
+                # Take both as they came.
+                S[_RB0, j] = S[_X0 + 1, j]
+                S[_RB0 + 5, j] = 0.0
+            else:
+                r = bound if r > 0.0 else -bound
+                zt = S[_P0 + 10, j] + r
+                S[_RB0 + 5, j] = 1.0
+            S[_RB0 + 4, j] = lam_ar * S[_RB0 + 4, j] + r * r
+        S[_RB0 + 2, j] = S[_RB0 + 1, j]
+        S[_RB0 + 1, j] = S[_RB0, j]
+        S[_RB0, j] = zt
+        vt = zt - S[_RB0 + 1, j] if n >= 1 else 0.0
+        # AR(1) on velocities: v̂ = b ṽ_T, b by discounted least squares.
+        if n >= 2:
+            v1 = S[_RB0 + 1, j] - S[_RB0 + 2, j]
+            S[_AR0, j] = lam_ar * S[_AR0, j] + vt * v1
             S[_AR0 + 1, j] = lam_ar * S[_AR0 + 1, j] + v1 * v1
         b = S[_AR0, j] / (1.001 * S[_AR0 + 1, j] + 1e-300)
         b = min(max(b, -1.0), 1.0)
-        S[_P0 + 9, j] = z + b * v
-        # AR(1) on second differences (eq. 3): ŷ = a y_T, x̂ = x_T + v_T + ŷ (eq. 5).
+        S[_P0 + 9, j] = zt + b * vt
+        # AR(1) on second differences (eq. 3): ŷ = a ỹ_T, x̂ = x̃_T + ṽ_T + ŷ (eq. 5).
         y = 0.0
         if n >= 2:
-            y = z - 2.0 * S[_X0 + 1, j] + S[_X0 + 2, j]
-            S[_Y1, j] = S[_AR0 + 4, j]
+            y = zt - 2.0 * S[_RB0 + 1, j] + S[_RB0 + 2, j]
             if n >= 3:
-                S[_AR0 + 2, j] = lam_ar * S[_AR0 + 2, j] + y * S[_AR0 + 4, j]
-                S[_AR0 + 3, j] = lam_ar * S[_AR0 + 3, j] + S[_AR0 + 4, j] ** 2
-            S[_AR0 + 4, j] = y
+                S[_AR0 + 2, j] = lam_ar * S[_AR0 + 2, j] + y * S[_RB0 + 3, j]
+                S[_AR0 + 3, j] = lam_ar * S[_AR0 + 3, j] + S[_RB0 + 3, j] ** 2
+            S[_RB0 + 3, j] = y
         a = S[_AR0 + 2, j] / (1.001 * S[_AR0 + 3, j] + 1e-300)
         a = min(max(a, -1.0), 1.0)
-        S[_P0 + 10, j] = z + v + a * y
+        S[_P0 + 10, j] = zt + vt + a * y
     # 2b. The block VAR(1) on second differences (eq. 2, 25), discounted least squares:
     # Ŷ = Σ y_t y_{t−1}ᵀ (Σ y_{t−1} y_{t−1}ᵀ)⁻¹ y_T per block, each ŷ_j bounded by the
     # block's largest |y_T| (the diagonal AR's |a| ≤ 1, unit-free).
@@ -375,18 +407,24 @@ def _bank_update(
             be = 0.5
         S[_P0 + 11, j] = z + gamma * (al * (S[_SV, j] - z) + be * (S[_P0 + 4, j] - z))
     # 3. Refit the weights of every group and combine.  Each group's Gram matrix is
-    # normalised to mean diagonal 1 (Ĝ_g) and shrunk towards the pooled Ĝ of all
-    # groups by `pool` pseudo-observations: A_g = N_g Ĝ_g + pool Ḡ.
+    # normalised to mean diagonal 1 over the experts that may get weight (Ĝ_g) and
+    # shrunk towards the pooled Ĝ of all groups by `pool` pseudo-observations:
+    # A_g = N_g Ĝ_g + pool Ḡ.  The experts without weight enter nothing.
     c = aux[1]
+    m_allowed = 0
+    for a in range(M):
+        if allowed[a]:
+            m_allowed += 1
     Gbar = np.zeros((M, M))
     total_n = 0.0
     scale = np.zeros(ng)
     for g in range(ng):
         tr = 0.0
         for a in range(M):
-            tr += G[g, a, a]
+            if allowed[a]:
+                tr += G[g, a, a]
         if tr > 0.0 and N[g] > 0.0:
-            scale[g] = M / tr
+            scale[g] = m_allowed / tr
             f = N[g] * scale[g]
             for a in range(M):
                 for b in range(a, M):
@@ -410,8 +448,9 @@ def _bank_update(
                     A[b, a] = A[a, b]
             tr = 0.0
             for a in range(M):
-                tr += A[a, a]
-            delta = ridge * tr / M + 1e-300
+                if allowed[a]:
+                    tr += A[a, a]
+            delta = ridge * tr / m_allowed + 1e-300
             # Warm start: v = w / (wᵀ A w), the best scaling of last frame's w.
             q = 0.0
             for a in range(M):
@@ -518,6 +557,15 @@ class AdaptiveBank:
     max_step : float or None, default 10
         Bound on |x̂^SV − x_T| of the fast blend's VAR prediction, in the coordinates'
         units (the paper's 10° threshold, paper §4.2); ``None`` disables it.
+    ar_gate : float or None, default 4
+        The two autoregressive experts run on a robust copy of the series: from the
+        11th frame on, a value whose innovation against the AR-acceleration expert's
+        prediction exceeds ar_gate times that innovation's discounted RMS (horizon
+        ar_memory) is pulled back to the bound, unless the frame before was pulled
+        back too (two in a row are a real change, and both are taken as they came).
+        One gross error is then not carried into the next prediction as a velocity
+        and an acceleration.  ``None`` disables it.  Chosen on the league's rows with
+        outlier frames (docs/predictors-notes.md); 3 to 5 give the same league.
 
     Notes
     -----
@@ -562,7 +610,13 @@ class AdaptiveBank:
         var_blocks: Sequence[Sequence[int]] | None = None,
         var_memory: float = 30.0,
         max_step: float | None = 10.0,
+        ar_gate: float | None = 4.0,
     ) -> None:
+        self.ar_gate = (
+            None
+            if ar_gate is None
+            else as_float(ar_gate, "ar_gate", minimum=0.0, exclusive_minimum=True)
+        )
         self.max_step = (
             None
             if max_step is None
@@ -620,6 +674,7 @@ class AdaptiveBank:
             1.0, 0.0, self.rate, self.ridge, self.pool, self.prior_frames, self.sweeps,
             self.gamma, 0.5, 1.0 - 1.0 / self.var_memory,
             np.inf if self.max_step is None else self.max_step,
+            np.inf if self.ar_gate is None else self.ar_gate, _GATE_FRAMES,
         ])  # fmt: skip
         self._vindex, self._vsizes = _partition(self.var_blocks, d, "var_blocks")
         nvb, vmax = self._vindex.shape
