@@ -475,3 +475,13 @@ def test_offline_var_predicts_like_eq_5():
     np.testing.assert_allclose(var.predict(), expect, rtol=1e-12)
     with pytest.raises(RuntimeError, match="fit"):
         OfflineVAR().update(X[0])
+
+
+@pytest.mark.parametrize("gate", [None, 4.0])
+def test_a_constant_column_keeps_every_prediction_finite(gate):
+    """A column that never moves (a wrist-centred series' wrist) gives zero innovations:
+    the gate's bound is then 0 (or undefined without a gate), never a NaN prediction."""
+    rng = np.random.default_rng(1)
+    X = np.c_[np.zeros(60), np.cumsum(rng.standard_normal(60))]
+    P = one_step_predictions(AdaptiveBank(ar_gate=gate), X)
+    assert np.isfinite(P[1:]).all()

@@ -302,7 +302,7 @@ def _bank_update(
             r = z - S[_P0 + 10, j]
             wsum = (1.0 - lam_ar**n) / (1.0 - lam_ar)
             bound = gate * np.sqrt(S[_RB0 + 4, j] / wsum)
-            if n <= gate_frames or abs(r) <= bound:
+            if n <= gate_frames or not abs(r) > bound:  # (∞ · 0 = NaN: no gate)
                 S[_RB0 + 5, j] = 0.0
             elif S[_RB0 + 5, j] > 0.0:
                 # Two frames out of bounds in a row: a real change, not a gross error.

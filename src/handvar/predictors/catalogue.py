@@ -55,6 +55,7 @@ _PARAM_NAMES = {
         "gamma",
         "var_memory",
         "max_step",
+        "ar_gate",
     ),
 }
 # The paper's symbols and a few spellings accepted for the constructor arguments.
