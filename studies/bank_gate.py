@@ -13,17 +13,15 @@ before the two autoregressive experts see it (design §16).
 
 from __future__ import annotations
 
-import numpy as np
-
 from handvar.data import example_path
 from handvar.evaluation.openloop import (
     Recording,
     layout_structure,
     league_table,
     noise_variants,
+    read_pose_series,
     smooth_variants,
 )
-from handvar.evaluation.openloop import read_pose_series
 from handvar.predictors.catalogue import CATALOGUE
 from handvar.synth.motion import htrack_to_handvar
 
@@ -36,11 +34,12 @@ def recordings() -> list[Recording]:
     D = 1000.0 * read_pose_series(example_path("video-landmarks"))
     out = []
     for rows in ((0, 4000), (4000, 6000)):
-        take = Recording("htrack-fingerfist.txt:%d:%d" % rows, H[slice(*rows)], "handvar")
+        name = f"htrack-fingerfist.txt:{rows[0]}:{rows[1]}"
+        take = Recording(name, H[slice(*rows)], "handvar")
         for r in (take, *smooth_variants(take)):
             out += [r, *noise_variants(r)]
     dex = Recording("dex-human-hand-landmarks.npy", D, "keypoints")
-    return out + [dex, *noise_variants(dex)]
+    return [*out, dex, *noise_variants(dex)]
 
 
 def bank(gate):
@@ -63,7 +62,8 @@ def main() -> None:
     for n in names:
         print(f"{n:48s}" + "".join(f"{ratio[n, 'gate ' + k]:10.3f}" for k in GATES))
     worst = {k: max(ratio[n, "gate " + k] for n in names) for k in GATES}
-    print(f"{'worst of ' + str(len(names)) + ' rows':48s}" + "".join(f"{worst[k]:10.3f}" for k in GATES))
+    label = f"worst of {len(names)} rows"
+    print(f"{label:48s}" + "".join(f"{worst[k]:10.3f}" for k in GATES))
 
 
 if __name__ == "__main__":
