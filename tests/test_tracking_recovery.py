@@ -260,6 +260,8 @@ def test_recovery_settings_are_checked():
         RecoverySettings(reseed_digits=-1)
     with pytest.raises(ValueError, match="reseed_margin"):
         RecoverySettings(reseed_margin=2.0)
+    with pytest.raises(ValueError, match="depth_mirror"):
+        RecoverySettings(depth_mirror=-1)
 
 
 # --- keypoints through the source --------------------------------------------------------
