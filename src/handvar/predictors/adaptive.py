@@ -204,8 +204,10 @@ def _bank_update(
     lam, lam_ar, oe_a_d, oe_min, oe_beta, rate, ridge, pool, n0 = cfg[:9]
     sweeps = int(cfg[9])
     gamma, lam_f, lam_v, max_step = cfg[10], cfg[11], cfg[12], cfg[13]
-    gate, gate_frames = cfg[14], cfg[15]
+    gate = cfg[14]
     n = int(aux[0])
+    # the discounted count of the gate's innovations, Σ_{k<n} λ_AR^k
+    wsum = (1.0 - lam_ar**n) / (1.0 - lam_ar)
     # 1. Score the experts' predictions of this frame: G_g = λ G_g + Σ_j e eᵀ.
     if n >= 1:
         c = aux[1] / lam
@@ -300,9 +302,8 @@ def _bank_update(
         zt = z
         if n >= 1:
             r = z - S[_P0 + 10, j]
-            wsum = (1.0 - lam_ar**n) / (1.0 - lam_ar)
             bound = gate * np.sqrt(S[_RB0 + 4, j] / wsum)
-            if n <= gate_frames or not abs(r) > bound:  # (∞ · 0 = NaN: no gate)
+            if n <= _GATE_FRAMES or not abs(r) > bound:  # (∞ · 0 = NaN: no gate)
                 S[_RB0 + 5, j] = 0.0
             elif S[_RB0 + 5, j] > 0.0:
                 # Two frames out of bounds in a row: a real change, not a gross error.
@@ -674,7 +675,7 @@ class AdaptiveBank:
             1.0, 0.0, self.rate, self.ridge, self.pool, self.prior_frames, self.sweeps,
             self.gamma, 0.5, 1.0 - 1.0 / self.var_memory,
             np.inf if self.max_step is None else self.max_step,
-            np.inf if self.ar_gate is None else self.ar_gate, _GATE_FRAMES,
+            np.inf if self.ar_gate is None else self.ar_gate,
         ])  # fmt: skip
         self._vindex, self._vsizes = _partition(self.var_blocks, d, "var_blocks")
         nvb, vmax = self._vindex.shape

@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from handvar.hand.anthropometry import JOINT_DIGIT, JOINTS, MIDDLE_MCP, WRIST, HandShape
+from handvar.hand.anthropometry import JOINT_DIGIT, MIDDLE_MCP, WRIST, HandShape
 from handvar.hand.kinematics import (
     POSE_NAMES,
     euler_from_matrix,
@@ -509,7 +509,6 @@ class Recovery:
             prediction = tracker.prediction()
             fit = fit_frame(kps, self.rig, self.hand, prediction, world=world,
                             settings=self.fit_settings)  # fmt: skip
-            mirrored = False
             if self.settings.depth_mirror and len(self.rig) == 1 and not self._lost(fit):
                 alt = self._mirrored(fit, kps, world)
                 if alt is not None:
@@ -539,7 +538,7 @@ class Recovery:
             return _Frame(None, self._nan_pose(), keypoints=True, no_hand=not self.started)
         if not again:
             self.scale = scale
-        if self.started and mirrored and not again:
+        if mirrored and not again:  # the other side in depth: the predictor restarts
             tracker.reset(fit.pose)
         else:
             tracker.accept(fit.pose)
@@ -578,17 +577,18 @@ class Recovery:
         apart where the keypoints can; the temporal prior, which pulls towards the
         side of the prediction, is left out of the comparison.
         """
+
+        def better(alt) -> bool:
+            return _fit_score(alt)[0] <= _fit_score(fit)[0] and alt.cost < fit.cost
+
         start = depth_mirror(fit.pose, self.hand, self.rig.cameras[0])
         alt = fit_frame(kps, self.rig, self.hand, start, world=world,
                         settings=self._mirror_settings)  # fmt: skip
-        for settings in (None, self.fit_settings):
-            if not (_fit_score(alt)[0] <= _fit_score(fit)[0] and alt.cost < fit.cost):
-                return None
-            if settings is not None:
-                return alt
-            alt = fit_frame(kps, self.rig, self.hand, alt.pose, world=world,
-                            settings=self.fit_settings)  # fmt: skip
-        return None
+        if not better(alt):
+            return None
+        alt = fit_frame(kps, self.rig, self.hand, alt.pose, world=world,
+                        settings=self.fit_settings)  # fmt: skip
+        return alt if better(alt) else None
 
     def _reseed_digits(self, fit, kps, world, prediction, scale):
         """Rule 1's second look (`RecoverySettings.keypoint_reseeds`): each digit with a
@@ -1082,9 +1082,9 @@ def depth_mirror(x, hand, camera) -> np.ndarray:
 
     In camera coordinates the hand's rotation R becomes M R H, M = diag(1, 1, −1) the
     reflection in depth and H = I − 2 n nᵀ the reflection through the palm's plane
-    (n its normal in the hand's frame, across the wrist and the index and little
-    MCPs), a rotation again; the hand's origin stays where it is and the digits keep
-    their angles.  Under weak perspective the palm projects as before.
+    (n its normal in the hand's frame, across the wrist, the origin, and the index and
+    little MCPs, `HandShape.bases`), a rotation again; the hand's origin stays where it
+    is and the digits keep their angles.  Under weak perspective the palm projects as before.
 
     Parameters
     ----------
@@ -1098,11 +1098,7 @@ def depth_mirror(x, hand, camera) -> np.ndarray:
         Within the joint limits.
     """
     x = np.asarray(x, dtype=float)
-    flat = x.copy()
-    flat[:6] = 0.0
-    J = hand.joints(flat)
-    index, little = JOINTS.index("index_mcp"), JOINTS.index("little_mcp")
-    n = np.cross(J[index] - J[WRIST], J[little] - J[WRIST])
+    n = np.cross(hand.shape.bases[1], hand.shape.bases[4])  # index and little MCP
     n /= np.linalg.norm(n)
     H = np.eye(3) - 2.0 * np.outer(n, n)
     R = camera.R @ world_from_hand_rotation(x[3:6])[0]
