@@ -74,7 +74,7 @@ def median_ms(func, frames, repeats: int = 10) -> float:
 def main() -> None:
     frames = load_frames()
     print(f"frames: {len(frames)} × {frames[0].shape[1]}×{frames[0].shape[0]}")
-    for bins in (32, 64, 128):
+    for bins in (32, 64, 128, 256):
         model = SkinModel(bins=bins)
         t0 = time.perf_counter()
         model.table  # noqa: B018 - builds and caches the lookup table

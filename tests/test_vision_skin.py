@@ -194,7 +194,10 @@ def test_colour_indices_match_ravel_multi_index():
         np.testing.assert_array_equal(colour_indices(img[..., ::-1], bins, order="rgb"), expected)
 
 
-def test_table_equals_mixture_at_bin_centres(model):
+@pytest.mark.parametrize("bins", [64, 128])  # 128: the table is built in slabs
+def test_table_equals_mixture_at_bin_centres(model, bins):
+    if bins != model.bins:
+        model = SkinModel(bins=bins)
     c = bin_centres(model.bins)
     rng = np.random.default_rng(2)
     ijk = rng.integers(0, model.bins, size=(500, 3))

@@ -26,7 +26,7 @@ random colours, the tabulated log ratio then differs from the exact one by 0.21 
 standard deviation of 1.7 levels is narrower than a bin); the skin / non-skin decision
 at Θ = 0.5 differs from the exact one for 0.6 % of colours and 0.8 % of the pixels of
 the example video, all of them close to the decision boundary.  ``bins=128`` halves
-these figures; ``bins=256`` is exact (table build about 8 s).
+these figures; ``bins=256`` is exact (table build about 3 s, ``benchmarks/vision.py``).
 
 Images are OpenCV's BGR ``uint8`` by default; pass ``order="rgb"`` for RGB images.
 Colour triplets given to the density methods (`SkinModel.log_likelihood_ratio`,
@@ -536,16 +536,23 @@ def _grid_log_density(mix: GaussianMixture, centres: np.ndarray) -> np.ndarray:
         ``log p`` indexed ``[r, g, b]``, ``n = len(centres)``.
     """
     n = len(centres)
-    acc = np.full((n, n, n), -np.inf)
     d = centres[None, :, None] - mix.means[:, None, :]  # (K, n, 3)
     q = -0.5 * d * d / mix.variances[:, None, :]  # per-channel exponents, (K, n, 3)
     log_norm = np.log(mix.weights) - 0.5 * np.sum(np.log(2.0 * np.pi * mix.variances), axis=1)
-    for k in range(len(mix.weights)):
-        # eq. 5 of Jones & Rehg, one component: log w_k + log N(c; μ_k, diag σ²_k)
-        term = q[k, :, 0][:, None, None] + q[k, :, 1][None, :, None]
-        term = term + (q[k, :, 2] + log_norm[k])[None, None, :]
-        np.logaddexp(acc, term, out=acc)
-    return acc
+    # eq. 5 of Jones & Rehg per component, log w_k + log N(c; μ_k, diag σ²_k), summed
+    # over k as log-sum-exp (shifted by the largest term), a slab of red levels at once
+    # so that the (K, slab, n, n) terms stay near 32 MB
+    rg = q[:, :, 0][:, :, None] + q[:, :, 1][:, None, :]  # (K, n, n)
+    b = (q[:, :, 2] + log_norm[:, None])[:, None, None, :]  # (K, 1, 1, n)
+    out = np.empty((n, n, n))
+    slab = max(1, (1 << 22) // (len(log_norm) * n * n))
+    for r in range(0, n, slab):
+        terms = rg[:, r : r + slab, :, None] + b
+        top = terms.max(axis=0)
+        np.subtract(terms, top, out=terms)
+        np.exp(terms, out=terms)
+        out[r : r + slab] = top + np.log(terms.sum(axis=0))
+    return out
 
 
 # --- trainable histogram model ---------------------------------------------------------
