@@ -30,12 +30,11 @@ import numpy as np
 from handvar.evaluation.realistic import read_case
 from handvar.hand import HandModel
 from handvar.hand.anthropometry import HandShape
-from handvar.pipeline import Track
-from handvar.tracking.frame_fit import PriorScale, fit_frame, reinitialise
+from handvar.tracking.frame_fit import fit_frame, reinitialise
 from handvar.tracking.keypoint_cost import keypoint_points
 
 sys.path.insert(0, str(Path(__file__).parent))
-from realistic import fit_points, project, scores  # noqa: E402
+from realistic import fit_points, project, scores
 
 COLUMNS = (("pck", "PCK@0.2", "{:.3f}"), ("px", "2D px", "{:.1f}"),
            ("to_kp", "px to keypoints", "{:.1f}"), ("mpjpe", "MPJPE", "{:.1f}"),
@@ -92,7 +91,9 @@ def main() -> None:
             p = p[complete]
             pixels = project(case.rig, p)
             row = scores(same, pixels, p, None, seconds if run[0] == "f" else None)
-            row["to_kp"] = float(np.nanmean(np.linalg.norm(pixels[0] - keypoints[complete], axis=-1)))
+            row["to_kp"] = float(
+                np.nanmean(np.linalg.norm(pixels[0] - keypoints[complete], axis=-1))
+            )
             rows.append((f"{case_dir.name} ({complete.sum()} fr)", run, row))
     for run in ("frame by frame", "tracker, every 1"):
         sel = [r for _, k, r in rows if k == run]
