@@ -74,3 +74,28 @@ def test_a_left_hand_tracked_as_right_is_an_error_and_auto_takes_the_handedness(
     assert res.exit_code == 0, res.output
     with pytest.raises(ValueError, match="hand: auto expected a recording with keypoints"):
         track(VIDEO, hand="auto", frames=2)
+
+
+def test_init_checks_the_side_against_the_handedness_and_auto_takes_it(detected, tmp_path):
+    write_keypoints(tmp_path / "k.npz", with_side(detected, "left"))
+    write_keypoints(tmp_path / "k.npy", detected)
+
+    def init(keypoints, hand, out):
+        return CliRunner().invoke(main, ["init", str(VIDEO), "--keypoints", str(keypoints),
+                                         "--scale", "0.5", "--hand", hand,
+                                         "--out", str(tmp_path / out)])  # fmt: skip
+
+    res = init(tmp_path / "k.npz", "right", "right.txt")
+    assert res.exit_code == 2 and len(res.output.strip().splitlines()) == 1, res.output
+    assert "handedness gives (left); got right" in res.output
+    assert not (tmp_path / "right.txt").exists()
+    res = init(tmp_path / "k.npy", "auto", "none.txt")
+    assert res.exit_code == 2 and "hand: auto expected keypoints with handedness" in res.output
+    for hand in ("auto", "left"):
+        res = init(tmp_path / "k.npz", hand, f"{hand}.txt")
+        assert res.exit_code == 0, res.output
+    np.testing.assert_array_equal(np.loadtxt(tmp_path / "auto.txt"),
+                                  np.loadtxt(tmp_path / "left.txt"))  # fmt: skip
+    res = init(tmp_path / "k.npy", "right", "right.txt")  # the same points, the other hand
+    assert res.exit_code == 0, res.output
+    assert not np.allclose(np.loadtxt(tmp_path / "auto.txt"), np.loadtxt(tmp_path / "right.txt"))

@@ -56,8 +56,11 @@ INIT_MIN_IOU = 0.3
               help="Skin likelihood-ratio threshold [default: 0.5].")  # fmt: skip
 @click.option("--hand-length", type=_FiniteRange(min=50.0, max=400.0), default=185.0,
               show_default=True, help="Hand length (wrist to middle fingertip), mm.")  # fmt: skip
-@click.option("--hand", "side", type=click.Choice(("right", "left")), default="right",
-              show_default=True, help="Which hand is filmed.")  # fmt: skip
+@click.option("--hand", "side", type=click.Choice(("right", "left", "auto")), default="right",
+              show_default=True,
+              help="Which hand is filmed; auto: the side of the keypoints' handedness "
+              "(a .npz of `handvar keypoints`, MediaPipe's labels read for the person's "
+              "hand, as `handvar track --hand auto`).")  # fmt: skip
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Seed of the refinement's random samples.")  # fmt: skip
 @click.option("--out", type=click.Path(dir_okay=False), default="init_pose.txt",
@@ -108,7 +111,7 @@ def init_command(
     check_output_file(out, "--out")  # before any work
     if overlay is not None:
         check_output_file(overlay, "--overlay", suffixes=(".png",))
-    kps = _frame_keypoints(keypoint_files, sources, frame, scale)
+    kps, side = _frame_keypoints(keypoint_files, sources, frame, scale, side)
     cut_here = wrist and kps is None
     # with keypoints they place the hand: a silhouette that is not a hand (skin colour
     # everywhere) does not stop the fit, which keeps the pose only if it explains them
@@ -183,22 +186,26 @@ def _explains_keypoints(result, kps) -> bool:
     return result.keypoint_error / max(sizes) <= QualitySettings().lost_keypoint_error
 
 
-def _frame_keypoints(files, sources, frame, scale):
-    """Per-camera (21, 3) keypoints of frame `frame` in the pixels of the scaled frames."""
+def _frame_keypoints(files, sources, frame, scale, side):
+    """Per-camera (21, 3) keypoints of frame `frame` in the pixels of the scaled frames,
+    and the side of the hand: `side` checked against their handedness, or with "auto"
+    taken from it (`handvar.vision.keypoints.hand_side`)."""
+    from handvar.vision.keypoints import hand_side, read_keypoints
+
     if not files:
-        return None
-    from handvar.vision.keypoints import read_keypoints
+        return None, hand_side([], side)
 
     if len(files) != len(sources):
         raise ValueError(
             f"--keypoints: expected one file per source ({len(sources)}); got {len(files)}"
         )
-    out = []
+    out, read = [], []
     for path in files:
         kp = read_keypoints(path)
         if frame >= kp.n_frames:
             raise ValueError(
                 f"{path}: expected keypoints of frame {frame}; got {kp.n_frames} frames"
             )
+        read.append(kp)
         out.append(kp.scaled(scale).frame(frame) if scale != 1.0 else kp.frame(frame))
-    return out
+    return out, hand_side(read, side)

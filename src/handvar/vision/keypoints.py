@@ -58,7 +58,7 @@ from pathlib import Path
 import numpy as np
 
 from handvar.atomic import write_atomic
-from handvar.validate import as_array, as_float, as_int
+from handvar.validate import as_array, as_float, as_int, one_of
 
 __all__ = [
     "KEYPOINT_NAMES",
@@ -69,6 +69,7 @@ __all__ = [
     "as_frame_keypoints",
     "check_keypoints",
     "check_output_suffix",
+    "hand_side",
     "read_keypoints",
     "write_keypoints",
 ]
@@ -343,7 +344,7 @@ def check_keypoints(keypoints, n_frames: int, sizes, hand: str):
     ValueError
         Naming the keypoints (the file) or ``hand``, what was expected and what came.
     """
-    out, dropped, sides = [], 0, set()
+    out, dropped = [], 0
     for k, (w, h) in zip(keypoints, sizes, strict=True):
         if k is None:
             out.append(None)
@@ -372,10 +373,28 @@ def check_keypoints(keypoints, n_frames: int, sizes, hand: str):
         if outside.any():
             dropped += int(outside.sum())
             k = k._with(k.xy, np.where(outside, 0.0, k.confidence))
-        side = k.side()
-        if side is not None:
-            sides.add(side)
         out.append(k)
+    return out, hand_side(out, hand), dropped
+
+
+def hand_side(keypoints, hand: str) -> str:
+    """The side of the hand tracked: `hand`, checked against the keypoints' handedness;
+    with `hand` "auto", the handedness's side.
+
+    Parameters
+    ----------
+    keypoints : list of Keypoints2D or None
+        Per camera (None: a camera without).
+    hand : {"right", "left", "auto"}
+
+    Raises
+    ------
+    ValueError
+        When the cameras' handedness disagree, when it contradicts `hand`, or with "auto"
+        when no keypoints have a handedness.
+    """
+    one_of(hand, ("right", "left", "auto"), "hand")
+    sides = {k.side() for k in keypoints if k is not None} - {None}
     if len(sides) > 1:
         raise ValueError("keypoints: expected one hand; got right in one camera, left in another")
     seen = next(iter(sides), None)
@@ -385,12 +404,12 @@ def check_keypoints(keypoints, n_frames: int, sizes, hand: str):
                 "hand: auto expected keypoints with handedness (a .npz written by handvar "
                 "keypoints); got none"
             )
-        return out, seen, dropped
+        return seen
     if seen is not None and seen != hand:
         raise ValueError(
             f"hand: expected the side the keypoints' handedness gives ({seen}); got {hand}"
         )
-    return out, hand, dropped
+    return hand
 
 
 # --- files -----------------------------------------------------------------------------
