@@ -111,6 +111,25 @@ def test_source_frames_step_and_scale(tmp_path):
     np.testing.assert_array_equal(got[1][1][0], expected)
 
 
+@pytest.mark.parametrize("kind", ["folder", "video"])
+def test_frames_read_ahead_in_order_and_stopping_early_leaves_no_reader(tmp_path, kind):
+    import threading
+
+    frames = random_frames(9, seed=5)
+    path = (write_folder(tmp_path / "cam", frames) if kind == "folder"
+            else write_video(tmp_path / "clip.avi", frames))  # fmt: skip
+    cap = cv2.VideoCapture(str(path / "frame_%d.png" if kind == "folder" else path))
+    direct = [cap.read()[1] for _ in range(9)]  # OpenCV alone, one frame at a time
+    cap.release()
+    reader = open_frames(path)
+    for t, image in reader.frames():
+        np.testing.assert_array_equal(image, direct[t])
+    frames_iter = reader.frames(start=1)
+    assert next(frames_iter)[0] == 1 and next(frames_iter)[0] == 2
+    frames_iter.close()  # the reads queued ahead are cancelled, the one running waited for
+    assert not [t for t in threading.enumerate() if t.name.startswith("handvar-read")]
+
+
 # --- checks ----------------------------------------------------------------------------
 
 

@@ -158,9 +158,9 @@ def adapt_shape(shape: HandShape, factors) -> HandShape:
 
 def _shape_of(base: HandShape, theta: np.ndarray, metric: bool) -> HandShape:
     f = np.exp(theta)
-    if not metric:  # keep the given wrist → middle-tip length
-        f[0] = 1.0
-        f[0] = _wrist_to_tip(base) / _wrist_to_tip(adapt_shape(base, f))
+    if not metric:  # keep the given wrist → middle-tip length: p B + f_middle S at s = 1
+        palm, middle = base.bases[2, 1], base.segments[2].sum()
+        f[0] = _wrist_to_tip(base) / (f[1] * palm + f[4] * middle)
     return adapt_shape(base, f)
 
 

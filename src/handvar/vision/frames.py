@@ -1,8 +1,9 @@
 """Frame reading: one camera's colour frames from a video file or an image folder (paper §6).
 
 `open_frames` opens a video file (anything ``cv2.VideoCapture`` decodes) or a folder of
-numbered images as a `FrameReader`, which reads the frames lazily, one at a time, and
-checks each one (decodable, 8-bit colour, the size of the first). A video whose
+numbered images as a `FrameReader`, which reads the frames lazily, in order, and checks
+each one (decodable, 8-bit colour, the size of the first); a worker thread decodes the
+next frames while the caller works on this one (`READ_AHEAD`). A video whose
 decoding stops before the frame count its container states (truncated or damaged) is
 refused with the count read and the count claimed, or, opened with ``allow_short``,
 read to where it stops with a `ShortVideoWarning`.
@@ -128,12 +129,17 @@ class FrameReader:
 
     def _folder_frames(self, start: int, stop: int | None):
         end = len(self._files) if stop is None else min(stop, len(self._files))
-        for index in range(start, end):
-            file = self._files[index]
-            yield index, self._check_frame(cv2.imread(str(file), cv2.IMREAD_COLOR), index, file)
+        files = [str(f) for f in self._files[start:end]]
+        images = _read_ahead(lambda i: cv2.imread(files[i], cv2.IMREAD_COLOR), len(files))
+        try:
+            for index, image in enumerate(images, start):
+                yield index, self._check_frame(image, index, self._files[index])
+        finally:
+            images.close()
 
     def _video_frames(self, start: int, stop: int | None):
         cap = cv2.VideoCapture(str(self.path))
+        reads = None
         try:
             if not cap.isOpened():
                 raise ValueError(f"{self.path}: not a readable video (OpenCV cannot open it)")
@@ -143,14 +149,16 @@ class FrameReader:
                     self._ended(index, stop)
                     return
                 index += 1
-            while stop is None or index < stop:
-                ok, image = cap.read()
+            reads = _read_ahead(lambda _: cap.read(), None if stop is None else stop - start)
+            for ok, image in reads:
                 if not ok:
                     self._ended(index, stop)
                     return
                 yield index, self._check_frame(image, index, self.path)
                 index += 1
         finally:
+            if reads is not None:
+                reads.close()  # no read left running on the capture it releases
             cap.release()
 
     def _ended(self, index: int, stop: int | None) -> None:
@@ -165,6 +173,39 @@ class FrameReader:
         if not self.allow_short:
             raise ValueError(f"{msg}; --allow-short (allow_short=True) uses the {index} read")
         warnings.warn(f"{msg}; using the {index} read", ShortVideoWarning, stacklevel=3)
+
+
+#: Frames decoded ahead of the one handed out.
+READ_AHEAD = 2
+
+
+def _read_ahead(read, count: int | None) -> Iterator:
+    """``read(0), read(1), …`` (`count` of them, or without end), each called in a
+    worker thread `READ_AHEAD` calls ahead of the consumer, in order.
+
+    OpenCV releases the interpreter lock while it decodes, so the next frames are
+    decoded on another core while the caller fits this one: an image folder or a video
+    of large frames costs the slower of the two per frame, not their sum.  Only the
+    decoding runs there; the checks, errors and warnings stay in the caller's thread.
+    Stopping early waits for the call in progress (none is left running) and cancels
+    the rest.
+    """
+    from collections import deque
+    from concurrent.futures import ThreadPoolExecutor
+
+    pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="handvar-read")
+    pending: deque = deque()
+    submitted = 0
+    try:
+        while True:
+            while len(pending) <= READ_AHEAD and (count is None or submitted < count):
+                pending.append(pool.submit(read, submitted))
+                submitted += 1
+            if not pending:
+                return
+            yield pending.popleft().result()
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
 
 
 def _natural_key(path: Path) -> tuple:
