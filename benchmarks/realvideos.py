@@ -18,8 +18,10 @@ flow between (K = 5).  Printed per video and K:
   frames with carried keypoints;
 - PCK@0.2 against the detector's keypoints (its own hand size) over the frames whose
   detections were withheld (K > 1), and over all frames with a detection;
-- ms per frame all-in (reading and resizing the frame, carrying, silhouette where a
-  frame needs one, fit, rules, quality: the time between two frames' ends): median,
+- ms per frame all-in (reading and resizing the frame, carrying, silhouettes, fit,
+  rules, quality: the time between two frames' ends; the frames are timed by an
+  ``on_frame`` callback, which has every frame's silhouettes computed, as ``handvar
+  track --show`` does, so the times bound those of ``handvar track`` from above): median,
   and the worst one-second window (mean over any fps consecutive frames); the first
   frame's (opening the video, the first fit) and the slowest other frame's.  The first
   call in a process also pays its start-up (imports, the compiled kernels loaded from
