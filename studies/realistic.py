@@ -258,15 +258,20 @@ def fit_points(out: Path, side: str) -> tuple[np.ndarray, np.ndarray | None]:
     return points, lost
 
 
-def check(out: Path, every: int) -> dict[str, float]:
+def check(out: Path, every: int, gross: np.ndarray | None = None) -> dict[str, float]:
     """The fit's keypoint check (docs/keypoint-fit.md, "the check") over the frames whose
-    detection it was given: frames failing it, and the keypoints it rejected."""
+    detection it was given: frames failing it, and the keypoints it rejected; with
+    `gross` ((T,) bool: a gross error in some camera), also the failing frames among
+    those."""
     quality = Track.load(out).quality
     if quality is None:
         return {"fail": np.nan, "rej": np.nan}
     given = quality.keypoints & (np.arange(len(quality.lost)) % every == 0)
     _, _, rejected = quality.check(frames=given)
-    return {"fail": float(quality.failing(frames=given)), "rej": float(rejected)}
+    row = {"fail": float(quality.failing(frames=given)), "rej": float(rejected)}
+    if gross is not None:
+        row["fail_gross"] = float(quality.failing(frames=given & gross[: len(given)]))
+    return row
 
 
 def scores(
@@ -305,6 +310,19 @@ COLUMNS = (("pck", "PCK@0.2", "{:.3f}"), ("px", "2D px", "{:.1f}"), ("mpjpe", "M
            ("abs", "abs 3D", "{:.1f}"), ("lost", "lost", "{:.0f}"),
            ("fail", "check fails", "{:.0f}"), ("rej", "rejected", "{:.0f}"),
            ("track_ms", "ms/frame", "{:.1f}"), ("ms", "with start-up", "{:.0f}"))  # fmt: skip
+
+
+def _print_gross_failures(rows) -> None:
+    """With the simulated detector: of the frames failing the keypoint check, how many
+    carry a gross error (`GROSS_KINDS`) in some camera, per rig and run."""
+    for rig in ("mono", "stereo"):
+        for run in RUNS[1:]:
+            sel = [r for c, k, r in rows if k == run and f"-{rig}-" in c and "fail_gross" in r]
+            if sel:
+                gross = sum(r["fail_gross"] for r in sel)
+                fail = sum(r["fail"] for r in sel)
+                print(f"{rig}, {run}: {gross:.0f} of the {fail:.0f} frames failing the "
+                      "keypoint check have a gross detector error in some camera")  # fmt: skip
 
 
 def _cell(value, fmt: str) -> str:
@@ -396,7 +414,8 @@ def main() -> None:
                         pts, lost = fit_points(out, spec.side)
                         proj = project(case.rig, pts)
                         row = scores(case, proj, pts, lost, seconds, out=out)
-                        row |= check(out, every)
+                        gross = None if given is not None else case.gross.any(axis=0)
+                        row |= check(out, every, gross)
                     except RuntimeError as exc:  # scored as every frame lost
                         print(f"{spec.name} every {every}: failed: {exc}", file=sys.stderr)
                         row = {"frames": case.n_frames, "lost": float(case.n_frames),
@@ -412,6 +431,7 @@ def main() -> None:
         rows += overall(rows, "stereo", lambda c: "-stereo-" in c)
         rows += overall([r for r in rows if not r[0].startswith("**")], "all", lambda c: True)
         print_table(rows)
+        _print_gross_failures(rows)
         print(f"\n{len(todo)} cases in {time.perf_counter() - started:.0f} s")
 
 
