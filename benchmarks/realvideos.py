@@ -61,23 +61,27 @@ from handvar.vision.sources import open_source
 VIDEOS = ("video", "fingerspelling", "counting")
 
 
+def timed_track(path, keypoints, **options):
+    """`handvar.track` of the video at `path` at 640 px on its long side, and the
+    seconds from the start to each frame's end, one per frame handed out."""
+    w, h = open_source(path).image_size
+    stamps: list[float] = []
+    t0 = time.perf_counter()
+    tr = track(path, keypoints=keypoints, scale=640.0 / max(w, h),
+               on_frame=lambda *_: stamps.append(time.perf_counter()), **options)  # fmt: skip
+    return tr, np.diff([t0, *stamps])
+
+
 def run(name: str, every: int, seed: int = 0, world: bool = False) -> dict:
     """Track video `name` with the detections of every `every`-th frame; score it.
     `world`: with MediaPipe's world landmarks (``<name>-mediapipe``) as the fit's cue."""
     path, kp_path = example_path(name), example_path(f"{name}-keypoints")
-    w, h = open_source(path).image_size
     given_kp = read_keypoints(kp_path)
     if world:
         with np.load(example_path(f"{name}-mediapipe")) as z:
             given_kp = Keypoints2D(given_kp.xy, given_kp.confidence, given_kp.name,
                                    world=z["world_mm"])  # fmt: skip
-    stamps: list[float] = []
-    t0 = time.perf_counter()
-    tr = track(
-        path, keypoints=given_kp, scale=640.0 / max(w, h), keypoint_every=every, seed=seed,
-        on_frame=lambda *_: stamps.append(time.perf_counter()),
-    )  # fmt: skip
-    seconds = np.diff([t0, *stamps])
+    tr, seconds = timed_track(path, given_kp, keypoint_every=every, seed=seed)
     q, hand = tr.quality, tr.hand
     detected = read_keypoints(kp_path)
     n = tr.n_frames
@@ -179,13 +183,9 @@ def no_hand_cost(name: str = "counting") -> tuple[int, float, float]:
     """Video `name` tracked with its keypoints on every frame, carried forward (so that
     each frame is handed out when it is done and its time is its own): the frames
     flagged without a hand, and their median and largest ms all-in."""
-    path, kp_path = example_path(name), example_path(f"{name}-keypoints")
-    w, h = open_source(path).image_size
-    stamps: list[float] = []
-    t0 = time.perf_counter()
-    tr = track(path, keypoints=kp_path, scale=640.0 / max(w, h), carry="forward",
-               on_frame=lambda *_: stamps.append(time.perf_counter()))  # fmt: skip
-    ms = 1e3 * np.diff([t0, *stamps])[1:]  # the first frame opens the video
+    tr, seconds = timed_track(example_path(name), example_path(f"{name}-keypoints"),
+                              carry="forward")  # fmt: skip
+    ms = 1e3 * seconds[1:]  # the first frame opens the video
     empty = np.asarray(tr.quality.no_hand[1:], dtype=bool)
     return int(empty.sum()), float(np.median(ms[empty])), float(ms[empty].max())
 

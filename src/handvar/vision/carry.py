@@ -96,8 +96,9 @@ CARRY_SETTINGS = CarrySettings()
 
 
 def _grey(image, name: str) -> np.ndarray:
-    a = np.asarray(image) if isinstance(image, np.ndarray) else None
-    if a is None or a.dtype != np.uint8:  # a frame as read is uint8: checked as it is
+    if isinstance(image, np.ndarray) and image.dtype == np.uint8:
+        a = image  # a frame as read: nothing to convert before the shape check
+    else:
         a = as_array(image, name, what="an (H, W) grey or (H, W, 3) BGR image")
     if a.ndim == 3 and a.shape[2] == 3:
         return cv2.cvtColor(np.ascontiguousarray(a, dtype=np.uint8), cv2.COLOR_BGR2GRAY)
