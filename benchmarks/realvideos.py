@@ -29,8 +29,10 @@ flow between (K = 5).  Printed per video and K:
   and printed apart, so that the windows measure tracking, not the process.
 
 With ``--world`` the fingerspelling and counting clips are tracked with MediaPipe's world
-landmarks (``-mediapipe.npz``) as the fit's weak 3D cue; the last column is the tracked
-hand's length (the shape fit keeps the given 185 mm with one camera).  The column
+landmarks (``-mediapipe.npz``) as the fit's weak 3D cue; with ``--silhouette-term S``
+the keypoint fit has its silhouette term at σ S (docs/keypoint-fit.md); the last
+column is the tracked hand's length (the shape fit keeps the given 185 mm with one
+camera).  The column
 before it compares the fit's 3D with the detector's own on those two clips (its world
 landmarks, in the camera's axes): the mean distance of the joints relative to the
 wrist, mm, and the median angle of the rotation between the two hands (least squares
@@ -54,7 +56,7 @@ import numpy as np
 from handvar.data import example_path
 from handvar.evaluation.metrics import similarity
 from handvar.pipeline import track
-from handvar.tracking.recovery import pck
+from handvar.tracking.recovery import RECOVERY_DEFAULTS, pck
 from handvar.vision.keypoints import Keypoints2D, read_keypoints
 from handvar.vision.sources import open_source
 
@@ -72,16 +74,18 @@ def timed_track(path, keypoints, **options):
     return tr, np.diff([t0, *stamps])
 
 
-def run(name: str, every: int, seed: int = 0, world: bool = False) -> dict:
+def run(name: str, every: int, seed: int = 0, world: bool = False, silhouette: float = 0.0) -> dict:
     """Track video `name` with the detections of every `every`-th frame; score it.
-    `world`: with MediaPipe's world landmarks (``<name>-mediapipe``) as the fit's cue."""
+    `world`: with MediaPipe's world landmarks (``<name>-mediapipe``) as the fit's cue;
+    `silhouette`: σ of the keypoint fit's silhouette term (0: off)."""
     path, kp_path = example_path(name), example_path(f"{name}-keypoints")
     given_kp = read_keypoints(kp_path)
     if world:
         with np.load(example_path(f"{name}-mediapipe")) as z:
             given_kp = Keypoints2D(given_kp.xy, given_kp.confidence, given_kp.name,
                                    world=z["world_mm"])  # fmt: skip
-    tr, seconds = timed_track(path, given_kp, keypoint_every=every, seed=seed)
+    extra = {"recovery": RECOVERY_DEFAULTS.with_silhouette_term(silhouette)} if silhouette else {}
+    tr, seconds = timed_track(path, given_kp, keypoint_every=every, seed=seed, **extra)
     q, hand = tr.quality, tr.hand
     detected = read_keypoints(kp_path)
     n = tr.n_frames
@@ -148,6 +152,8 @@ def main() -> None:
         action="store_true",
         help="with MediaPipe's world landmarks (fingerspelling, counting)",
     )
+    ap.add_argument("--silhouette-term", type=float, default=0.0,
+                    help="σ of the keypoint fit's silhouette term, hand sizes; 0: off")  # fmt: skip
     args = ap.parse_args()
     clock = time.perf_counter()
     track(example_path("video"), keypoints=example_path("video-keypoints"), frames=2,
@@ -163,7 +169,7 @@ def main() -> None:
     )
     for name in args.videos.split(","):
         for every in (int(v) for v in args.every.split(",")):
-            r = run(name, every, args.seed, args.world)
+            r = run(name, every, args.seed, args.world, args.silhouette_term)
             w, h = r["size"]
             print(f"{name} ({w}x{h}) | {every} | {r['frames']} ({r['given']}) | {r['no_hand']} | "
                   f"{r['lost']} | {r['reinit']} | {'holds' if r['check'] else 'fails'} "

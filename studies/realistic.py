@@ -45,7 +45,8 @@ landmarks as the fit's weak 3D cue.
 
 Run: ``PYTHONPATH=src .venv/bin/python studies/realistic.py`` (about 5–10 minutes on
 two cores); ``--quick`` for a one-minute subset; ``--out DIR`` keeps the generated cases
-(and the fits) in DIR; ``--cases`` to run only the cases whose name contains a string.
+(and the fits) in DIR; ``--cases`` to run only the cases whose name contains a string;
+``--silhouette-term S`` tracks with the keypoint fit's silhouette term at σ S.
 """
 
 from __future__ import annotations
@@ -171,12 +172,18 @@ def generate(spec: Spec, directory: Path):
 
 
 def run_fit(
-    case_dir: Path, spec: Spec, every: int, out: Path, keypoints: list[Path] | None = None
+    case_dir: Path,
+    spec: Spec,
+    every: int,
+    out: Path,
+    keypoints: list[Path] | None = None,
+    extra: tuple[str, ...] = (),
 ) -> tuple[float, Path]:
     """``handvar init`` then ``handvar track`` on the case's files; wall time (s), out dir.
-    `keypoints`: one file per camera (default: the simulated detector's).  Where the
-    first frame has neither keypoints nor a silhouette (`init` says so), ``track`` runs
-    without ``--init``, as that message advises."""
+    `keypoints`: one file per camera (default: the simulated detector's); `extra`: more
+    options of ``handvar track``.  Where the first frame has neither keypoints nor a
+    silhouette (`init` says so), ``track`` runs without ``--init``, as that message
+    advises."""
     cams = [str(case_dir / f"cam{j}") for j in range(spec.cameras)]
     if keypoints is None:
         keypoints = [case_dir / f"keypoints{j}.npy" for j in range(spec.cameras)]
@@ -197,7 +204,7 @@ def run_fit(
     elif done.returncode != 0:
         raise RuntimeError(f"{' '.join(init)}\n{done.stderr.strip()}")
     cmd = [*HANDVAR, "track", ",".join(cams), *common, *start_at, *kps,
-           "--keypoint-every", str(every), "--out", str(out), "--no-video"]  # fmt: skip
+           "--keypoint-every", str(every), "--out", str(out), "--no-video", *extra]  # fmt: skip
     done = subprocess.run(cmd, capture_output=True, text=True, env=env)
     if done.returncode != 0:
         raise RuntimeError(f"{' '.join(cmd)}\n{done.stderr.strip()}")
@@ -379,7 +386,13 @@ def main() -> None:
         help="the Python of an environment with handvar[mediapipe] (MediaPipe pins "
         "numpy < 2: install it apart)",
     )  # fmt: skip
+    parser.add_argument(
+        "--silhouette-term", type=float, default=0.0,
+        help="σ of the keypoint fit's silhouette term, hand sizes (handvar track's option); "
+        "0: off, the default",
+    )  # fmt: skip
     args = parser.parse_args()
+    extra = ("--silhouette-term", str(args.silhouette_term)) if args.silhouette_term else ()
 
     todo = [s for s in specs(args.quick) if args.cases in s.name]
     with tempfile.TemporaryDirectory() as tmp:
@@ -410,7 +423,7 @@ def main() -> None:
                     world = "-world" if args.world else ""
                     out = base / "fits" / f"{spec.name}-{args.detector}{world}-every{every}"
                     try:
-                        seconds, out = run_fit(case_dir, spec, every, out, given)
+                        seconds, out = run_fit(case_dir, spec, every, out, given, extra)
                         pts, lost = fit_points(out, spec.side)
                         proj = project(case.rig, pts)
                         row = scores(case, proj, pts, lost, seconds, out=out)

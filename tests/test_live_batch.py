@@ -188,6 +188,8 @@ def test_tracking_a_camera_gives_a_realtime_track():
         ([str(VIDEO), "--realtime", "--show"], "--show"),
         ([str(VIDEO), "--show"], "--show"),
         ([str(VIDEO), "--realtime", "--no-recover"], "--realtime"),
+        ([str(VIDEO), "--no-recover", "--silhouette-term", "0.05"], "--silhouette-term"),
+        (["benchmark", "--silhouette-term", "0.05", "--frames", "2"], "--silhouette-term"),
         ([str(VIDEO), "--realtime", "--carry", "both", "--keypoints", str(KEYPOINTS)],
          "--realtime"),
         ([], "SEQ"),

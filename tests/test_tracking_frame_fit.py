@@ -243,3 +243,93 @@ def test_a_palm_on_the_wrong_side_in_depth_is_mirrored_back(tilt):
         errors[steps] = np.linalg.norm(hand.joints(pose) - hand.joints(truth), axis=1).max()
     assert errors[0] > 40.0  # mm: the palm left on the mirrored side
     assert errors[RECOVERY_DEFAULTS.depth_mirror] < 2.0
+
+
+# --- the silhouette term (FrameFitSettings.silhouette) ----------------------------------
+
+
+def _with_silhouette(sigma: float = 0.05):
+    from handvar.tracking.frame_fit import FrameFitSettings
+
+    return FrameFitSettings(silhouette=sigma)
+
+
+def test_the_silhouette_rows_gradient_matches_finite_differences():
+    from handvar.render import silhouettes
+    from handvar.tracking.costs import prepare_frame
+    from handvar.tracking.frame_fit import _clean, _Problem
+
+    hand, rig, x = HandModel(), Rig.default(), named_pose("point")
+    data = prepare_frame(silhouettes(hand, x, rig), rig)
+    kp = _clean(keypoints(hand, rig, x), len(rig), 0.05)
+    moved = x.copy()
+    moved[:3] += (4.0, -3.0, 0.0)
+    moved[[14, 17, 20]] += (25.0, 30.0, -20.0)  # digits partly off the silhouette
+    settings = _with_silhouette()
+    problem = _Problem(hand, rig, kp * [1, 1, 0], None, None, None, settings, x, data)
+    problem.agree[:] = True  # no keypoints: the silhouette rows alone
+    r, J = problem.rows(moved)
+    assert np.count_nonzero(r) > 0
+    cost = lambda y: 0.5 * float(np.sum(problem.rows(y, jacobian=False)[0] ** 2))  # noqa: E731
+    h = 1e-5
+    numeric = np.array([(cost(moved + h * e) - cost(moved - h * e)) / (2 * h)
+                        for e in np.eye(len(x))])  # fmt: skip
+    np.testing.assert_allclose(J.T @ r, numeric, rtol=1e-4, atol=1e-6 * np.abs(numeric).max())
+
+
+def test_skin_beyond_the_hand_does_not_move_the_fit_and_a_silhouette_elsewhere_is_ignored():
+    from handvar.render import silhouettes
+    from handvar.tracking.costs import prepare_frame
+
+    hand, rig, x = HandModel(), Rig.default(), named_pose("point")
+    kps = keypoints(hand, rig, x)
+    start = x.copy()
+    start[6:] += 6.0
+    plain = fit_frame(kps, rig, hand, start)
+    masks = silhouettes(hand, x, rig)
+    grown = masks.copy()
+    grown[:, :, : grown.shape[2] // 2] = True  # a forearm, a face: skin where no hand is
+    with_skin = fit_frame(kps, rig, hand, start, silhouettes=prepare_frame(grown, rig),
+                          settings=_with_silhouette())  # fmt: skip
+    np.testing.assert_allclose(with_skin.pose, plain.pose, atol=1e-9)
+    away = np.roll(masks, masks.shape[2] // 3, axis=2)  # disagrees with the keypoints
+    elsewhere = fit_frame(kps, rig, hand, start, silhouettes=prepare_frame(away, rig),
+                          settings=_with_silhouette())  # fmt: skip
+    np.testing.assert_allclose(elsewhere.pose, plain.pose, atol=1e-9)
+
+
+def test_the_silhouette_pulls_a_digit_without_keypoints_back_onto_the_hand():
+    from handvar.params import digit_angles
+    from handvar.render import silhouettes
+    from handvar.tracking.costs import prepare_frame
+
+    hand, rig, x = HandModel(), Rig.default(), named_pose("open")
+    kps = keypoints(hand, rig, x)
+    for k in kps:
+        k[5:9, 2] = 0.0  # no index finger keypoints
+    start = x.copy()
+    start[digit_angles(1)[1:]] += 25.0  # the index finger bent
+    data = prepare_frame(silhouettes(hand, x, rig), rig)
+    plain = fit_frame(kps, rig, hand, start)
+    with_skin = fit_frame(kps, rig, hand, start, silhouettes=data, settings=_with_silhouette())
+
+    def index_error(y):
+        return np.linalg.norm(hand.joints(y)[5:9] - hand.joints(x)[5:9], axis=1).mean()
+
+    assert index_error(with_skin.pose) < 0.75 * index_error(plain.pose)
+
+
+def test_track_with_the_silhouette_term_from_the_command_line(tmp_path):
+    from click.testing import CliRunner
+
+    from handvar.cli import main
+    from handvar.data import example_path
+
+    out = tmp_path / "o"
+    res = CliRunner().invoke(main, [
+        "track", str(example_path("video")), "--scale", "0.5", "--frames", "6",
+        "--keypoints", str(example_path("video-keypoints")), "--silhouette-term", "0.05",
+        "--out", str(out), "--no-video",
+    ])  # fmt: skip
+    assert res.exit_code == 0, res.output
+    assert "0 lost" in res.output

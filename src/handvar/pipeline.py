@@ -608,8 +608,12 @@ def track(
             "forward" if realtime or live else "both")  # fmt: skip
     if recover is None:
         recover = recording or detected is not None
-    if (recovery is not None or on_frame is not None) and not recover:
-        raise ValueError("recovery, on_frame: expected only with recover")
+    given = [name for name, v in (("recovery", recovery), ("on_frame", on_frame)) if v is not None]
+    if given and not recover:
+        raise ValueError(
+            f"{', '.join(given)}: expected only with recover (on by default for a recording "
+            f"or with keypoints); got it off"
+        )
     if keypoint_tips is None:  # a detector's keypoints on a recording, else G(x) projected
         keypoint_tips = "pad" if recording else "end"
     if (realtime or live) and (not recover or carry == "both"):

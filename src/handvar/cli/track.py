@@ -75,6 +75,9 @@ def _check_predictor(ctx, param, value: str) -> str:
               help="Model point a detected fingertip is compared with: the end of the "
               "finger or the centre of its pad (where MediaPipe marks it; design §14.6) "
               "[default: pad for recordings, end for sequences].")  # fmt: skip
+@click.option("--silhouette-term", type=_FiniteRange(min=0.0), default=0.0, show_default=True,
+              help="σ of the silhouette as a secondary cue in the keypoint fit, hand sizes "
+              "(docs/keypoint-fit.md); 0: off. Needs recovery.")  # fmt: skip
 @click.option("--recover/--no-recover", default=None,
               help="Refine poor fits, detect lost frames and search the pose again there "
               "[default: on for recordings and with --keypoints].")  # fmt: skip
@@ -98,8 +101,8 @@ def _check_predictor(ctx, param, value: str) -> str:
 @_locks_out
 def track_command(
     seq, predictor, init, seed, n_frames, out, video, hand_length, side, model, keypoint_files,
-    keypoint_every, carry, keypoint_tips, recover, camera, realtime, show, scheduler, workers,
-    calib, fov, scale,
+    keypoint_every, carry, keypoint_tips, silhouette_term, recover, camera, realtime, show,
+    scheduler, workers, calib, fov, scale,
 ) -> None:  # fmt: skip
     """Track the hand through the sequence SEQ (a sequence directory or a synthetic name).
 
@@ -144,6 +147,13 @@ def track_command(
     from handvar.atomic import check_output_dir
 
     check_output_dir(out, "--out")  # before any work
+    if silhouette_term > 0 and recover is False:
+        raise ValueError("--silhouette-term: expected recovery on; got --no-recover")
+    extra = {}
+    if silhouette_term > 0:
+        from handvar.tracking.recovery import RECOVERY_DEFAULTS
+
+        extra["recovery"] = RECOVERY_DEFAULTS.with_silhouette_term(silhouette_term)
     allow_short = click.get_current_context().meta.get("handvar.allow_short", False)
     if camera is not None and seq:
         raise ValueError(f"--camera: expected no SEQ with a camera; got {' '.join(seq)}")
@@ -158,7 +168,7 @@ def track_command(
             scale=scale, hand=side, hand_length=hand_length, model=model,
             predictor=predictor, init=None if init is None else load_pose(init),
             keypoint_every=keypoint_every, carry=carry, keypoint_tips=keypoint_tips,
-            recover=recover, seed=seed, frames=n_frames, allow_short=allow_short,
+            recover=recover, seed=seed, frames=n_frames, allow_short=allow_short, **extra,
         )  # fmt: skip
         return
     if scheduler is not None or workers is not None:
@@ -179,7 +189,7 @@ def track_command(
             keypoint_every=keypoint_every, carry=carry, keypoint_tips=keypoint_tips,
             recover=recover, seed=seed, frames=n_frames, progress=not show,
             realtime=realtime and camera is None, show=show, allow_short=allow_short,
-            **options,
+            **options, **extra,
         )  # fmt: skip
     written = result.save(out, video=video)
     if "video_error" in written:
@@ -372,7 +382,7 @@ OPTION_NAMES = {
     "source": "SEQ", "keypoints": "--keypoints", "keypoint_every": "--keypoint-every",
     "carry": "--carry", "calib": "--calib", "fov": "--fov", "model": "--model",
     "init": "--init", "realtime": "--realtime", "recordings": "SEQ", "out": "--out",
-    "hand": "--hand",
+    "hand": "--hand", "recovery": "--silhouette-term",
 }  # fmt: skip
 
 

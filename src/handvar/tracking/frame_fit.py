@@ -5,6 +5,7 @@ the primary observation and the pose x (26 parameters, `handvar.params`) minimis
 
     E(x) = Σ_j Σ_i c_ij ρ(d_ij(x) / σ_k)  +  Σ_p ((x_p − x̂_p) / σ_p)²
            + Σ_i |(W(x)_i − W(x)_0) − (w_i − w_0)|² / σ_w²          (only with w given)
+           + Σ_j Σ_a ρ_s(|π_j(A_a(x)) − q_ja| / s_j) / σ_s²           (only with σ_s > 0)
 
 within the joint limits, where
 
@@ -20,7 +21,19 @@ within the joint limits, where
   predicted the last frames;
 - W(x) are the joints in the first camera's frame and w the detector's own 3D joints
   (MediaPipe's world landmarks, metric), both relative to the wrist, σ_w their noise
-  (`FrameFitSettings.world_noise`): a weak cue, used only when the detector gives it.
+  (`FrameFitSettings.world_noise`): a weak cue, used only when the detector gives it;
+- A_a(x) are points on the skeleton's 20 bones (a quarter, half and three quarters
+  along each, `AXIS_POINTS`), q_ja the silhouette pixel of camera j nearest to A_a's
+  projection (the labelled distance transform of `handvar.tracking.costs.prepare_frame`,
+  held fixed within a step as in the paper's C_s), σ_s = `FrameFitSettings.silhouette`
+  and ρ_s Tukey's biweight of scale c = `FrameFitSettings.silhouette_scale`: the
+  silhouette as a secondary cue, off by default (docs/keypoint-fit.md, "the silhouette
+  term").  A point inside the silhouette costs nothing, so skin where the model is not
+  (a forearm, another hand, a face) never pulls; a bone point off the silhouette is
+  pulled back, and one farther than c (a hole, a finger the segmentation missed) not
+  at all.  A camera whose silhouette disagrees with its keypoints (fewer than 90 % of
+  them within 0.1 hand sizes of it: the segmentation found something else) has no
+  silhouette rows in that frame.
 
 E is minimised by Levenberg–Marquardt on the exact Jacobians of G(x)
 (`handvar.tracking.keypoint_cost.keypoint_points`) and of the projection
@@ -43,10 +56,12 @@ import numpy as np
 
 from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
 from handvar.params import LOWER, N_PARAMS, UPPER, clamp
+from handvar.tracking.costs import FrameData
 from handvar.tracking.keypoint_cost import TIPS, frame_keypoints, hand_length, keypoint_points
 from handvar.validate import as_float, as_int, one_of
 
 __all__ = [
+    "AXIS_POINTS",
     "CHECK_THRESHOLD",
     "FRAME_FIT_DEFAULTS",
     "FrameFit",
@@ -63,6 +78,24 @@ __all__ = [
 
 #: The keypoint check's distance, hand sizes (docs/keypoint-fit.md, "the check").
 CHECK_THRESHOLD = 0.2
+
+
+def _axis_points() -> np.ndarray:
+    """(60, 21) weights of the silhouette term's points on the 21 joints (module notes)."""
+    bones = [(0, 1 + 4 * d) for d in range(5)]
+    bones += [(1 + 4 * d + k, 2 + 4 * d + k) for d in range(5) for k in range(3)]
+    out = np.zeros((3 * len(bones), 21))
+    for b, (i, j) in enumerate(bones):
+        for a, t in enumerate((0.25, 0.5, 0.75)):
+            out[3 * b + a, i], out[3 * b + a, j] = 1.0 - t, t
+    out.flags.writeable = False
+    return out
+
+
+#: Points of the silhouette term: a quarter, half and three quarters along each of the
+#: 20 bones between the 21 joints (wrist to each digit's base, then along the digit),
+#: as (60, 21) weights on the joints.
+AXIS_POINTS = _axis_points()
 
 #: Parameter groups of the temporal prior: translation (mm), palm rotation, fingers (°).
 _GROUPS = (slice(0, 3), slice(3, 6), slice(6, N_PARAMS))
@@ -99,6 +132,12 @@ class FrameFitSettings:
         (`handvar.tracking.keypoint_cost.keypoint_attachment`).
     min_confidence : float
         Keypoints of lower confidence are left out; 0.05.
+    silhouette : float
+        σ_s of the silhouette term, hand sizes; 0 (the default): the silhouette is
+        not a term of the fit (docs/keypoint-fit.md, "the silhouette term").
+    silhouette_scale : float
+        c of the silhouette term's Tukey loss, hand sizes; 0.15 (a bone point farther
+        than this off the silhouette is not pulled at all).
     """
 
     noise: float = 0.05
@@ -110,6 +149,8 @@ class FrameFitSettings:
     tolerance: float = 1e-3
     tips: str = "end"
     min_confidence: float = 0.05
+    silhouette: float = 0.0
+    silhouette_scale: float = 0.15
 
     def __post_init__(self) -> None:
         as_float(self.noise, "noise", minimum=0.0, exclusive_minimum=True)
@@ -119,6 +160,8 @@ class FrameFitSettings:
         as_int(self.polish, "polish", minimum=0)
         one_of(self.tips, TIPS, "tips")
         as_float(self.min_confidence, "min_confidence", minimum=0.0, maximum=1.0)
+        as_float(self.silhouette, "silhouette", minimum=0.0)
+        as_float(self.silhouette_scale, "silhouette_scale", minimum=0.0, exclusive_minimum=True)
 
 
 FRAME_FIT_DEFAULTS = FrameFitSettings()
@@ -226,14 +269,19 @@ class _Problem:
     iteratively reweighted Gauss–Newton step).  s_j is the model's hand size at the
     starting pose, held fixed in the frame: measured at the current pose it would
     reward moving the hand towards the camera (the errors shrink in hand sizes).
-    Then the temporal prior's rows and the detector's 3D rows.
+    Then the temporal prior's rows, the detector's 3D rows and the silhouette rows
+    (two per bone point and camera whose silhouette agrees with its keypoints, Tukey's
+    loss with its exact gradient).
     """
 
-    def __init__(self, hand, rig, kp, prior, sigma, world, settings, start):
+    def __init__(self, hand, rig, kp, prior, sigma, world, settings, start, silhouettes=None):
         self.hand, self.rig, self.kp, self.s = hand, rig, kp, settings
         self.prior, self.sigma, self.world = prior, sigma, world
+        self.silhouettes = silhouettes if settings.silhouette > 0 else None
         self.sizes = np.array([hand_size_px(hand, start, cam) for cam in rig])
         self.present = [np.flatnonzero(k[:, 2] > 0) for k in kp]
+        if self.silhouettes is not None:
+            self.agree = _agreeing_cameras(self.silhouettes, kp, self.sizes)
         self.R0 = rig.cameras[0].R
 
     def rows(self, x, jacobian: bool = True):
@@ -259,6 +307,8 @@ class _Problem:
             if jacobian:
                 Je = np.einsum("nij,njp->nip", Jp, JG[ok]) / self.sizes[j]
                 jac.append((w[:, :, None] * Je).reshape(-1, N_PARAMS))
+        if self.silhouettes is not None:
+            self._silhouette_rows(G, JG, rows, jac)
         if self.prior is not None:
             rows.append((x - self.prior) / self.sigma)
             if jacobian:
@@ -277,6 +327,30 @@ class _Problem:
             return r, None
         return r, (np.concatenate(jac) if jac else np.zeros((0, N_PARAMS)))
 
+    def _silhouette_rows(self, G, JG, rows, jac) -> None:
+        """Append the silhouette term's rows (module notes) at joints G (Jacobian JG)."""
+        data, s = self.silhouettes, self.s
+        A = AXIS_POINTS @ G
+        JA = None if JG is None else np.einsum("ai,ipk->apk", AXIS_POINTS, JG)
+        c = s.silhouette_scale
+        for j, cam in enumerate(self.rig):
+            if not self.agree[j]:
+                continue
+            px, Jp = cam.project_jacobian(A, jacobian=JG is not None)
+            e = (px - _nearest_pixels(data, j, px)) / self.sizes[j]
+            d = np.maximum(np.sqrt((e**2).sum(axis=1)), 1e-12)
+            # Tukey's biweight ρ of scale c: r = α e with ½|r|² = ρ(d), and J = γ ∂e
+            # with γ α = ρ'(d)/d, so that Jᵀr is ρ's gradient (0 beyond c)
+            u = np.minimum((d / c) ** 2, 1.0)
+            rho = c * c / 6.0 * (1.0 - (1.0 - u) ** 3)
+            alpha = np.sqrt(2.0 * rho) / d
+            rows.append(((alpha / s.silhouette)[:, None] * e).ravel())
+            if JG is not None:
+                # a point inside (e = 0) has no gradient and no curvature: a zero row
+                gamma = np.where(d > 1e-12, (1.0 - u) ** 2 / np.maximum(alpha, 1e-12), 0.0)
+                Je = np.einsum("nij,njp->nip", Jp, JA) / self.sizes[j]
+                jac.append(((gamma / s.silhouette)[:, None, None] * Je).reshape(-1, N_PARAMS))
+
     def distances(self, x) -> np.ndarray:
         """d_ij at `x` (n_cams, 21) in hand sizes (the model's at `x`); NaN where none."""
         G = keypoint_points(self.hand, x, self.s.tips)
@@ -289,6 +363,37 @@ class _Problem:
                     self.hand, x, cam
                 )
         return d
+
+
+def _agreeing_cameras(data: FrameData, kp: np.ndarray, sizes: np.ndarray) -> np.ndarray:
+    """(n_cams,) bool: cameras whose silhouette agrees with their keypoints, i.e. at
+    least `_AGREE_SHARE` of the keypoints lie within `_AGREE_DISTANCE` hand sizes of it."""
+    out = np.zeros(len(sizes), dtype=bool)
+    for j in range(len(sizes)):
+        ok = kp[j, :, 2] > 0
+        if data.counts[j] == 0 or not ok.any():
+            continue
+        px = kp[j, ok, :2]
+        d = np.linalg.norm(px - _nearest_pixels(data, j, px), axis=1) / sizes[j]
+        out[j] = np.mean(d <= _AGREE_DISTANCE) >= _AGREE_SHARE
+    return out
+
+
+#: A camera's silhouette agrees with its keypoints when at least this share of them lie
+#: within this many hand sizes of it (twice the detector's noise).
+_AGREE_SHARE, _AGREE_DISTANCE = 0.9, 0.1
+
+
+def _nearest_pixels(data: FrameData, j: int, px: np.ndarray) -> np.ndarray:
+    """(n, 2) the silhouette pixel of camera j nearest to each of the (n, 2) points `px`;
+    a point on a silhouette pixel is its own (zero error), one outside the labelled
+    region is looked up at the region's border."""
+    u0, v0, w, h = data.roi[j]
+    iu = np.clip(np.rint(px[:, 0]).astype(np.int64) - u0, 0, w - 1)
+    iv = np.clip(np.rint(px[:, 1]).astype(np.int64) - v0, 0, h - 1)
+    q = data.pixels[j][data.labels[j, iv, iu] - 1]
+    inside = (q[:, 0] == iu + u0) & (q[:, 1] == iv + v0) & (np.abs(px - q) <= 0.5).all(axis=1)
+    return np.where(inside[:, None], px, q)
 
 
 def _solve(problem: _Problem, x, steps: int) -> tuple[np.ndarray, float, int]:
@@ -332,6 +437,7 @@ def fit_frame(
     prior=None,
     prior_scale: PriorScale | None = None,
     world=None,
+    silhouettes: FrameData | None = None,
     settings: FrameFitSettings = FRAME_FIT_DEFAULTS,
 ) -> FrameFit:
     """Fit the pose to one frame's keypoints from `start` (module notes).
@@ -352,6 +458,9 @@ def fit_frame(
     world : (21, 3) array_like, keyword-only, optional
         The detector's 3D joints, mm, axes of the first camera (any origin); NaN rows
         are left out.
+    silhouettes : FrameData, keyword-only, optional
+        The frame's silhouettes (`handvar.tracking.costs.prepare_frame`) for the
+        silhouette term; used only when ``settings.silhouette`` > 0.
     settings : FrameFitSettings, keyword-only
 
     Returns
@@ -379,7 +488,7 @@ def fit_frame(
         world = np.asarray(world, dtype=float)
         if world.shape != (21, 3) or not np.isfinite(world[WRIST]).all():
             world = None
-    problem = _Problem(hand, rig, kp, prior, sigma, world, settings, x)
+    problem = _Problem(hand, rig, kp, prior, sigma, world, settings, x, silhouettes)
     x, cost, n = _solve(problem, x, settings.iterations)
     d = problem.distances(x)
     present = kp[:, :, 2] > 0
@@ -387,7 +496,7 @@ def fit_frame(
     if rejected.any() and settings.polish:
         kept = kp.copy()
         kept[rejected] = 0.0
-        problem = _Problem(hand, rig, kept, prior, sigma, world, settings, x)
+        problem = _Problem(hand, rig, kept, prior, sigma, world, settings, x, silhouettes)
         x, cost, m = _solve(problem, x, settings.polish)
         n += m
         d = problem.distances(x)
@@ -407,7 +516,13 @@ def keypoint_distances(
 
 
 def reinitialise(
-    keypoints, rig, hand, *, world=None, settings: FrameFitSettings = FRAME_FIT_DEFAULTS
+    keypoints,
+    rig,
+    hand,
+    *,
+    world=None,
+    silhouettes: FrameData | None = None,
+    settings: FrameFitSettings = FRAME_FIT_DEFAULTS,
 ) -> FrameFit | None:
     """The pose of a frame from its keypoints alone: `fit_frame` from every palm pose.
 
@@ -428,7 +543,8 @@ def reinitialise(
         for p in palm_candidates(np.where(k[:, 2:] > 0, k, np.nan), cam, hand):
             x0 = base.copy()
             x0[:6] = p
-            fit = fit_frame(kp, rig, hand, x0, world=world, settings=settings)
+            fit = fit_frame(kp, rig, hand, x0, world=world, silhouettes=silhouettes,
+                            settings=settings)  # fmt: skip
             if best is None or fit.cost < best.cost:
                 best = fit
     return best

@@ -6,8 +6,9 @@ why each exists, are in docs/keypoint-fit.md:
 1. A frame with keypoints (detected, or carried by optical flow) is fitted to them by
    the keypoint-first fit (`handvar.tracking.frame_fit.fit_frame`) from the motion
    predictor's prediction, which also enters as the temporal prior, weighted by the
-   predictor's recent accuracy (`PriorScale`).  The silhouettes are not in that fit;
-   their IoU with the fitted model is only reported.
+   predictor's recent accuracy (`PriorScale`).  The silhouettes enter that fit only
+   with its silhouette term (`FrameFitSettings.silhouette`, off by default); their
+   IoU with the fitted model is only reported.
 2. Such a fit is *lost* when its kept keypoints lie farther than
    `QualitySettings.lost_keypoint_error` hand sizes on average or it rejects more than
    half of them; it is then fitted again directly from the keypoints
@@ -36,6 +37,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import math
 import time
 from collections.abc import Callable, Iterable, Sequence
@@ -52,6 +54,7 @@ from handvar.hand.kinematics import (
 )
 from handvar.params import N_PARAMS, clamp, digit_angles
 from handvar.predictors import NoMotion
+from handvar.tracking.costs import FrameData, prepare_frame
 from handvar.tracking.frame_fit import (
     CHECK_THRESHOLD,
     FRAME_FIT_DEFAULTS,
@@ -399,6 +402,12 @@ class RecoverySettings:
         if self.shape is not None:
             as_instance(self.shape, ShapeFitSettings, "shape")
 
+    def with_silhouette_term(self, sigma: float) -> RecoverySettings:
+        """These settings with the keypoint fit's silhouette term at σ_s = `sigma` hand
+        sizes (`FrameFitSettings.silhouette`; 0: off)."""
+        fit = dataclasses.replace(self.frame_fit, silhouette=sigma)
+        return dataclasses.replace(self, frame_fit=fit)
+
 
 RECOVERY_DEFAULTS = RecoverySettings()
 
@@ -459,6 +468,7 @@ class Recovery:
         self.init_seconds: list[float] = []
         self._refiner: Tracker | None = None
         self._shape_frames: list | None = [] if settings.shape is not None else None
+        self._silhouettes: FrameData | None = None  # the frame's, for the fit's term
         self.shape_seconds = 0.0  # the shape fit's time, within its frame's
 
     # -- one frame ------------------------------------------------------------------
@@ -471,8 +481,9 @@ class Recovery:
         """
         if kps is not None:
             lazy = masks if callable(masks) else (lambda: masks)
+            wanted = self.settings.keypoint_iou or self.fit_settings.silhouette > 0
             return self.keypoint_frame(
-                (lambda: self._masks(lazy(), kps)) if self.settings.keypoint_iou else None,
+                functools.cache(lambda: self._masks(lazy(), kps)) if wanted else None,
                 kps, world,
             )  # fmt: skip
         if with_keypoints and not self.started:  # before the hand was first seen
@@ -500,6 +511,7 @@ class Recovery:
         """
         t0 = time.perf_counter()
         tracker = self.tracker
+        self._silhouettes = self._silhouette_data(masks)
         fit, again, mirrored = None, False, False
         scale = self.scale
         if self.started:
@@ -507,8 +519,7 @@ class Recovery:
             # the prediction is the predictor's accuracy (measured after the prior had
             # pulled the fit towards the prediction it would confirm itself)
             prediction = tracker.prediction()
-            fit = fit_frame(kps, self.rig, self.hand, prediction, world=world,
-                            settings=self.fit_settings)  # fmt: skip
+            fit = self._fit(kps, prediction, world)
             if self.settings.depth_mirror and len(self.rig) == 1 and not self._lost(fit):
                 alt = self._mirrored(fit, kps, world)
                 if alt is not None:
@@ -525,6 +536,7 @@ class Recovery:
         if fit is None or (self.settings.reinit and (lost or restart)):
             t1 = time.perf_counter()
             direct = reinitialise(kps, self.rig, self.hand, world=world,
+                                  silhouettes=self._silhouettes,
                                   settings=self.fit_settings)  # fmt: skip
             if lost:
                 self.init_seconds.append(time.perf_counter() - t1)
@@ -547,7 +559,7 @@ class Recovery:
         t2 = time.perf_counter()
         iou = np.full(len(self.rig), np.nan)
         empty = np.zeros(len(self.rig), dtype=bool)
-        if masks is not None:
+        if masks is not None and self.settings.keypoint_iou:
             m = masks()
             empty = ~m.any(axis=(1, 2))
             kp = frame_keypoints(kps, len(self.rig))
@@ -564,6 +576,14 @@ class Recovery:
         if self._shape_frames is not None and not result.lost:
             self._adapt(out, kps, world)
         return out
+
+    def _silhouette_data(self, masks) -> FrameData | None:
+        """The frame's silhouettes prepared for the fit's silhouette term, or None (no
+        term, or no silhouette in any camera)."""
+        if masks is None or self.fit_settings.silhouette <= 0:
+            return None
+        m = masks()
+        return prepare_frame(m, self.rig) if m.any() else None
 
     def _mirrored(self, fit, kps, world):
         """Rule 1 with one camera: the fit started again from its palm mirrored in
@@ -582,12 +602,10 @@ class Recovery:
             return _fit_score(alt)[0] <= _fit_score(fit)[0] and alt.cost < fit.cost
 
         start = depth_mirror(fit.pose, self.hand, self.rig.cameras[0])
-        alt = fit_frame(kps, self.rig, self.hand, start, world=world,
-                        settings=self._mirror_settings)  # fmt: skip
+        alt = self._fit(kps, start, world, self._mirror_settings)
         if not better(alt):
             return None
-        alt = fit_frame(kps, self.rig, self.hand, alt.pose, world=world,
-                        settings=self.fit_settings)  # fmt: skip
+        alt = self._fit(kps, alt.pose, world)
         return alt if better(alt) else None
 
     def _reseed_digits(self, fit, kps, world, prediction, scale):
@@ -609,8 +627,7 @@ class Recovery:
             for name in self.settings.keypoint_reseeds:
                 start = fit.pose.copy()
                 start[angles] = named_pose(name)[angles]
-                again = fit_frame(kps, self.rig, self.hand, start, world=world,
-                                  settings=self.fit_settings)  # fmt: skip
+                again = self._fit(kps, start, world)
                 if self._with_prior():
                     again = self._prior_stage(again, kps, world, prediction, scale)
                 if _fit_score(again) < _fit_score(fit):
@@ -637,8 +654,7 @@ class Recovery:
         d = keypoint_distances(kps, self.rig, self.hand, prediction, settings=self.fit_settings)
         j = cameras[int(np.argmax([np.nanmedian(d[c]) for c in cameras]))]
         kept = [None if i == j else k for i, k in enumerate(kps)]
-        again = fit_frame(kept, self.rig, self.hand, prediction, world=world,
-                          settings=self.fit_settings)  # fmt: skip
+        again = self._fit(kept, prediction, world)
         if self._with_prior():
             again = self._prior_stage(again, kept, world, prediction, scale)
         share = _rejected_share(again, present)
@@ -650,14 +666,22 @@ class Recovery:
         rejected[j] = present[j]
         return FrameFit(again.pose, d, rejected, again.cost, again.iterations)
 
+    def _fit(self, kps, start, world, settings=None, **prior) -> FrameFit:
+        """`fit_frame` of this frame's keypoints from `start` (the fit's settings unless
+        others are given), with the frame's silhouettes when the fit has their term."""
+        return fit_frame(kps, self.rig, self.hand, start, world=world,
+                         silhouettes=self._silhouettes,
+                         settings=self.fit_settings if settings is None else settings,
+                         **prior)  # fmt: skip
+
     def _with_prior(self) -> bool:
         """Whether rule 1 has its second stage, the temporal prior."""
         return self.tracker.frames_tracked > 0 and self.settings.prior_steps > 0
 
     def _prior_stage(self, fit, kps, world, prediction, scale):
         """Rule 1's second stage: `fit` continued with the temporal prior of σ `scale`."""
-        return fit_frame(kps, self.rig, self.hand, fit.pose, prior=prediction,
-                         prior_scale=scale, world=world, settings=self._prior_settings)  # fmt: skip
+        return self._fit(kps, fit.pose, world, self._prior_settings, prior=prediction,
+                         prior_scale=scale)  # fmt: skip
 
     def _adapt(self, frame: _Frame, kps, world) -> None:
         """The shape fit (`RecoverySettings.shape`): keep the frame while fewer than
