@@ -180,6 +180,9 @@ def test_the_wide_table_matches_the_csv_files_read_by_pandas(recovered, tmp_path
     np.testing.assert_allclose(wide[list(NAMES)].to_numpy(), poses.to_numpy(), atol=1e-6)
     quality = pd.read_csv(tmp_path / "t" / "quality.csv")
     np.testing.assert_allclose(wide["iou"].to_numpy(), quality["iou"].to_numpy(), atol=1e-4)
+    for name in ("lost", "keypoints", "no_hand", "rejected"):
+        expected = np.asarray(getattr(recovered.quality, name), dtype=int)
+        np.testing.assert_array_equal(quality[name].to_numpy(), expected)
     joints = pd.read_csv(tmp_path / "t" / "joints.csv").to_numpy()
     np.testing.assert_allclose(wide.filter(regex="_[xyz]$").to_numpy(), joints, atol=1e-4)
 

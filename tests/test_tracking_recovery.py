@@ -379,7 +379,7 @@ def test_track_with_keypoints_writes_the_quality(tmp_path, carry):
     assert "0 lost, 1 re-initialised, 0 empty" in res.output
     assert "frames/s all-in" in res.output and "1 re-initialisation in " in res.output
     table = np.loadtxt(out / "quality.csv", delimiter=",", skiprows=1)
-    assert table.shape == (6, 8)
+    assert table.shape == (6, 10)  # frame, then TrackQuality's fields
     if carry:  # the default on a recording: keypoints on every frame, 2 of them detected
         assert "keypoints on 6 frames (2 with a detection, the others carried)" in res.output
         assert table[:, 7].tolist() == [1] * 6

@@ -127,7 +127,8 @@ def track_command(
     strip of frames: the observed masks with the fitted model's outline and joints)
     and, with --video, overlay.mp4 (numbered PNGs in overlay_frames/ when OpenCV has
     no mp4v codec); with recovery also quality.csv (per frame: IoU, keypoint error,
-    final cost, lost, re-initialised, empty). Prints the mean joint error when the
+    final cost, lost, re-initialised, empty, keypoints, no hand, keypoints rejected).
+    Prints the mean joint error when the
     sequence has ground truth. The files of an earlier track in OUT that this run does
     not write go; other files stay. One run at a time writes OUT.
 

@@ -10,8 +10,8 @@
     cameras.yml   with a rig: the cameras of the full-resolution frames, in
                   `handvar.camera.Rig.save`'s OpenCV format (what ``--calib`` reads)
     quality.csv   with a quality (design §14.3): per frame its silhouette IoU, keypoint error
-                  (hand sizes, empty without keypoints), final cost and the flags lost,
-                  reinit, empty, keypoints (0/1)
+                  (hand sizes, empty without keypoints), final cost, the flags lost,
+                  reinit, empty, keypoints, no_hand (0/1) and the keypoints rejected
     overlay.png   a strip of up to six evenly spaced frames of the first camera at half
                   size: the fitted model's outline and joints over the frame
     overlay.mp4   every frame, all cameras side by side (`OverlayWriter`, which writes
@@ -68,7 +68,10 @@ TRACK_FILES = (
     "poses.csv", "joints.csv", "track.npz", "cameras.yml", "overlay.png", "quality.csv",
     "overlay.mp4", "overlay_frames",
 )  # fmt: skip
-_QUALITY = ("iou", "keypoint_error", "cost", "lost", "reinit", "empty", "keypoints")
+_QUALITY = (
+    "iou", "keypoint_error", "cost", "lost", "reinit", "empty", "keypoints", "no_hand",
+    "rejected",
+)  # fmt: skip
 
 Backgrounds = Callable[[list[int]], Iterable[tuple[int, list[np.ndarray] | np.ndarray]]]
 
@@ -290,7 +293,7 @@ def _write_track_outputs(
         ])  # fmt: skip
 
         def write_quality(path: str) -> None:
-            fmt = ["%d", "%.4f", "%.4f", "%.6g", "%d", "%d", "%d", "%d"]
+            fmt = ["%d", "%.4f", "%.4f", "%.6g", "%d", "%d", "%d", "%d", "%d", "%d"]
             qheader = "frame," + ",".join(_QUALITY)
             np.savetxt(path, table, delimiter=",", header=qheader, comments="", fmt=fmt)
 
