@@ -383,7 +383,7 @@ OPTION_NAMES = {
     "source": "SEQ", "keypoints": "--keypoints", "keypoint_every": "--keypoint-every",
     "carry": "--carry", "calib": "--calib", "fov": "--fov", "model": "--model",
     "init": "--init", "realtime": "--realtime", "recordings": "SEQ", "out": "--out",
-    "hand": "--hand", "recovery": "--silhouette-term",
+    "hand": "--hand", "recovery": "--silhouette-term", "recover": "--recover",
 }  # fmt: skip
 
 
