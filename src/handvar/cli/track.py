@@ -148,13 +148,11 @@ def track_command(
     from handvar.atomic import check_output_dir
 
     check_output_dir(out, "--out")  # before any work
-    if silhouette_term > 0 and recover is False:
-        raise ValueError("--silhouette-term: expected recovery on; got --no-recover")
-    extra = {}
+    recovery = None  # handvar.track refuses one without recovery, naming the option
     if silhouette_term > 0:
         from handvar.tracking.recovery import RECOVERY_DEFAULTS
 
-        extra["recovery"] = RECOVERY_DEFAULTS.with_silhouette_term(silhouette_term)
+        recovery = RECOVERY_DEFAULTS.with_silhouette_term(silhouette_term)
     allow_short = click.get_current_context().meta.get("handvar.allow_short", False)
     if camera is not None and seq:
         raise ValueError(f"--camera: expected no SEQ with a camera; got {' '.join(seq)}")
@@ -169,7 +167,7 @@ def track_command(
             scale=scale, hand=side, hand_length=hand_length, model=model,
             predictor=predictor, init=None if init is None else load_pose(init),
             keypoint_every=keypoint_every, carry=carry, keypoint_tips=keypoint_tips,
-            recover=recover, seed=seed, frames=n_frames, allow_short=allow_short, **extra,
+            recover=recover, recovery=recovery, seed=seed, frames=n_frames, allow_short=allow_short,
         )  # fmt: skip
         return
     if scheduler is not None or workers is not None:
@@ -190,7 +188,7 @@ def track_command(
             keypoint_every=keypoint_every, carry=carry, keypoint_tips=keypoint_tips,
             recover=recover, seed=seed, frames=n_frames, progress=not show,
             realtime=realtime and camera is None, show=show, allow_short=allow_short,
-            **options, **extra,
+            recovery=recovery, **options,
         )  # fmt: skip
     written = result.save(out, video=video)
     if "video_error" in written:

@@ -389,10 +389,11 @@ def _nearest_pixels(data: FrameData, j: int, px: np.ndarray) -> np.ndarray:
     a point on a silhouette pixel is its own (zero error), one outside the labelled
     region is looked up at the region's border."""
     u0, v0, w, h = data.roi[j]
-    iu = np.clip(np.rint(px[:, 0]).astype(np.int64) - u0, 0, w - 1)
-    iv = np.clip(np.rint(px[:, 1]).astype(np.int64) - v0, 0, h - 1)
+    pixel = np.rint(px).astype(np.int64)
+    iu = np.clip(pixel[:, 0] - u0, 0, w - 1)
+    iv = np.clip(pixel[:, 1] - v0, 0, h - 1)
     q = data.pixels[j][data.labels[j, iv, iu] - 1]
-    inside = (q[:, 0] == iu + u0) & (q[:, 1] == iv + v0) & (np.abs(px - q) <= 0.5).all(axis=1)
+    inside = (q == pixel).all(axis=1)  # a silhouette pixel's nearest is itself
     return np.where(inside[:, None], px, q)
 
 
