@@ -2,8 +2,9 @@
 
 - keypoint JSON and OpenPose JSON: read with the standard `json` module, compared with
   G(x) (`HandModel.joints`) and the cameras' projections;
-- BVH: read with bvhio, whose forward kinematics must give G(x) within 0.1 mm over the
-  whole synthetic track (float32 inside bvhio: about 2e-4 mm);
+- BVH: read with bvhio, whose forward kinematics must give G(x), turned into the file's
+  axes and units by hand, within a micron over the whole synthetic track (float32
+  inside bvhio: about 1e-4 mm); its skeleton has no zero-length bone;
 - glTF: read with pygltflib, skinned with the specification's linear blend formula in
   `tests/export_readers.py`, compared with the model's mesh within 0.5 mm;
 - the viewer page: rendered by headless Chromium, no console message, not blank.
@@ -17,6 +18,7 @@ import json
 import re
 import shutil
 import subprocess
+import warnings
 
 import numpy as np
 import pytest
@@ -133,16 +135,65 @@ def test_fit_confidence_is_iou_and_zero_when_lost():
     np.testing.assert_allclose(conf, [0.7, 0.0, 0.0])
 
 
-@pytest.mark.parametrize("side", SIDES)
-def test_bvh_forward_kinematics_is_g_of_x(poses, side, tmp_path):
+def in_file_axes(points, up: str = "y", units: str = "m") -> np.ndarray:
+    """Camera-frame mm points (x right, y down, z forward) in a y-up or z-up file's
+    axes and units, written out by hand: y up is (x, -y, -z), z up is (x, z, -y)."""
+    p = np.asarray(points, dtype=float)
+    turned = p * [1.0, -1.0, -1.0] if up == "y" else p[..., [0, 2, 1]] * [1.0, 1.0, -1.0]
+    return turned / {"mm": 1.0, "cm": 10.0, "m": 1000.0}[units]
+
+
+@pytest.mark.parametrize(("side", "units", "up", "every"),
+                         [("right", "m", "y", 1), ("left", "m", "y", 1),
+                          ("right", "mm", "z", 5), ("left", "cm", "z", 5)])  # fmt: skip
+def test_bvh_forward_kinematics_is_g_of_x(poses, side, units, up, every, tmp_path):
+    """bvhio's forward kinematics gives G(x) turned into the file's axes and units."""
     shape = HandShape.from_size(170.0, side=side)
+    sub = poses[::every]
     path = tmp_path / "track.bvh"
-    path.write_text(bvh_text(poses, shape, fps=25.0))
+    path.write_text(bvh_text(sub, shape, fps=25.0, units=units, up=up))
     got = bvh_world_joints(path, bvh_joint_order())
     hand = HandModel(shape)
-    want = np.stack([hand.joints(x) for x in poses])
+    want = in_file_axes(np.stack([hand.joints(x) for x in sub]), up, units)
     assert got.shape == want.shape
-    assert np.abs(got - want).max() <= 0.1
+    mm = {"mm": 1.0, "cm": 10.0, "m": 1000.0}[units]
+    assert np.abs(got - want).max() * mm <= 1e-3  # float32 inside bvhio: ~1e-4 mm
+
+
+def test_bvh_skeleton_reads_as_a_hand(poses, tmp_path):
+    """Every bone has a length (a tool that draws a bone from a joint to its child
+    draws no stub); a bone runs from the wrist to each digit's base joint, the joint's
+    only child; the root's bone ends at the wrist; Frame Time is 1/fps."""
+    with warnings.catch_warnings():  # its glm binding warns of a deprecation on import
+        warnings.simplefilter("ignore", PendingDeprecationWarning)
+        import bvhio
+
+    shape = HandShape.from_size(185.0)
+    path = tmp_path / "track.bvh"
+    path.write_text(bvh_text(poses[:3], shape, fps=29.97))
+    bvh = bvhio.readAsBvh(str(path))
+    assert bvh.FrameTime == pytest.approx(1 / 29.97, rel=1e-6) and bvh.FrameCount == 3
+    joints = {j.Name: (j, depth) for j, _, depth in bvh.Root.layout()}
+    for name, (joint, depth) in joints.items():
+        if depth > 0:
+            assert np.linalg.norm(np.array(joint.Offset)) > 1e-3, name  # > 1 mm
+        if joint.EndSite is not None:
+            assert np.linalg.norm(np.array(joint.EndSite)) > 1e-3, name
+    root = bvh.Root
+    assert len(root.Children) == 5 and np.linalg.norm(np.array(root.Offset)) == 0.0
+    # offsets are in the hand frame, which is the world frame at the rest pose (x = 0)
+    rest = HandModel(shape).joints(np.zeros(26)) / 1000.0  # m
+    stub = 0.3 * np.linalg.norm(rest[9] - rest[0])  # the forearm: 0.3 palm lengths
+    for wrist_joint, base in zip(root.Children, [1, 5, 9, 13, 17], strict=True):
+        np.testing.assert_allclose(wrist_joint.Offset, [0.0, stub, 0.0], atol=1e-7)
+        (child,) = wrist_joint.Children  # one bone, from the wrist to the base joint
+        np.testing.assert_allclose(child.Offset, rest[base] - rest[0], atol=1e-7)
+
+
+def test_bvh_frame_time_follows_the_frame_rate(poses):
+    for fps, line in [(25.0, "Frame Time: 0.04000000"), (None, "Frame Time: 0.03333333"),
+                      (60.0, "Frame Time: 0.01666667")]:  # fmt: skip
+        assert line in bvh_text(poses[:2], HandShape.from_size(), fps=fps).splitlines()
 
 
 @pytest.mark.parametrize("side", SIDES)
@@ -283,9 +334,9 @@ def test_bvh_holds_the_last_tracked_pose_on_frames_without_a_hand(poses, gappy, 
     path.write_text(bvh_text(gappy, shape, fps=25.0))
     got = bvh_world_joints(path, bvh_joint_order())  # bvhio
     hand = HandModel(shape)
-    want = np.stack([hand.joints(poses[f]) for f in HELD_FROM])
+    want = in_file_axes(np.stack([hand.joints(poses[f]) for f in HELD_FROM]))
     assert got.shape == (8, 21, 3)
-    assert np.abs(got - want).max() <= 0.1
+    assert np.abs(got - want).max() <= 1e-6  # m
     assert path.read_text() == bvh_text(poses[HELD_FROM], shape, fps=25.0)  # filled by hand
 
 

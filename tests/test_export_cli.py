@@ -95,9 +95,16 @@ def test_export_every_format_reads_back(tracks, side, tmp_path):
 
     res = _run("export", str(track), "--format", "bvh", "--out", str(tmp_path / "t.bvh"))
     assert res.exit_code == 0, res.output
-    got = bvh_world_joints(tmp_path / "t.bvh", bvh_joint_order())
-    want = np.stack([hand.joints(x) for x in poses])
-    assert np.abs(got - want).max() <= 0.1
+    got = bvh_world_joints(tmp_path / "t.bvh", bvh_joint_order())  # metres, y up
+    want = np.stack([hand.joints(x) for x in poses]) * [1.0, -1.0, -1.0] / 1000.0
+    assert np.abs(got - want).max() <= 1e-6
+    assert "Frame Time: 0.04000000" in (tmp_path / "t.bvh").read_text()  # 25 fps
+    res = _run("export", str(track), "--format", "bvh", "--out", str(tmp_path / "z.bvh"),
+               "--units", "mm", "--up", "z")  # fmt: skip
+    assert res.exit_code == 0, res.output
+    got = bvh_world_joints(tmp_path / "z.bvh", bvh_joint_order())  # mm, z up: x, z, -y
+    want = np.stack([hand.joints(x) for x in poses])[..., [0, 2, 1]] * [1.0, 1.0, -1.0]
+    assert np.abs(got - want).max() <= 1e-3
 
     res = _run("export", str(track), "--format", "gltf")  # default: into the track
     assert res.exit_code == 0, res.output
@@ -242,9 +249,9 @@ def test_export_and_view_a_track_with_frames_without_a_hand(tmp_path):
     people = [json.loads((tmp_path / "op" / f).read_text())["people"]
               for f in sorted(os.listdir(tmp_path / "op"))]  # fmt: skip
     assert len(people) == 8 and [p == [] for p in people] == [True, False, True, False] * 2
-    got = bvh_world_joints(tmp_path / "t.bvh", bvh_joint_order())
-    want = np.stack([HandModel(shape).joints(x) for x in held])
-    assert got.shape == (4, 21, 3) and np.abs(got - want).max() <= 0.1
+    got = bvh_world_joints(tmp_path / "t.bvh", bvh_joint_order())  # metres, y up
+    want = np.stack([HandModel(shape).joints(x) for x in held]) * [1.0, -1.0, -1.0] / 1000.0
+    assert got.shape == (4, 21, 3) and np.abs(got - want).max() <= 1e-6
     from handvar.export.gltf import mesh_vertices
 
     got = gltf_skinned_vertices(tmp_path / "t.glb", [0, 2])

@@ -70,9 +70,13 @@ _calib_option = click.option(
 @click.option("--corrective/--no-corrective", default=True, show_default=True,
               help="gltf: per-frame morph targets that make the skinned mesh exactly the "
               "model's (the file grows as frames squared; see docs/outputs.md).")  # fmt: skip
+@click.option("--units", type=click.Choice(("m", "cm", "mm")), default="m", show_default=True,
+              help="bvh: length unit of the file (Blender reads BVH as metres).")  # fmt: skip
+@click.option("--up", type=click.Choice(("y", "z")), default="y", show_default=True,
+              help="bvh: the file's up axis, turned from the camera frame (y down).")  # fmt: skip
 @_calib_option
 @_one_line_errors
-def export_command(track_dir, fmt, out, corrective, calib):
+def export_command(track_dir, fmt, out, corrective, units, up, calib):
     """Export the track saved in TRACK_DIR (by `handvar track --out`) to a standard format.
 
     Formats, frames, units and conventions: docs/outputs.md.
@@ -112,7 +116,7 @@ def export_command(track_dir, fmt, out, corrective, calib):
     elif fmt == "bvh":
         from handvar.export.bvh import write_bvh
 
-        write_bvh(out, track.poses, track.shape, fps=track.fps)
+        write_bvh(out, track.poses, track.shape, fps=track.fps, units=units, up=up)
     else:
         from handvar.export.gltf import write_glb
 

@@ -1,35 +1,45 @@
-"""The 26 parameters of a track as a BVH skeleton and its motion.
+"""The 26 parameters of a track as a BVH skeleton and its motion, for animation tools.
 
 The skeleton is built from the `HandShape` so that BVH forward kinematics gives G(x)
-exactly (`handvar.hand.kinematics`); every BVH channel is one of the model's angles or a
-constant of the shape:
+(`handvar.hand.kinematics`), in the file's units and axes. Every joint but the root
+lies away from its parent (no zero-length bone: a tool that draws a bone from a joint
+to its child, as Blender does, draws the hand):
 
-- ``ROOT hand`` (the palm, at the wrist): channels ``Xposition Yposition Zposition
-  Xrotation Yrotation Zrotation`` = ``tx ty tz rx ry rz``; BVH composes rotation
-  channels in the order listed, ``Rx(rx) Ry(ry) Rz(rz)``, which is the model's
-  ``world_from_hand``.
-- per digit, ``JOINT <digit>_base`` at the digit's base joint (``OFFSET`` =
-  `HandShape.bases`), channels ``Zrotation Xrotation Yrotation`` =
-  ``(s_k a_k + γ_k, α_k, β_k)``: the abduction ``Rz(s_k a_k)`` followed by the digit's
-  rest orientation ``B_k = Rz(γ_k) Rx(α_k) Ry(β_k)`` (`HandShape.base_rotations`, whose
-  Z-X-Y Euler angles are constants of the shape).
-- below it the digit's three bones, ``JOINT <bone>`` with ``OFFSET 0 L 0`` along the
-  parent bone (0 for the first) and channels ``Zrotation Xrotation Yrotation`` =
-  ``(0, f, 0)``: the flexion about the bone's x axis; an ``End Site`` at the fingertip.
+- ``ROOT forearm``: the end of the forearm, `FOREARM_STUB` palm lengths behind the
+  wrist along the hand's y axis, so that its bone ends at the wrist. Channels
+  ``Xposition Yposition Zposition Xrotation Yrotation Zrotation``: its position and the
+  palm's orientation in the file's axes. The file's axes are the camera frame turned
+  by a rotation C about x (`UP_FROM_CAMERA`: 180° for y up, −90° for z up), and
+  ``C Rx(rx) Ry(ry) Rz(rz) = Rx(rx + θ) Ry(ry) Rz(rz)``, so the rotation channels are
+  ``rx + θ, ry, rz`` (BVH composes rotation channels in the order listed).
+- per digit, a joint at the wrist (``<finger>_metacarpal``; ``thumb_carpal`` for the
+  thumb, whose metacarpal is the model's first thumb bone), ``OFFSET 0 stub 0``,
+  channels ``Yrotation Zrotation Xrotation`` always 0: the bone from the wrist to the
+  digit's base joint (CMC for the thumb, MCP for the fingers).
+- the digit's first bone (`BONES`: ``thumb_metacarpal``, ``index_proximal``, …) at its
+  base joint, ``OFFSET`` = `HandShape.bases`, channels ``Yrotation Zrotation
+  Xrotation`` = the Y-Z-X Euler angles of the model's ``Rz(s_k a_k) B_k Rx(f1)``
+  (abduction, rest orientation `HandShape.base_rotations`, flexion); for a finger,
+  whose ``B_k = Rz(γ_k)``, that is ``0, s_k a_k + γ_k, f1``. The Y-Z-X order keeps the
+  middle angle within ±45° over the joint limits, far from gimbal lock; the angles are
+  unwrapped over the frames so that a tool interpolating them does not spin.
+- the second and third bones, ``OFFSET 0 L 0`` along their parent, channels
+  ``0, 0, f`` (the flexion about x); an ``End Site`` at the fingertip.
 
-Lengths in mm, angles in degrees. The BVH joints' world positions are then: the root
-at the wrist, each ``<digit>_base`` (and its first bone) at the CMC/MCP joint, the
-second and third bones at the next two joints, the end site at the tip: the 21 points
-of G(x) (`bvh_joint_order`).
+The BVH joints' positions are then: the wrist joints at the wrist, each first bone at
+the digit's CMC/MCP joint, the next two at the next joints, the end site at the tip:
+the 21 points of G(x) (`bvh_joint_order`), times `UNITS` and turned by C.
 
-BVH has a value of every channel on every frame: a frame without a hand (its pose NaN
-as a whole) holds the last tracked pose, or before the first tracked frame the first
-one (`handvar.export.absent.held_poses`), so the motion keeps the recording's frames.
+BVH has a value of every channel on every frame and no way to hide the hand: a frame
+without a hand (its pose NaN as a whole) holds the last tracked pose, or before the
+first tracked frame the first one (`handvar.export.absent.held_poses`), so the motion
+keeps the recording's frames and times.
 """
 
 from __future__ import annotations
 
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -39,55 +49,89 @@ from handvar.atomic import write_atomic
 from handvar.export.absent import held_poses
 from handvar.hand.anthropometry import BONES, HandShape, bone_index
 from handvar.params import DIGITS
-from handvar.validate import as_instance
+from handvar.validate import as_instance, one_of
 
-__all__ = ["bvh_joint_order", "bvh_text", "write_bvh"]
+__all__ = ["FOREARM_STUB", "UNITS", "UP_FROM_CAMERA", "bvh_joint_order", "bvh_text",
+           "write_bvh"]  # fmt: skip
 
-_ROOT = "hand"
+#: File units per millimetre for ``units``. Blender's BVH importer reads the numbers as
+#: metres at its default scale 1, so "m" shows a hand ~0.18 m long.
+UNITS = {"mm": 1.0, "cm": 0.1, "m": 1e-3}
+#: The file's axes from the camera frame (x right, y down, z forward) for ``up``: a
+#: rotation about x by 180° (y up: x, −y, −z) or by −90° (z up: x, z, −y), proper and
+#: right-handed. The camera's viewing direction becomes −z (y up) or +y (z up): the
+#: front view of Blender (which imports a y-up file with −Z forward) looks along it.
+UP_FROM_CAMERA = {
+    "y": np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]]),
+    "z": np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]]),
+}
+_UP_ANGLE = {"y": 180.0, "z": -90.0}  # UP_FROM_CAMERA[up] = Rx(_UP_ANGLE[up])
+#: Length of the forearm stub, the root's bone, in palm lengths (wrist → middle MCP).
+FOREARM_STUB = 0.3
+_ROOT = "forearm"
 _DEFAULT_FPS = 30.0
+_ROT = "CHANNELS 3 Yrotation Zrotation Xrotation"
 
 
-def _base_name(digit: int) -> str:
-    return f"{DIGITS[digit]}_base"
+def _wrist_name(digit: int) -> str:
+    return "thumb_carpal" if digit == 0 else f"{DIGITS[digit]}_metacarpal"
 
 
 def bvh_joint_order() -> list[str]:
     """Name of the BVH joint (or ``<bone>_end`` for an end site) at each of the 21
-    keypoints of G(x), in the order of `JOINTS`.
+    keypoints of G(x), in the order of `JOINTS`; the wrist is the middle finger's
+    metacarpal joint (the five wrist joints all lie there).
 
     Examples
     --------
-    >>> bvh_joint_order()[:5]
-    ['hand', 'thumb_base', 'thumb_proximal', 'thumb_distal', 'thumb_distal_end']
+    >>> bvh_joint_order()[:6]
+    ['middle_metacarpal', 'thumb_metacarpal', 'thumb_proximal', 'thumb_distal', \
+'thumb_distal_end', 'index_proximal']
     """
-    names = [_ROOT]
+    names = [_wrist_name(2)]
     for k in range(5):
         bones = [BONES[bone_index(k, level)] for level in range(3)]
-        names += [_base_name(k), bones[1], bones[2], f"{bones[2]}_end"]
+        names += [*bones, f"{bones[2]}_end"]
     return names
 
 
-def _euler_zxy(matrices: np.ndarray) -> np.ndarray:
-    """Angles (γ, α, β), degrees, with ``matrix = Rz(γ) Rx(α) Ry(β)``."""
-    return Rotation.from_matrix(matrices).as_euler("ZXY", degrees=True)
+def _first_bone_angles(poses: np.ndarray, shape: HandShape, digit: int) -> np.ndarray:
+    """(T, 3) the Y, Z, X angles (degrees, unwrapped over frames) of the digit's first
+    bone, ``Rz(s a) B Rx(f1) = Ry(Y) Rz(Z) Rx(X)``."""
+    abd = Rotation.from_euler("z", shape.abduction_sign[digit] * poses[:, 6 + digit, None],
+                              degrees=True)  # fmt: skip
+    flex = Rotation.from_euler("x", poses[:, 11 + 3 * digit, None], degrees=True)
+    rot = abd * Rotation.from_matrix(shape.base_rotations[digit]) * flex
+    with warnings.catch_warnings():
+        # at the lock the angles returned still compose to `rot` (the first takes the
+        # sum); the middle angle stays within ±45° over the joint limits anyway
+        warnings.filterwarnings("ignore", message="Gimbal lock", category=UserWarning)
+        angles = rot.as_euler("YZX", degrees=True)
+    return np.unwrap(angles, period=360.0, axis=0)
 
 
-def _fmt(values) -> str:
-    return " ".join(f"{v:.6f}" for v in values)
+def _fmt(values, decimals: int) -> str:
+    return " ".join(f"{v:.{decimals}f}" for v in values)
 
 
-def bvh_text(poses, shape: HandShape, *, fps: float | None = None) -> str:
+def bvh_text(poses, shape: HandShape, *, fps: float | None = None, units: str = "m",
+             up: str = "y") -> str:  # fmt: skip
     """The BVH file of a track (module docstring).
 
     Parameters
     ----------
     poses : (T, 26) array_like
-        mm and degrees; NaN as a whole on a frame without a hand, which then holds a
-        tracked pose (`held_poses`).
+        mm and degrees, camera (world) frame; NaN as a whole on a frame without a hand,
+        which then holds a tracked pose (`held_poses`).
     shape : HandShape
         The tracked hand (either side).
     fps : float, keyword-only, optional
-        Frame rate of the motion; 30 when unknown.
+        Frame rate of the recording: ``Frame Time`` is 1 / fps; 30 when unknown.
+    units : {"m", "cm", "mm"}, keyword-only
+        Length unit of the file (`UNITS`); metres by default, as Blender reads BVH.
+    up : {"y", "z"}, keyword-only
+        The file's up axis (`UP_FROM_CAMERA`); y by default, which Blender, Maya and
+        MotionBuilder import upright.
 
     Returns
     -------
@@ -96,52 +140,61 @@ def bvh_text(poses, shape: HandShape, *, fps: float | None = None) -> str:
     Raises
     ------
     ValueError
-        If no frame has a hand, or a pose is NaN in part.
+        If no frame has a hand, a pose is NaN in part, or an option is unknown.
     """
     poses = held_poses(poses)
     as_instance(shape, HandShape, "shape")
+    scale = UNITS[one_of(units, tuple(UNITS), "units")]
+    turn = UP_FROM_CAMERA[one_of(up, tuple(UP_FROM_CAMERA), "up")]
     fps = _DEFAULT_FPS if fps is None else float(fps)
     if not (np.isfinite(fps) and fps > 0):
         raise ValueError(f"fps: expected a positive frame rate; got {fps}")
-    rest = _euler_zxy(shape.base_rotations)  # (5, 3): γ, α, β
-    sign = shape.abduction_sign
+    digits = 6 + round(float(-np.log10(scale)))  # lengths to a micron in any unit
+    stub = FOREARM_STUB * float(np.linalg.norm(shape.bases[2]))  # palm length: wrist-MCP
+
+    def offset(pad: str, xyz) -> str:
+        return f"{pad}OFFSET {_fmt(np.asarray(xyz, float) * scale, digits)}"
+
     root = "CHANNELS 6 Xposition Yposition Zposition Xrotation Yrotation Zrotation"
-    lines = ["HIERARCHY", f"ROOT {_ROOT}", "{", "  OFFSET 0.000000 0.000000 0.000000", f"  {root}"]
-    rot = "CHANNELS 3 Zrotation Xrotation Yrotation"
+    lines = ["HIERARCHY", f"ROOT {_ROOT}", "{", offset("  ", (0.0, 0.0, 0.0)), f"  {root}"]
     for k in range(5):
-        lines += ["  JOINT " + _base_name(k), "  {", f"    OFFSET {_fmt(shape.bases[k])}",
-                  f"    {rot}"]  # fmt: skip
+        lines += ["  JOINT " + _wrist_name(k), "  {", offset("    ", (0.0, stub, 0.0)),
+                  f"    {_ROT}"]  # fmt: skip
         depth = 2
         for level in range(3):
             pad = "  " * depth
-            offset = 0.0 if level == 0 else shape.segments[k, level - 1]
+            at = shape.bases[k] if level == 0 else (0.0, shape.segments[k, level - 1], 0.0)
             lines += [f"{pad}JOINT {BONES[bone_index(k, level)]}", pad + "{",
-                      f"{pad}  OFFSET {_fmt((0.0, offset, 0.0))}", f"{pad}  {rot}"]  # fmt: skip
+                      offset(pad + "  ", at), f"{pad}  {_ROT}"]  # fmt: skip
             depth += 1
         pad = "  " * depth
-        tip = _fmt((0.0, shape.segments[k, 2], 0.0))
-        lines += [f"{pad}End Site", pad + "{", f"{pad}  OFFSET {tip}", pad + "}"]
-        for level in range(3, -1, -1):
-            lines.append("  " * (level + 1) + "}")
+        lines += [f"{pad}End Site", pad + "{",
+                  offset(pad + "  ", (0.0, shape.segments[k, 2], 0.0)), pad + "}"]  # fmt: skip
+        for level in range(4, 0, -1):
+            lines.append("  " * level + "}")
     lines.append("}")
 
     n = poses.shape[0]
+    palm = Rotation.from_euler("XYZ", poses[:, 3:6], degrees=True).as_matrix()
+    forearm = poses[:, 0:3] - stub * palm[:, :, 1]  # the forearm's end: wrist − stub·y
     values = np.zeros((n, 6 + 5 * 4 * 3))
-    values[:, :6] = poses[:, :6]
+    values[:, 0:3] = forearm @ turn.T * scale
+    values[:, 3:6] = poses[:, 3:6] + [_UP_ANGLE[up], 0.0, 0.0]
     for k in range(5):
-        col = 6 + 12 * k
-        values[:, col] = sign[k] * poses[:, 6 + k] + rest[k, 0]
-        values[:, col + 1] = rest[k, 1]
-        values[:, col + 2] = rest[k, 2]
-        for level in range(3):
-            values[:, col + 3 * (level + 1) + 1] = poses[:, 11 + 3 * k + level]
+        col = 6 + 12 * k + 3  # after the wrist joint's three zeros
+        values[:, col : col + 3] = _first_bone_angles(poses, shape, k)
+        for level in (1, 2):
+            values[:, col + 3 * level + 2] = poses[:, 11 + 3 * k + level]  # X: flexion
     lines += ["MOTION", f"Frames: {n}", f"Frame Time: {1.0 / fps:.8f}"]
-    lines += [_fmt(row) for row in values]
+    lines += [
+        " ".join([_fmt(row[:3], digits), _fmt(row[3:], 6)]) for row in values
+    ]  # fmt: skip
     return "\n".join(lines) + "\n"
 
 
-def write_bvh(path: str | os.PathLike, poses, shape: HandShape, *, fps=None) -> Path:
-    """Write the BVH of a track (`bvh_text`) to `path`, atomically."""
-    text = bvh_text(poses, shape, fps=fps)
+def write_bvh(path: str | os.PathLike, poses, shape: HandShape, *, fps=None, units="m",
+              up="y") -> Path:  # fmt: skip
+    """Write the BVH of a track (`bvh_text`, same options) to `path`, atomically."""
+    text = bvh_text(poses, shape, fps=fps, units=units, up=up)
     write_atomic(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
     return Path(path)
