@@ -1,7 +1,8 @@
 """Independent readers of the exported files, for round-trip checks.
 
 The glTF reader takes the structure from pygltflib and does standard linear blend
-skinning itself (the glTF 2.0 specification's formula); the BVH reader takes bvhio's
+skinning itself (the glTF 2.0 specification's formula, every JOINTS_n/WEIGHTS_n set,
+node scale included); the BVH reader takes bvhio's
 forward kinematics; the viewer page's figure is decoded from its script with `json`.
 None uses handvar's writers or kinematics.
 """
@@ -40,36 +41,31 @@ def accessor(gltf, blob: bytes, index: int) -> np.ndarray:
     return out
 
 
-def _quat_matrix(q) -> np.ndarray:
-    x, y, z, w = np.asarray(q, float) / np.linalg.norm(q)
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ])  # fmt: skip
+def _quat_matrices(q) -> np.ndarray:
+    """(..., 3, 3) rotation matrices of (..., 4) quaternions x, y, z, w."""
+    q = np.asarray(q, float)
+    x, y, z, w = np.moveaxis(q / np.linalg.norm(q, axis=-1, keepdims=True), -1, 0)
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
+    ], -2)  # fmt: skip
 
 
-def _world_matrices(local_t: dict, local_r: dict, parent: dict) -> dict:
-    """Each node's global matrix: its parent's times its own T · R."""
-    world: dict = {}
-
-    def global_(i):
-        if i not in world:
-            m = np.eye(4)
-            m[:3, :3] = _quat_matrix(local_r[i])
-            m[:3, 3] = local_t[i]
-            world[i] = m if i not in parent else global_(parent[i]) @ m
-        return world[i]
-
-    for i in local_t:
-        global_(i)
-    return world
+def _sample(times: np.ndarray, values: np.ndarray, t: np.ndarray, how: str) -> np.ndarray:
+    """A sampler's output at times `t`: STEP holds the last key at or before t; LINEAR
+    is exact at the keys (where these readers look) and blends linearly between."""
+    if how == "STEP":
+        return values[np.clip(np.searchsorted(times, t, side="right") - 1, 0, None)]
+    return np.stack([np.interp(t, times, values[:, c]) for c in range(values.shape[1])], -1)
 
 
-def gltf_skinned_vertices(path, frames) -> dict[int, np.ndarray]:
-    """Skinned vertex positions (V, 3), in the file's units, at the animation's keys
-    `frames`: node transforms from the animation, then v = Σ w_j (N_j · IBM_j) (p + Σ
-    μ_i Δ_i) over the JOINTS_n/WEIGHTS_n sets."""
+def gltf_skinned_vertices(path, frames, *, first_set: bool = False) -> dict[int, np.ndarray]:
+    """Skinned vertex positions (V, 3), in the file's units and axes, at the animation's
+    keys `frames` (indices into its longest sampler input): node transforms T · R · S
+    from the animation, then v = Σ w_j (N_j · IBM_j) (p + Σ μ_i Δ_i) over every
+    JOINTS_n/WEIGHTS_n set (the glTF 2.0 specification's skinning). With `first_set`,
+    as a reader that takes four influences only: JOINTS_0/WEIGHTS_0, renormalised."""
     import pygltflib
 
     gltf = pygltflib.GLTF2().load(str(path))
@@ -78,41 +74,57 @@ def gltf_skinned_vertices(path, frames) -> dict[int, np.ndarray]:
     attrs = prim.attributes
     position = accessor(gltf, blob, attrs.POSITION)
     sets = []
-    for s in range(4):
-        j, w = getattr(attrs, f"JOINTS_{s}", None), getattr(attrs, f"WEIGHTS_{s}", None)
-        if j is None:
-            break
-        sets.append((accessor(gltf, blob, j).astype(int), accessor(gltf, blob, w)))
+    while getattr(attrs, f"JOINTS_{len(sets)}", None) is not None:
+        s = len(sets)
+        sets.append((accessor(gltf, blob, getattr(attrs, f"JOINTS_{s}")).astype(int),
+                     accessor(gltf, blob, getattr(attrs, f"WEIGHTS_{s}"))))  # fmt: skip
+    if first_set:
+        sets = [(sets[0][0], sets[0][1] / sets[0][1].sum(axis=1, keepdims=True))]
     targets = [accessor(gltf, blob, t["POSITION"]) for t in (prim.targets or [])]
     skin = gltf.skins[0]
     ibm = accessor(gltf, blob, skin.inverseBindMatrices).reshape(-1, 4, 4).transpose(0, 2, 1)
     anim = gltf.animations[0]
+    inputs = [accessor(gltf, blob, s.input)[:, 0] for s in anim.samplers]
+    t = max(inputs, key=len)[list(frames)]
     mesh_node = next(i for i, n in enumerate(gltf.nodes) if n.mesh is not None)
     parent = {c: i for i, n in enumerate(gltf.nodes) for c in (n.children or [])}
+    n_f = len(t)
+    trs = {i: {"translation": np.tile(n.translation or [0.0, 0.0, 0.0], (n_f, 1)),
+               "rotation": np.tile(n.rotation or [0.0, 0.0, 0.0, 1.0], (n_f, 1)),
+               "scale": np.tile(n.scale or [1.0, 1.0, 1.0], (n_f, 1))}
+           for i, n in enumerate(gltf.nodes)}  # fmt: skip
+    morph = np.zeros((n_f, len(targets)))
+    for ch in anim.channels:
+        sampler = anim.samplers[ch.sampler]
+        values = accessor(gltf, blob, sampler.output)
+        if ch.target.path == "weights":
+            values = values.reshape(len(inputs[ch.sampler]), -1)
+        got = _sample(inputs[ch.sampler], values, t, sampler.interpolation)
+        if ch.target.path == "weights" and ch.target.node == mesh_node:
+            morph = got
+        elif ch.target.path != "weights":
+            trs[ch.target.node][ch.target.path] = got
+    world: dict = {}
+
+    def global_(i):  # (F, 4, 4) node matrices: the parent's times this node's T R S
+        if i not in world:
+            m = np.zeros((n_f, 4, 4))
+            m[:, :3, :3] = _quat_matrices(trs[i]["rotation"]) * trs[i]["scale"][:, None, :]
+            m[:, :3, 3] = trs[i]["translation"]
+            m[:, 3, 3] = 1.0
+            world[i] = m if i not in parent else global_(parent[i]) @ m
+        return world[i]
+
+    skinning = np.stack([global_(j) @ ibm[k] for k, j in enumerate(skin.joints)], axis=1)
     out = {}
-    for f in frames:
-        local_t = {i: np.array(n.translation or [0, 0, 0], float) for i, n in enumerate(gltf.nodes)}
-        local_r = {i: np.array(n.rotation or [0, 0, 0, 1], float) for i, n in enumerate(gltf.nodes)}
-        morph = np.zeros(len(targets))
-        for ch in anim.channels:
-            values = accessor(gltf, blob, anim.samplers[ch.sampler].output)
-            node, path_ = ch.target.node, ch.target.path
-            if path_ == "translation":
-                local_t[node] = values[f]
-            elif path_ == "rotation":
-                local_r[node] = values[f]
-            elif path_ == "weights" and node == mesh_node:
-                morph = values.reshape(-1, len(targets))[f]
-        world = _world_matrices(local_t, local_r, parent)
-        skinning = np.stack([world[j] @ ibm[k] for k, j in enumerate(skin.joints)])
-        p = position + sum((m * d for m, d in zip(morph, targets, strict=True)),
+    for i, f in enumerate(frames):
+        p = position + sum((m * d for m, d in zip(morph[i], targets, strict=True)),
                            np.zeros_like(position))  # fmt: skip
-        ph = np.column_stack([p, np.ones(len(p))])
-        v = np.zeros((len(p), 4))
+        blended = np.zeros((len(p), 4, 4))
         for joints, weights in sets:
             for c in range(4):
-                v += weights[:, c, None] * np.einsum("vij,vj->vi", skinning[joints[:, c]], ph)
-        out[f] = v[:, :3]
+                blended += weights[:, c, None, None] * skinning[i, joints[:, c]]
+        out[f] = np.einsum("vij,vj->vi", blended, np.column_stack([p, np.ones(len(p))]))[:, :3]
     return out
 
 

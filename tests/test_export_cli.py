@@ -110,9 +110,12 @@ def test_export_every_format_reads_back(tracks, side, tmp_path):
     assert res.exit_code == 0, res.output
     from handvar.export.gltf import mesh_vertices
 
-    got = gltf_skinned_vertices(track / "track.glb", [0, 3])
-    want = mesh_vertices(shape, poses[[0, 3]])
-    assert np.abs(got[3] * 1000.0 - want[1]).max() <= 0.5
+    got = gltf_skinned_vertices(track / "track.glb", [0, 3])  # metres, y up
+    want = mesh_vertices(shape, poses[[0, 3]]) * [1.0, -1.0, -1.0] / 1000.0
+    assert max(np.abs(got[f] - want[i]).max() for i, f in enumerate([0, 3])) <= 1e-6
+    import pygltflib
+
+    assert pygltflib.GLTF2().load(str(track / "track.glb")).asset.extras["fps"] == 25.0
 
     res = _run("view", str(track), "--out", str(tmp_path / "v.html"), "--calib", rig)
     assert res.exit_code == 0, res.output
@@ -228,8 +231,9 @@ def test_bad_inputs_one_line_exit_2_nothing_damaged(tracks, tmp_path):
 
 
 def test_export_and_view_a_track_with_frames_without_a_hand(tmp_path):
-    """No hand on frames 0 and 2 of 4: the keypoint files have no points there, BVH and
-    glTF hold the tracked pose (frame 1 for both), the viewer keeps every frame."""
+    """No hand on frames 0 and 2 of 4: the keypoint files have no points there, BVH
+    holds the tracked pose (frame 1 for both), glTF hides the hand, the viewer keeps
+    every frame."""
     track = _saved_track(tmp_path, "right", absent=(0, 2))
     rig = str(tmp_path / "rig.yml")
     truth = np.load(track / "track.npz")["poses"]
@@ -254,9 +258,12 @@ def test_export_and_view_a_track_with_frames_without_a_hand(tmp_path):
     assert got.shape == (4, 21, 3) and np.abs(got - want).max() <= 1e-6
     from handvar.export.gltf import mesh_vertices
 
-    got = gltf_skinned_vertices(tmp_path / "t.glb", [0, 2])
-    want = mesh_vertices(shape, held[[0, 2]])
-    assert max(np.abs(got[f] * 1000.0 - want[i]).max() for i, f in enumerate([0, 2])) <= 0.5
+    got = gltf_skinned_vertices(tmp_path / "t.glb", range(4))  # metres, y up
+    want = mesh_vertices(shape, held) * [1.0, -1.0, -1.0] / 1000.0
+    for f in (1, 3):  # tracked: the model's mesh
+        assert np.abs(got[f] - want[f]).max() <= 1e-6
+    for f in (0, 2):  # no hand: hidden, every vertex at the held pose's wrist
+        assert np.abs(got[f] - held[f, :3] * [1.0, -1.0, -1.0] / 1000.0).max() <= 1e-7
 
     res = _run("view", str(track), "--out", str(tmp_path / "v.html"), "--calib", rig)
     assert res.exit_code == 0 and "4 frames (2 without a hand)" in res.output, res.output

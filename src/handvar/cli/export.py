@@ -68,8 +68,9 @@ _calib_option = click.option(
               help="Output file (a directory for openpose) [default: in TRACK_DIR: "
               + ", ".join(f"{k} → {v}" for k, v in FORMATS.items()) + "].")  # fmt: skip
 @click.option("--corrective/--no-corrective", default=True, show_default=True,
-              help="gltf: per-frame morph targets that make the skinned mesh exactly the "
-              "model's (the file grows as frames squared; see docs/outputs.md).")  # fmt: skip
+              help="gltf: helper joints that make the skinned mesh exactly the model's (up "
+              "to 16 influences a vertex; without them plain skinning, off by up to 7 mm; "
+              "see docs/outputs.md).")  # fmt: skip
 @click.option("--units", type=click.Choice(("m", "cm", "mm")), default="m", show_default=True,
               help="bvh: length unit of the file (Blender reads BVH as metres).")  # fmt: skip
 @click.option("--up", type=click.Choice(("y", "z")), default="y", show_default=True,

@@ -2,30 +2,43 @@
 
 Layout (docs/outputs.md):
 
-- one node per bone of `BONES` (node i is bone i, node 0 the palm at the wrist) and one
-  per fingertip; a node's local transform is its bone in its parent's frame, exactly as
-  `handvar.hand.kinematics` composes them: the palm ``T(t) Rx(rx) Ry(ry) Rz(rz)``, a
-  digit's first bone ``T(b_k) Rz(s_k a_k) B_k Rx(f1)``, the next ones
-  ``T(0, L, 0) Rx(f)``, the tip ``T(0, L3, 0)``;
-- a skin over the 16 bone nodes whose inverse bind matrices are the bones' rest frames
-  (all 26 parameters 0) inverted, and the mesh (`handvar.hand.mesh`) in that rest pose
-  with its weights (``JOINTS_0/WEIGHTS_0``, more sets if a vertex has more than four);
-- one animation with a key per frame: the palm's translation and every bone's rotation
-  (quaternions), LINEAR interpolation.
+- **Axes and units**: glTF's, metres and y up. The camera (world) frame, x right, y
+  down, z forward, is turned by 180° about x (`Y_UP`: x, −y, −z), a proper rotation;
+  the camera then looks along −z, as a glTF camera does.
+- **Nodes**: one per bone of `BONES` (node i is bone i, node 0 the palm at the wrist),
+  one per fingertip, then, with ``corrective``, six helper joints per bone (below), and
+  the mesh node. A node's local transform is its bone in its parent's frame as
+  `handvar.hand.kinematics` composes them: the palm ``Y_UP T(t) Rx(rx) Ry(ry) Rz(rz)``,
+  a digit's first bone ``T(b_k) Rz(s_k a_k) B_k Rx(f1)``, the next ones
+  ``T(0, L, 0) Rx(f)``, the tip ``T(0, L3, 0)``.
+- **Skin**: the bones, the tips and the helpers; inverse bind matrices are the inverses
+  of their rest frames (all 26 parameters 0, the hand frame then the camera frame,
+  turned by `Y_UP`). The mesh (`handvar.hand.mesh`) is stored in that rest pose with
+  normals and a skin-coloured metallic-roughness material.
+- **Animation**: a key per frame at ``i / fps`` seconds: the palm's translation and
+  every bone's rotation (quaternions, signs chosen for the shortest path), LINEAR. The
+  frame rate is also in the asset's and the scene's ``extras`` (``fps``).
+- **Frames without a hand** (pose NaN as a whole): the palm's scale is 0 there (a STEP
+  channel keyed where the hand comes and goes), which collapses the skinned mesh to a
+  point, so the hand is hidden; its bones hold the last tracked pose (before the first
+  tracked frame, the first one, `handvar.export.absent.held_poses`).
 
-Units are metres (glTF's), the frame is the world frame of the track's rig, unchanged.
-A frame without a hand (its pose NaN as a whole) keeps its key, holding the last
-tracked pose, or before the first tracked frame the first one
-(`handvar.export.absent.held_poses`).
-
-The model's mesh is not exactly linear blend skinning: a vertex's coordinates in each
-of its bones come from a per-bone registration (`SkinnedMesh`), not from one rest
-position. Standard skinning of the rest mesh is therefore off by up to several mm near
-the knuckles (`benchmarks/export_roundtrip.py` prints it); with ``corrective=True``
-(default) each frame carries a morph target, the rest-pose displacement that makes
-standard skinning give the model's vertices at that frame, and the animation switches
-it on at its key (weights one-hot per frame). The morph targets are sparse (only the
-vertices that need one) but the weights grow as T².
+The model's mesh is not plain linear blend skinning: a vertex's coordinates in each of
+its bones come from a per-bone registration (`SkinnedMesh`), ``v = Σ_b w_b (R_b l_b +
+o_b)``, while glTF skins one rest position p: ``Σ_b w_b (R_b q_b + o_b)`` with ``q_b``
+p in bone b's rest frame. The difference ``Σ_b w_b R_b d_b``, ``d_b = l_b − q_b``, is
+rotated with the bones, so it is carried by joints that move with them: helper joint
+(b, ±axis) is a child of bone b with no transform of its own and inverse bind matrix
+``T(±s e_axis) · IBM_b``, so that it skins p to ``R_b (q_b ± s e_axis) + o_b``. Moving
+weight ``u = w_b |d_b,axis| / s`` from bone b to the helper on the side of the sign of
+``d_b,axis``, for each axis, adds exactly ``w_b R_b d_b``: the file's skinned vertices
+are the model's at every pose, to float32 rounding, with a fixed skin whatever the
+number of frames (the file grows linearly with them). ``s`` (`_helper_reach`) is at
+least the largest ``|d_b|₁``, so no bone's weight goes negative. p is the model's rest
+mesh (the blend of the ``l_b``). The first ``JOINTS_0`` / ``WEIGHTS_0`` set holds the
+vertex's bones, the next three its helpers (a vertex has up to 16 influences): a
+reader that takes the first set alone skins the rest mesh by its bones, off by up to
+7 mm near the knuckles (as plain skinning, ``corrective=False``).
 
 A left hand: the package's mesh is a right hand; its mirror image in the hand frame's
 y–z plane (`HandShape.mirrored`) is exported, with the triangles' winding reversed so
@@ -44,18 +57,25 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from handvar.atomic import write_atomic
-from handvar.export.absent import held_poses
+from handvar.export.absent import hand_frames, held_poses
 from handvar.hand.anthropometry import BONES, HandShape, bone_index
 from handvar.hand.kinematics import HandModel, world_from_hand_rotation
 from handvar.params import DIGITS, N_PARAMS
 from handvar.validate import as_array, as_instance
 
-__all__ = ["glb_bytes", "mesh_vertices", "rest_mesh", "write_glb"]
+__all__ = ["SKIN_COLOUR", "Y_UP", "glb_bytes", "mesh_vertices", "rest_mesh", "write_glb"]
 
 _M = 1e-3  # metres per mm
 _DEFAULT_FPS = 30.0
 _FLOAT, _UINT, _USHORT = 5126, 5125, 5123
 _MIRROR = np.array([-1.0, 1.0, 1.0])
+#: glTF's axes (y up) from the camera frame (x right, y down, z forward): 180° about x.
+Y_UP = np.diag([1.0, -1.0, -1.0])
+#: Base colour of the hand's material, linear RGBA (sRGB about 230, 182, 155: skin).
+SKIN_COLOUR = (0.79, 0.48, 0.34, 1.0)
+#: The least helper reach s, mm: longer than any bone, so that Blender's importer,
+#: which sizes a bone by its nearest child joint, still sizes it by the next bone.
+_MIN_REACH = 100.0
 
 
 def _mesh_model(shape: HandShape) -> HandModel:
@@ -103,8 +123,73 @@ def rest_mesh(shape: HandShape, *, model: HandModel | None = None):
     return vertices, np.ascontiguousarray(triangles), model.mesh.skinned._dense_weight
 
 
+def _bone_points(shape: HandShape, model: HandModel) -> np.ndarray:
+    """(V, 16, 3) each vertex in each bone's frame (the model's l_b), mm; a left hand's
+    are the right hand's mirrored in x, since its bone frames are the mirror images."""
+    local = model.mesh.skinned._dense_local  # the registration (`SkinnedMesh`)
+    return local * _MIRROR if shape.side == "left" else local
+
+
+def _rest_skin(shape: HandShape, model: HandModel, corrective: bool):
+    """The rest mesh p (V, 3) mm, triangles, weights (V, 16), the corrections d (V, 16, 3)
+    mm in bone frames (module docstring; 0 without `corrective`) and the bones' rest
+    frames."""
+    p, triangles, weights = rest_mesh(shape, model=model)
+    R0, o0 = HandModel(shape).bone_frames(np.zeros(N_PARAMS))  # rest: hand = world
+    d = np.zeros((*weights.shape, 3))
+    if corrective:
+        q = np.einsum("bji,vbj->vbi", R0, p[:, None] - o0)  # p in each bone's rest frame
+        d = np.where(weights[..., None] > 0, _bone_points(shape, model) - q, 0.0)
+    return p, triangles, weights, d, R0, o0
+
+
+def _helper_reach(d: np.ndarray) -> float:
+    """The helpers' offset s, mm: at least `_MIN_REACH` and the largest ``|d_b|₁``."""
+    return float(max(_MIN_REACH, np.ceil(np.abs(d).sum(axis=-1).max())))
+
+
+def _influences(weights: np.ndarray, d: np.ndarray, reach: float, first_helper: int):
+    """Per vertex the joints and weights of the bones (first set) and of the helpers.
+
+    Helper (b, axis, side) is skin joint ``first_helper + 6 b + 2 axis + side`` (side 0
+    for +, 1 for −). Returns dense (V, n_joints) weights: bones with ``w_b − Σ u``,
+    helpers with ``u = w_b |d_b,axis| / s``.
+    """
+    n_v, n_b = weights.shape
+    u = weights[..., None] * np.abs(d) / reach  # (V, 16, 3)
+    dense = np.zeros((n_v, first_helper + 6 * n_b))
+    dense[:, :n_b] = weights - u.sum(axis=2)
+    side = (d < 0).astype(int)
+    cols = first_helper + 6 * np.arange(n_b)[:, None] + 2 * np.arange(3) + side  # (V, 16, 3)
+    np.put_along_axis(dense, cols.reshape(n_v, -1), u.reshape(n_v, -1), axis=1)
+    return dense
+
+
+def _weight_sets(dense: np.ndarray, n_bones: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """JOINTS_n / WEIGHTS_n pairs: the bones first (set 0), then the helpers, each set
+    four influences by decreasing weight, unused slots joint 0 weight 0; the weights
+    rounded to float32 so that each vertex's sum is 1 to float32 rounding."""
+    groups = [dense[:, :n_bones], dense[:, n_bones:]]
+    sets = []
+    for g, offset in zip(groups, (0, n_bones), strict=True):
+        if not (g > 0).any():
+            continue
+        order = np.argsort(-g, axis=1, kind="stable")
+        n_sets = -(-int((g > 0).sum(axis=1).max()) // 4)
+        for s in range(n_sets):
+            idx = order[:, 4 * s : 4 * s + 4]
+            w = np.take_along_axis(g, idx, axis=1)
+            sets.append((np.where(w > 0, idx + offset, 0), w))
+    weights = np.concatenate([w for _, w in sets], axis=1).astype(np.float32)
+    # put the float32 rounding of the sum on the largest weight (set 0, slot 0)
+    weights[:, 0] += np.float32(1.0) - weights.sum(axis=1, dtype=np.float64).astype(np.float32)
+    return [(j.astype(np.uint16), weights[:, 4 * i : 4 * i + 4])
+            for i, (j, _) in enumerate(sets)]  # fmt: skip
+
+
 def _local_rotations(poses: np.ndarray, shape: HandShape) -> np.ndarray:
-    """(T, 16, 3, 3) each bone's rotation in its parent's frame (module docstring)."""
+    """(T, 16, 3, 3) each bone's rotation in its parent's frame (module docstring); the
+    palm's in the camera frame."""
     n = poses.shape[0]
     rot = np.empty((n, len(BONES), 3, 3))
     rot[:, 0] = Rotation.from_euler("XYZ", poses[:, 3:6], degrees=True).as_matrix()
@@ -142,12 +227,31 @@ def _parents() -> list[int]:
 
 
 def _quaternions(matrices: np.ndarray) -> np.ndarray:
-    """(T, 4) x, y, z, w of (T, 3, 3), signs chosen for the shortest path between keys."""
+    """(T, 4) x, y, z, w of (T, 3, 3), signs chosen for the shortest path between keys:
+    key i is negated when the product of the signs of the dot products up to it is −1."""
     q = Rotation.from_matrix(matrices).as_quat()
-    for i in range(1, len(q)):
-        if q[i] @ q[i - 1] < 0:
-            q[i] = -q[i]
+    turn = np.where(np.einsum("ij,ij->i", q[1:], q[:-1]) < 0, -1.0, 1.0)
+    q[1:] *= np.cumprod(turn)[:, None]
     return q
+
+
+def _vertex_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(V, 3) unit normals: the area-weighted sum of the faces' normals (outward)."""
+    a, b, c = (vertices[triangles[:, i]] for i in range(3))
+    face = np.cross(b - a, c - a)
+    out = np.zeros_like(vertices)
+    for i in range(3):
+        np.add.at(out, triangles[:, i], face)
+    return out / np.linalg.norm(out, axis=1, keepdims=True)
+
+
+def _frame(R: np.ndarray, o: np.ndarray) -> np.ndarray:
+    """(..., 4, 4) rigid transforms from rotations (..., 3, 3) and origins (..., 3)."""
+    m = np.zeros((*R.shape[:-2], 4, 4))
+    m[..., :3, :3] = R
+    m[..., :3, 3] = o
+    m[..., 3, 3] = 1.0
+    return m
 
 
 class _Buffer:
@@ -182,40 +286,6 @@ class _Buffer:
         self.accessors.append(acc)
         return len(self.accessors) - 1
 
-    def sparse(self, count: int, indices_view: int, values: np.ndarray, full_min, full_max):
-        """A VEC3 float accessor of `count` zeros but `values` at the indices' rows."""
-        acc = {"componentType": _FLOAT, "count": count, "type": "VEC3",
-               "min": full_min, "max": full_max,
-               "sparse": {"count": int(values.shape[0]),
-                          "indices": {"bufferView": indices_view, "componentType": _UINT},
-                          "values": {"bufferView": self.view(values.astype(np.float32))}},
-               }  # fmt: skip
-        self.accessors.append(acc)
-        return len(self.accessors) - 1
-
-
-def _skinning_setup(shape: HandShape, model: HandModel | None):
-    model = _mesh_model(shape) if model is None else model
-    vertices, triangles, weights = rest_mesh(shape, model=model)
-    kin = HandModel(shape)
-    R0, o0 = kin.bone_frames(np.zeros(N_PARAMS))  # rest: hand frame = world frame
-    return model, kin, vertices, triangles, weights, R0, o0
-
-
-def _corrections(poses, shape, model, kin, bind, weights, R0, o0) -> np.ndarray:
-    """(T, V, 3) mm: the rest-pose displacement per frame after which standard skinning
-    gives the model's vertices (module docstring)."""
-    truth = mesh_vertices(shape, poses, model=model)
-    out = np.empty_like(truth)
-    for i, x in enumerate(poses):
-        R, o = kin.bone_frames(x)
-        rel = R @ R0.transpose(0, 2, 1)  # (16, 3, 3) world_from_bone · bone_from_rest
-        A = np.einsum("vb,bij->vij", weights, rel)  # linear part per vertex
-        lbs = np.einsum("vb,vbi->vi", weights,
-                        np.einsum("bij,vbj->vbi", rel, bind[:, None] - o0) + o)  # fmt: skip
-        out[i] = np.linalg.solve(A, (truth[i] - lbs)[..., None])[..., 0]
-    return out
-
 
 def glb_bytes(
     poses, shape: HandShape, *, fps: float | None = None, corrective: bool = True,
@@ -226,14 +296,16 @@ def glb_bytes(
     Parameters
     ----------
     poses : (T, 26) array_like
-        mm and degrees; NaN as a whole on a frame without a hand, which then holds a
-        tracked pose (`held_poses`).
+        mm and degrees, camera (world) frame; NaN as a whole on a frame without a
+        hand, where the hand is hidden (its bones hold a tracked pose, `held_poses`).
     shape : HandShape
         The tracked hand (either side).
     fps : float, keyword-only, optional
-        Frame rate (key times ``t / fps`` seconds); 30 when unknown.
+        Frame rate of the recording (key times ``i / fps`` seconds); 30 when unknown.
     corrective : bool, keyword-only
-        Add the per-frame morph targets that make the skinned vertices the model's.
+        Add the helper joints that make the skinned vertices the model's at every pose
+        (module docstring); without them plain skinning of the model's rest mesh is
+        off by up to several mm near the knuckles.
     model : HandModel, keyword-only, optional
         The right-hand mesh model (`mesh_vertices`), built when omitted.
 
@@ -246,96 +318,109 @@ def glb_bytes(
     ValueError
         If no frame has a hand, or a pose is NaN in part.
     """
+    present = hand_frames(poses, "poses", (None, N_PARAMS))[1]
     poses = held_poses(poses)
     as_instance(shape, HandShape, "shape")
     fps = _DEFAULT_FPS if fps is None else float(fps)
     if not (np.isfinite(fps) and fps > 0):
         raise ValueError(f"fps: expected a positive frame rate; got {fps}")
     n = poses.shape[0]
-    model, kin, bind, triangles, weights, R0, o0 = _skinning_setup(shape, model)
+    model = _mesh_model(shape) if model is None else model
+    rest, triangles, weights, d, R0, o0 = _rest_skin(shape, model, corrective)
     buf = _Buffer()
     parents = _parents()
     trans = _local_translations(shape)
     rot = _local_rotations(poses, shape)
+    rot[:, 0] = Y_UP @ rot[:, 0]  # the palm in glTF's axes
+    quats = np.stack([_quaternions(rot[:, b]) for b in range(len(BONES))], axis=1)
+    palm_t = poses[:, 0:3] @ Y_UP.T * _M
 
+    # nodes: bones, tips, helpers, the mesh
     nodes: list[dict] = []
     for b, name in enumerate(BONES):
-        node: dict = {"name": name, "translation": (trans[b] * _M).tolist(),
-                      "rotation": _quaternions(rot[:1, b])[0].tolist()}  # fmt: skip
-        if b == 0:
-            node["translation"] = (poses[0, 0:3] * _M).tolist()
-        kids = [c for c in range(len(BONES)) if parents[c] == b]
-        if kids:
-            node["children"] = kids
+        translation = palm_t[0] if b == 0 else trans[b] * _M
+        node = {"name": name, "translation": translation.tolist(),
+                "rotation": quats[0, b].tolist(), "children": []}  # fmt: skip
         nodes.append(node)
+    for c, p in enumerate(parents):
+        if p >= 0:
+            nodes[p]["children"].append(c)
+    tips = []
     for k in range(5):
-        tip = len(nodes)
+        tips.append(len(nodes))
         nodes.append({"name": f"{DIGITS[k]}_tip",
                       "translation": [0.0, float(shape.segments[k, 2] * _M), 0.0]})  # fmt: skip
-        nodes[bone_index(k, 2)]["children"] = [tip]
+        nodes[bone_index(k, 2)]["children"].append(tips[-1])
+    bind = _frame(R0, o0 * _M)  # rest frames of the bones (metres), hand = camera frame
+    tip_bind = np.stack([bind[bone_index(k, 2)] @ _frame(np.eye(3), nodes[t]["translation"])
+                         for k, t in enumerate(tips)])  # fmt: skip
+    joints = list(range(len(BONES))) + tips
+    ibm = [np.linalg.inv(_frame(Y_UP, np.zeros(3)) @ m) for m in (*bind, *tip_bind)]
+    reach = _helper_reach(d)
+    if corrective:
+        for b, name in enumerate(BONES):
+            for axis, sign in ((a, s) for a in range(3) for s in (1.0, -1.0)):
+                joints.append(len(nodes))
+                nodes[b]["children"].append(len(nodes))
+                nodes.append({"name": f"{name}_fix{'+' if sign > 0 else '-'}{'xyz'[axis]}"})
+                offset = np.zeros(3)
+                offset[axis] = sign * reach * _M
+                ibm.append(_frame(np.eye(3), offset) @ ibm[b])  # T(±s e_axis) IBM_b
+    for node in nodes:
+        if not node.get("children", True):
+            del node["children"]
     mesh_node = len(nodes)
     nodes.append({"name": "hand_mesh", "mesh": 0, "skin": 0})
 
-    # the mesh: rest positions, weights in sets of four, triangles
-    attributes = {"POSITION": buf.accessor((bind * _M).astype(np.float32), "VEC3",
-                                           target=34962, bounds=True)}  # fmt: skip
-    order = np.argsort(-weights, axis=1, kind="stable")
-    n_sets = -(-int((weights > 0).sum(axis=1).max()) // 4)
-    for s in range(n_sets):
-        idx = order[:, 4 * s : 4 * s + 4]
-        w = np.take_along_axis(weights, idx, axis=1)
-        joints = np.where(w > 0, idx, 0).astype(np.uint16)
-        attributes[f"JOINTS_{s}"] = buf.accessor(joints, "VEC4", target=34962)
-        attributes[f"WEIGHTS_{s}"] = buf.accessor(w.astype(np.float32), "VEC4", target=34962)
-    primitive = {"attributes": attributes, "mode": 4,
+    # the mesh: rest positions, normals, weights in sets of four, triangles, material
+    positions = rest @ Y_UP.T * _M
+    attributes = {
+        "POSITION": buf.accessor(positions.astype(np.float32), "VEC3", target=34962,
+                                 bounds=True),
+        "NORMAL": buf.accessor(_vertex_normals(positions, triangles).astype(np.float32),
+                               "VEC3", target=34962),
+    }  # fmt: skip
+    dense = _influences(weights, d, reach, len(BONES) + len(tips))
+    for s, (j, w) in enumerate(_weight_sets(dense, len(BONES))):
+        attributes[f"JOINTS_{s}"] = buf.accessor(j, "VEC4", target=34962)
+        attributes[f"WEIGHTS_{s}"] = buf.accessor(w, "VEC4", target=34962)
+    primitive = {"attributes": attributes, "mode": 4, "material": 0,
                  "indices": buf.accessor(triangles.reshape(-1).astype(np.uint32), "SCALAR",
                                          target=34963)}  # fmt: skip
-    mesh: dict = {"name": "hand", "primitives": [primitive]}
-
-    # the skin: inverse of each bone's rest frame (metres)
-    rest = np.zeros((len(BONES), 4, 4))
-    rest[:, :3, :3] = R0
-    rest[:, :3, 3] = o0 * _M
-    rest[:, 3, 3] = 1.0
-    ibm = np.linalg.inv(rest).transpose(0, 2, 1).reshape(len(BONES), 16)  # column-major
-    skin = {"joints": list(range(len(BONES))), "skeleton": 0,
-            "inverseBindMatrices": buf.accessor(ibm.astype(np.float32), "MAT4")}  # fmt: skip
+    pbr = {"baseColorFactor": list(SKIN_COLOUR), "metallicFactor": 0.0, "roughnessFactor": 0.6}
+    material = {"name": "skin", "pbrMetallicRoughness": pbr}
+    skin = {"name": "hand", "joints": joints, "skeleton": 0,
+            "inverseBindMatrices": buf.accessor(
+                np.stack(ibm).transpose(0, 2, 1).reshape(-1, 16).astype(np.float32),
+                "MAT4")}  # fmt: skip  # column-major
 
     # the animation
     times = buf.accessor((np.arange(n) / fps).astype(np.float32), "SCALAR", bounds=True)
     samplers: list[dict] = []
     channels: list[dict] = []
 
-    def channel(node: int, path: str, values: np.ndarray, kind: str) -> None:
-        out = buf.accessor(values.astype(np.float32), kind)
-        samplers.append({"input": times, "output": out, "interpolation": "LINEAR"})
+    def channel(node: int, path: str, values, kind: str, *, at=times, how="LINEAR") -> None:
+        out = buf.accessor(np.asarray(values, dtype=np.float32), kind)
+        samplers.append({"input": at, "output": out, "interpolation": how})
         channels.append({"sampler": len(samplers) - 1, "target": {"node": node, "path": path}})
 
-    channel(0, "translation", poses[:, 0:3] * _M, "VEC3")
+    channel(0, "translation", palm_t, "VEC3")
     for b in range(len(BONES)):
-        channel(b, "rotation", _quaternions(rot[:, b]), "VEC4")
+        channel(b, "rotation", quats[:, b], "VEC4")
+    if not present.all():  # hide the hand: palm scale 0, keyed where it comes and goes
+        keys = np.flatnonzero(np.r_[True, present[1:] != present[:-1]])
+        at = buf.accessor((keys / fps).astype(np.float32), "SCALAR", bounds=True)
+        scale = np.repeat(present[keys, None].astype(float), 3, axis=1)
+        channel(0, "scale", scale, "VEC3", at=at, how="STEP")
 
-    if corrective:
-        delta = _corrections(poses, shape, model, kin, bind, weights, R0, o0) * _M
-        need = np.flatnonzero(np.abs(delta).max(axis=(0, 2)) > 1e-9)
-        if need.size:
-            indices = buf.view(need.astype(np.uint32))
-            targets = []
-            for i in range(n):
-                values = delta[i, need]
-                lo = np.minimum(values.min(axis=0), 0.0).tolist()
-                hi = np.maximum(values.max(axis=0), 0.0).tolist()
-                targets.append({"POSITION": buf.sparse(len(bind), indices, values, lo, hi)})
-            primitive["targets"] = targets
-            mesh["weights"] = [0.0] * n
-            channel(mesh_node, "weights", np.eye(n).reshape(-1, 1), "SCALAR")
-
+    extras = {"fps": fps, "frames": n, "frames_without_hand": int(n - present.sum())}
     document = {
-        "asset": {"version": "2.0", "generator": "handvar"},
+        "asset": {"version": "2.0", "generator": "handvar", "extras": extras},
         "scene": 0,
-        "scenes": [{"nodes": [0, mesh_node]}],
+        "scenes": [{"name": "track", "nodes": [0, mesh_node], "extras": {"fps": fps}}],
         "nodes": nodes,
-        "meshes": [mesh],
+        "meshes": [{"name": "hand", "primitives": [primitive]}],
+        "materials": [material],
         "skins": [skin],
         "animations": [{"name": "track", "samplers": samplers, "channels": channels}],
         "accessors": buf.accessors,
