@@ -41,7 +41,7 @@ from handvar.export import (
     write_openpose,
 )
 from handvar.export.bvh import bvh_joint_order
-from handvar.export.keypoints import openpose_name
+from handvar.export.keypoints import openpose_name, point_support
 from handvar.hand.anthropometry import JOINTS, HandShape
 from handvar.hand.kinematics import HandModel, named_pose
 from handvar.synth.sequences import sequence_poses
@@ -80,25 +80,120 @@ def test_keypoint_json_round_trip(poses, side):
             assert len(view["visible"]) == 21 and all(view["in_image"])
 
 
+def _openpose_file(folder, names, camera: int, frame: int) -> dict:
+    """One OpenPose frame file: in `folder` for one camera, in its subfolder for more."""
+    sub = folder if len(names) == 1 else folder / names[camera]
+    return json.loads((sub / openpose_name(names[camera], frame)).read_text())
+
+
 @pytest.mark.parametrize("side", SIDES)
 def test_openpose_round_trip(poses, side, tmp_path):
+    """Every list OpenPose writes at its full length; the tracked hand in its side's,
+    pixels and world points where found, zeros elsewhere; a point's score is the
+    frame's confidence, halved where the hand hides it, 0 outside the image."""
     hand = HandModel(HandShape.from_size(185.0, side=side))
     rig = Rig.default()
-    sub = poses[:3]
-    conf = np.array([0.9, 0.5, 0.0])
+    sub = poses[:3].copy()
+    sub[1, 1] -= 150.0  # up out of the image: 10 points outside either camera's
+    conf = np.array([0.9, 0.5, 0.0])  # frame 2 lost
     write_openpose(tmp_path / "op", openpose_frames(sub, hand, rig, confidence=conf), rig.names)
+    lengths = {"pose_keypoints_2d": 75, "face_keypoints_2d": 210, "hand_left_keypoints_2d": 63,
+               "hand_right_keypoints_2d": 63, "pose_keypoints_3d": 100,
+               "face_keypoints_3d": 280, "hand_left_keypoints_3d": 84,
+               "hand_right_keypoints_3d": 84}  # fmt: skip  # BODY_25, face, hands: x y (z) c
     for j, camera in enumerate(rig.cameras):
         for t, x in enumerate(sub):
-            data = json.loads((tmp_path / "op" / openpose_name(rig.names[j], t)).read_text())
+            data = _openpose_file(tmp_path / "op", rig.names, j, t)
+            assert data["version"] == 1.3 and len(data["people"]) == 1
             person = data["people"][0]
-            other = "left" if side == "right" else "right"
-            assert person[f"hand_{other}_keypoints_2d"] == []
+            assert person["person_id"] == [-1]
+            assert {k: len(v) for k, v in person.items() if k != "person_id"} == lengths
+            for name, values in person.items():
+                if name != "person_id" and not name.startswith(f"hand_{side}_"):
+                    assert not any(values), name  # nothing found there: zeros
             kp = np.array(person[f"hand_{side}_keypoints_2d"]).reshape(21, 3)
-            np.testing.assert_allclose(kp[:, :2], camera.project(hand.joints(x)), atol=1e-3)
-            visible = joint_visibility(hand, x, camera)
-            np.testing.assert_allclose(kp[:, 2], np.where(visible, conf[t], 0.0), atol=1e-4)
+            G = hand.joints(x)
+            uv = camera.project(G)
+            inside = camera.in_image(uv)
+            want = np.where(inside, np.where(joint_visibility(hand, x, camera), 1.0, 0.5), 0.0)
+            np.testing.assert_allclose(kp[:, 2], conf[t] * want, atol=1e-4)
+            found = kp[:, 2] > 0
+            np.testing.assert_allclose(kp[found, :2], uv[found], atol=1e-3)
+            assert not kp[~found].any()  # zeros where nothing was found
+            assert found.sum() == {0: 21, 1: 11, 2: 0}[t]  # by the shift above
             kp3 = np.array(person[f"hand_{side}_keypoints_3d"]).reshape(21, 4)
-            np.testing.assert_allclose(kp3[:, :3], hand.joints(x), atol=1e-3)
+            if conf[t] > 0:  # 3D: c 1 where reconstructed, as OpenPose's --3d output
+                np.testing.assert_allclose(kp3, np.column_stack([G, np.ones(21)]), atol=1e-3)
+            else:
+                assert not kp3.any()
+
+
+def test_point_confidence_follows_the_tracks_evidence(poses):
+    """Per point: the frame's confidence times 1 (keypoint followed), 0.5 (far from
+    the fit), 0.25 (rejected or missing), times 0.5 more on a frame whose keypoints were
+    carried; 1 on a frame fitted without keypoints (by hand from docs/outputs.md)."""
+    from types import SimpleNamespace
+
+    d = np.full((3, 2, 21), np.nan)  # hand sizes; NaN: no keypoint or rejected
+    d[0, 0, :3] = [0.05, 0.5, np.nan]
+    d[0, 1, :3] = [np.nan, 0.3, np.nan]  # the nearest camera counts
+    d[1, 0, :] = 0.1
+    d[1, 0, 20] = np.nan
+    quality = SimpleNamespace(keypoints=np.array([True, True, False]), distances=d)
+    support = point_support(quality, detections=[True, False, False])
+    want = np.ones((3, 21))
+    want[0, 3:] = 0.25  # no keypoint kept on a frame with keypoints
+    want[0, :3] = [1.0, 0.5, 0.25]
+    want[1] = 0.5  # carried
+    want[1, 20] = 0.5 * 0.25
+    np.testing.assert_allclose(support, want)
+    hand, rig = HandModel(HandShape.from_size(185.0)), Rig.default()
+    conf = np.array([0.8, 0.6, 0.7])
+    doc = keypoint_frames(poses[:3], hand, rig, confidence=conf, support=support)
+    frames = openpose_frames(poses[:3], hand, rig, confidence=conf, support=support)
+    for t in range(3):
+        for j, camera in enumerate(rig.cameras):
+            hidden = ~joint_visibility(hand, poses[t], camera)
+            score = conf[t] * want[t] * np.where(hidden, 0.5, 1.0)
+            kp = np.array(frames[j][t]["people"][0]["hand_right_keypoints_2d"]).reshape(21, 3)
+            np.testing.assert_allclose(kp[:, 2], score, atol=1e-4)
+            np.testing.assert_allclose(doc["frames"][t]["views"][j]["scores"], score, atol=1e-4)
+
+
+@pytest.mark.parametrize("side", SIDES)
+def test_openpose_folder_loads_in_pose_format(poses, gappy, side, tmp_path):
+    """pose-format's OpenPose reader (PyPI pose-format) finds the 21 points in the
+    hand's component, the points and scores written, nothing in the other components,
+    and nothing on the frames without a hand."""
+    why = "pose-format is not installed (pip install pose-format)"
+    openpose = pytest.importorskip("pose_format.utils.openpose", reason=why)
+    hand = HandModel(HandShape.from_size(185.0, side=side))
+    camera = Rig.default().cameras[0]
+    rig = Rig([camera], ("cam0",))
+    conf = np.linspace(0.5, 0.9, len(gappy))
+    write_openpose(tmp_path / "op", openpose_frames(gappy, hand, rig, confidence=conf), rig.names)
+    width, height = camera.size
+    pose = openpose.load_openpose_directory(str(tmp_path / "op"), fps=25.0, width=width,
+                                            height=height)  # fmt: skip
+    names = [c.name for c in pose.header.components]
+    assert names == ["pose_keypoints_2d", "face_keypoints_2d", "hand_left_keypoints_2d",
+                     "hand_right_keypoints_2d"]  # fmt: skip
+    assert pose.body.data.shape == (len(gappy), 1, 25 + 70 + 21 + 21, 2)
+    ours = pose.get_components([f"hand_{side}_keypoints_2d"])
+    assert ours.body.data.shape == (len(gappy), 1, 21, 2)
+    others = [n for n in names if n != f"hand_{side}_keypoints_2d"]
+    assert not pose.get_components(others).body.confidence.any()
+    for t, x in enumerate(gappy):
+        data, score = ours.body.data[t, 0], np.asarray(ours.body.confidence[t, 0])
+        if t in ABSENT:
+            assert not score.any() and data.mask.all()  # people []: nothing there
+            continue
+        uv = camera.project(hand.joints(x))
+        want = np.where(joint_visibility(hand, x, camera), 1.0, 0.5) * camera.in_image(uv)
+        np.testing.assert_allclose(score, conf[t] * want, atol=1e-4)
+        found = score > 0
+        np.testing.assert_allclose(data[found], uv[found], atol=1e-3)
+        assert data.mask[~found].all()
 
 
 def test_visibility_of_open_hand_and_fist():
@@ -399,14 +494,14 @@ def test_openpose_has_no_people_on_frames_without_a_hand(poses, gappy, tmp_path)
     hand, rig = HandModel(HandShape.from_size(185.0, side="left")), Rig.default()
     write_openpose(tmp_path / "gaps", openpose_frames(gappy, hand, rig), rig.names)
     write_openpose(tmp_path / "full", openpose_frames(poses[:8], hand, rig), rig.names)
-    assert len(list((tmp_path / "gaps").iterdir())) == len(rig.names) * 8
-    for name in rig.names:
+    for j, name in enumerate(rig.names):  # one folder per camera
+        assert len(list((tmp_path / "gaps" / name).iterdir())) == 8
         for t in range(8):
-            got = json.loads((tmp_path / "gaps" / openpose_name(name, t)).read_text())
+            got = _openpose_file(tmp_path / "gaps", rig.names, j, t)
             if t in ABSENT:
                 assert got == {"version": 1.3, "people": []}
             else:
-                assert got == json.loads((tmp_path / "full" / openpose_name(name, t)).read_text())
+                assert got == _openpose_file(tmp_path / "full", rig.names, j, t)
 
 
 @pytest.mark.parametrize("side", SIDES)

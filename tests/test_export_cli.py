@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from handvar.camera import Rig
 from handvar.cli import main
 from handvar.export.bvh import bvh_joint_order
 from handvar.hand.anthropometry import HandShape
@@ -26,9 +27,11 @@ from tests.export_readers import bvh_world_joints, gltf_skinned_vertices
 KNOWN = b"known bytes that must survive\n"
 
 
-def _saved_track(root: Path, side: str, length: float = 175.0, *, cameras=False, absent=()) -> Path:
+def _saved_track(root: Path, side: str, length: float = 175.0, *, cameras=False, absent=(),
+                 quality=None, detections=None) -> Path:  # fmt: skip
     """A 4-frame synthetic track saved in `root`; no hand (poses and joints NaN) on the
-    frames `absent`, as the tracker writes a frame where it found none."""
+    frames `absent`, as the tracker writes a frame where it found none; `quality` and
+    `detections` as `handvar.Track` holds them."""
     from handvar.pipeline import Track
     from handvar.synth.sequences import make_sequence
     from handvar.tracking.tracker import TrackResult
@@ -48,10 +51,11 @@ def _saved_track(root: Path, side: str, length: float = 175.0, *, cameras=False,
     rig = seq.rig if cameras else None
     track = Track(
         poses=poses, joints=joints, projected=projected if cameras else projected[:0],
-        quality=None, rig=rig, shape=hand.shape, name=f"benchmark-{side}", predictor="rvar",
-        seed=0, fps=seq.fps, result=result,
+        quality=quality, rig=rig, shape=hand.shape, name=f"benchmark-{side}", predictor="rvar",
+        seed=0, fps=seq.fps, result=result, detections=detections,
     )  # fmt: skip
-    out = root / (f"track_{side}" + ("_cameras" if cameras else "") + "_absent" * bool(absent))
+    out = root / (f"track_{side}" + ("_cameras" if cameras else "") + "_absent" * bool(absent)
+                  + "_quality" * (quality is not None))  # fmt: skip
     track.save(out, video=False, overlays=False)
     seq.rig.save(root / "rig.yml")
     return out
@@ -88,9 +92,11 @@ def test_export_every_format_reads_back(tracks, side, tmp_path):
     res = _run("export", str(track), "--format", "openpose", "--out", str(tmp_path / "op"),
                "--calib", rig)  # fmt: skip
     assert res.exit_code == 0, res.output
-    files = sorted(os.listdir(tmp_path / "op"))
-    assert len(files) == 2 * len(poses)
-    person = json.loads((tmp_path / "op" / files[0]).read_text())["people"][0]
+    folders = sorted(os.listdir(tmp_path / "op"))  # one per camera
+    assert folders == sorted(Rig.load(rig).names)
+    files = sorted((tmp_path / "op" / folders[0]).iterdir())
+    assert len(files) == len(poses)
+    person = json.loads(files[0].read_text())["people"][0]
     assert len(person[f"hand_{side}_keypoints_2d"]) == 63
 
     res = _run("export", str(track), "--format", "bvh", "--out", str(tmp_path / "t.bvh"))
@@ -122,9 +128,51 @@ def test_export_every_format_reads_back(tracks, side, tmp_path):
     assert (tmp_path / "v.html").read_text().count("Plotly.newPlot") == 1
 
 
-def test_the_stored_cameras_are_used_and_calib_overrides_them(tmp_path):
-    from handvar.camera import Rig
+def test_point_confidences_come_from_the_tracks_quality(tmp_path):
+    """The per-point scores of both keypoint files: the frame's IoU (0 when lost) times 1
+    for a kept keypoint near the fit, 0.25 for a rejected one, 0.5 more on a frame whose
+    keypoints were carried, 1 without keypoints; halved where the hand hides the point
+    (docs/outputs.md; by hand here)."""
+    from handvar.export import joint_visibility
+    from handvar.tracking.recovery import TrackQuality
 
+    n = 4
+    d = np.full((n, 2, 21), 0.05)  # hand sizes: every keypoint near the fit
+    d[0, :, 5] = np.nan  # frame 0: the index MCP rejected in both cameras
+    d[3] = np.nan  # frame 3: no keypoints
+    quality = TrackQuality(
+        iou=np.full(n, 0.9), keypoint_error=np.zeros(n), cost=np.zeros(n),
+        lost=np.array([False, False, True, False]), reinit=np.zeros(n, bool),
+        empty=np.zeros(n, bool), keypoints=np.array([True, True, True, False]),
+        rejected=np.array([2, 0, 0, 0]), distances=d,
+    )  # fmt: skip
+    detections = np.array([True, False, True, False])  # frame 1 carried
+    track = _saved_track(tmp_path, "right", cameras=True, quality=quality,
+                         detections=detections)  # fmt: skip
+    res = _run("export", str(track), "--format", "openpose", "--out", str(tmp_path / "op"))
+    assert res.exit_code == 0, res.output
+    res = _run("export", str(track), "--format", "json", "--out", str(tmp_path / "k.json"))
+    assert res.exit_code == 0, res.output
+    doc = json.loads((tmp_path / "k.json").read_text())
+    rig = Rig.load(track / "cameras.yml")
+    poses = np.load(track / "track.npz")["poses"]
+    hand = HandModel(HandShape.from_size(175.0))
+    support = np.ones((n, 21))
+    support[0, 5] = 0.25
+    support[1] = 0.5
+    frame_conf = [0.9, 0.9, 0.0, 0.9]  # the tracker's IoU, 0 on the lost frame
+    for c, (name, camera) in enumerate(zip(rig.names, rig.cameras, strict=True)):
+        for t in range(n):
+            hidden = ~joint_visibility(hand, poses[t], camera)
+            want = frame_conf[t] * support[t] * np.where(hidden, 0.5, 1.0)
+            data = json.loads((tmp_path / "op" / name / f"{name}_{t:012d}_keypoints.json")
+                              .read_text())  # fmt: skip
+            kp = np.array(data["people"][0]["hand_right_keypoints_2d"]).reshape(21, 3)
+            np.testing.assert_allclose(kp[:, 2], want, atol=1e-4)
+            np.testing.assert_allclose(doc["frames"][t]["views"][c]["scores"], want, atol=1e-4)
+
+
+def test_the_stored_cameras_are_used_and_calib_overrides_them(tmp_path):
     track = _saved_track(tmp_path, "left", cameras=True)
     stored = Rig.load(track / "cameras.yml")
     hand = HandModel(HandShape.from_size(175.0, side="left"))
@@ -250,8 +298,8 @@ def test_export_and_view_a_track_with_frames_without_a_hand(tmp_path):
         True, False, True, False]  # fmt: skip
     np.testing.assert_allclose(doc["frames"][3]["world"], HandModel(shape).joints(truth[3]),
                                atol=1e-3)  # fmt: skip
-    people = [json.loads((tmp_path / "op" / f).read_text())["people"]
-              for f in sorted(os.listdir(tmp_path / "op"))]  # fmt: skip
+    people = [json.loads(f.read_text())["people"]
+              for f in sorted((tmp_path / "op").rglob("*.json"))]  # fmt: skip
     assert len(people) == 8 and [p == [] for p in people] == [True, False, True, False] * 2
     got = bvh_world_joints(tmp_path / "t.bvh", bvh_joint_order())  # metres, y up
     want = np.stack([HandModel(shape).joints(x) for x in held]) * [1.0, -1.0, -1.0] / 1000.0

@@ -43,6 +43,14 @@ def _confidence(track):
     return fit_confidence(track.result.iou, track.result.lost, share)
 
 
+def _support(track):
+    """Per frame and keypoint what the point's own evidence (kept, rejected, far from the
+    fit, carried) leaves of its frame's confidence; None without the track's quality."""
+    from handvar.export.keypoints import point_support
+
+    return None if track.quality is None else point_support(track.quality, track.detections)
+
+
 def _frames(track) -> str:
     """``T frames``, and how many of them have no hand (their poses NaN) if any."""
     import numpy as np
@@ -104,7 +112,7 @@ def export_command(track_dir, fmt, out, corrective, units, up, calib):
         from handvar.export.keypoints import keypoint_frames, write_keypoints_json
 
         doc = keypoint_frames(track.poses, HandModel(track.shape), track.rig,
-                              confidence=_confidence(track))  # fmt: skip
+                              confidence=_confidence(track), support=_support(track))  # fmt: skip
         write_keypoints_json(out, doc)
     elif fmt == "openpose":
         from handvar.export.keypoints import openpose_frames, write_openpose
@@ -112,7 +120,8 @@ def export_command(track_dir, fmt, out, corrective, units, up, calib):
         if track.rig is None:
             raise ValueError("--calib: expected the cameras (the track holds none); got none")
         frames = openpose_frames(track.poses, HandModel(track.shape), track.rig,
-                                 confidence=_confidence(track))  # fmt: skip
+                                 confidence=_confidence(track),
+                                 support=_support(track))  # fmt: skip
         write_openpose(out, frames, track.rig.names)
     elif fmt == "bvh":
         from handvar.export.bvh import write_bvh

@@ -1,20 +1,29 @@
-"""The 21 keypoints of a track per frame: 2D, 3D, visibility and the fit's confidence.
+"""The 21 keypoints of a track per frame: 2D, 3D, visibility and confidences.
 
 Two layouts (docs/outputs.md):
 
 - handvar's own JSON (:func:`keypoint_frames`, :func:`write_keypoints_json`): one file,
   one record per frame with the world keypoints (mm) and, per camera, the pixels, the
   keypoints in that camera's frame (mm), whether each is visible and whether it falls
-  in the image;
-- OpenPose's per-frame JSON (:func:`openpose_frames`, :func:`write_openpose`): one file
-  per camera and frame with ``people[0].hand_right_keypoints_2d`` (or ``_left_``) as a
-  flat ``[x, y, c] * 21`` and ``hand_*_keypoints_3d`` as ``[x, y, z, c] * 21``.
+  in the image, and each point's confidence;
+- OpenPose's per-frame JSON (:func:`openpose_frames`, :func:`write_openpose`), as
+  OpenPose's ``--write_json`` writes it: one file per camera and frame, one person
+  with every keypoint list at its full length (BODY_25 body, 70 face points, 21 per
+  hand; zeros where nothing was found), the tracked hand in ``hand_right_*`` or
+  ``hand_left_*`` by its side.
 
 A frame without a hand (its pose NaN as a whole, `handvar.export.absent`) is written
-without points: ``world`` null and no ``views`` in the JSON, no ``people`` in OpenPose's.
+without points: ``world`` null, confidence 0 and no ``views`` in the JSON, no
+``people`` in OpenPose's.
 
 The keypoints are G(x) (`HandModel.joints`) in the order of `JOINTS`, which is the
 21-point order of MediaPipe Hands and OpenPose's hand model.
+
+A point's confidence in a camera is its frame's fit confidence (`fit_confidence`)
+times what the point's own evidence leaves of it (`point_support`, `PointScores`:
+lower where its keypoint was rejected or missing, far from the fit, or carried by
+optical flow) and, where the hand itself hides it, `PointScores.hidden`; 0 outside
+the image.
 
 Visibility: a keypoint is hidden from a camera when the model's own sphere-mesh
 surface lies in front of it along the ray from the camera's optical centre by more
@@ -26,6 +35,7 @@ from __future__ import annotations
 
 import json
 import os
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -36,6 +46,8 @@ from handvar.hand.anthropometry import JOINTS
 from handvar.validate import as_array
 
 __all__ = [
+    "OPENPOSE_LENGTHS",
+    "PointScores",
     "fit_confidence",
     "joint_reach",
     "joint_visibility",
@@ -43,6 +55,7 @@ __all__ = [
     "keypoint_share",
     "openpose_frames",
     "openpose_name",
+    "point_support",
     "write_keypoints_json",
     "write_openpose",
 ]
@@ -50,6 +63,42 @@ __all__ = [
 #: mm a keypoint may lie behind the surface of its own joint and still count as seen.
 VISIBILITY_TOLERANCE = 1.0
 _N_JOINTS = len(JOINTS)
+#: Points per part in OpenPose's JSON: BODY_25 body, the 70-point face, 21 per hand.
+OPENPOSE_LENGTHS = {"pose": 25, "face": 70, "hand_left": 21, "hand_right": 21}
+_OPENPOSE_VERSION = 1.3
+
+
+@dataclass(frozen=True)
+class PointScores:
+    """What lowers a keypoint's confidence below its frame's (docs/outputs.md).
+
+    Each is the factor a point's confidence is multiplied by when it holds: an ordering
+    for a reader to rank or threshold points by (1 > far, carried, hidden > missing),
+    not a probability fitted to data.
+
+    Attributes
+    ----------
+    far : float
+        The point's kept keypoint lies farther than `threshold` from the fitted joint in
+        every camera: the fit does not follow it.
+    missing : float
+        The frame had keypoints but none was kept for this point in any camera: the fit
+        rejected it as an outlier, or the detector gave none.
+    carried : float
+        The frame's keypoints were carried by optical flow from a detection on another
+        frame, not detected on this one.
+    hidden : float
+        The hand itself hides the point from the camera (`joint_visibility`).
+    threshold : float
+        Hand sizes: the keypoint check's distance (`handvar.tracking.frame_fit.
+        CHECK_THRESHOLD`; export sits below tracking, design §12).
+    """
+
+    far: float = 0.5
+    missing: float = 0.25
+    carried: float = 0.5
+    hidden: float = 0.5
+    threshold: float = 0.2
 
 
 def joint_reach(hand) -> np.ndarray:
@@ -168,12 +217,65 @@ def keypoint_share(quality, threshold: float = 0.2) -> np.ndarray:
         return np.where(total > 0, near / total, np.nan)
 
 
-def _check_inputs(poses, hand, rig, confidence):
-    """The poses, which frames have a hand, and the confidences, checked."""
+def point_support(quality, detections=None, *, scores: PointScores = PointScores()):
+    """(T, 21) what each keypoint's own evidence leaves of its frame's confidence, in
+    [0, 1] (`PointScores`): 1 on a frame fitted without keypoints and for a point whose
+    kept keypoint the fit follows (within ``scores.threshold`` in some camera),
+    ``scores.far`` for one it does not, ``scores.missing`` for a point with no kept
+    keypoint on a frame with keypoints, all times ``scores.carried`` on a frame whose
+    keypoints were carried.
+
+    Parameters
+    ----------
+    quality : TrackQuality
+        The track's quality: ``keypoints`` (T,), the frames with keypoints, and
+        ``distances`` (T, n_cams, 21), hand sizes, NaN where no keypoint or rejected
+        (all NaN when the track did not record them: then no point is told missing).
+    detections : (T,) array_like of bool, optional
+        Frames with a detection (`handvar.Track.detections`); the others with
+        keypoints had them carried. None: none known to be carried.
+    scores : PointScores, keyword-only
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> d = np.full((2, 1, 21), np.nan); d[0, 0, :3] = [0.1, 0.5, np.nan]
+    >>> q = SimpleNamespace(keypoints=np.array([True, False]), distances=d)
+    >>> point_support(q)[:, :3].tolist()
+    [[1.0, 0.5, 0.25], [1.0, 1.0, 1.0]]
+    >>> point_support(q, detections=[False, False])[0, :3].tolist()
+    [0.5, 0.25, 0.125]
+    """
+    d = np.asarray(quality.distances, dtype=float)  # (T, n_cams, 21)
+    with_keypoints = np.asarray(quality.keypoints, dtype=bool)[:, None]
+    nearest = np.where(np.isnan(d), np.inf, d).min(axis=1)  # (T, 21), inf: none kept
+    out = np.ones(nearest.shape)
+    if np.isfinite(d).any():  # distances recorded: a point without one was not kept
+        out = np.where(with_keypoints & np.isinf(nearest), scores.missing, out)
+    out = np.where(np.isfinite(nearest) & (nearest > scores.threshold), scores.far, out)
+    if detections is not None:
+        detected = as_array(detections, "detections", (len(out),), what="one flag per frame")
+        out = np.where(with_keypoints & (detected[:, None] == 0), out * scores.carried, out)
+    return out
+
+
+def _check_inputs(poses, hand, rig, confidence, support=None):
+    """The poses, which frames have a hand, the confidences and the points' support,
+    checked; frames without a hand have confidence 0."""
     poses, present = hand_frames(poses, "poses", (None, 26))
+    n = poses.shape[0]
     if confidence is not None:
-        confidence = as_array(confidence, "confidence", (poses.shape[0],), what="confidences")
-    return poses, present, confidence
+        confidence = as_array(confidence, "confidence", (n,), what="confidences")
+    if support is not None:
+        support = as_array(support, "support", (n, _N_JOINTS), what="values in [0, 1]")
+    return poses, present, confidence, support
+
+
+def _point_scores(t, confidence, support, visible, inside, scores: PointScores):
+    """(21,) confidence of each point of frame t in one camera (module docstring)."""
+    c = 1.0 if confidence is None else float(confidence[t])
+    c = c * (np.ones(_N_JOINTS) if support is None else support[t])
+    return np.where(inside, np.where(visible, c, c * scores.hidden), 0.0)
 
 
 def _views(hand, x, rig):
@@ -196,7 +298,8 @@ def _rounded(a: np.ndarray, digits: int) -> list:
     return r.tolist()
 
 
-def keypoint_frames(poses, hand, rig=None, *, confidence=None) -> dict:
+def keypoint_frames(poses, hand, rig=None, *, confidence=None, support=None,
+                    scores: PointScores = PointScores()) -> dict:  # fmt: skip
     """The keypoints of every frame as one JSON-ready document (docs/outputs.md).
 
     Parameters
@@ -208,7 +311,13 @@ def keypoint_frames(poses, hand, rig=None, *, confidence=None) -> dict:
     rig : Rig, optional
         Cameras; without it only the world keypoints are written.
     confidence : (T,) array_like, keyword-only, optional
-        Per-frame fit confidence in [0, 1] (`fit_confidence`); null when absent.
+        Per-frame fit confidence in [0, 1] (`fit_confidence`); null when absent (0 on a
+        frame without a hand all the same).
+    support : (T, 21) array_like, keyword-only, optional
+        What each point's evidence leaves of its frame's confidence (`point_support`);
+        1 when absent.
+    scores : PointScores, keyword-only
+        The factor of a point hidden by the hand (``hidden``).
 
     Returns
     -------
@@ -217,10 +326,10 @@ def keypoint_frames(poses, hand, rig=None, *, confidence=None) -> dict:
         K, R, t, size) and ``frames``: per frame ``frame``, ``confidence``, ``world``
         (21 × 3 mm) and ``views``, per camera ``camera``, ``keypoints_2d`` (21 × 2
         pixels), ``keypoints_3d`` (21 × 3 mm, camera frame), ``visible`` and
-        ``in_image`` (21 booleans). A frame without a hand has ``world`` null and
-        ``views`` empty.
+        ``in_image`` (21 booleans) and ``scores`` (21 confidences, as OpenPose's). A
+        frame without a hand has ``confidence`` 0, ``world`` null and ``views`` empty.
     """
-    poses, present, confidence = _check_inputs(poses, hand, rig, confidence)
+    poses, present, confidence, support = _check_inputs(poses, hand, rig, confidence, support)
     cameras = [] if rig is None else [
         {"name": name, "K": cam.K.tolist(), "R": cam.R.tolist(), "t": cam.t.tolist(),
          "dist": cam.dist.tolist(), "size": list(cam.size)}
@@ -234,15 +343,19 @@ def keypoint_frames(poses, hand, rig=None, *, confidence=None) -> dict:
             "world": _rounded(hand.joints(x), 4) if present[t] else None,
             "views": [],
         }
+        if not present[t]:
+            record["confidence"] = 0.0  # known: no hand
         if rig is not None and present[t]:
             _, views = _views(hand, x, rig)
             for name, (uv, cam, visible, inside) in zip(rig.names, views, strict=True):
+                score = _point_scores(t, confidence, support, visible, inside, scores)
                 record["views"].append({
                     "camera": name,
                     "keypoints_2d": _rounded(uv, 3),
                     "keypoints_3d": _rounded(cam, 4),
                     "visible": visible.tolist(),
                     "in_image": inside.tolist(),
+                    "scores": _rounded(score, 4),
                 })  # fmt: skip
         frames.append(record)
     return {
@@ -262,16 +375,23 @@ def write_keypoints_json(path: str | os.PathLike, document: dict) -> Path:
     return Path(path)
 
 
-def openpose_frames(poses, hand, rig, *, confidence=None, with_3d: bool = True) -> list:
+def openpose_frames(poses, hand, rig, *, confidence=None, support=None, with_3d: bool = True,
+                    scores: PointScores = PointScores()) -> list:  # fmt: skip
     """The track in OpenPose's per-frame JSON layout, one list of frames per camera.
 
-    Each frame is ``{"version": 1.3, "people": [person]}`` with the hand's side in
-    ``hand_right_keypoints_2d`` or ``hand_left_keypoints_2d`` as ``[x, y, c] * 21``
-    (pixels) and, with `with_3d`, ``hand_*_keypoints_3d`` as ``[x, y, z, c] * 21``
-    (mm, world frame); every other keypoint list is empty. The score ``c`` of a keypoint
-    is the frame's confidence (1 without one) where it is visible and in the image,
-    else 0. A frame without a hand is ``{"version": 1.3, "people": []}``, as OpenPose
-    writes a frame where it detected no one.
+    Each frame is ``{"version": 1.3, "people": [person]}``, the person with every list
+    OpenPose's ``--write_json`` writes, at full length (`OPENPOSE_LENGTHS`):
+    ``pose_keypoints_2d`` (75 values), ``face_keypoints_2d`` (210),
+    ``hand_left_keypoints_2d`` and ``hand_right_keypoints_2d`` (63 each) as ``x, y, c``
+    per point, and with `with_3d` the ``*_keypoints_3d`` lists as ``x, y, z, c`` (100,
+    280, 84, 84; OpenPose's ``--3d`` output; without it they are empty, as OpenPose
+    writes them then). The tracked hand fills the lists of its side, everything else
+    is zeros (OpenPose's "not found"). In 2D, ``x, y`` are pixels and ``c`` the point's
+    confidence (module docstring), a point with ``c`` 0 (outside the image, or on a
+    lost frame) written as zeros; in 3D, ``x, y, z`` are mm in the world frame and
+    ``c`` is 1, or 0 on a lost frame (confidence 0), as OpenPose marks whether its
+    reconstruction succeeded. A frame without a hand is ``{"version": 1.3,
+    "people": []}``, as OpenPose writes a frame where it found no one.
 
     Parameters
     ----------
@@ -280,39 +400,44 @@ def openpose_frames(poses, hand, rig, *, confidence=None, with_3d: bool = True) 
     hand : HandModel
     rig : Rig
     confidence : (T,) array_like, keyword-only, optional
+        Per-frame fit confidence (`fit_confidence`); 1 when absent.
+    support : (T, 21) array_like, keyword-only, optional
+        Per point what its evidence leaves of that (`point_support`); 1 when absent.
     with_3d : bool, keyword-only
         Also the 3D keypoints (for calibrated cameras).
+    scores : PointScores, keyword-only
+        The factor of a point hidden by the hand (``hidden``).
 
     Returns
     -------
     list of list of dict
         ``[camera][frame]``.
     """
-    poses, present, confidence = _check_inputs(poses, hand, rig, confidence)
+    poses, present, confidence, support = _check_inputs(poses, hand, rig, confidence, support)
     if rig is None:
         raise ValueError("rig: expected the cameras to project the keypoints into; got None")
-    side = hand.shape.side
+    side = f"hand_{hand.shape.side}"
     out: list[list[dict]] = [[] for _ in rig.cameras]
     for t, x in enumerate(poses):
         if not present[t]:
             for per_camera in out:
-                per_camera.append({"version": 1.3, "people": []})
+                per_camera.append({"version": _OPENPOSE_VERSION, "people": []})
             continue
-        c = 1.0 if confidence is None else float(confidence[t])
         joints, views = _views(hand, x, rig)
+        found = 1.0 if confidence is None or confidence[t] > 0 else 0.0
         for j, (uv, _, visible, inside) in enumerate(views):
-            score = np.where(visible & inside, c, 0.0)
-            person = {"person_id": [-1]}
-            for part in ("pose", "face", "hand_left", "hand_right"):
-                person[f"{part}_keypoints_2d"] = []
-            flat2 = np.column_stack([np.nan_to_num(uv), score]).reshape(-1)
-            person[f"hand_{side}_keypoints_2d"] = _rounded(flat2, 4)
-            if with_3d:
-                for part in ("pose", "face", "hand_left", "hand_right"):
-                    person[f"{part}_keypoints_3d"] = []
-                flat3 = np.column_stack([joints, score]).reshape(-1)
-                person[f"hand_{side}_keypoints_3d"] = _rounded(flat3, 4)
-            out[j].append({"version": 1.3, "people": [person]})
+            score = _point_scores(t, confidence, support, visible, inside, scores)
+            flat2 = np.where((score > 0)[:, None], np.column_stack([uv, score]), 0.0)
+            person: dict = {"person_id": [-1]}
+            for part, n in OPENPOSE_LENGTHS.items():
+                points = flat2 if part == side else np.zeros((n, 3))
+                person[f"{part}_keypoints_2d"] = _rounded(points.reshape(-1), 4)
+            for part, n in OPENPOSE_LENGTHS.items():
+                points = np.zeros((n, 4))
+                if part == side:
+                    points = np.column_stack([joints, np.ones(_N_JOINTS)]) * found
+                person[f"{part}_keypoints_3d"] = _rounded(points.reshape(-1), 4) if with_3d else []
+            out[j].append({"version": _OPENPOSE_VERSION, "people": [person]})
     return out
 
 
@@ -324,8 +449,10 @@ def openpose_name(camera: str, frame: int) -> str:
 def write_openpose(directory: str | os.PathLike, frames: list, names) -> Path:
     """Write `frames` (`openpose_frames`) as one JSON file per camera and frame.
 
-    The directory is written aside and swapped into place whole (`handvar.atomic`); an
-    existing one is replaced.
+    With one camera the files go into `directory`; with several, into one folder per
+    camera (``directory/<camera>/``), so that each folder is one camera's OpenPose
+    output, as a reader of OpenPose folders expects. The directory is written aside
+    and swapped into place whole (`handvar.atomic`); an existing one is replaced.
     """
     directory = Path(check_output_dir(directory, "directory"))
     names = list(names)
@@ -334,8 +461,10 @@ def write_openpose(directory: str | os.PathLike, frames: list, names) -> Path:
 
     def write(tmp: str) -> None:
         for name, per_camera in zip(names, frames, strict=True):
+            folder = Path(tmp) if len(names) == 1 else Path(tmp) / name
+            folder.mkdir(exist_ok=True)
             for t, frame in enumerate(per_camera):
-                (Path(tmp) / openpose_name(name, t)).write_text(json.dumps(frame), "utf-8")
+                (folder / openpose_name(name, t)).write_text(json.dumps(frame), "utf-8")
 
     with OutputSet() as out:
         out.add(directory, write, directory=True)
