@@ -475,9 +475,15 @@ def gappy(poses) -> np.ndarray:
 
 
 def test_keypoint_json_has_no_points_on_frames_without_a_hand(poses, gappy):
+    """world null, confidence 0 and no views there, whatever confidence was given; the
+    other frames as if every frame had a hand."""
     hand, rig = HandModel(HandShape.from_size(185.0)), Rig.default()
     conf = np.where(np.isin(np.arange(8), ABSENT), 0.0, 0.9)
-    doc = json.loads(json.dumps(keypoint_frames(gappy, hand, rig, confidence=conf)))
+    given = np.full(8, 0.9)  # a confidence on the frames without a hand too: overruled
+    doc = json.loads(json.dumps(keypoint_frames(gappy, hand, rig, confidence=given)))
+    unknown = keypoint_frames(gappy, hand, rig)  # no confidence: null, but 0 without a hand
+    assert [f["confidence"] for f in unknown["frames"]] == [
+        0.0 if t in ABSENT else None for t in range(8)]  # fmt: skip
     full = json.loads(json.dumps(keypoint_frames(poses[:8], hand, rig, confidence=conf)))
     assert [f["frame"] for f in doc["frames"]] == list(range(8))
     for t, frame in enumerate(doc["frames"]):

@@ -294,8 +294,8 @@ def test_export_and_view_a_track_with_frames_without_a_hand(tmp_path):
         assert res.exit_code == 0, res.output
         assert "4 frames (2 without a hand)" in res.output
     doc = json.loads((tmp_path / "k.json").read_text())
-    assert [f["world"] is None and f["views"] == [] for f in doc["frames"]] == [
-        True, False, True, False]  # fmt: skip
+    assert [f["world"] is None and f["views"] == [] and f["confidence"] == 0.0
+            for f in doc["frames"]] == [True, False, True, False]  # fmt: skip
     np.testing.assert_allclose(doc["frames"][3]["world"], HandModel(shape).joints(truth[3]),
                                atol=1e-3)  # fmt: skip
     people = [json.loads(f.read_text())["people"]

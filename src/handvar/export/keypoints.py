@@ -261,7 +261,7 @@ def point_support(quality, detections=None, *, scores: PointScores = PointScores
 
 def _check_inputs(poses, hand, rig, confidence, support=None):
     """The poses, which frames have a hand, the confidences and the points' support,
-    checked; frames without a hand have confidence 0."""
+    checked."""
     poses, present = hand_frames(poses, "poses", (None, 26))
     n = poses.shape[0]
     if confidence is not None:
