@@ -4,12 +4,18 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test test-slow test-mediapipe lint bench clean
+.PHONY: demo test test-slow lint bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test]'
+	$(BIN)/python -m pip install --quiet -e '.[test,mediapipe]'
+	# MediaPipe brings opencv-contrib-python beside the core's headless OpenCV: both
+	# install the one cv2 module, so the contrib build is laid again whole (with a GUI,
+	# for --show).
+	$(BIN)/python -m pip install --quiet --force-reinstall --no-deps \
+		"opencv-contrib-python==$$($(BIN)/python -c 'import importlib.metadata as m; print(m.version("opencv-contrib-python"))')"
+	$(BIN)/python -c "import cv2, mediapipe, numpy; print('cv2', cv2.__version__, 'numpy', numpy.__version__)"
 	touch $(STAMP)
 
 # The main job on built-in defaults: the predictors on real recorded motion, then a
@@ -36,22 +42,10 @@ lint: $(STAMP)
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -m slow
 
-# MediaPipe pins numpy < 2: its extra lives in a virtual environment of its own, where
-# the tests that run the detector (skipped elsewhere) run.
-MP_VENV := .venv-mediapipe
-$(MP_VENV)/.installed: pyproject.toml
-	$(PYTHON) -m venv $(MP_VENV)
-	$(MP_VENV)/bin/python -m pip install --quiet --upgrade pip
-	$(MP_VENV)/bin/python -m pip install --quiet -e '.[test,mediapipe]'
-	touch $@
-
-test-mediapipe: $(MP_VENV)/.installed
-	$(MP_VENV)/bin/python -m pytest -m "slow or not slow" tests/test_vision_keypoints.py
-
 # Every timing benchmark of benchmarks/ (the accuracy studies are in studies/, each run
 # on its own: studies/README.md).
 bench: $(STAMP)
 	for b in benchmarks/*.py; do echo "== $$b"; $(BIN)/python $$b || exit 1; done
 
 clean:
-	rm -rf $(VENV) $(MP_VENV) build src/*.egg-info demo
+	rm -rf $(VENV) build src/*.egg-info demo

@@ -48,32 +48,35 @@ def test_keypoints_without_any_point_or_in_normalised_coordinates(detected):
         track(VIDEO, keypoints=unit, frames=2)
 
 
-def test_all_nan_frames_are_tracked_without_keypoints_and_points_far_outside_are_dropped(
+def test_all_nan_frames_are_frames_without_a_hand_and_points_far_outside_are_dropped(
     detected,
 ):
     xy, c = detected.xy.copy(), detected.confidence.copy()
-    xy[2:4], c[2:4] = np.nan, 0.0  # two frames without a detection
+    xy[2:4], c[2:4] = np.nan, 0.0  # two frames where the detector found no hand
     xy[1, 8] = (5000.0, 300.0)  # the index tip three frames to the right
     tr = track(VIDEO, keypoints=Keypoints2D(xy, c, "k.npy"), scale=0.5, frames=6,
                keypoint_every=1, carry="none")  # fmt: skip
     q = tr.quality
     assert q.keypoints.tolist() == [True, True, False, False, True, True]
+    assert q.no_hand.tolist() == [False, False, True, True, False, False]
     assert tr.options["outside_keypoints"] == 1
-    assert not q.lost.any() and np.isfinite(tr.poses).all()
+    assert not q.lost.any()
+    assert np.isnan(tr.poses[2:4]).all() and np.isfinite(tr.poses[[0, 1, 4, 5]]).all()
 
 
 def test_a_left_hand_tracked_as_right_is_an_error_and_auto_takes_the_handedness(detected, tmp_path):
     left = with_side(detected, "left")
     with pytest.raises(ValueError, match=r"hand: expected the side the keypoints' handedness "
                                          r"gives \(left\); got right"):  # fmt: skip
-        track(VIDEO, keypoints=left, frames=2)
+        track(VIDEO, keypoints=left, frames=2, hand="right")
+    assert track(VIDEO, keypoints=left, frames=2, scale=0.5).shape.side == "left"  # auto
     write_keypoints(tmp_path / "k.npz", with_side(detected, "right"))
     res = CliRunner().invoke(main, ["track", str(VIDEO), "--keypoints", str(tmp_path / "k.npz"),
                                     "--hand", "auto", "--scale", "0.5", "--frames", "3",
                                     "--out", str(tmp_path / "t"), "--no-video"])  # fmt: skip
     assert res.exit_code == 0, res.output
-    with pytest.raises(ValueError, match="hand: auto expected a recording with keypoints"):
-        track(VIDEO, hand="auto", frames=2)
+    with pytest.raises(ValueError, match="hand: auto expected a recording with a detector or "):
+        track(VIDEO, hand="auto", detector="none", frames=2)
 
 
 def test_init_checks_the_side_against_the_handedness_and_auto_takes_it(detected, tmp_path):
@@ -87,10 +90,12 @@ def test_init_checks_the_side_against_the_handedness_and_auto_takes_it(detected,
 
     res = init(tmp_path / "k.npz", "right", "right.txt")
     assert res.exit_code == 2 and len(res.output.strip().splitlines()) == 1, res.output
-    assert "handedness gives (left); got right" in res.output
+    assert "--hand: expected the side the --keypoints' handedness gives (left); got right" in (
+        res.output
+    )
     assert not (tmp_path / "right.txt").exists()
     res = init(tmp_path / "k.npy", "auto", "none.txt")
-    assert res.exit_code == 2 and "hand: auto expected keypoints with handedness" in res.output
+    assert res.exit_code == 2 and "--hand: auto expected --keypoints with handedness" in res.output
     for hand in ("auto", "left"):
         res = init(tmp_path / "k.npz", hand, f"{hand}.txt")
         assert res.exit_code == 0, res.output

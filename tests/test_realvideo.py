@@ -97,6 +97,7 @@ def test_cli_init_then_track_on_colour_frames(colour_recording, tmp_path):
         [
             "track", ",".join(map(str, folders)), "--calib", str(calib), "--init",
             str(pose_file), "--frames", "4", "--out", str(out), "--no-video",
+            "--detector", "none",  # the silhouette tracker of these rendered frames
         ],
     )  # fmt: skip
     assert result.exit_code == 0, result.output

@@ -317,9 +317,13 @@ def test_the_first_30_frames_hold_with_keypoints_every_5th():
     result, scores, with_detection = track_video(30, 5)
     q = result.quality
     assert with_detection.sum() == 6
-    assert q.keypoints.all()  # carried to every frame between
+    assert q.keypoints[:26].all()  # carried to every frame between two detections
+    # after the last detection (frame 25) nothing is carried: no hand, as far as known
+    assert not q.keypoints[26:].any() and q.no_hand[26:].all()
+    assert np.isnan(result.poses[26:]).all()
     assert not q.lost.any()
-    assert scores[~with_detection].mean() >= 0.9
+    between = ~with_detection & (np.arange(30) < 25)
+    assert scores[between].mean() >= 0.9
 
 
 @pytest.fixture(scope="module")
@@ -354,15 +358,18 @@ def test_a_recording_that_starts_without_a_hand_writes_its_outputs(tmp_path):
     assert np.isnan(poses[0]).all() and np.isfinite(poses[-1]).all()
 
 
-def test_a_recording_is_carried_both_ways_by_default_past_its_last_detection():
-    # the frames after the last detection (11, 12) are given out when the recording ends
-    # (tests/test_live_batch.py compares the carry with the whole recording's)
+def test_a_recording_is_carried_both_ways_by_default_but_not_past_its_last_detection():
+    # the frames after the last detection (11, 12) are given out when the recording ends,
+    # without keypoints: frames without a hand (tests/test_live_batch.py compares the
+    # carry with the whole recording's)
     detected = read_keypoints(KEYPOINTS)
     t = handvar.track(VIDEO, keypoints=detected, frames=13, keypoint_every=5, scale=0.5)
     assert t.options["carry"] == "both"
     whole = open_source(VIDEO, scale=0.5).carried_keypoints([detected.every(5)], 13, both=True)
     np.testing.assert_array_equal(t.keypoints[0].to_array(), whole[0].to_array()[:13])
-    assert t.keypoints[0].present[11:].any(axis=1).all()
+    assert t.keypoints[0].present[:11].any(axis=1).all()
+    assert not t.keypoints[0].present[11:].any()
+    assert np.isnan(t.poses[11:]).all() and t.quality.no_hand[11:].all()
 
 
 @pytest.mark.parametrize("carry", [False, True])
@@ -433,12 +440,13 @@ def test_track_compares_the_fingertip_pads_when_asked(tmp_path):
     assert abs(end - pad) > 1e-3
 
 
-def test_keypoint_every_needs_keypoints(tmp_path):
+def test_keypoint_every_needs_keypoints_or_a_detector(tmp_path):
     res = CliRunner().invoke(
-        main, ["track", str(VIDEO), "--keypoint-every", "5", "--out", str(tmp_path / "o")]
-    )
-    assert res.exit_code != 0
-    assert "--keypoint-every: expected only with --keypoints" in res.output
+        main, ["track", str(VIDEO), "--keypoint-every", "5", "--detector", "none",
+               "--out", str(tmp_path / "o")],
+    )  # fmt: skip
+    assert res.exit_code == 2
+    assert "--keypoint-every: expected only with --keypoints or a detector" in res.output
 
 
 def test_track_without_recovery_still_uses_the_keypoints(tmp_path):

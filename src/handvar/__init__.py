@@ -12,6 +12,8 @@ optimisers)::
     track.save("out")
 
 - `track`, `Track`: the whole pipeline in one call (`handvar.pipeline`);
+- `HandTracker`, `FrameResult`: the per-frame tracker, ``tracker.process(frame)``
+  (`handvar.tracking.hand_tracker`);
 - `HandModel`, `HandShape`: the hand model (`handvar.hand`);
 - the motion predictors (`RVAR`, `VAR`, `AdaptiveBank`, ...; `handvar.predictors`) and
   `make_predictor` (by name, `handvar.predictors.catalogue`).
@@ -28,6 +30,8 @@ __version__ = "0.1.0"
 _LAZY = {
     "track": "handvar.pipeline",
     "Track": "handvar.pipeline",
+    "HandTracker": "handvar.tracking.hand_tracker",
+    "FrameResult": "handvar.tracking.hand_tracker",
     "HandModel": "handvar.hand.kinematics",
     "HandShape": "handvar.hand.anthropometry",
     "make_predictor": "handvar.predictors.catalogue",
@@ -47,8 +51,10 @@ __all__ = [
     "VAR",
     "AdaptiveBank",
     "Decelerating",
+    "FrameResult",
     "HandModel",
     "HandShape",
+    "HandTracker",
     "KalmanCV",
     "NoMotion",
     "OfflineVAR",
@@ -64,6 +70,7 @@ if TYPE_CHECKING:  # what static checkers and editors see
     from handvar.hand.anthropometry import HandShape
     from handvar.hand.kinematics import HandModel
     from handvar.pipeline import Track, track
+    from handvar.tracking.hand_tracker import FrameResult, HandTracker
     from handvar.predictors import (
         RVAR,
         VAR,

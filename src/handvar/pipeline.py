@@ -38,6 +38,7 @@ recording first (docs/live-and-batch.md).
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import json
 import os
 import time
@@ -134,6 +135,10 @@ class Track:
     latency : (T,) ndarray or None
         Tracked in real time: seconds from a frame's capture to its pose (NaN on dropped
         frames; `realtime_summary`).  None off-line.
+    detected : list of Keypoints2D or None
+        With the detector inside the pipeline, per camera what it found, full-resolution
+        pixels, world landmarks and handedness (`handvar keypoints`' .npz); None
+        otherwise.
     """
 
     poses: np.ndarray
@@ -156,6 +161,7 @@ class Track:
     source: Any = field(default=None, repr=False)
     dropped: np.ndarray | None = None
     latency: np.ndarray | None = None
+    detected: list | None = field(default=None, repr=False)
 
     @property
     def n_frames(self) -> int:
@@ -276,13 +282,18 @@ class Track:
 
         Raises
         ------
+        TypeError
+            If `directory` is not a path.
         ValueError
             If `directory` holds no readable track.npz, or it lacks the tracker's
-            record, or (older directories) the default hand does not give its joints.
+            record, or a pose lies outside the parameter limits, or (older directories)
+            the default hand does not give its joints.
         """
+        from handvar.params import check_limits
         from handvar.tracking.recovery import TrackQuality
         from handvar.tracking.tracker import TrackResult
 
+        as_instance(directory, (str, os.PathLike), "directory", what="a path (str or path-like)")
         folder = Path(directory)
         path = folder / "track.npz"
         if not path.is_file():
@@ -307,7 +318,19 @@ class Track:
                 f"{path}: expected (T, 26) poses and (T, 21, 3) joints, T >= 1; got "
                 f"{result.poses.shape} and {result.joints.shape}"
             )
-        meta = json.loads(str(stored["meta"])) if "meta" in stored else {}
+        try:  # the poses checked as a pose file's are: within the limits
+            check_limits(result.poses, "poses")
+        except ValueError as exc:
+            raise ValueError(f"{path}: {exc}") from None
+        try:
+            meta = json.loads(str(stored["meta"])) if "meta" in stored else {}
+        except ValueError:  # json.JSONDecodeError
+            meta = None
+        if not isinstance(meta, dict):
+            raise ValueError(
+                f"{path}: not a readable track (meta: expected a JSON object; got "
+                f"{str(stored['meta'])[:40]!r})"
+            )
         if _SHAPE_PREFIX + "segments" in stored:
             shape = HandShape(**{
                 name: _scalar(stored[_SHAPE_PREFIX + name]) for name in _shape_fields()
@@ -465,7 +488,7 @@ def track(
     calib=None,
     fov: float | None = None,
     scale: float = 1.0,
-    hand: str = "right",
+    hand: str | None = None,
     hand_length: float = 185.0,
     model: str = "spheres",
     predictor: str = "rvar",
@@ -481,6 +504,7 @@ def track(
     recovery=None,
     on_frame: Callable | None = None,
     realtime: bool = False,
+    detector="auto",
 ) -> Track:
     """Track the hand through a recording or a sequence (module notes: the defaults).
 
@@ -505,8 +529,10 @@ def track(
     scale : float
         Recordings only: resize the frames by this factor first (0.5 is about 4x
         faster).
-    hand : {"right", "left"}
-        Which hand is tracked.
+    hand : {"right", "left", "auto"}, optional
+        Which hand is tracked; "auto": the side of the detector's handedness (the
+        first frames with a hand, `_Stream.decide_side`) or of the keypoint file's.
+        Default: "auto" with a detector or keypoints with handedness, else "right".
     hand_length : float
         Hand length of the model (wrist crease to middle fingertip), mm.
     model : {"spheres", "mesh"}
@@ -550,6 +576,14 @@ def track(
         A recording only, with recovery: play it at its own frame rate and track the
         newest frame each time the tracker is free, skipping the others (module notes
         on the online form); the track then has ``dropped`` and ``latency``.
+    detector : {"auto", "mediapipe", "none"} or callable
+        The keypoint detector run inside the pipeline on a recording or a camera given
+        without `keypoints` (`handvar.vision.detector`): "auto" is MediaPipe Hands when
+        it is installed, else none (the silhouette tracker; ``options["notice"]`` says
+        so); a callable ``frame -> points`` is the user's own
+        (`handvar.vision.detector.user_detector`).  It runs on every `keypoint_every`-th
+        frame, in a worker thread ahead of the fit; what it found is the track's
+        ``detected``.
 
     Returns
     -------
@@ -563,6 +597,11 @@ def track(
     """
     seed = as_int(seed, "seed", minimum=0)
     keypoint_every = as_int(keypoint_every, "keypoint_every", minimum=1)
+    if hand is None:  # decided with the detector and the keypoints below
+        hand = "auto"
+        side_given = False
+    else:
+        side_given = True
     if frames is not None:
         frames = as_int(frames, "frames", minimum=1)
     scale = as_float(scale, "scale", minimum=0.0, exclusive_minimum=True)
@@ -595,7 +634,14 @@ def track(
             f"realtime: expected a recording (a video file or an image folder); got the "
             f"{spec.kind} sequence {label!r}"
         )
-    detected = _read_keypoints(keypoints, spec, keypoint_every)
+    detectors, notice = _detectors(detector, keypoints, spec, live)  # one per camera
+    if not side_given and detectors is None:
+        hand = "right" if keypoints is None else "auto"
+    detected = _read_keypoints(keypoints, spec, keypoint_every, detectors is not None)
+    if detected is not None and not side_given and all(
+        k.handedness is None for k in detected if k is not None
+    ):
+        hand = "right"  # keypoints without handedness: the default side
     if carry not in (None, "none") and (detected is None or spec.kind != "recording"):
         got = "no keypoints" if spec.kind == "recording" else f"the {spec.kind} sequence {label!r}"
         raise ValueError(
@@ -603,11 +649,11 @@ def track(
             f"keypoints for {carry}; got {got}"
         )
     recording = spec.kind in ("recording", "camera")
-    if carry is None:  # both ways on a recording read from disk: the better guess
-        carry = "none" if detected is None or not recording else (
-            "forward" if realtime or live else "both")  # fmt: skip
+    keyed = detected is not None or detectors is not None  # the track has keypoints
+    if carry is None:
+        carry = _default_carry(keyed and recording, realtime or live, keypoint_every)
     if recover is None:
-        recover = recording or detected is not None
+        recover = recording or keyed
     given = [name for name, v in (("recovery", recovery), ("on_frame", on_frame)) if v is not None]
     if given and not recover:
         raise ValueError(
@@ -625,16 +671,17 @@ def track(
 
     opened, full_rig, used = None, None, detected  # the recording; its rig; the keypoints
     outside = 0  # keypoints dropped as lying outside the frames
-    if hand == "auto" and (detected is None or not recording):
+    if hand == "auto" and (not keyed or not recording):
         raise ValueError(
-            "hand: auto expected a recording with keypoints with handedness; got "
-            + ("no keypoints" if detected is None else f"the {spec.kind} sequence {label!r}")
+            "hand: auto expected a recording with a detector or keypoints with handedness; "
+            "got " + ("no keypoints" if not keyed else f"the {spec.kind} sequence {label!r}")
         )
     stage_seconds = {}
     stream = None  # the online form (module notes)
     if live:
         opened, full_rig = source, source.rig  # its frames as delivered (open_camera scale)
-        stream = _Stream(source, None, carry=carry, frames=frames, realtime=True)
+        stream = _Stream(source, None, carry=carry, frames=frames, realtime=True,
+                         detectors=detectors, every=keypoint_every)  # fmt: skip
     elif recording:
         from handvar.vision.sources import open_source
 
@@ -656,7 +703,8 @@ def track(
                     f"got {len(detected)}"
                 )
     if recording and not live and recover:  # frame by frame
-        stream = _Stream(opened, detected, carry=carry, frames=frames, realtime=realtime)
+        stream = _Stream(opened, detected, carry=carry, frames=frames, realtime=realtime,
+                         detectors=detectors, every=keypoint_every)  # fmt: skip
     elif recording and not live:  # the whole recording first (without recovery)
         total = opened.n_frames if frames is None else min(frames, opened.n_frames)
         clock = time.perf_counter()
@@ -690,6 +738,8 @@ def track(
     if used is not None and len(used) != len(rig):
         raise ValueError(f"keypoints: expected one file per camera ({len(rig)}); got {len(used)}")
     x0 = _first_pose(init, None if stream is not None else sequence.truth, recover, label)
+    if stream is not None and detectors is not None:
+        hand = stream.decide_side(hand)
 
     from handvar.hand.kinematics import HandModel
     from handvar.tracking import CostSettings, Tracker, TrackerSettings
@@ -703,31 +753,15 @@ def track(
         settings,
     )  # fmt: skip
     quality, search_seconds = None, np.zeros(0)
-    dropped = latency = None
+    dropped = latency = found = None
     clock = time.perf_counter()
     if stream is not None:
-        from handvar.tracking.recovery import track_with_recovery
-
-        name = opened.names[0] if live else Path(opened.readers[0].path).stem
-        n = None if live or realtime else min(frames or opened.n_frames, opened.n_frames)
-        masks = stream.frames()
-        if bar is not None:
-            masks = bar(f"tracking {name}", n)(masks)
-        try:
-            recovered = track_with_recovery(
-                tracker, masks, x0, keypoints=None if detected is None else stream.keypoints_at,
-                world=_world_cue(detected), cut_wrist=detected is not None,
-                on_frame=stream.on_frame(on_frame),
-                **({} if recovery is None else {"settings": recovery}),
-            )  # fmt: skip
-        except ValueError:
-            if stream.exhausted and not stream.live:  # read whole, and no hand anywhere:
-                stream.source.check_some_hand(stream.masks)  # the recording's own word
-            raise
+        recovered = _run_stream(tracker, stream, x0, recovery, on_frame, bar)
         result, quality = _with_dropped(recovered, stream.rows(), stream.n_frames)
         hand_model = tracker.hand  # the shape adapted to the first frames
         search_seconds = np.asarray(recovered.init_seconds, dtype=float)
         sequence, used = stream.sequence(), stream.keypoints(opened.names)
+        found = stream.detected(opened.names)
         latency = stream.latency()
         dropped = stream.dropped_mask() if stream.realtime else None
         stage_seconds.update(stream.seconds)
@@ -761,9 +795,9 @@ def track(
     T = result.poses.shape[0]
     projected = _project(full_rig, result.joints)
     seen = None
-    if detected is not None:
-        seen = np.zeros(T, dtype=bool)
-        for k in detected:
+    for k in (found or detected or ()):
+        if k is not None:
+            seen = np.zeros(T, dtype=bool) if seen is None else seen
             seen[: min(T, k.n_frames)] |= k.present[:T].any(axis=1)
     options = {
         "source": [str(p) for p in spec.paths] or spec.name, "kind": spec.kind,
@@ -772,6 +806,7 @@ def track(
         "keypoint_tips": keypoint_tips, "recover": recover, "frames": frames,
         "realtime": realtime or live,
         "hand": hand, "outside_keypoints": outside,
+        "detector": _detector_name(detector, detectors), "notice": notice,
     }  # fmt: skip
     return Track(
         poses=result.poses, joints=result.joints, projected=projected, quality=quality,
@@ -779,8 +814,69 @@ def track(
         seed=seed, fps=None if sequence.fps is None else float(sequence.fps), result=result,
         search_seconds=search_seconds, detections=seen, keypoints=used, options=options,
         stage_seconds=stage_seconds, sequence=sequence, source=opened, dropped=dropped,
-        latency=latency,
+        latency=latency, detected=found,
     )  # fmt: skip
+
+
+def _run_stream(tracker, stream: _Stream, x0, settings, on_frame, bar):
+    """Fit every frame of `stream`, one at a time: a loop over the per-frame tracker
+    (`handvar.tracking.hand_tracker.HandTracker.fit`)."""
+    from handvar.tracking.hand_tracker import HandTracker
+
+    step = HandTracker.following(tracker, keyed=stream.keyed, settings=settings)
+    if x0 is not None:
+        step.recovery.start(x0)
+    done = stream.on_frame(on_frame)
+    items = stream.frames()
+    if bar is not None:
+        items = bar("tracking", stream.expected())(items)
+    try:
+        for i, (masks, kps, world, absent) in enumerate(items):
+            r = step.fit(masks, kps, world, absent=absent)
+            done(i, r.pose, r.quality, masks)
+        return step.recovered(keypoints=stream.keyed)
+    except ValueError:
+        if stream.exhausted and not stream.live and not stream.keyed:  # no hand anywhere:
+            stream.source.check_some_hand(stream.masks)  # the recording's own word
+        raise
+
+
+def _detectors(detector, keypoints, spec, live: bool):
+    """Per camera the detector of `track` (or None), and the notice when "auto" found
+    no MediaPipe."""
+    from handvar.vision.detector import make_detectors
+
+    explicit = detector not in ("auto", None)
+    if keypoints is not None or not (live or spec.kind == "recording"):
+        if explicit and detector != "none":
+            what = "keypoints" if keypoints is not None else f"the {spec.kind} sequence"
+            raise ValueError(f"detector: expected none with {what}; got {detector!r}")
+        return None, None
+    detectors = make_detectors(detector, 1 if live else len(spec.paths))
+    notice = None
+    if detectors is None and detector == "auto":
+        notice = (
+            "no keypoint detector (MediaPipe is not installed): tracking skin-colour "
+            "silhouettes alone, which needs a plain background and controlled light; "
+            "pip install 'handvar[mediapipe]' for the detector"
+        )
+    return detectors, notice
+
+
+def _detector_name(detector, detectors) -> str:
+    if detectors is None:
+        return "none"
+    return "callable" if callable(detector) else "mediapipe"
+
+
+def _default_carry(keyed: bool, online: bool, every: int) -> str:
+    """How keypoints are carried by default (module notes): both ways off-line; online
+    only from a detector slower than the frames (``every`` > 1), up to its next frame."""
+    if not keyed:
+        return "none"
+    if online:
+        return "forward" if every > 1 else "none"
+    return "both"
 
 
 def _resolve_source(source):
@@ -806,11 +902,11 @@ def _resolve_source(source):
     return resolve_sequence(source, names=SEQUENCE_NAMES, argument="source"), source
 
 
-def _read_keypoints(keypoints, spec, every: int):
+def _read_keypoints(keypoints, spec, every: int, detector: bool = False):
     """Per camera a `Keypoints2D` (every `every`-th frame), or None without keypoints."""
     if keypoints is None:
-        if every != 1:
-            raise ValueError("keypoint_every: expected only with keypoints")
+        if every != 1 and not detector:
+            raise ValueError("keypoint_every: expected only with keypoints or a detector")
         return None
     from handvar.vision.keypoints import Keypoints2D, read_keypoints
 
@@ -957,33 +1053,51 @@ class _Once:
         return self._value
 
 
+#: Frames with a detected hand whose handedness decides the side of a track with a
+#: detector and ``hand`` "auto" (`_Stream.decide_side`): a third of a second at 30 fps.
+SIDE_FRAMES = 10
+
+
 class _Stream:
-    """The per-frame steps ahead of the tracker, one frame at a time (docs/live-and-batch.md).
+    """The per-frame steps ahead of the fit, one frame at a time (docs/live-and-batch.md).
 
     For each frame of the source (a recording, played at its own rate or as fast as
-    it goes, or a live camera): the skin-colour silhouettes, the frame's keypoints
-    (the detection, or with ``carry`` "forward" the last one carried by optical flow,
-    `handvar.vision.carry.KeypointCarrier`), handed to `track_with_recovery`, which
-    fits the frame; `on_frame` notes when each fit finished.
+    it goes, or a live camera): its keypoints, detected by the detector stage
+    (`handvar.vision.detector.detect_ahead`, in a worker thread ahead of the fit) or
+    read from a keypoint file, carried by optical flow inside the gaps between
+    detections (`handvar.vision.carry`); and its skin-colour silhouettes, computed only
+    when the fit asks.  `frames` hands them to the fit; `on_frame` notes when each fit
+    finished.
     """
 
-    def __init__(self, source, detected, *, carry: str, frames: int | None, realtime: bool):
-        from handvar.vision.carry import KeypointCarrier, TwoWayCarrier
+    def __init__(self, source, detected, *, carry: str, frames: int | None, realtime: bool,
+                 detectors: list | None = None, every: int = 1) -> None:  # fmt: skip
+        from handvar.vision.carry import CarrySettings, KeypointCarrier, TwoWayCarrier
         from handvar.vision.skin import SkinModel
 
         self.source = source
         self.live = not hasattr(source, "frames")
         self.realtime = realtime or self.live
         self.scaled = None if detected is None else source.scaled_keypoints(detected)
+        self.world = None if detected is None or detected[0] is None else detected[0].world
+        self.detectors = detectors
+        self.every = every
+        self.keyed = detected is not None or detectors is not None  # the track has keypoints
+        self.carry = carry
         self.carriers = None  # per camera, carrying forward, or both ways with a delay
-        if self.scaled is not None and carry in ("forward", "both"):
+        if self.keyed and carry in ("forward", "both"):
             kind = KeypointCarrier if carry == "forward" else TwoWayCarrier
-            self.carriers = [kind() for _ in self.scaled]
+            settings = CarrySettings()
+            if carry == "forward" and every > 1:  # online: up to the next detector frame
+                settings = CarrySettings(max_frames=min(every - 1, settings.max_frames))
+            self.carriers = [kind(settings) for _ in source.names]
         self.two_way = carry == "both"
         self.stop = frames
         self.model = SkinModel()
         self.clock = time.perf_counter
         self.t0: float | None = None
+        self.hand = "auto"  # the side the detections are chosen for (`decide_side`)
+        self.found: dict[int, list] = {}  # detector: per frame and camera, the chosen hand
         self.indices: list[int] = []  # recording index of each tracked frame
         self.capture: list[float] = []  # its capture time, s after the first frame's
         self.finish: list[float] = []  # when its fit finished, s after the first frame's
@@ -993,24 +1107,147 @@ class _Stream:
         self.seconds = {"silhouettes": 0.0, "keypoints": 0.0}
         self.exhausted = False  # every frame read without an error
         self.origin: list[float] = []  # paced playback: when its clock started
+        self._ahead: list = []  # frames read ahead by `decide_side`
+        self.shape: tuple | None = None  # of a frame's silhouettes (n_cams, H, W)
+        self._items = None
+
+    # -- the frames, their detections ---------------------------------------------------
 
     def _feed(self):
+        """``(index, seconds, images, originals)`` of every frame played."""
         if self.live:
             self.dropped = self.source.dropped
-            return self.source.stream(self.stop, clock=self.clock)
-        frames = self.source.frames(0, self.stop)
+            stream = self.source.stream(self.stop, clock=self.clock)
+            return ((i, s, images, images) for i, s, images in stream)
+        frames = self.source.frames(0, self.stop, originals=self.detectors is not None)
+        frames = ((f[0], (f[1], f[-1])) for f in frames)  # images, full-resolution ones
         if self.realtime:
-            return paced_frames(
+            frames = paced_frames(
                 frames, self.source.fps, self.dropped, clock=self.clock, origin=self.origin
             )
-        return ((i, i / self.source.fps, images) for i, images in frames)
+        else:
+            frames = ((i, i / self.source.fps, pair) for i, pair in frames)
+        return ((i, s, images, full) for i, s, (images, full) in frames)
+
+    def _items_read(self):
+        """``(index, seconds, images, found)``: `found` per camera the hands the detector
+        found (`handvar.vision.detector.Detection`), or None on a frame it did not run on
+        (every K-th frame, ``every``) and without a detector."""
+        if self._items is None:
+            if self.detectors is None:
+                self._items = ((i, s, images, None) for i, s, images, _ in self._feed())
+            else:
+                from handvar.vision.detector import detect_ahead
+
+                feed = ((i, s, images, full if i % self.every == 0 else None)
+                        for i, s, images, full in self._feed())  # fmt: skip
+                self._items = detect_ahead(feed, self.detectors)
+        return self._items
+
+    def decide_side(self, hand: str) -> str:
+        """The side of the hand with a detector: `hand`, or with "auto" the handedness of
+        the first `SIDE_FRAMES` frames with a hand (`handvar.vision.detector.vote_side`;
+        a detector that says no side: right).  The frames are read ahead (those before
+        the first hand without their images: they are frames without a hand).
+
+        Raises
+        ------
+        ValueError
+            The detector found no hand in the whole recording.
+        """
+        from handvar.vision.detector import vote_side
+
+        self.hand = hand
+        if hand != "auto":
+            return hand
+        votes: list = []  # per frame with a hand and camera, the hands found
+        seen = 0  # frames with a hand
+        for index, seconds, images, found in self._items_read():
+            if found is not None and any(found):
+                seen += 1
+                votes.extend(found)
+            self._ahead.append((index, seconds, images if seen else None, found))
+            if seen >= SIDE_FRAMES:
+                break
+        if not seen:
+            self.exhausted = True
+            raise ValueError(
+                f"{self._name()}: expected a hand; the detector found none in its "
+                f"{len(self._ahead)} frames"
+            )
+        self.hand = vote_side(votes) or "right"
+        return self.hand
+
+    def _name(self) -> str:
+        return self.source.names[0] if self.live else str(self.source.readers[0].path)
+
+    def _detections(self):
+        """``(index, seconds, images, detections, world, ran)`` of every frame: per
+        camera its detected (21, 3) keypoints in the tracked frames' pixels or None, the
+        detector's 3D of the first camera or None, and whether the detector looked at
+        this frame."""
+        from handvar.vision.detector import choose
+
+        pending, self._ahead = self._ahead, []
+        for index, seconds, images, found in itertools.chain(pending, self._items_read()):
+            if self.detectors is None:
+                yield (index, seconds, images, *self._from_file(index))
+                continue
+            if found is None:
+                yield index, seconds, images, [None] * len(self.detectors), None, False
+                continue
+            chosen = [choose(f, self.hand) for f in found]
+            self.found[index] = chosen
+            dets = [None if p is None else self._to_tracked(p, j)
+                    for j, (p, _) in enumerate(chosen)]  # fmt: skip
+            world = None if chosen[0][1] is None else chosen[0][1].world
+            yield index, seconds, images, dets, world, True
+
+    def _from_file(self, index: int):
+        """Frame `index`'s detections of a keypoint file, its 3D, whether detected."""
+        if self.scaled is None:
+            return None, None, False
+        dets = []
+        for k in self.scaled:
+            row = None if k is None or index >= k.n_frames else k.frame(index)
+            dets.append(row if row is not None and np.any(row[:, 2] > 0) else None)
+        ran = index % self.every == 0 and any(
+            k is not None and index < k.n_frames for k in self.scaled
+        )
+        world = None
+        if self.world is not None and index < len(self.world):
+            w = self.world[index]
+            world = w if np.isfinite(w).all() else None
+        return dets, world, ran
+
+    def _to_tracked(self, points: np.ndarray, camera: int) -> np.ndarray:
+        """Full-resolution keypoints (21, 3) in the tracked frames' pixels (``scale``)."""
+        scale = getattr(self.source, "scale", 1.0)
+        if self.live or scale == 1.0:
+            return points
+        w, h = self.source.readers[camera].size
+        s = np.array([max(1, round(w * scale)) / w, max(1, round(h * scale)) / h])
+        out = points.copy()
+        out[:, :2] = (points[:, :2] + 0.5) * s - 0.5
+        return out
+
+    def expected(self) -> int | None:
+        """Frames to be tracked, when known (a recording read as fast as it goes)."""
+        if self.realtime:
+            return None
+        n = self.source.n_frames
+        return n if self.stop is None else min(self.stop, n)
+
+    # -- to the fit ---------------------------------------------------------------------
 
     def frames(self):
-        """The silhouettes of every frame tracked, for `track_with_recovery`."""
+        """``(masks, keypoints, world, absent)`` of every frame tracked, for the fit:
+        masks lazily computed where there are keypoints (`_Once`); `absent`: the detector
+        found no hand there and none was carried to it."""
         from handvar.vision.sources import frame_silhouettes
 
-        wrist = self.scaled is None  # with keypoints the tracker cuts the wrist
-        for index, seconds, images, kps in self._keyed(self._feed()):
+        wrist = not self.keyed  # with keypoints the tracker cuts the wrist
+        for index, seconds, images, kps, world, ran in self._keyed(self._detections()):
             if self.t0 is None:  # the zero of the capture times
                 self.t0 = self.origin[0] if self.origin else self.clock() - seconds
 
@@ -1024,74 +1261,62 @@ class _Stream:
                 return masks
 
             # With keypoints a frame's silhouettes are computed only if the fit asks.
-            masks = silhouettes() if self.scaled is None else _Once(silhouettes)
+            masks = silhouettes() if not self.keyed else _Once(silhouettes)
+            if images is not None and self.shape is None:
+                self.shape = (len(images), *images[0].shape[:2])
+            present = kps is not None and any(k is not None for k in kps)
+            absent = self.keyed and not present and (ran or self.carry != "none")
             self.kps.append(kps)
             self.indices.append(index)
             self.capture.append(seconds)
             self.masks.append(masks)
-            yield masks
+            yield masks, kps if present else None, world, absent
             if isinstance(masks, _Once):  # keep what was computed, not the frame's images
                 self.masks[-1] = masks.release()
         self.exhausted = True
 
-    def _keyed(self, feed):
-        """``(index, seconds, images, keypoints)`` of each frame of `feed`, in order.
+    def _keyed(self, items):
+        """``(index, seconds, images, keypoints, world, ran)`` of each frame, in order.
 
         Carried forward (or not at all) a frame's keypoints are known when it is read.
         Carried both ways (`TwoWayCarrier`), frames are held until every camera's
         keypoints of them are final: the frames up to the next detection are read
         first (at most `CarrySettings.max_frames`), and the silhouettes of the frames
-        held are computed only when the fit asks, as for any frame.
+        held are computed only when the fit asks, as for any frame.  A frame read
+        ahead without its images (before the first hand) is given no keypoints.
         """
-        if self.scaled is None or not self.two_way:
-            for index, seconds, images in feed:
+        if self.carriers is None or not self.two_way:
+            for index, seconds, images, dets, world, ran in items:
                 clock = self.clock()
-                kps = None if self.scaled is None else self._carry(index, images)
+                if self.carriers is not None and images is not None:
+                    dets = [c.step(im, d) for c, im, d in zip(self.carriers, images, dets,
+                                                              strict=True)]  # fmt: skip
                 self.seconds["keypoints"] += self.clock() - clock
-                yield index, seconds, images, kps
+                yield index, seconds, images, dets, world, ran
             return
-        held: list = []  # (n, index, seconds, images) read, keypoints not final yet
-        final: list[dict] = [{} for _ in self.scaled]  # per camera: n → keypoints
+        held: list = []  # (n, index, seconds, images, world, ran) read, keypoints not final
+        final: list[dict] = [{} for _ in self.carriers]  # per camera: n → keypoints
 
         def ready():
             while held and all(held[0][0] in f for f in final):
-                n, index, seconds, images = held.pop(0)
-                kps = [f.pop(n) for f in final]
-                kps = [None if k is None or index >= k.n_frames else p
-                       for k, p in zip(self.scaled, kps, strict=True)]  # fmt: skip
-                yield index, seconds, images, kps
+                n, index, seconds, images, world, ran = held.pop(0)
+                yield index, seconds, images, [f.pop(n) for f in final], world, ran
 
-        for n, (index, seconds, images) in enumerate(feed):
+        n = 0
+        for index, seconds, images, dets, world, ran in items:
+            if images is None:  # before the first hand: nothing held, nothing to carry
+                yield index, seconds, images, dets, world, ran
+                continue
             clock = self.clock()
-            held.append((n, index, seconds, images))
-            for j, k in enumerate(self.scaled):
-                if k is None:
-                    final[j][n] = None
-                else:
-                    detection = k.frame(index) if index < k.n_frames else None
-                    final[j].update(self.carriers[j].step(images[j], detection))
+            held.append((n, index, seconds, images, world, ran))
+            for f, carrier, image, d in zip(final, self.carriers, images, dets, strict=True):
+                f.update(carrier.step(image, d))
+            n += 1
             self.seconds["keypoints"] += self.clock() - clock
             yield from ready()
-        for f, k, carrier in zip(final, self.scaled, self.carriers, strict=True):
-            if k is not None:
-                f.update(carrier.flush())
+        for f, carrier in zip(final, self.carriers, strict=True):
+            f.update(carrier.flush())
         yield from ready()
-
-    def _carry(self, index: int, images) -> list:
-        """Per camera this frame's keypoints: detected, or carried forward."""
-        out = []
-        for j, k in enumerate(self.scaled):
-            if k is None or index >= k.n_frames:
-                out.append(None)
-            elif self.carriers is None:
-                out.append(k.frame(index))
-            else:
-                out.append(self.carriers[j].step(images[j], k.frame(index)))
-        return out
-
-    def keypoints_at(self, i: int):
-        """The i-th tracked frame's keypoints, per camera (`track_with_recovery`)."""
-        return self.kps[i]
 
     def on_frame(self, user: Callable | None):
         """`track_with_recovery`'s callback: the finish time, then the user's."""
@@ -1133,7 +1358,7 @@ class _Stream:
         Where frames were fitted to keypoints without their silhouettes, a recording's
         are computed when the overlays ask for them (`VideoSource.lazy_masks`).
         """
-        if self.scaled is None and not self.live:  # no hand in any frame is refused
+        if not self.keyed and not self.live:  # no hand in any frame is refused
             self.source.check_some_hand(self.masks)
         if not self.live and any(m is None for m in self.masks):
             from handvar.io import Sequence
@@ -1144,7 +1369,7 @@ class _Stream:
                 provenance={"source": [str(r.path) for r in self.source.readers],
                             "scale": self.source.scale, "calibrated": self.source.calibrated},
             )  # fmt: skip
-        shape = next((m.shape for m in self.masks if m is not None), None)
+        shape = next((m.shape for m in self.masks if m is not None), self.shape)
         rows = self.rows()
         masks = [np.zeros(shape, dtype=bool)] * self.n_frames
         for r, m in zip(rows, self.masks, strict=True):
@@ -1155,17 +1380,46 @@ class _Stream:
 
     def keypoints(self, names) -> list | None:
         """Per camera the keypoints given to the tracker, as `Keypoints2D` (T frames)."""
-        if self.scaled is None:
+        if not self.keyed:
             return None
         from handvar.vision.keypoints import Keypoints2D
 
         out = []
-        for j, k in enumerate(self.scaled):
+        for j, k in enumerate(self.scaled or [None] * len(names)):
             a = np.full((self.n_frames, 21, 3), np.nan)
             for r, kps in zip(self.rows(), self.kps, strict=True):
                 if kps is not None and kps[j] is not None:
                     a[r] = kps[j]
             out.append(Keypoints2D.from_array(a, name=names[j] if k is None else k.name))
+        return out
+
+
+    def detected(self, names) -> list | None:
+        """With a detector, per camera what it found, as `handvar keypoints` writes it:
+        `Keypoints2D` in full-resolution pixels with the world landmarks, handedness
+        and presence, one row per frame played (NaN where it found no hand or did not
+        run); None without a detector."""
+        if self.detectors is None:
+            return None
+        from handvar.vision.keypoints import Keypoints2D
+
+        first = self.indices[0] - int(self.rows()[0])  # the recording index of row 0
+        out = []
+        for j, name in enumerate(names):
+            points = np.full((self.n_frames, 21, 3), np.nan)
+            world = np.full((self.n_frames, 21, 3), np.nan)
+            sides = np.full(self.n_frames, "", dtype="<U5")
+            for index, chosen in self.found.items():
+                r = index - first
+                found, d = chosen[j]
+                if found is None or not 0 <= r < self.n_frames:
+                    continue
+                points[r], sides[r] = found, d.side
+                if d.world is not None:
+                    world[r] = d.world
+            k = Keypoints2D.from_array(points, name=name)
+            out.append(Keypoints2D(k.xy, k.confidence, name, world=world, handedness=sides,
+                                   presence=k.present.any(axis=1).astype(float)))  # fmt: skip
         return out
 
 

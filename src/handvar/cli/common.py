@@ -9,9 +9,13 @@ from __future__ import annotations
 
 import functools
 import sys
+import time
 import warnings
 
 import click
+
+#: When the command started (its package imported): the all-in frame rates count from it.
+STARTED = time.perf_counter()
 
 
 def _one_line_errors(func):

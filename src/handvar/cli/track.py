@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import contextlib
+import time
+from pathlib import Path
 
 import click
 
@@ -55,17 +57,24 @@ def _check_predictor(ctx, param, value: str) -> str:
               help="Also write overlay.mp4.")  # fmt: skip
 @click.option("--hand-length", type=_FiniteRange(min=50.0, max=400.0), default=185.0,
               show_default=True, help="Hand length of the model, mm (as for `init`).")  # fmt: skip
-@click.option("--hand", "side", type=click.Choice(("right", "left", "auto")),
-              default="right", show_default=True,
-              help="Which hand is tracked (as for `init`); auto: the side of the keypoints' "
-                   "handedness (a .npz of `handvar keypoints`).")  # fmt: skip
+@click.option("--hand", "side", type=click.Choice(("right", "left", "auto")), default=None,
+              help="Which hand is tracked (as for `init`); auto: the side of the detector's "
+                   "handedness, or of a .npz of `handvar keypoints` [default: auto with the "
+                   "detector or such a .npz, else right].")  # fmt: skip
+@click.option("--detector", type=click.Choice(("auto", "mediapipe", "none")), default="auto",
+              show_default=True,
+              help="The keypoint detector run inside the pipeline on a recording or a "
+                   "camera given without --keypoints; auto: MediaPipe Hands when installed "
+                   "(pip install 'handvar[mediapipe]'), else none (skin-colour silhouettes "
+                   "alone, for plain backgrounds). Its points are kept in OUT/keypoints.npz "
+                   "and reused by a rerun into OUT.")  # fmt: skip
 @click.option("--model", type=click.Choice(("spheres", "mesh")), default="spheres",
               show_default=True, help="Surface of the tracked hand model.")  # fmt: skip
 @click.option("--keypoints", "keypoint_files", multiple=True, type=click.Path(dir_okay=False),
               help="2D keypoints (.npy or .csv, see `handvar keypoints`), one file per "
               "camera in order, pixels of the full-resolution frames.")  # fmt: skip
 @click.option("--keypoint-every", type=click.IntRange(min=1), default=1, show_default=True,
-              help="Use the keypoints of every K-th frame only (a slower detector).")  # fmt: skip
+              help="Run the detector (or use the keypoints) on every K-th frame only.")  # fmt: skip
 @click.option("--carry", type=click.Choice(("forward", "both", "none")), default=None,
               help="Carry the detected keypoints by optical flow over the frames without "
               "any: from the last detection (online), also back from the next one (waits "
@@ -100,9 +109,9 @@ def _check_predictor(ctx, param, value: str) -> str:
 @_one_line_errors
 @_locks_out
 def track_command(
-    seq, predictor, init, seed, n_frames, out, video, hand_length, side, model, keypoint_files,
-    keypoint_every, carry, keypoint_tips, silhouette_term, recover, camera, realtime, show,
-    scheduler, workers, calib, fov, scale,
+    seq, predictor, init, seed, n_frames, out, video, hand_length, side, detector, model,
+    keypoint_files, keypoint_every, carry, keypoint_tips, silhouette_term, recover, camera,
+    realtime, show, scheduler, workers, calib, fov, scale,
 ) -> None:  # fmt: skip
     """Track the hand through the sequence SEQ (a sequence directory or a synthetic name).
 
@@ -146,6 +155,7 @@ def track_command(
     """
 
     from handvar.atomic import check_output_dir
+    from handvar.cli.common import STARTED
 
     check_output_dir(out, "--out")  # before any work
     recovery = None  # handvar.track refuses one without recovery, naming the option
@@ -168,6 +178,7 @@ def track_command(
             predictor=predictor, init=None if init is None else load_pose(init),
             keypoint_every=keypoint_every, carry=carry, keypoint_tips=keypoint_tips,
             recover=recover, recovery=recovery, seed=seed, frames=n_frames, allow_short=allow_short,
+            detector=detector,
         )  # fmt: skip
         return
     if scheduler is not None or workers is not None:
@@ -181,6 +192,9 @@ def track_command(
         if keypoint_files:
             raise ValueError("--keypoints: expected none with --camera")
         source, options = _open_camera(camera, calib, fov, scale), {}
+    reused = ()
+    if camera is None and not keypoint_files and detector != "none":
+        keypoint_files = reused = _detected_before(out, seq[0])
     with _option_names(seq[0] if seq else "--camera"), _stop_on_interrupt(source):
         result = _track_one(
             source, keypoints=list(keypoint_files) or None, hand=side, hand_length=hand_length,
@@ -188,9 +202,15 @@ def track_command(
             keypoint_every=keypoint_every, carry=carry, keypoint_tips=keypoint_tips,
             recover=recover, seed=seed, frames=n_frames, progress=not show,
             realtime=realtime and camera is None, show=show, allow_short=allow_short,
-            recovery=recovery, **options,
+            recovery=recovery, detector=detector if not keypoint_files else "auto", **options,
         )  # fmt: skip
+    if result.options.get("notice"):
+        click.echo(f"handvar: note: {result.options['notice']}", err=True)
+    if reused:  # the detector's points of an earlier run: its name kept for the next
+        result.options["detector"] = "reused from " + ", ".join(Path(f).name for f in reused)
     written = result.save(out, video=video)
+    if result.detected is not None:
+        _save_detected(out, result)
     if "video_error" in written:
         click.echo(f"handvar: note: no video ({written['video_error']})", err=True)
     if result.options.get("outside_keypoints"):
@@ -200,18 +220,17 @@ def track_command(
             err=True,
         )
 
-    T, fit = result.n_frames, result.result
+    T = result.n_frames
     tracked = T if result.dropped is None else int(T - result.dropped.sum())
-    # all-in: reading the frames, silhouettes, keypoints, fit, recovery and searches
-    fps = tracked / max(float(sum(result.stage_seconds.values())), 1e-9)
+    # all-in: the whole command, from its start to the files written
+    fps = tracked / max(time.perf_counter() - STARTED, 1e-9)
     searches = ""
     if len(result.search_seconds):
         n_search, s_search = len(result.search_seconds), float(result.search_seconds.sum())
         searches = f", {n_search} re-initialisation{'s' * (n_search != 1)} in {s_search:.1f} s"
     click.echo(
-        f"{result.name}: {T} frames, predictor {predictor}, seed {seed}: "
-        f"{fit.iterations.sum() / tracked:.1f} iterations/frame, {fps:.1f} frames/s all-in"
-        f"{searches} "
+        f"{result.name}: {T} frames, predictor {predictor}, seed {seed}: {_lanes(result)}, "
+        f"{fps:.1f} frames/s all-in{searches} "
         f"-> {out}" + (f" (with {written['video'].name})" if "video" in written else "")
     )
     if result.quality is not None:
@@ -244,6 +263,70 @@ def track_command(
         click.echo(f"mean joint error: {err.mean():.2f} mm (max {err.max():.2f} mm)")
     if result.latency is not None:
         click.echo(result.realtime_summary())
+
+
+def _lanes(result) -> str:
+    """What ran, per frame: the frames fitted to keypoints, to silhouettes, without a hand."""
+    q, fit = result.quality, result.result
+    if q is None:
+        return f"{fit.iterations.sum() / max(result.n_frames, 1):.1f} iterations/frame"
+    keypoints = int(q.keypoints.sum())
+    no_hand = int(q.no_hand.sum())
+    dropped = 0 if result.dropped is None else int(result.dropped.sum())
+    silhouettes = result.n_frames - keypoints - no_hand - dropped
+    parts = [f"{keypoints} fitted to keypoints"]
+    if silhouettes:
+        sil = ~q.keypoints & ~q.no_hand
+        rate = fit.iterations[sil].sum() / silhouettes
+        parts.append(f"{silhouettes} to silhouettes ({rate:.1f} iterations/frame)")
+    parts.append(f"{no_hand} without a hand")
+    detector = result.options.get("detector", "none")
+    return ", ".join(parts) + (f" (detector {detector})" if detector != "none" else "")
+
+
+def _keypoint_files(out, n_cameras: int) -> list:
+    """Where `handvar track` keeps what the detector found, one file per camera (in the
+    order of SEQ)."""
+    from pathlib import Path
+
+    if n_cameras == 1:
+        return [Path(out) / "keypoints.npz"]
+    return [Path(out) / f"keypoints-{j}.npz" for j in range(n_cameras)]
+
+
+def _save_detected(out, result) -> None:
+    """OUT/keypoints.npz (keypoints-<j>.npz with several cameras): the detector's points,
+    world landmarks and handedness, as `handvar keypoints` writes them."""
+    from handvar.vision.keypoints import write_keypoints
+
+    for path, k in zip(_keypoint_files(out, len(result.detected)), result.detected,
+                       strict=True):  # fmt: skip
+        write_keypoints(path, k)
+
+
+def _detected_before(out, seq: str) -> tuple:
+    """The keypoint files an earlier run into OUT detected on the same whole recording,
+    to use again (a rerun with other settings); none otherwise."""
+    import json
+    from pathlib import Path
+
+    import numpy as np
+
+    track_file = Path(out) / "track.npz"
+    if not track_file.is_file():
+        return ()
+    try:
+        with np.load(track_file, allow_pickle=False) as z:
+            options = json.loads(str(z["meta"])).get("options", {})
+    except (OSError, ValueError, KeyError, EOFError):
+        return ()
+    paths = seq.split(",")
+    same = options.get("source") == paths and options.get("detector") not in (None, "none")
+    whole = options.get("frames") is None
+    files = _keypoint_files(out, len(paths))
+    if not (same and whole and all(f.is_file() for f in files)):
+        return ()
+    return tuple(str(f) for f in files)
 
 
 def _open_camera(index: int, calib, fov, scale):
@@ -376,22 +459,35 @@ def _track_batch(seq, out, keypoint_files, video, scheduler, workers, **options)
 
 
 #: `handvar.track`'s keyword arguments as `handvar track` names them in its messages (those
-#: that the options' own checks leave to `handvar.track`).
+#: that the options' own checks leave to `handvar.track`), where a keyword names the
+#: argument at fault: before the message's first colon.
 OPTION_NAMES = {
     "source": "SEQ", "keypoints": "--keypoints", "keypoint_every": "--keypoint-every",
     "carry": "--carry", "calib": "--calib", "fov": "--fov", "model": "--model",
     "init": "--init", "realtime": "--realtime", "recordings": "SEQ", "out": "--out",
     "hand": "--hand", "recovery": "--silhouette-term", "recover": "--recover",
+    "on_frame": "--show", "detector": "--detector",
+}  # fmt: skip
+#: The keywords renamed in the rest of such a message too: those that are no plain words
+#: there ("hand", "model", "source", "recordings" and "out" are: "a hand in some frame"),
+#: and "recovery", which there means the recovery itself, switched by --recover (its
+#: settings, before the colon, are --silhouette-term's).
+TEXT_NAMES = {
+    **{name: OPTION_NAMES[name] for name in (
+        "keypoints", "keypoint_every", "carry", "calib", "fov", "init", "realtime", "recover",
+        "on_frame",
+    )},
+    "recovery": "--recover",
 }  # fmt: skip
 
 
 @contextlib.contextmanager
-def _option_names(seq: str):
+def _option_names(seq: str | None):
     """Errors of `handvar.track` name the command's options instead of its keywords.
 
     In a message about the keywords (``keypoint_every: expected only with keypoints``)
-    or about SEQ, every keyword standing as a word of its own is replaced; other
-    messages (a file's) are left as they are.
+    or about SEQ, the keywords are replaced (`_cli_message`); other messages (a file's)
+    are left as they are.
     """
     try:
         yield
@@ -400,11 +496,30 @@ def _option_names(seq: str):
 
 
 def _cli_message(message: str, seq: str | None) -> str:
-    """`message` with `handvar.track`'s keywords named as the options (`_option_names`)."""
+    """`message` with `handvar.track`'s keywords named as the options (`_option_names`).
+
+    The keywords before the first colon by `OPTION_NAMES`; after it, a keyword standing
+    as a word of its own by `TEXT_NAMES` (never the command ``handvar keypoints``), and
+    a setting ``recover=False``, ``carry=both`` as the option given (``--no-recover``,
+    ``--carry both``).
+    """
     import re
 
-    word = re.compile(r"(?<![\w/.\-])(" + "|".join(OPTION_NAMES) + r")(?![\w/.\-])")
-    prefix = message.partition(": ")[0]
-    if prefix == seq or all(name in OPTION_NAMES for name in prefix.split(", ")):
-        message = word.sub(lambda m: OPTION_NAMES[m.group(1)], message)
-    return message
+    prefix, colon, text = message.partition(": ")
+    names = prefix.split(", ")
+    if prefix != seq and not all(name in OPTION_NAMES for name in names):
+        return message
+    if prefix != seq:
+        prefix = ", ".join(OPTION_NAMES[name] for name in names)
+    keyword = "|".join(TEXT_NAMES)
+
+    def setting(m: re.Match) -> str:
+        option, value = TEXT_NAMES[m.group(1)], m.group(2)
+        if value in ("True", "False"):  # a flag: --recover / --no-recover
+            return option if value == "True" else "--no-" + option.removeprefix("--")
+        return f"{option} {value}"
+
+    text = re.sub(rf"(?<![\w/.\-])({keyword})=(\w+)", setting, text)
+    text = re.sub(rf"(?<![\w/.\-])(?<!handvar )({keyword})(?![\w/.\-])",
+                  lambda m: TEXT_NAMES[m.group(1)], text)  # fmt: skip
+    return prefix + colon + text

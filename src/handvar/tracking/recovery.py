@@ -473,12 +473,18 @@ class Recovery:
 
     # -- one frame ------------------------------------------------------------------
 
-    def frame(self, masks, kps, world=None, *, with_keypoints: bool = False) -> _Frame:
+    def frame(
+        self, masks, kps, world=None, *, with_keypoints: bool = False, absent: bool = False
+    ) -> _Frame:
         """Track one frame: masks (n_cams, H, W), keypoints per camera or None.
 
         `with_keypoints`: the track has keypoints (so a frame without them may be a
-        frame without a hand).
+        frame without a hand).  `absent`: the detector looked at this frame and found no
+        hand, and none was carried to it: a frame without a hand (NaN pose), the
+        predictor left as it was.
         """
+        if absent and kps is None:
+            return _Frame(None, np.full(N_PARAMS, np.nan), no_hand=True)
         if kps is not None:
             lazy = masks if callable(masks) else (lambda: masks)
             wanted = self.settings.keypoint_iou or self.fit_settings.silhouette > 0
@@ -821,35 +827,55 @@ class Recovery:
 
     # -- a whole track ----------------------------------------------------------------
 
+    def start(self, x0) -> None:
+        """Start the track at pose `x0` (26,) instead of searching or fitting it."""
+        self.tracker.reset(x0)
+        self.previous = np.asarray(x0, dtype=float)
+        self.started = True
+
+    def step(self, masks, kps, world=None, *, with_keypoints: bool = False,
+             absent: bool = False) -> tuple[_Frame, float]:  # fmt: skip
+        """`frame`, timed: the frame kept and its wall time, seconds; `kps` without a
+        detected point is taken as None."""
+        t0 = time.perf_counter()
+        f = self.frame(masks, kps if _present(kps) else None, world,
+                       with_keypoints=with_keypoints, absent=absent)  # fmt: skip
+        return f, time.perf_counter() - t0
+
+    def result(self, frames: list[_Frame], seconds, *, keypoints: bool) -> RecoveredTrack:
+        """The track of the `frames` kept (in order) and their wall times.
+
+        Raises
+        ------
+        ValueError
+            No frame; or, a track without `keypoints`, no frame to start it in.
+        """
+        if not frames:
+            raise ValueError("frames: expected at least one frame; got none")
+        if not self.started and not keypoints:
+            raise ValueError(
+                f"frames: expected a frame with a silhouette to search the first pose in; "
+                f"all {len(frames)} are empty"
+            )
+        max_it = self.tracker.settings.smd.max_iterations
+        return _assemble(frames, self.hand, len(self.rig), max_it, self.init_seconds,
+                         np.asarray(seconds, dtype=float))  # fmt: skip
+
     def run(self, frames: Iterable, x0=None, *, keypoints=None, world=None,
             on_frame: Callable | None = None) -> RecoveredTrack:  # fmt: skip
         """Track `frames` from `x0` (`track_with_recovery`)."""
         if x0 is not None:
-            self.tracker.reset(x0)
-            self.previous = np.asarray(x0, dtype=float)
-            self.started = True
+            self.start(x0)
         out: list[_Frame] = []
         seconds: list[float] = []
         for i, masks in enumerate(frames):
-            t0 = time.perf_counter()
-            kps = _at(keypoints, i)
-            kps = kps if _present(kps) else None
-            w = _at(world, i)
-            f = self.frame(masks, kps, w, with_keypoints=keypoints is not None)
-            seconds.append(time.perf_counter() - t0)
+            f, s = self.step(masks, _at(keypoints, i), _at(world, i),
+                             with_keypoints=keypoints is not None)  # fmt: skip
             out.append(f)
+            seconds.append(s)
             if on_frame is not None:
                 on_frame(i, f.pose, _frame_quality(f.result, f.empty or f.no_hand), masks)
-        if not out:
-            raise ValueError("frames: expected at least one frame; got none")
-        if not self.started and keypoints is None:
-            raise ValueError(
-                f"frames: expected a frame with a silhouette to search the first pose in; "
-                f"all {len(out)} are empty"
-            )
-        max_it = self.tracker.settings.smd.max_iterations
-        return _assemble(out, self.hand, len(self.rig), max_it, self.init_seconds,
-                         np.asarray(seconds))  # fmt: skip
+        return self.result(out, seconds, keypoints=keypoints is not None)
 
 
 def _at(values, i):

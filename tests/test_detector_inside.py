@@ -1,0 +1,198 @@
+"""The keypoint detector inside the pipeline, and the per-frame tracker (design §1, §14.1).
+
+Checked against a second route (a detector that reads the shipped keypoints gives the
+track of the keypoint file), against MediaPipe's own output shipped with the clips,
+and against the clips' frames without a hand.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import cv2
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import handvar
+from handvar.cli import main
+from handvar.data import example_path
+from handvar.vision.detector import Detection, choose, user_detector, vote_side
+from handvar.vision.keypoints import read_keypoints
+
+VIDEO = example_path("video")
+KEYPOINTS = example_path("video-keypoints")
+COUNTING = example_path("counting")
+
+
+def _frames(path, n):
+    cap = cv2.VideoCapture(str(path))
+    out = []
+    for _ in range(n):
+        ok, image = cap.read()
+        assert ok
+        out.append(image)
+    cap.release()
+    return out
+
+
+# --- a user's detector -------------------------------------------------------------------
+
+
+def test_a_callable_detector_gives_the_track_of_the_same_keypoints_read_from_a_file():
+    shipped = read_keypoints(KEYPOINTS)
+    calls = []
+
+    def detect(image):  # the shipped points of the frame, as a user's model would give
+        calls.append(image.shape)
+        return shipped.frame(len(calls) - 1)
+
+    inside = handvar.track(VIDEO, detector=detect, frames=12, scale=0.5)
+    from_file = handvar.track(VIDEO, keypoints=str(KEYPOINTS), frames=12, scale=0.5)
+    assert len(calls) == 12 and calls[0] == (720, 1280, 3)  # the full-resolution frames
+    assert inside.options["detector"] == "callable" and inside.shape.side == "right"
+    np.testing.assert_allclose(inside.poses, from_file.poses, atol=1e-9)
+    # what it found is kept as `handvar keypoints` writes it, in full-resolution pixels
+    np.testing.assert_allclose(inside.detected[0].xy, shipped.xy[:12], atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("result", "message"),
+    [
+        (np.zeros((20, 2)), r"detector: at frame 0, expected \(21, 2\) or \(21, 3\) points"),
+        ({"xy": np.zeros((21, 2))}, "expected a dict with 'points'"),
+        (np.full((21, 3), 2.0), r"expected confidences in \[0, 1\]"),
+        ("hand", "expected .* points"),
+    ],
+)
+def test_a_detector_that_returns_the_wrong_thing_is_named(result, message):
+    with pytest.raises(ValueError, match=message):
+        handvar.track(VIDEO, detector=lambda image: result, frames=2, scale=0.25)
+
+
+def test_user_detector_takes_world_points_and_a_side():
+    detect = user_detector(lambda image: {"points": np.ones((21, 2)), "world": np.ones((21, 3)),
+                                          "side": "left", "confidence": np.full(21, 0.5)})
+    (found,) = detect(np.zeros((4, 4, 3), np.uint8))
+    assert found.side == "left" and found.world.shape == (21, 3)
+    assert (found.points[:, 2] == 0.5).all()
+
+
+def test_choose_and_vote_take_the_handedness_as_mediapipe_gives_it():
+    points = np.ones((21, 3))
+    right, left = Detection(points, side="right", score=0.9), Detection(points, side="left",
+                                                                         score=0.6)
+    kept, d = choose([left, right], "left")
+    assert d is left and kept[0, 2] == pytest.approx(0.6)
+    kept, d = choose([right], "left")  # a right hand when the left is asked: doubtful
+    assert d is right and kept[0, 2] == pytest.approx(0.1)
+    assert vote_side([[right], [left], [left]]) == "left"  # 0.9 against 1.2
+    assert vote_side([[]]) is None
+
+
+# --- MediaPipe inside ----------------------------------------------------------------------
+
+
+def test_mediapipe_inside_the_command_writes_its_points_and_a_rerun_reuses_them(tmp_path):
+    out = tmp_path / "out"
+    args = ["track", str(VIDEO), "--scale", "0.5", "--frames", "20", "--out", str(out),
+            "--no-video"]  # fmt: skip
+    res = CliRunner().invoke(main, args)
+    assert res.exit_code == 0, res.output
+    assert "20 fitted to keypoints, 0 without a hand (detector mediapipe)" in res.output
+    found = read_keypoints(out / "keypoints.npz")
+    shipped = read_keypoints(KEYPOINTS)
+    diff = np.abs(found.xy - shipped.xy[:20])  # MediaPipe's own points, another build
+    assert np.mean(diff <= 0.5) > 0.9 and diff.max() < 3.0, diff.max()
+    assert found.side() == "right" and np.isfinite(found.world).all()
+    # a track of part of the recording is not reused; one of the whole recording is
+    res = CliRunner().invoke(main, args)
+    assert "reused" not in res.output
+
+
+def test_without_mediapipe_auto_says_what_the_silhouettes_need(tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "mediapipe", None)  # as if not installed
+    res = CliRunner().invoke(
+        main, ["track", str(VIDEO), "--scale", "0.25", "--frames", "2", "--out",
+               str(tmp_path / "o"), "--no-video"],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    assert "needs a plain background and controlled light" in res.output
+    assert "pip install 'handvar[mediapipe]'" in res.output
+    res = CliRunner().invoke(
+        main, ["track", str(VIDEO), "--detector", "mediapipe", "--out", str(tmp_path / "p")]
+    )
+    assert res.exit_code == 2
+    lines = res.output.strip().splitlines()
+    assert len(lines) == 1 and "--detector" in lines[0] and "pip install" in lines[0], lines
+
+
+def test_a_recording_without_a_hand_is_one_line(tmp_path):
+    folder = tmp_path / "empty"
+    folder.mkdir()
+    for i in range(5):
+        cv2.imwrite(str(folder / f"{i:03d}.png"), np.full((120, 160, 3), 90, np.uint8))
+    res = CliRunner().invoke(main, ["track", str(folder), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 2
+    lines = res.output.strip().splitlines()
+    assert len(lines) == 1 and "the detector found none in its 5 frames" in lines[0], lines
+    assert not (tmp_path / "o" / "track.npz").exists()
+
+
+# --- no hand, no hand ----------------------------------------------------------------------
+
+
+def test_the_counting_clip_gives_no_pose_where_mediapipe_found_no_hand():
+    # MediaPipe finds the hand on frames 111-297 of the counting clip (its shipped
+    # output); before and after, the track has no pose, carried or held
+    shipped = np.load(example_path("counting-mediapipe"))["landmarks_px"]
+    seen = ~np.isnan(shipped).any(axis=(1, 2))
+    t = handvar.track(COUNTING, keypoints=str(example_path("counting-keypoints")), scale=0.5,
+                      keypoint_every=5)  # fmt: skip
+    posed = np.isfinite(t.poses).all(axis=1)
+    first, last = np.flatnonzero(seen)[[0, -1]]
+    assert not posed[:first].any() and not posed[last + 1 :].any()
+    assert t.quality.no_hand[~posed].all()
+    assert np.isnan(t.joints[~posed]).all() and np.isnan(t.projected[:, ~posed]).all()
+
+
+@pytest.mark.slow
+def test_the_counting_clip_with_mediapipe_inside_gives_no_pose_without_a_hand():
+    t = handvar.track(COUNTING, scale=0.5)
+    posed = np.isfinite(t.poses).all(axis=1)
+    found = t.detected[0].present.any(axis=1)
+    assert posed[found].all() and not posed[~found].any()
+
+
+# --- the per-frame tracker -----------------------------------------------------------------
+
+
+def test_hand_tracker_in_a_users_loop_follows_the_detections():
+    shipped = read_keypoints(KEYPOINTS)
+    frames = _frames(VIDEO, 15)
+    tracker = handvar.HandTracker(detector=lambda image, i=iter(range(15)): shipped.frame(next(i)))
+    results = [tracker.process(frame) for frame in frames]
+    assert [r.index for r in results] == list(range(15))
+    assert not any(r.no_hand or r.lost for r in results)
+    r = results[-1]
+    assert r.pose.shape == (26,) and r.joints.shape == (21, 3) and r.projected.shape == (1, 21, 2)
+    # its joints project within a fifth of a hand size of the detector's points
+    from handvar.vision.keypoints import MCP
+
+    size = np.linalg.norm(shipped.xy[14, MCP[1]] - shipped.xy[14, 0])
+    error = np.linalg.norm(r.projected[0] - shipped.xy[14], axis=1)
+    assert np.median(error) < 0.2 * size
+
+
+def test_hand_tracker_gives_no_hand_until_the_detector_finds_one():
+    found = [None, None, np.full((21, 2), np.nan)]
+    tracker = handvar.HandTracker(detector=lambda image, i=iter(found): next(i))
+    for frame in _frames(VIDEO, 3):
+        r = tracker.process(frame)
+        assert r.no_hand and np.isnan(r.pose).all() and tracker.hand is None
+
+
+def test_hand_tracker_refuses_a_wrong_frame():
+    tracker = handvar.HandTracker(detector="none")
+    with pytest.raises(ValueError, match=r"frames: expected \(H, W, 3\) uint8 BGR images"):
+        tracker.process(np.zeros((10, 10)))
