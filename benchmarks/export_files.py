@@ -11,7 +11,10 @@ On the whole synthetic benchmark track (175 frames), both hands, it prints:
 - glTF: the largest distance between the file's skinned vertices (the specification's
   linear blend skinning, turned back from y-up metres) and the model's mesh over every
   frame, mm, with the helper joints, as a reader that takes only the first four
-  influences sees it, and without the helpers (plain skinning); the file's size.
+  influences sees it, and without the helpers (plain skinning); the file's size;
+- keypoint JSON (read with `json`): the largest difference of the world keypoints and
+  the first camera's pixels from G(x) and its projection, and the share of keypoints
+  visible in that camera.
 
 Then it builds the .glb of a 10-minute 30 fps synthetic track (the benchmark track
 played forwards and backwards to 18,000 frames) and prints its size and build time.
@@ -19,6 +22,7 @@ played forwards and backwards to 18,000 frames) and prints its size and build ti
 
 from __future__ import annotations
 
+import json
 import sys
 import tempfile
 import time
@@ -30,7 +34,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from tests.export_readers import bvh_world_joints, gltf_skinned_vertices
 
-from handvar.export import bvh_text, glb_bytes, mesh_vertices
+from handvar.camera import Rig
+from handvar.export import bvh_text, glb_bytes, keypoint_frames, mesh_vertices
 from handvar.export.bvh import bvh_joint_order
 from handvar.hand.anthropometry import HandShape
 from handvar.hand.kinematics import HandModel
@@ -76,6 +81,21 @@ def gltf_errors(poses: np.ndarray, folder: Path) -> None:
                   f"{len(poses)} frames {err:.1e} mm ({size:.2f} MB)")  # fmt: skip
 
 
+def json_errors(poses: np.ndarray) -> None:
+    rig = Rig.default()
+    for side in ("right", "left"):
+        hand = HandModel(HandShape.from_size(185.0, side=side))
+        truth = np.stack([hand.joints(x) for x in poses])
+        doc = json.loads(json.dumps(keypoint_frames(poses, hand, rig)))
+        world = np.array([f["world"] for f in doc["frames"]])
+        pixels = np.array([f["views"][0]["keypoints_2d"] for f in doc["frames"]])
+        want = np.stack([rig.cameras[0].project(j) for j in truth])
+        visible = np.mean([f["views"][0]["visible"] for f in doc["frames"]])
+        print(f"{side:5s} JSON max world error {np.abs(world - truth).max():.1e} mm, pixel "
+              f"error {np.abs(pixels - want).max():.1e} px; visible in camera 0: "
+              f"{100 * visible:.1f}% of keypoints")  # fmt: skip
+
+
 def long_track(poses: np.ndarray, folder: Path) -> None:
     fps, minutes = 30.0, 10
     n = int(minutes * 60 * fps)
@@ -94,6 +114,7 @@ def main() -> None:
     print(f"synthetic benchmark track: {len(poses)} frames")
     bvh_errors(poses, folder)
     gltf_errors(poses, folder)
+    json_errors(poses)
     long_track(poses, folder)
 
 
