@@ -149,11 +149,66 @@ def make_inputs(root: Path) -> Path:
 
     nan_err = {"error": (("predictor", "trial", "frame"), np.full((1, 1, 6), np.nan))}
     _write_region(root / "nanned.zarr", nan_err, 3, 0)
+    _keypoint_inputs(root, seq)
+    _track_inputs(root, seq)
     (root / "report_out").mkdir()
     (root / "report_out" / "report.md").write_bytes(KNOWN)
     (root / "track_out").mkdir()
     (root / "track_out" / "poses.csv").write_bytes(KNOWN)
     return root
+
+
+def _keypoint_inputs(root: Path, seq) -> None:
+    """Keypoint files of the 2-frame sequence `seq` and of skin.avi, and damaged ones."""
+    from handvar.synth.keypoints import synthetic_keypoints
+
+    kp = synthetic_keypoints(seq, noise_px=0.0, outliers=0.0)[:, 0]  # (2, 21, 3), camera 0
+    np.savez_compressed(root / "kp_half.npz", keypoints=kp)
+    whole = (root / "kp_half.npz").read_bytes()
+    (root / "kp_half.npz").write_bytes(whole[: len(whole) // 2])
+    with open(root / "kp_npy.npz", "wb") as fh:  # a .npy under the .npz's name
+        np.save(fh, kp)
+    # world points 1000 times too large (mm taken as µm): a hand of ~80 m
+    np.savez_compressed(root / "kp_huge_world.npz", keypoints=kp,
+                        world=1000.0 * seq.truth.joints)  # fmt: skip
+    np.save(root / "kp_3frames.npy", np.concatenate([kp, kp[:1]]))
+    # skin.avi (4 frames of 64x48): keypoints of its 4 frames and of 3
+    rng = np.random.default_rng(1)
+    skin = np.concatenate([rng.uniform(10, 40, (4, 21, 2)), np.ones((4, 21, 1))], axis=2)
+    np.save(root / "kp_skin4.npy", skin)
+    np.save(root / "kp_skin3.npy", skin[:3])
+
+
+def _track_inputs(root: Path, seq) -> None:
+    """A track directory of the 2-frame sequence `seq` (its true poses, as `handvar track
+    --out` writes one), a copy with a pose 1e9 mm away and one with its meta garbled."""
+    import shutil
+
+    from handvar.hand.kinematics import HandModel
+    from handvar.pipeline import Track
+    from handvar.tracking.tracker import TrackResult
+
+    poses, joints = seq.truth.poses, seq.truth.joints
+    n, n_cams = len(poses), len(seq.rig)
+    result = TrackResult(
+        poses=poses, joints=joints, starts=poses, costs=np.zeros((n, 1)),
+        iterations=np.ones(n, dtype=int), seconds=np.zeros((n, 3)),
+        iou=np.full((n, n_cams), 0.9), cost=np.zeros(n), keypoint_error=np.full(n, np.nan),
+        lost=np.zeros(n, dtype=bool), empty=np.zeros((n, n_cams), dtype=bool),
+    )  # fmt: skip
+    Track(
+        poses=poses, joints=joints, projected=np.zeros((0, n, 21, 2)), quality=None, rig=None,
+        shape=HandModel().shape, name="seq", predictor="rvar", seed=0, fps=seq.fps,
+        result=result,
+    ).save(root / "track_good", video=False, overlays=False)  # fmt: skip
+    for name in ("track_far", "track_meta"):
+        shutil.copytree(root / "track_good", root / name)
+        stored = dict(np.load(root / name / "track.npz"))
+        if name == "track_far":
+            stored["poses"][1, 2] = 1e9
+        else:
+            stored["meta"] = np.array("{not json")
+        np.savez_compressed(root / name / "track.npz", **stored)
 
 
 # --- the cases ----------------------------------------------------------------------------
@@ -269,10 +324,11 @@ CASES = [
     _c("init-frame-beyond", "init {r}/seq --frame 7 --out {r}/existing.txt", "--frame"),
     _c("init-threshold-zero", "init {r}/seq --threshold 0 --out {r}/existing.txt", "--threshold"),
     _c("init-keypoints-count",
-       "init {r}/seq --keypoints {r}/a.npy --keypoints {r}/b.npy --out {r}/existing.txt",
-       "--keypoints"),
+       "init {r}/seq --keypoints {r}/a.npy --keypoints {r}/b.npy --keypoints {r}/c.npy "
+       "--out {r}/existing.txt", "--keypoints: expected one file per camera of the sequence"),
     _c("init-keypoints-corrupt",
-       "init {r}/seq --keypoints {r}/noise.npy --out {r}/existing.txt", "noise.npy"),
+       "init {r}/seq --keypoints {r}/noise.npy --keypoints {r}/noise.npy --out {r}/existing.txt",
+       "noise.npy"),
     _c("init-blob", "init {r}/blob --out {r}/existing.txt", "IoU", slow=True),
     _c("init-calib-on-seq", "init {r}/seq --calib {r}/existing.txt --out {r}/x.txt", "--calib"),
     _c("init-random-video", "init {r}/random.mp4 --out {r}/existing.txt", "random.mp4",
@@ -295,6 +351,55 @@ CASES = [
        "k22.yml: key 'camera_matrix': expected a pinhole matrix (K[2][2] = 1", subprocess=True),
     _c("init-calib-skew", "init {r}/short.avi --calib {r}/skew.yml --out {r}/existing.txt",
        "skew.yml: key 'camera_matrix': expected no skew (K[0][1] = 0", subprocess=True),
+    # keypoint files that are not what `handvar keypoints` writes
+    _c("init-keypoints-truncated-npz",
+       "init {r}/seq --keypoints {r}/kp_half.npz --keypoints {r}/kp_half.npz "
+       "--out {r}/existing.txt",
+       "kp_half.npz: expected a .npz archive (the file `handvar keypoints` writes); got a "
+       "damaged or truncated archive"),
+    _c("track-keypoints-truncated-npz",
+       "track {r}/seq --keypoints {r}/kp_half.npz --out {r}/t1", "kp_half.npz: expected a .npz"),
+    _c("init-keypoints-npy-as-npz",
+       "init {r}/skin.avi --keypoints {r}/kp_npy.npz --out {r}/existing.txt",
+       "kp_npy.npz: expected a .npz archive (the file `handvar keypoints` writes); got a "
+       "single .npy array (not a .npz archive)"),
+    _c("track-keypoints-world-x1000",
+       "track {r}/seq --keypoints {r}/kp_huge_world.npz --out {r}/t1",
+       "kp_huge_world.npz: expected world points in mm (a hand's wrist to middle MCP "
+       "measures 20 to 200 mm); got 8.25e+04"),
+    _c("init-keypoints-frames",
+       "init {r}/skin.avi --keypoints {r}/kp_skin3.npy --out {r}/existing.txt",
+       "kp_skin3.npy: expected keypoints of 4 frames (the recording's); got 3"),
+    _c("init-keypoints-frames-sequence",
+       "init {r}/seq --keypoints {r}/kp_3frames.npy --keypoints {r}/kp_3frames.npy "
+       "--out {r}/existing.txt", "kp_3frames.npy: expected keypoints of 2 frames"),
+    # messages that name the options, and only options that exist
+    _c("track-realtime-carry-both",
+       "track {r}/skin.avi --realtime --carry both --keypoints {r}/kp_skin4.npy --out {r}/t1",
+       "--realtime: expected --recover on and --carry forward or none (one frame at a time); "
+       "got --recover, --carry both"),
+    _c("track-hand-auto-without-handedness",
+       "track {r}/skin.avi --hand auto --keypoints {r}/kp_skin4.npy --out {r}/t1",
+       "--hand: auto expected --keypoints with handedness (a .npz written by handvar "
+       "keypoints); got none"),
+    _c("init-hand-auto-without-handedness",
+       "init {r}/skin.avi --hand auto --keypoints {r}/kp_skin4.npy --out {r}/existing.txt",
+       "--hand: auto expected --keypoints with handedness (a .npz written by handvar "
+       "keypoints); got none"),
+    # export, view
+    _c("export-far-pose-json", "export {r}/track_far --format json",
+       "track.npz: poses: expected a pose within the parameter limits; tz = 1e+09 at frame 1"),
+    _c("export-far-pose-openpose", "export {r}/track_far --format openpose",
+       "track.npz: poses: expected a pose within the parameter limits; tz = 1e+09 at frame 1"),
+    _c("export-far-pose-bvh", "export {r}/track_far --format bvh",
+       "track.npz: poses: expected a pose within the parameter limits; tz = 1e+09 at frame 1"),
+    _c("export-far-pose-gltf", "export {r}/track_far --format gltf",
+       "track.npz: poses: expected a pose within the parameter limits; tz = 1e+09 at frame 1"),
+    _c("view-far-pose", "view {r}/track_far",
+       "track.npz: poses: expected a pose within the parameter limits; tz = 1e+09 at frame 1"),
+    _c("export-garbled-meta", "export {r}/track_meta --format bvh",
+       "track_meta/track.npz: not a readable track (meta: expected a JSON object"),
+    _c("export-not-a-track", "export {r}/adir --format bvh", "adir"),
     # experiment
     _c("experiment-set-unknown", "experiment --out {r}/e.zarr --set nothing=1", "--set"),
     _c("experiment-set-trials-zero", "experiment --out {r}/e.zarr --set trials=0", "trials"),
@@ -399,10 +504,101 @@ def run_case(case: Case, root: Path) -> Outcome:
             import traceback
 
             output += "".join(traceback.format_exception(result.exception))
-    # What a terminal shows: a progress bar erased with carriage returns is gone
+    return Outcome(status, _terminal_lines(output), before, snapshot(root))
+
+
+def _terminal_lines(output: str) -> list[str]:
+    """The lines a terminal shows of `output`: a progress bar erased with carriage
+    returns is gone, blank lines are not counted."""
     lines = [line.rsplit("\r", 1)[-1] for line in output.split("\n")]
-    lines = [line for line in lines if line.strip()]
-    return Outcome(status, lines, before, snapshot(root))
+    return [line for line in lines if line.strip()]
+
+
+# --- beyond the table: a warning, the option names -----------------------------------
+
+
+def metres_outcome(root: Path) -> list[str]:
+    """World points in metres (MediaPipe's own unit) in a keypoint .npz: `handvar init`
+    reads them as mm and says so in one warning line. Returns the problems (none: as
+    documented)."""
+    import warnings
+
+    from handvar.data import example_path
+    from handvar.vision.keypoints import Keypoints2D, KeypointUnitWarning, write_keypoints
+
+    z = np.load(example_path("video").parent / "tfjs-asl-hand-mediapipe.npz")  # mm
+    xy = z["landmarks_px"]
+    conf = np.where(np.isnan(xy).any(axis=2), 0.0, 1.0)
+    path = root / "kp_metres.npz"
+    write_keypoints(path, Keypoints2D(xy, conf, "m", world=z["world_mm"] / 1000.0))
+    out = root / "metres_pose.txt"
+    args = ["init", str(example_path("video").parent / "tfjs-asl-hand.mp4"), "--keypoints",
+            str(path), "--scale", "0.5", "--out", str(out)]  # fmt: skip
+    with warnings.catch_warnings():  # as outside pytest: a warning is shown, not raised
+        warnings.simplefilter("default", KeypointUnitWarning)
+        result = CliRunner().invoke(main, args)
+    lines = _terminal_lines(result.output)
+    said = [line for line in lines if line.startswith("handvar: warning: ")]
+    expected = (
+        f"handvar: warning: {path}: world points taken as metres and converted to mm "
+        "(the hand's wrist to middle MCP measures 0.101; a hand's is 20 to 200 mm)"
+    )
+    found = []
+    if result.exit_code != 0:
+        found.append(f"exit status {result.exit_code}")
+    if said != [expected]:
+        found.append(f"warning lines {said}")
+    if len(lines) != 2 or not out.is_file():
+        found.append(f"{len(lines)} lines")
+    return found
+
+
+def cli_option_names() -> set[str]:
+    """Every option name of every command of `handvar` (and the group's own)."""
+    import click
+
+    names = set()
+    for command in [main, *main.commands.values()]:
+        for param in command.params:
+            if isinstance(param, click.Option):
+                names.update(param.opts + param.secondary_opts)
+    return names | {"--help"}  # the group's context_settings
+
+
+def named_options_and_commands() -> dict[str, list[str]]:
+    """What the library's text names (option -> where): every ``--option`` in a string
+    of its sources, and every command of a message (``handvar NAME`` in what a raise, a
+    warning or an echo says, or a `handvar NAME` anywhere)."""
+    import ast
+    import re
+
+    option = re.compile(r"(?<![\w-])--[a-z](?:[a-z0-9-]*[a-z0-9])?(?![\w-])")
+    command = re.compile(r"\bhandvar ([a-z][a-z-]*)")
+    named: dict[str, list[str]] = {}
+    src = Path(__file__).parents[1] / "src" / "handvar"
+    for path in sorted(src.rglob("*.py")):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        messages = []
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Raise) and node.exc is not None:
+                messages.append(node.exc)
+            elif isinstance(node, ast.Call) and getattr(
+                node.func, "attr", getattr(node.func, "id", None)
+            ) in ("echo", "warn", "fail", "BadParameter", "UsageError"):
+                messages.append(node)
+        rel = path.relative_to(src)
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Constant) and isinstance(node.value, str):
+                for m in option.finditer(node.value):
+                    named.setdefault(m.group(0), []).append(f"{rel}:{node.lineno}")
+                for m in re.finditer(r"`handvar ([a-z][a-z-]*)", node.value):
+                    named.setdefault(f"handvar {m.group(1)}", []).append(f"{rel}:{node.lineno}")
+        for message in messages:
+            for node in ast.walk(message):
+                if isinstance(node, ast.Constant) and isinstance(node.value, str):
+                    for m in command.finditer(node.value):
+                        named.setdefault(f"handvar {m.group(1)}", []).append(f"{rel}:{node.lineno}")
+    return named
 
 
 # --- the tests ------------------------------------------------------------------------------
@@ -424,10 +620,85 @@ def test_bad_input_is_one_clean_line_and_loses_nothing(case, inputs):
 
 def test_the_table_covers_every_command():
     commands = {c.args[0] for c in CASES}
-    assert commands == {
-        "synth", "show", "predict", "track", "init", "experiment", "report", "keypoints"
-    }  # fmt: skip
-    assert len(CASES) >= 90
+    assert commands == set(main.commands)
+    assert len(CASES) >= 110
+
+
+def test_world_points_in_metres_are_read_as_mm_with_one_warning_line(tmp_path):
+    from handvar.vision.keypoints import KeypointUnitWarning, read_keypoints
+
+    assert metres_outcome(tmp_path) == []
+    z = np.load(Path(__file__).parents[1] / "examples/data/tfjs-asl-hand-mediapipe.npz")
+    with pytest.warns(KeypointUnitWarning, match=r"kp_metres\.npz: world points taken as metres"):
+        back = read_keypoints(tmp_path / "kp_metres.npz")
+    np.testing.assert_allclose(back.world, z["world_mm"], rtol=1e-12)  # / 1000, then * 1000
+    # in mm they read as they are, without a warning (warnings are errors here)
+    np.savez(tmp_path / "kp_mm.npz", keypoints=z["landmarks_px"], world=z["world_mm"])
+    np.testing.assert_array_equal(read_keypoints(tmp_path / "kp_mm.npz").world, z["world_mm"])
+
+
+def test_every_option_and_command_the_library_names_exists():
+    options = cli_option_names()
+    named = named_options_and_commands()
+    commands = {f"handvar {name}" for name in main.commands}
+    unknown = {k: v[:3] for k, v in named.items() if k not in options | commands}
+    assert unknown == {}
+    # the check sees what it should: options of several commands, and commands
+    assert {"--keypoints", "--out", "--recover", "--format", "handvar keypoints"} <= set(named)
+
+
+def test_handvar_tracks_keywords_become_its_options_and_only_there():
+    """`handvar track` renames `handvar.track`'s keywords in its messages: where they name
+    the argument at fault (before the colon), and after it only where they stand for an
+    option, never a plain word ("hand") or the command ``handvar keypoints``."""
+    from handvar.cli.track import OPTION_NAMES, TEXT_NAMES, _cli_message
+
+    track_options = cli_option_names() | {"SEQ"}
+    assert set(OPTION_NAMES.values()) | set(TEXT_NAMES.values()) <= track_options
+    for message, seq, expected in [
+        ("realtime: expected recovery on and carry forward or none (one frame at a time); "
+         "got recover=True, carry=both", "v.mp4",
+         "--realtime: expected --recover on and --carry forward or none (one frame at a "
+         "time); got --recover, --carry both"),
+        ("realtime: expected recovery on and carry forward or none (one frame at a time); "
+         "got recover=False, carry=forward", "v.mp4",
+         "--realtime: expected --recover on and --carry forward or none (one frame at a "
+         "time); got --no-recover, --carry forward"),
+        ("hand: auto expected keypoints with handedness (a .npz written by handvar "
+         "keypoints); got none", "v.mp4",
+         "--hand: auto expected --keypoints with handedness (a .npz written by handvar "
+         "keypoints); got none"),
+        ("skin.avi: expected a hand in some frame; none of the 4 frames read shows one",
+         "skin.avi", "skin.avi: expected a hand in some frame; none of the 4 frames read "
+         "shows one"),
+        ("recovery, on_frame: expected only with recover (on by default for a recording or "
+         "with keypoints); got it off", "v.mp4",
+         "--silhouette-term, --show: expected only with --recover (on by default for a "
+         "recording or with --keypoints); got it off"),
+        ("keypoint_every: expected only with keypoints", "v.mp4",
+         "--keypoint-every: expected only with --keypoints"),
+        ("flip: the sequence has no ground truth; give the first pose with init", "flip",
+         "flip: the sequence has no ground truth; give the first pose with --init"),
+        ("model: expected spheres for a left hand (the skinned mesh is a right hand); got "
+         "mesh", "v.mp4", "--model: expected spheres for a left hand (the skinned mesh is a "
+         "right hand); got mesh"),
+        ("k.npy: expected keypoints of 3 frames (the recording's); got 2", "v.mp4",
+         "k.npy: expected keypoints of 3 frames (the recording's); got 2"),
+    ]:  # fmt: skip
+        assert _cli_message(message, seq) == expected
+
+
+def test_track_load_names_directory_and_a_garbled_meta(inputs):
+    from handvar.pipeline import Track
+
+    with pytest.raises(TypeError, match=r"^directory: expected a path \(str or path-like\); got "):
+        Track.load(42)
+    with pytest.raises(ValueError, match=r"track_meta/track\.npz: not a readable track \(meta: "):
+        Track.load(inputs / "track_meta")
+    far = r"track\.npz: poses: expected a pose within the parameter limits; tz = 1e\+09 at frame 1 "
+    with pytest.raises(ValueError, match=far):
+        Track.load(inputs / "track_far")
+    assert Track.load(inputs / "track_good").n_frames == 2
 
 
 def test_unwritable_folder_is_refused_before_rendering(tmp_path, monkeypatch):

@@ -186,7 +186,9 @@ def test_init_command_with_keypoints_needs_no_silhouette(tmp_path, wall):
                                     "--out", str(tmp_path / "y.txt")])  # fmt: skip
     assert res.exit_code == 2 and not (tmp_path / "y.txt").exists()
     if wall == "none":  # and a frame the detector missed: nothing to place the hand by
-        np.save(tmp_path / "missed.npy", np.full((1, 21, 2), np.nan))
+        cv2.imwrite(str(folder / "0001.png"), np.full((h, w, 3), colour, np.uint8))
+        # (a file without any detection is refused as `handvar track` refuses it)
+        np.save(tmp_path / "missed.npy", np.stack([np.full((21, 2), np.nan), k[:, :2]]))
         res = CliRunner().invoke(
             main, ["init", str(folder), "--calib", str(tmp_path / "calib.yml"),
                    "--keypoints", str(tmp_path / "missed.npy"), "--out", str(tmp_path / "z.txt")],

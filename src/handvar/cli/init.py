@@ -5,38 +5,40 @@ from __future__ import annotations
 import click
 
 from handvar.cli.common import _FiniteRange, _one_line_errors, _open_recordings, _recording_options
+from handvar.cli.track import _option_names
 
 
-def _frame_silhouettes(sources, calib, fov, scale, frame, wrist, threshold, allow_empty=False):
-    """Rig, BGR images (or None) and masks of frame `frame` of a sequence or recordings;
-    `allow_empty`: an empty silhouette, or one that is not a hand, is taken as empty."""
+def _open_sources(sources, calib, fov, scale):
+    """SOURCES opened: one sequence directory (a `handvar.io.Sequence`, read lazily) or
+    the recordings (a `VideoSource`)."""
     import os
 
     if len(sources) == 1 and os.path.isfile(os.path.join(sources[0], "sequence.json")):
         if calib is not None or fov is not None:
             raise ValueError("--calib, --fov: a sequence directory has its own rig; got one")
-        rig, masks = _sequence_frame_masks(sources[0], frame)
-        return rig, None, masks
-    source = _open_recordings(sources, calib, fov, scale)
-    for _, images, masks in source.silhouettes(
-        frame, frame + 1, wrist=wrist, threshold=threshold, allow_empty=allow_empty
-    ):
-        return source.rig, images, masks
-    raise ValueError(
-        f"--frame: expected a frame of the recording ({source.n_frames} frames); got {frame}"
-    )
+        from handvar.io import read_sequence
+
+        return read_sequence(sources[0], lazy=True)
+    return _open_recordings(sources, calib, fov, scale)
 
 
-def _sequence_frame_masks(path: str, frame: int):
-    """Rig and masks (n_cams, H, W) of frame `frame` of the sequence directory `path`."""
+def _frame_silhouettes(opened, frame, wrist, threshold, allow_empty=False):
+    """Rig, BGR images (or None) and masks of frame `frame` of the opened SOURCES
+    (`_open_sources`); `allow_empty`: an empty silhouette, or one that is not a hand,
+    is taken as empty."""
     import numpy as np
 
-    from handvar.io import read_sequence
+    from handvar.io import Sequence
 
-    seq = read_sequence(path, lazy=True)
-    if frame >= seq.n_frames:
-        raise ValueError(f"--frame: expected a frame below {seq.n_frames}; got {frame}")
-    return seq.rig, np.asarray(seq.masks[frame])
+    if isinstance(opened, Sequence):
+        return opened.rig, None, np.asarray(opened.masks[frame])
+    for _, images, masks in opened.silhouettes(
+        frame, frame + 1, wrist=wrist, threshold=threshold, allow_empty=allow_empty
+    ):
+        return opened.rig, images, masks
+    raise ValueError(
+        f"--frame: expected a frame of the recording ({opened.n_frames} frames); got {frame}"
+    )
 
 
 #: Lowest silhouette IoU of the best initial pose that `init` accepts (design §13.4):
@@ -111,12 +113,18 @@ def init_command(
     check_output_file(out, "--out")  # before any work
     if overlay is not None:
         check_output_file(overlay, "--overlay", suffixes=(".png",))
-    kps, side = _frame_keypoints(keypoint_files, sources, frame, scale, side)
+    opened = _open_sources(sources, calib, fov, scale)
+    if frame >= opened.n_frames:
+        raise ValueError(
+            f"--frame: expected a frame of SOURCES ({opened.n_frames} frames); got {frame}"
+        )
+    with _option_names(None):  # hand_side's, check_keypoints's keywords as the options
+        kps, side = _frame_keypoints(keypoint_files, opened, frame, scale, side)
     cut_here = wrist and kps is None
     # with keypoints they place the hand: a silhouette that is not a hand (skin colour
     # everywhere) does not stop the fit, which keeps the pose only if it explains them
-    rig, images, masks = _frame_silhouettes(sources, calib, fov, scale, frame, cut_here,
-                                            threshold, allow_empty=kps is not None)  # fmt: skip
+    rig, images, masks = _frame_silhouettes(opened, frame, cut_here, threshold,
+                                            allow_empty=kps is not None)  # fmt: skip
     if kps is not None:
         from handvar.vision.wrist import cut_wrist
 
@@ -186,26 +194,26 @@ def _explains_keypoints(result, kps) -> bool:
     return result.keypoint_error / max(sizes) <= QualitySettings().lost_keypoint_error
 
 
-def _frame_keypoints(files, sources, frame, scale, side):
-    """Per-camera (21, 3) keypoints of frame `frame` in the pixels of the scaled frames,
-    and the side of the hand: `side` checked against their handedness, or with "auto"
-    taken from it (`handvar.vision.keypoints.hand_side`)."""
-    from handvar.vision.keypoints import hand_side, read_keypoints
+def _frame_keypoints(files, opened, frame, scale, side):
+    """Per-camera (21, 3) keypoints of frame `frame` in the pixels of the frames fitted
+    (scaled by `scale` on recordings), and the side of the hand; the files checked
+    against the opened SOURCES as `handvar track` checks them
+    (`handvar.vision.keypoints.check_keypoints`: one per camera, the frame count, the
+    pixels, `side` against their handedness or with "auto" taken from it)."""
+    from handvar.io import Sequence
+    from handvar.vision.keypoints import check_keypoints, hand_side, read_keypoints
 
     if not files:
         return None, hand_side([], side)
-
-    if len(files) != len(sources):
+    if isinstance(opened, Sequence):
+        sizes, per, scale = [c.size for c in opened.rig.cameras], "camera of the sequence", 1.0
+    else:
+        sizes, per = [reader.size for reader in opened.readers], "source"
+    if len(files) != len(sizes):
         raise ValueError(
-            f"--keypoints: expected one file per source ({len(sources)}); got {len(files)}"
+            f"--keypoints: expected one file per {per} ({len(sizes)}); got {len(files)}"
         )
-    out, read = [], []
-    for path in files:
-        kp = read_keypoints(path)
-        if frame >= kp.n_frames:
-            raise ValueError(
-                f"{path}: expected keypoints of frame {frame}; got {kp.n_frames} frames"
-            )
-        read.append(kp)
-        out.append(kp.scaled(scale).frame(frame) if scale != 1.0 else kp.frame(frame))
-    return out, hand_side(read, side)
+    read, side, _ = check_keypoints([read_keypoints(p) for p in files], opened.n_frames,
+                                    sizes, side)  # fmt: skip
+    return [kp.scaled(scale).frame(frame) if scale != 1.0 else kp.frame(frame)
+            for kp in read], side  # fmt: skip
