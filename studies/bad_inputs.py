@@ -5,7 +5,10 @@ Usage: PYTHONPATH=src python studies/bad_inputs.py [--quick]
 Every case runs one command with one wrong input; a clean error is exit status 2, one
 line naming the argument or the user's path, no traceback, no temporary left and every
 file that existed byte-identical afterwards. Prints one line per case that is not clean
-and the totals. ``--quick`` skips the cases marked slow.
+and the totals. ``--quick`` skips the cases marked slow. Then the checks beyond the
+table, one line each: world points in metres (one warning line, read as mm), Ctrl-C on
+a batch (``handvar: aborted`` alone) and the options and commands the library's
+messages name (each exists).
 """
 
 from __future__ import annotations
@@ -52,13 +55,22 @@ def main() -> None:
             for problem in problems:
                 kinds[problem.split(" ")[0] if "lines" not in problem else "extra lines"] += 1
             print(f"{case.id}: {'; '.join(problems)}")
-    commands = ", ".join(f"{k} {v}" for k, v in sorted(per_command.items()))
-    print(f"cases per command: {commands}")
-    others = ", ".join(f"{v} {k}" for k, v in sorted(kinds.items()) if k != "clean errors")
-    print(
-        f"{len(cases)} cases: {kinds['clean errors']} clean errors"
-        + (f", {others}" if others else "")
-    )
+        commands = ", ".join(f"{k} {v}" for k, v in sorted(per_command.items()))
+        print(f"cases per command: {commands}")
+        others = ", ".join(f"{v} {k}" for k, v in sorted(kinds.items()) if k != "clean errors")
+        print(
+            f"{len(cases)} cases: {kinds['clean errors']} clean errors"
+            + (f", {others}" if others else "")
+        )
+        names = table.named_options_and_commands()
+        known = table.cli_option_names() | {f"handvar {c}" for c in table.main.commands}
+        unknown = sorted(set(names) - known)
+        for label, problems in (
+            ("world points in metres", table.metres_outcome(root)),
+            ("Ctrl-C on a batch", table.interrupt_outcome(root)),
+            (f"{len(names)} options and commands named", [f"unknown {unknown}"] if unknown else []),
+        ):
+            print(f"{label}: {'; '.join(problems) or 'as documented'}")
 
 
 if __name__ == "__main__":

@@ -514,7 +514,7 @@ def _terminal_lines(output: str) -> list[str]:
     return [line for line in lines if line.strip()]
 
 
-# --- beyond the table: a warning, the option names -----------------------------------
+# --- beyond the table: a warning, Ctrl-C, the option names -----------------------------------
 
 
 def metres_outcome(root: Path) -> list[str]:
@@ -550,6 +550,70 @@ def metres_outcome(root: Path) -> list[str]:
         found.append(f"warning lines {said}")
     if len(lines) != 2 or not out.is_file():
         found.append(f"{len(lines)} lines")
+    return found
+
+
+def interrupt_outcome(root: Path) -> list[str]:
+    """Ctrl-C on `handvar track` of three recordings (a batch on the embedded Dask
+    cluster): after it the terminal shows ``handvar: aborted`` alone, no worker's stack,
+    and every recording folder in OUT is whole. Returns the problems (none: as
+    documented)."""
+    import signal
+    import threading
+    import time
+
+    import cv2
+
+    from handvar.data import example_path
+
+    capture = cv2.VideoCapture(str(example_path("video")))
+    frames = [cv2.resize(capture.read()[1], (320, 180), interpolation=cv2.INTER_AREA)
+              for _ in range(80)]  # fmt: skip
+    capture.release()
+    recordings = []
+    for name in ("clip_a", "clip_b", "clip_c"):
+        folder = root / "interrupt" / name
+        folder.mkdir(parents=True, exist_ok=True)
+        for t, frame in enumerate(frames):
+            cv2.imwrite(str(folder / f"{t:03d}.png"), frame)
+        recordings.append(str(folder))
+    out = root / "interrupt" / "out"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", "from handvar.cli import main; main()", "track", *recordings,
+         "--no-video", "--workers", "1", "--out", str(out)],
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True,
+        env={**os.environ, "PYTHONPATH": str(Path(__file__).parents[1] / "src")},
+    )  # fmt: skip
+    received: list[bytes] = []
+    reader = threading.Thread(target=lambda: received.extend(iter(
+        lambda: os.read(proc.stderr.fileno(), 4096), b"")), daemon=True)  # fmt: skip
+    reader.start()
+    start = time.monotonic()
+    while b"recordings:" not in b"".join(received) and time.monotonic() - start < 120:
+        time.sleep(0.1)  # the cluster is up and the bar drawn: the recordings are tracked
+    time.sleep(1.0)
+    if proc.poll() is None:
+        before = len(b"".join(received))
+        os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C: the terminal's whole process group
+    proc.wait(timeout=120)
+    reader.join(timeout=10)
+    proc.stderr.close()
+    everything = b"".join(received).decode(errors="replace")
+    if "before" not in locals():
+        return [f"ended before Ctrl-C (exit status {proc.returncode}): {everything[-300:]}"]
+    after = _terminal_lines(b"".join(received)[before:].decode(errors="replace"))
+    found = []
+    if proc.returncode != 1:
+        found.append(f"exit status {proc.returncode}")
+    if after != ["handvar: aborted"]:
+        found.append(f"after Ctrl-C: {after[:5]}")
+    if "Traceback" in everything:
+        found.append("traceback")
+    folders = sorted(out.iterdir()) if out.exists() else []  # none finished: OUT not left
+    broken = [p.name for p in folders
+              if ".handvar-" not in p.name and not (p / "track.npz").is_file()]  # fmt: skip
+    if broken:
+        found.append(f"incomplete folders {broken}")
     return found
 
 
@@ -635,6 +699,20 @@ def test_world_points_in_metres_are_read_as_mm_with_one_warning_line(tmp_path):
     # in mm they read as they are, without a warning (warnings are errors here)
     np.savez(tmp_path / "kp_mm.npz", keypoints=z["landmarks_px"], world=z["world_mm"])
     np.testing.assert_array_equal(read_keypoints(tmp_path / "kp_mm.npz").world, z["world_mm"])
+
+
+def test_ctrl_c_on_a_batch_prints_aborted_alone_and_keeps_whole_folders(tmp_path):
+    assert interrupt_outcome(tmp_path) == []
+
+
+def test_the_embedded_clusters_workers_leave_ctrl_c_to_the_client():
+    """The preload each worker of `local_client` runs: SIGINT ignored (run here in a
+    child, as a worker runs it)."""
+    from handvar.evaluation.experiment import WORKER_PRELOAD
+
+    check = WORKER_PRELOAD + "print(signal.getsignal(signal.SIGINT) is signal.SIG_IGN)"
+    run = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True, timeout=60)
+    assert run.stdout.strip() == "True", run.stderr
 
 
 def test_every_option_and_command_the_library_names_exists():

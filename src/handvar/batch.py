@@ -11,7 +11,10 @@ stem of its first camera's file).  The design note is docs/live-and-batch.md.
   (`handvar.atomic.OutputSet`, `replace_directory`).  A folder that exists is complete.
 - A run does only what is missing: recordings whose folder exists are skipped, so a
   run interrupted (Ctrl-C, a killed machine) keeps what finished and the next run
-  does the rest.  The temporaries a killed run left are removed by the next.
+  does the rest.  The temporaries a killed run left are removed by the next.  Ctrl-C
+  reaches the client alone (the embedded cluster's workers ignore it,
+  `handvar.evaluation.experiment.local_client`): the command says ``handvar: aborted``
+  and nothing else.
 - A recording that fails (unreadable, no hand found, a bad option for it) gets its
   one-line error and the others go on.  A task whose worker died (killed, out of
   memory) is run again by the scheduler (``distributed.scheduler.allowed-failures``)
@@ -284,6 +287,9 @@ def _run(client, task, recordings, names, keypoints, targets, todo, options, vid
                     report(i, user_paths(" ".join(text.split())), "")
         for i in lost:
             report(i, f"{recordings[i]}: its worker was lost {rounds} times", "")
+    except KeyboardInterrupt:  # Ctrl-C: the bar is erased, the command's one line stays
+        bar.leave = False
+        raise
     finally:
         bar.close()
 

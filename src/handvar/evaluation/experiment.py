@@ -143,10 +143,18 @@ def _open_or_create(path: Path, config: ExperimentConfig, progress: bool):
     return config, sequence, np.zeros((P, N), bool), np.zeros((P, N), np.int16), []
 
 
+#: Run by each worker process of the embedded cluster as it starts (a Dask preload, the
+#: text of a script): the worker ignores Ctrl-C. A terminal sends Ctrl-C to the client and
+#: its workers alike; the client stops the run and closes the cluster, and a worker
+#: interrupted itself would only print its stack.
+WORKER_PRELOAD = "import signal\nsignal.signal(signal.SIGINT, signal.SIG_IGN)\n"
+
+
 def local_client(workers: int | None):
     """An embedded Dask cluster of `workers` processes, one thread each: (client, cluster).
 
-    Default: one worker per core.  Close both when done.
+    Default: one worker per core.  The workers leave Ctrl-C to the client
+    (`WORKER_PRELOAD`).  Close both when done.
     """
     from distributed import Client, LocalCluster
 
@@ -157,6 +165,7 @@ def local_client(workers: int | None):
         processes=True,
         dashboard_address=":0",
         silence_logs=40,
+        preload=[WORKER_PRELOAD],
     )
     return Client(cluster), cluster
 
