@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
 import subprocess
 import sys
 
@@ -203,9 +202,7 @@ def test_shipped_keypoints():
     assert (kp.xy[..., 1] > -1).all() and (kp.xy[..., 1] < 720).all()
 
 
-@pytest.mark.slow
 def test_mediapipe_on_the_video_matches_the_shipped_keypoints(tmp_path):
-    pytest.importorskip("mediapipe")
     out = tmp_path / "k.csv"
     res = CliRunner().invoke(
         main, ["keypoints", str(VIDEO), "--out", str(out), "--frames", "30", "--hand", "right"]
@@ -291,10 +288,8 @@ def test_the_side_from_mediapipes_handedness_of_the_shipped_clips(name):
     assert handedness_side("Left", mirrored=True) == "left"
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("video", ["dex-human-hand-video.mp4", "tfjs-asl-hand.mp4"])
 def test_mediapipe_on_the_mirrored_video_sees_a_left_hand(tmp_path, video):
-    pytest.importorskip("mediapipe")
     import cv2
 
     folder = tmp_path / "mirrored"

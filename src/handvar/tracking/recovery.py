@@ -518,40 +518,8 @@ class Recovery:
         t0 = time.perf_counter()
         tracker = self.tracker
         self._silhouettes = self._silhouette_data(masks)
-        fit, again, mirrored = None, False, False
-        scale = self.scale
-        if self.started:
-            # the keypoints alone first, from the prediction: how far that fit lies from
-            # the prediction is the predictor's accuracy (measured after the prior had
-            # pulled the fit towards the prediction it would confirm itself)
-            prediction = tracker.prediction()
-            fit = self._fit(kps, prediction, world)
-            if self.settings.depth_mirror and len(self.rig) == 1 and not self._lost(fit):
-                alt = self._mirrored(fit, kps, world)
-                if alt is not None:
-                    fit, mirrored = alt, True
-            if not mirrored and self._with_prior():
-                scale = self.scale.update(fit.pose, prediction)
-                fit = self._prior_stage(fit, kps, world, prediction, scale)
-        if fit is not None and self.settings.keypoint_reseeds and not self._lost(fit):
-            fit = self._reseed_digits(fit, kps, world, prediction, scale)
-        if fit is not None and len(self.rig) > 1:
-            fit = self._leave_camera_out(fit, kps, world, prediction, scale)
-        lost = fit is None or self._lost(fit)
-        restart = not lost and self.settings.restart and _off(fit) > 0
-        if fit is None or (self.settings.reinit and (lost or restart)):
-            t1 = time.perf_counter()
-            direct = reinitialise(kps, self.rig, self.hand, world=world,
-                                  silhouettes=self._silhouettes,
-                                  settings=self.fit_settings)  # fmt: skip
-            if lost:
-                self.init_seconds.append(time.perf_counter() - t1)
-            if direct is not None and (fit is None or _fit_score(direct) < _fit_score(fit)):
-                fit = direct
-                if lost:  # a re-initialisation: the predictor restarts there
-                    again = True
-                    tracker.reset(direct.pose)
-                    self.scale = PriorScale()
+        fit, mirrored, scale = self._from_prediction(kps, world)
+        fit, again = self._from_keypoints(fit, kps, world)
         if fit is None:  # no palm to start from: nothing to track yet
             return _Frame(None, self._nan_pose(), keypoints=True, no_hand=not self.started)
         if not again:
@@ -582,6 +550,71 @@ class Recovery:
         if self._shape_frames is not None and not result.lost:
             self._adapt(out, kps, world)
         return out
+
+    def _from_prediction(self, kps, world):
+        """Rule 1 of `keypoint_frame`: the keypoints fitted from the prediction (with
+        one camera, from its mirror image in depth if better), continued with the
+        temporal prior, digits re-seeded and, in a rig, a camera left out.
+
+        Returns
+        -------
+        fit : FrameFit or None
+            None before the track started (no prediction yet).
+        mirrored : bool
+            The fit is the mirrored one (the predictor restarts there).
+        scale : PriorScale
+            The prior's scale after this frame (kept unless rule 2 re-initialises).
+        """
+        fit, mirrored, scale = None, False, self.scale
+        if not self.started:
+            return fit, mirrored, scale
+        # the keypoints alone first, from the prediction: how far that fit lies from
+        # the prediction is the predictor's accuracy (measured after the prior had
+        # pulled the fit towards the prediction it would confirm itself)
+        prediction = self.tracker.prediction()
+        fit = self._fit(kps, prediction, world)
+        if self.settings.depth_mirror and len(self.rig) == 1 and not self._lost(fit):
+            alt = self._mirrored(fit, kps, world)
+            if alt is not None:
+                fit, mirrored = alt, True
+        if not mirrored and self._with_prior():
+            scale = self.scale.update(fit.pose, prediction)
+            fit = self._prior_stage(fit, kps, world, prediction, scale)
+        if self.settings.keypoint_reseeds and not self._lost(fit):
+            fit = self._reseed_digits(fit, kps, world, prediction, scale)
+        if len(self.rig) > 1:
+            fit = self._leave_camera_out(fit, kps, world, prediction, scale)
+        return fit, mirrored, scale
+
+    def _from_keypoints(self, fit, kps, world):
+        """Rule 2 of `keypoint_frame`: with no `fit`, or a lost one (or, with
+        `RecoverySettings.restart`, one with keypoints off), the pose fitted directly
+        from the keypoints (`reinitialise`), kept if better; a lost fit replaced is a
+        re-initialisation, where the predictor restarts.
+
+        Returns
+        -------
+        fit : FrameFit or None
+            The fit kept; None when there was none and no palm to start from.
+        again : bool
+            The frame was re-initialised.
+        """
+        lost = fit is None or self._lost(fit)
+        restart = not lost and self.settings.restart and _off(fit) > 0
+        if not (fit is None or (self.settings.reinit and (lost or restart))):
+            return fit, False
+        t1 = time.perf_counter()
+        direct = reinitialise(kps, self.rig, self.hand, world=world,
+                              silhouettes=self._silhouettes,
+                              settings=self.fit_settings)  # fmt: skip
+        if lost:
+            self.init_seconds.append(time.perf_counter() - t1)
+        if direct is None or not (fit is None or _fit_score(direct) < _fit_score(fit)):
+            return fit, False
+        if lost:  # a re-initialisation: the predictor restarts there
+            self.tracker.reset(direct.pose)
+            self.scale = PriorScale()
+        return direct, lost
 
     def _silhouette_data(self, masks) -> FrameData | None:
         """The frame's silhouettes prepared for the fit's silhouette term, or None (no
@@ -752,23 +785,11 @@ class Recovery:
             if _better(refined, best):
                 best, learned = refined, False
         if s.reinit and not empty and (best is None or best.lost):
-            self._search(masks)
-            again, learned = True, False
-            restarted = copy.deepcopy(tracker.predictor)
-            r2 = _quiet_step(tracker, masks, None)
-            if _better(r2, best):
-                best, base, learned = r2, restarted, True
-            if r2 is not None and r2.lost and s.refine_iterations:
-                refined = self._refine(r2, masks)
-                if _better(refined, best):
-                    best, base, learned = refined, restarted, False
+            best, base, learned = self._search_again(best, base, masks)
+            again = True
         if (s.reseed_digits and s.refine_iterations and not empty and best is not None
                 and best.mean_iou < s.refine_iou):  # fmt: skip
-            for start in digit_reseeds(best.pose, self.hand, self.rig, masks, s.reseed_digits):
-                refined = self._refine(dataclasses.replace(best, pose=start), masks)
-                if (refined is not None and refined.mean_iou >= best.mean_iou + s.reseed_margin
-                        and _better(refined, best)):  # fmt: skip
-                    best, learned = refined, False
+            best, learned = self._reseed_silhouette_digits(best, learned, masks)
         if best is not None and not learned:  # the predictor learns the fit kept
             if tracker.frames_tracked == 0:
                 tracker.reset(best.pose)
@@ -781,6 +802,44 @@ class Recovery:
         else:
             pose = self.previous = best.pose
         return _Frame(best, pose, again, empty)
+
+    def _search_again(self, best, base, masks):
+        """Rule 4's search of `silhouette_frame`: a lost (or diverged) frame's pose
+        searched again from the silhouettes and tracked from there, then refined if
+        still lost; the best of those and `best` kept.
+
+        Returns
+        -------
+        best : FrameResult or None
+        base : predictor
+            The predictor state the fit kept was made from (restored before it learns).
+        learned : bool
+            The predictor has already learned the fit kept.
+        """
+        tracker = self.tracker
+        self._search(masks)
+        learned = False
+        restarted = copy.deepcopy(tracker.predictor)
+        r2 = _quiet_step(tracker, masks, None)
+        if _better(r2, best):
+            best, base, learned = r2, restarted, True
+        if r2 is not None and r2.lost and self.settings.refine_iterations:
+            refined = self._refine(r2, masks)
+            if _better(refined, best):
+                best, base, learned = refined, restarted, False
+        return best, base, learned
+
+    def _reseed_silhouette_digits(self, best, learned: bool, masks):
+        """Rule 4's re-seeding of `silhouette_frame`: each start of `digit_reseeds`
+        refined, kept if its IoU is `RecoverySettings.reseed_margin` above the best's
+        and it is better.  Returns the best and whether the predictor learned it."""
+        s = self.settings
+        for start in digit_reseeds(best.pose, self.hand, self.rig, masks, s.reseed_digits):
+            refined = self._refine(dataclasses.replace(best, pose=start), masks)
+            if (refined is not None and refined.mean_iou >= best.mean_iou + s.reseed_margin
+                    and _better(refined, best)):  # fmt: skip
+                best, learned = refined, False
+        return best, learned
 
     # -- helpers ----------------------------------------------------------------------
 
