@@ -20,13 +20,12 @@ $(STAMP): pyproject.toml
 
 # The main job on built-in defaults: the predictors on real recorded motion, then a
 # reduced run of the paper's experiment (3 trials x 40 frames) and its report, then the
-# example video tracked (60 frames) and its 3D viewer page.
+# example video tracked (60 frames) with the detector inside, and its 3D viewer page.
 demo: $(STAMP)
 	$(BIN)/handvar predict examples/data/htrack-fingerfist.txt --layout htrack --reset-at 4000
 	$(BIN)/handvar experiment --quick --out demo/experiment.zarr
 	$(BIN)/handvar report demo/experiment.zarr --out demo/report
-	$(BIN)/handvar track examples/data/dex-human-hand-video.mp4 \
-		--keypoints examples/data/dex-human-hand-video-keypoints.npy --frames 60 \
+	$(BIN)/handvar track examples/data/dex-human-hand-video.mp4 --scale 0.5 --frames 60 \
 		--out demo/video --no-video
 	$(BIN)/handvar view demo/video --out demo/video/view.html
 	@echo "3D viewer of the example video's track: demo/video/view.html"

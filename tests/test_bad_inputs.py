@@ -344,6 +344,8 @@ CASES = [
     _c("init-short-video", "init {r}/short.avi --frame 8 --out {r}/existing.txt",
        "short.avi: decoding stopped after 5 of the 12 frames", subprocess=True),
     _c("track-skin-video", "track {r}/skin.avi --out {r}/track_out",
+       "skin.avi: expected a hand; the detector found none in its 4 frames", subprocess=True),
+    _c("track-skin-video-silhouettes", "track {r}/skin.avi --detector none --out {r}/track_out",
        "skin.avi: expected a hand in some frame", subprocess=True),
     _c("init-skin-video", "init {r}/skin.avi --out {r}/existing.txt",
        "camera 'skin.avi', frame 0: not a hand", subprocess=True),

@@ -71,8 +71,14 @@ def test_a_detector_that_returns_the_wrong_thing_is_named(result, message):
 
 
 def test_user_detector_takes_world_points_and_a_side():
-    detect = user_detector(lambda image: {"points": np.ones((21, 2)), "world": np.ones((21, 3)),
-                                          "side": "left", "confidence": np.full(21, 0.5)})
+    detect = user_detector(
+        lambda image: {
+            "points": np.ones((21, 2)),
+            "world": np.ones((21, 3)),
+            "side": "left",
+            "confidence": np.full(21, 0.5),
+        }
+    )
     (found,) = detect(np.zeros((4, 4, 3), np.uint8))
     assert found.side == "left" and found.world.shape == (21, 3)
     assert (found.points[:, 2] == 0.5).all()
@@ -80,8 +86,10 @@ def test_user_detector_takes_world_points_and_a_side():
 
 def test_choose_and_vote_take_the_handedness_as_mediapipe_gives_it():
     points = np.ones((21, 3))
-    right, left = Detection(points, side="right", score=0.9), Detection(points, side="left",
-                                                                         score=0.6)
+    right, left = (
+        Detection(points, side="right", score=0.9),
+        Detection(points, side="left", score=0.6),
+    )
     kept, d = choose([left, right], "left")
     assert d is left and kept[0, 2] == pytest.approx(0.6)
     kept, d = choose([right], "left")  # a right hand when the left is asked: doubtful
@@ -102,8 +110,10 @@ def test_mediapipe_inside_the_command_writes_its_points_and_a_rerun_reuses_them(
     assert "20 fitted to keypoints, 0 without a hand (detector mediapipe)" in res.output
     found = read_keypoints(out / "keypoints.npz")
     shipped = read_keypoints(KEYPOINTS)
-    diff = np.abs(found.xy - shipped.xy[:20])  # MediaPipe's own points, another build
-    assert np.mean(diff <= 0.5) > 0.9 and diff.max() < 3.0, diff.max()
+    # MediaPipe's own points, of another build and one detector on every frame (here two
+    # take turns, studies/detector_turns.py): within a few pixels of a 140-pixel hand
+    diff = np.linalg.norm(found.xy - shipped.xy[:20], axis=2)
+    assert np.median(diff) < 1.0 and np.percentile(diff, 95) < 4.0, diff.max()
     assert found.side() == "right" and np.isfinite(found.world).all()
     # a track of part of the recording is not reused; one of the whole recording is
     res = CliRunner().invoke(main, args)
@@ -170,7 +180,8 @@ def test_the_counting_clip_with_mediapipe_inside_gives_no_pose_without_a_hand():
 def test_hand_tracker_in_a_users_loop_follows_the_detections():
     shipped = read_keypoints(KEYPOINTS)
     frames = _frames(VIDEO, 15)
-    tracker = handvar.HandTracker(detector=lambda image, i=iter(range(15)): shipped.frame(next(i)))
+    count = iter(range(15))
+    tracker = handvar.HandTracker(detector=lambda image: shipped.frame(next(count)))
     results = [tracker.process(frame) for frame in frames]
     assert [r.index for r in results] == list(range(15))
     assert not any(r.no_hand or r.lost for r in results)
@@ -185,8 +196,8 @@ def test_hand_tracker_in_a_users_loop_follows_the_detections():
 
 
 def test_hand_tracker_gives_no_hand_until_the_detector_finds_one():
-    found = [None, None, np.full((21, 2), np.nan)]
-    tracker = handvar.HandTracker(detector=lambda image, i=iter(found): next(i))
+    found = iter([None, None, np.full((21, 2), np.nan)])
+    tracker = handvar.HandTracker(detector=lambda image: next(found))
     for frame in _frames(VIDEO, 3):
         r = tracker.process(frame)
         assert r.no_hand and np.isnan(r.pose).all() and tracker.hand is None

@@ -26,10 +26,11 @@ def python_blocks(text: str) -> list[str]:
 BLOCKS = python_blocks(README.read_text(encoding="utf-8"))
 
 
-def test_readme_has_the_two_examples():
-    assert len(BLOCKS) == 2
+def test_readme_has_the_three_examples():
+    assert len(BLOCKS) == 3
     assert "handvar.track(" in BLOCKS[0]
-    assert ".predict()" in BLOCKS[1]
+    assert "tracker.process(frame)" in BLOCKS[1]
+    assert ".predict()" in BLOCKS[2]
 
 
 def test_python_blocks_are_found():
@@ -39,7 +40,9 @@ def test_python_blocks_are_found():
     assert len(block) - len(block.lstrip("\n")) == 8  # y = 2 is line 9
 
 
-@pytest.mark.parametrize("block", BLOCKS, ids=["track", "predictor"][: len(BLOCKS)])
+@pytest.mark.parametrize(
+    "block", BLOCKS, ids=["track", "hand_tracker", "predictor"][: len(BLOCKS)]
+)
 def test_readme_example_runs(block, tmp_path, monkeypatch):
     (tmp_path / "examples").symlink_to(ROOT / "examples", target_is_directory=True)
     monkeypatch.chdir(tmp_path)

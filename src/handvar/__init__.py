@@ -34,6 +34,7 @@ _LAZY = {
     "FrameResult": "handvar.tracking.hand_tracker",
     "HandModel": "handvar.hand.kinematics",
     "HandShape": "handvar.hand.anthropometry",
+    "HandLandmark": "handvar.hand.anthropometry",
     "make_predictor": "handvar.predictors.catalogue",
     "Predictor": "handvar.predictors",
     "NoMotion": "handvar.predictors",
@@ -52,6 +53,7 @@ __all__ = [
     "AdaptiveBank",
     "Decelerating",
     "FrameResult",
+    "HandLandmark",
     "HandModel",
     "HandShape",
     "HandTracker",
@@ -67,10 +69,9 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:  # what static checkers and editors see
-    from handvar.hand.anthropometry import HandShape
+    from handvar.hand.anthropometry import HandLandmark, HandShape
     from handvar.hand.kinematics import HandModel
     from handvar.pipeline import Track, track
-    from handvar.tracking.hand_tracker import FrameResult, HandTracker
     from handvar.predictors import (
         RVAR,
         VAR,
@@ -83,6 +84,7 @@ if TYPE_CHECKING:  # what static checkers and editors see
         Predictor,
     )
     from handvar.predictors.catalogue import make_predictor
+    from handvar.tracking.hand_tracker import FrameResult, HandTracker
 
 
 def __getattr__(name: str):

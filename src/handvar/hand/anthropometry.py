@@ -28,6 +28,7 @@ side, which for a left hand is −x of the right hand's frame (design §2). See
 
 from __future__ import annotations
 
+import enum
 import math
 import numbers
 from dataclasses import dataclass, field
@@ -57,6 +58,40 @@ JOINTS: tuple[str, ...] = (
     "middle_mcp", "middle_pip", "middle_dip", "middle_tip",
     "ring_mcp", "ring_pip", "ring_dip", "ring_tip",
     "little_mcp", "little_pip", "little_dip", "little_tip",
+)  # fmt: skip
+
+
+class HandLandmark(enum.IntEnum):
+    """The 21 points of `JOINTS` by name, MediaPipe's names (``HandLandmark.INDEX_FINGER_TIP``
+    indexes a (21, ...) array as 8)."""
+
+    WRIST = 0
+    THUMB_CMC = 1
+    THUMB_MCP = 2
+    THUMB_IP = 3
+    THUMB_TIP = 4
+    INDEX_FINGER_MCP = 5
+    INDEX_FINGER_PIP = 6
+    INDEX_FINGER_DIP = 7
+    INDEX_FINGER_TIP = 8
+    MIDDLE_FINGER_MCP = 9
+    MIDDLE_FINGER_PIP = 10
+    MIDDLE_FINGER_DIP = 11
+    MIDDLE_FINGER_TIP = 12
+    RING_FINGER_MCP = 13
+    RING_FINGER_PIP = 14
+    RING_FINGER_DIP = 15
+    RING_FINGER_TIP = 16
+    PINKY_MCP = 17
+    PINKY_PIP = 18
+    PINKY_DIP = 19
+    PINKY_TIP = 20
+
+
+#: The fingertips, thumb to little finger.
+FINGERTIPS: tuple[HandLandmark, ...] = (
+    HandLandmark.THUMB_TIP, HandLandmark.INDEX_FINGER_TIP, HandLandmark.MIDDLE_FINGER_TIP,
+    HandLandmark.RING_FINGER_TIP, HandLandmark.PINKY_TIP,
 )  # fmt: skip
 #: Indices into `JOINTS` of the wrist and the middle finger's MCP joint: the two points
 #: that give a hand's size and direction in an image (keypoint scale, wrist cut).
@@ -384,9 +419,11 @@ __all__ = [
     "ABDUCTION_SIGN",
     "BONES",
     "DIGITS",
+    "FINGERTIPS",
     "JOINTS",
     "JOINT_DIGIT",
     "SIDES",
+    "HandLandmark",
     "HandProportions",
     "HandShape",
     "bone_index",

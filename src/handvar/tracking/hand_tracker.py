@@ -334,9 +334,7 @@ class HandTracker:
 
 
 def _present(kps) -> bool:
-    return kps is not None and any(
-        k is not None and np.any(np.asarray(k)[:, 2] > 0) for k in kps
-    )
+    return kps is not None and any(k is not None and np.any(np.asarray(k)[:, 2] > 0) for k in kps)
 
 
 def _no_hand_frame():
@@ -360,4 +358,3 @@ def _images(frames, n: int) -> list[np.ndarray]:
             )
         out.append(a)
     return out
-

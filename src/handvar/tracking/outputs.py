@@ -98,14 +98,18 @@ def recording_backgrounds(source) -> Backgrounds:
     -------
     callable
         ``f(frames)`` yields ``(t, images)`` for the ascending frame indices `frames`,
-        one RGB image per camera; the recording is read once, up to the last of them.
+        one RGB image per camera; a video is read once, up to the last of them, an
+        image folder only at those frames.
     """
 
     def backgrounds(frames: list[int]) -> Iterator[tuple[int, list[np.ndarray]]]:
-        wanted = set(frames)
-        for t, images in source.frames(0, max(frames) + 1):
-            if t in wanted:
-                yield t, [cv2.cvtColor(im, cv2.COLOR_BGR2RGB) for im in images]
+        wanted = sorted(set(frames))
+        if all(r.kind == "folder" for r in source.readers):  # images: only those wanted
+            steps = (item for t in wanted for item in source.frames(t, t + 1))
+        else:  # a video is decoded in order
+            steps = (item for item in source.frames(0, wanted[-1] + 1) if item[0] in wanted)
+        for t, images in steps:
+            yield t, [cv2.cvtColor(im, cv2.COLOR_BGR2RGB) for im in images]
 
     return backgrounds
 

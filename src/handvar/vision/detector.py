@@ -175,31 +175,52 @@ _END = object()
 
 
 def detect_ahead(feed: Iterable, detectors: list, *, depth: int = 4) -> Iterator:
-    """Run `detectors` on the frames of `feed` in a worker thread, ahead of the consumer.
+    """Run `detectors` on the frames of `feed` ahead of the consumer.
+
+    MediaPipe holds Python's global lock while it infers, so beside the fit it runs in
+    a process of its own (`_detect_in_process`: the frames pass through shared memory,
+    the hands found come back), which lets detection and fitting overlap on two cores.
+    Any other detector (a user's callable, which may not be picklable), and MediaPipe in
+    a daemonic process (a Dask worker, which may start none), runs in a worker thread
+    (`_detect_in_thread`).
 
     Parameters
     ----------
     feed : iterable of (index, seconds, images, originals)
         The frames (`originals`: the full-resolution images the detectors see, one per
-        camera).
+        camera; None on a frame the detectors skip).
     detectors : list of callable
         Per camera, ``image -> list[Detection]``.
     depth : int, keyword-only
-        Frames detected ahead at most (the queue's size).
+        Frames detected ahead at most.
 
     Yields
     ------
     (index, seconds, images, found)
-        `found`: per camera the list of hands found.  An error of the feed or of a
-        detector is raised here, in the consumer's thread.
+        `found`: per camera the list of hands found; None where the detectors skipped.
+        An error of the feed or of a detector is raised here, in the consumer's thread.
     """
+    import multiprocessing
+
+    from handvar.vision.mediapipe import MediaPipeHands
+
+    # a daemonic process (a Dask worker of a batch) may not start one of its own
+    alone = not multiprocessing.current_process().daemon
+    if alone and all(isinstance(d, MediaPipeHands) for d in detectors):
+        return _detect_in_process(feed, [d.options for d in detectors], depth)
+    return _detect_in_thread(feed, detectors, depth)
+
+
+def _detect_in_thread(feed: Iterable, detectors: list, depth: int) -> Iterator:
     items: queue.Queue = queue.Queue(maxsize=depth)
     stop = threading.Event()
 
     def work() -> None:
         try:
             for index, seconds, images, originals in feed:
-                found = [d(image) for d, image in zip(detectors, originals, strict=True)]
+                found = None
+                if originals is not None:
+                    found = [d(image) for d, image in zip(detectors, originals, strict=True)]
                 while not stop.is_set():
                     try:
                         items.put((index, seconds, images, found), timeout=0.1)
@@ -229,3 +250,190 @@ def detect_ahead(feed: Iterable, detectors: list, *, depth: int = 4) -> Iterator
                 items.get_nowait()
             except queue.Empty:
                 worker.join(0.05)
+
+
+class _Slots:
+    """Shared-memory buffers for the frames in flight, `depth` slots of one image per
+    camera, each made (again) as large as the frame put in it."""
+
+    def __init__(self, depth: int) -> None:
+        self.free = list(range(depth))
+        self._memory: dict[tuple[int, int], object] = {}
+
+    def put(self, originals) -> tuple[int, list]:
+        """A free slot holding `originals`: the slot and, per camera, (name, shape)."""
+        from multiprocessing import shared_memory
+
+        slot = self.free.pop()
+        spec = []
+        for j, image in enumerate(originals):
+            image = np.ascontiguousarray(image, dtype=np.uint8)
+            shm = self._memory.get((slot, j))
+            if shm is None or shm.size < image.nbytes:
+                if shm is not None:
+                    shm.close()
+                    shm.unlink()
+                shm = shared_memory.SharedMemory(create=True, size=max(image.nbytes, 1))
+                self._memory[(slot, j)] = shm
+            np.ndarray(image.shape, np.uint8, shm.buf)[...] = image
+            spec.append((shm.name, image.shape))
+        return slot, spec
+
+    def close(self) -> None:
+        for shm in self._memory.values():
+            shm.close()
+            shm.unlink()
+        self._memory.clear()
+
+
+#: MediaPipe processes detecting in turn (frame k to process k mod 2): one MediaPipe
+#: keeps up with about 45 frames/s of 1280×720 here, and beside the fit on the other
+#: core with about 35; two, each tracking its hand over every other frame, leave the
+#: two cores to share out detection, decoding and fitting (docs/detector.md).
+DETECTOR_PROCESSES = 2
+
+
+def _detect_in_process(
+    feed: Iterable, options: list[dict], depth: int, processes: int = DETECTOR_PROCESSES
+) -> Iterator:
+    import collections
+
+    workers = [_Worker(options) for _ in range(processes)]
+    slots = _Slots(depth * processes)
+    pending: collections.deque = collections.deque()  # (index, seconds, images, slot, k)
+    frames = iter(feed)
+    more, sent = True, 0
+    try:
+        while True:
+            while more and slots.free:  # keep the detectors `depth` frames ahead each
+                item = next(frames, None)
+                if item is None:
+                    more = False
+                    break
+                index, seconds, images, originals = item
+                slot = k = None
+                if originals is not None:
+                    slot, spec = slots.put(originals)
+                    k, sent = sent % processes, sent + 1
+                    workers[k].send(spec)
+                pending.append((index, seconds, images, slot, k))
+            if not pending:
+                return
+            index, seconds, images, slot, k = pending.popleft()
+            found = None
+            if slot is not None:
+                found = workers[k].received()
+                slots.free.append(slot)
+            yield index, seconds, images, found
+    finally:
+        for worker in workers:
+            worker.close()
+        slots.close()
+
+
+class _Worker:
+    """A detector's process: ``python -m handvar.vision.detector``, frames' shared-memory
+    names sent on its standard input, the hands found read from a pipe of its own.
+
+    Started as a plain subprocess, not by `multiprocessing`, which would import the
+    caller's main script again in it (a script calling `handvar.track` at its top
+    level, without ``if __name__ == "__main__"``, would then start it again there).
+    """
+
+    def __init__(self, options: list[dict]) -> None:
+        import json
+        import os
+        import subprocess
+        import sys
+
+        read, write = os.pipe()
+        self.process = subprocess.Popen(
+            [sys.executable, "-m", "handvar.vision.detector", str(write), json.dumps(options)],
+            stdin=subprocess.PIPE, pass_fds=(write,),
+        )  # fmt: skip
+        os.close(write)
+        self.replies = os.fdopen(read, "rb")
+
+    def send(self, message) -> None:
+        import pickle
+
+        pickle.dump(message, self.process.stdin, protocol=pickle.HIGHEST_PROTOCOL)
+        self.process.stdin.flush()
+
+    def received(self) -> list:
+        """The hands found in the next frame sent, as `Detection` per camera."""
+        import pickle
+
+        try:
+            message = pickle.load(self.replies)
+        except EOFError:
+            raise RuntimeError(
+                f"detector: the detector's process ended (exit code {self.process.poll()})"
+            ) from None
+        if isinstance(message, str):  # an error in the detector's process
+            raise ValueError(message)
+        return [[Detection(p, w, side=s, score=c) for p, w, s, c in hands] for hands in message]
+
+    def close(self) -> None:
+        try:
+            self.send(None)
+            self.process.stdin.close()
+        except (OSError, ValueError):
+            pass
+        import subprocess
+
+        try:
+            self.process.wait(5.0)
+        except subprocess.TimeoutExpired:  # a process that will not end is killed
+            self.process.kill()
+            self.process.wait()
+        self.replies.close()
+
+
+def _serve(requests, replies, options: list[dict]) -> None:
+    """The detector's process: MediaPipe Hands on each frame sent, the hands found sent
+    back, until None comes."""
+    import pickle
+    from multiprocessing import resource_tracker, shared_memory
+
+    from handvar.vision.mediapipe import MediaPipeHands, hands_module_alone
+
+    hands = hands_module_alone()  # this process runs the detector only
+    detectors = [MediaPipeHands(**o) for o in options]
+    for d in detectors:
+        d._module = hands
+    attached: dict[str, object] = {}
+    while True:
+        try:
+            spec = pickle.load(requests)
+        except EOFError:
+            break
+        if spec is None:
+            break
+        try:
+            found = []
+            for detect, (name, shape) in zip(detectors, spec, strict=True):
+                shm = attached.get(name)
+                if shm is None:  # made and unlinked by the parent: not this one's to track
+                    shm = attached[name] = shared_memory.SharedMemory(name=name)
+                    resource_tracker.unregister(shm._name, "shared_memory")
+                image = np.ndarray(shape, np.uint8, shm.buf)
+                found.append([(d.points, d.world, d.side, d.score) for d in detect(image)])
+        except (ValueError, ImportError) as exc:
+            pickle.dump(str(exc), replies)
+            replies.flush()
+            break
+        pickle.dump(found, replies, protocol=pickle.HIGHEST_PROTOCOL)
+        replies.flush()
+    for shm in attached.values():
+        shm.close()
+    for d in detectors:
+        d.close()
+
+
+if __name__ == "__main__":  # the detector's process (`_Worker`)
+    import json
+    import os
+    import sys
+
+    _serve(sys.stdin.buffer, os.fdopen(int(sys.argv[1]), "wb"), json.loads(sys.argv[2]))

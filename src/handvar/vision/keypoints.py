@@ -65,6 +65,7 @@ from pathlib import Path
 import numpy as np
 
 from handvar.atomic import write_atomic
+from handvar.hand.anthropometry import HandLandmark
 from handvar.validate import as_array, as_float, as_int, one_of
 
 __all__ = [
@@ -104,9 +105,12 @@ KEYPOINT_NAMES: tuple[str, ...] = (
 )
 N_KEYPOINTS = len(KEYPOINT_NAMES)
 #: Indices of the four finger MCPs (index, middle, ring, little).
-MCP: tuple[int, ...] = (5, 9, 13, 17)
+MCP: tuple[int, ...] = (
+    HandLandmark.INDEX_FINGER_MCP, HandLandmark.MIDDLE_FINGER_MCP,
+    HandLandmark.RING_FINGER_MCP, HandLandmark.PINKY_MCP,
+)  # fmt: skip
 #: The palm: the wrist and the four finger MCPs (rigid in the hand model).
-PALM: tuple[int, ...] = (0, *MCP)
+PALM: tuple[int, ...] = (HandLandmark.WRIST, *MCP)
 #: The range (mm) of a hand's wrist → middle-MCP distance that world points must show:
 #: the hand model's is 22 to 178 mm at the hand lengths the commands take (--hand-length
 #: 50 to 400 mm); real adult hands measure about 60 to 110 mm, MediaPipe's world points

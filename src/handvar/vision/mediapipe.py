@@ -78,15 +78,56 @@ def _quiet_stderr():
         os.close(null)
 
 
+_MISSING = (
+    "keypoints: expected MediaPipe Hands (the optional extra: "
+    "pip install 'handvar[mediapipe]'); got no mediapipe module"
+)
+
+
+def _installed() -> None:
+    """Raise `MissingExtraError` unless MediaPipe can be imported (without importing it)."""
+    import importlib.util
+
+    if "mediapipe" in sys.modules:  # imported, or masked as not installed (None)
+        if sys.modules["mediapipe"] is None:
+            raise MissingExtraError(_MISSING)
+        return
+    if importlib.util.find_spec("mediapipe") is None:
+        raise MissingExtraError(_MISSING)
+
+
 def _hands_module():
+    """``mediapipe.solutions.hands``."""
+    _installed()
     try:
         import mediapipe as mp
     except ImportError:
-        raise MissingExtraError(
-            "keypoints: expected MediaPipe Hands (the optional extra: "
-            "pip install 'handvar[mediapipe]'); got no mediapipe module"
-        ) from None
+        raise MissingExtraError(_MISSING) from None
     return mp.solutions.hands
+
+
+def hands_module_alone():
+    """``mediapipe.python.solutions.hands`` imported without the ``mediapipe`` package's
+    own ``__init__``, which imports every solution and task, matplotlib and the audio
+    tasks' sound library (1.9 s here, against 0.4 s).
+
+    The packages on the way are left as empty stand-ins in ``sys.modules``, so a later
+    ``import mediapipe`` in the same process finds no ``solutions``: for a process that
+    runs the detector only (`handvar.vision.detector`'s).
+    """
+    import importlib
+    import importlib.util
+    import types
+
+    _installed()
+    root = importlib.util.find_spec("mediapipe").submodule_search_locations[0]
+    for name, folder in (("mediapipe", ""), ("mediapipe.python", "python"),
+                         ("mediapipe.python.solutions", "python/solutions")):  # fmt: skip
+        if name not in sys.modules:
+            stand_in = types.ModuleType(name)
+            stand_in.__path__ = [os.path.join(root, folder)]
+            sys.modules[name] = stand_in
+    return importlib.import_module("mediapipe.python.solutions.hands")
 
 
 def handedness_side(label: str, mirrored: bool = False) -> str:
@@ -135,8 +176,15 @@ class MediaPipeHands:
         min_detection_confidence: float = 0.5,
         min_tracking_confidence: float = 0.5,
     ) -> None:
-        self._module = _hands_module()  # fails here without the extra
+        _installed()  # fails here without the extra; imported at the first frame
+        self._module = None
         self.mirrored = mirrored
+        #: What makes another such detector (`handvar.vision.detector.detect_ahead`).
+        self.options = {
+            "mirrored": mirrored, "model_complexity": model_complexity,
+            "min_detection_confidence": min_detection_confidence,
+            "min_tracking_confidence": min_tracking_confidence,
+        }  # fmt: skip
         self._options = {
             "static_image_mode": False, "max_num_hands": 2, "model_complexity": model_complexity,
             "min_detection_confidence": min_detection_confidence,
@@ -161,6 +209,8 @@ class MediaPipeHands:
         h, w = image.shape[:2]
         rgb = cv2.cvtColor(image, cv2.COLOR_BGR2RGB)
         if self._hands is None:  # its models load now, with lines of logging: not shown
+            if self._module is None:
+                self._module = _hands_module()
             with _quiet_stderr():
                 self._hands = self._module.Hands(**self._options)
                 result = self._hands.process(rgb)

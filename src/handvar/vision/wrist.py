@@ -38,7 +38,7 @@ import numpy as np
 
 from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
 from handvar.validate import as_float, as_mask
-from handvar.vision.keypoints import as_frame_keypoints
+from handvar.vision.keypoints import PALM, as_frame_keypoints
 
 __all__ = [
     "WRIST_CUT_SETTINGS",
@@ -286,7 +286,7 @@ def wrist_from_keypoints(
     if size < 1e-6:
         return None
     direction = (wrist - mcp) / size  # towards the forearm
-    palm = k[[0, 5, 9, 13, 17], :2]
+    palm = k[list(PALM), :2]
     palm = palm[~np.isnan(palm).any(axis=1)]
     return WristCut(
         palm_centre=palm.mean(axis=0),
