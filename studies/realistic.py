@@ -213,6 +213,34 @@ def run_fit(
     return time.perf_counter() - start, out
 
 
+def run_inside(case_dir: Path, spec: Spec, every: int, out: Path) -> tuple[float, Path, dict]:
+    """The one command a user types first: ``handvar track CAMS --calib calib.yml --out
+    OUT --no-video [--keypoint-every K]`` (no keypoints, first pose, side or hand length
+    given: the detector inside finds them); wall time (s), out dir, and the detector's own
+    estimate as `mediapipe_keypoints` gives it, from what the track kept of it."""
+    cams = [str(case_dir / f"cam{j}") for j in range(spec.cameras)]
+    out.parent.mkdir(parents=True, exist_ok=True)
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
+    cmd = [*HANDVAR, "track", ",".join(cams), "--calib", str(case_dir / "calib.yml"),
+           "--keypoint-every", str(every), "--out", str(out), "--no-video"]  # fmt: skip
+    start = time.perf_counter()
+    done = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    if done.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)}\n{done.stderr.strip()}")
+    seconds = time.perf_counter() - start
+    rate = re.search(r"([0-9.]+) frames/s all-in", done.stdout)
+    (out / "rate.txt").write_text(rate.group(1) if rate else "nan")
+    files = [out / "keypoints.npz"] if spec.cameras == 1 else [
+        out / f"keypoints-{j}.npz" for j in range(spec.cameras)]  # fmt: skip
+    xy, world = [], None
+    for j, path in enumerate(files):
+        kp = read_keypoints(path)
+        xy.append(np.where(kp.present[..., None], kp.xy, np.nan))
+        if j == 0 and kp.world is not None:
+            world = np.where(kp.present[..., None], kp.world, np.nan)
+    return seconds, out, {"xy": np.stack(xy), "world": world}
+
+
 def mediapipe_keypoints(
     case_dir: Path, spec: Spec, python: str, with_world: bool = False
 ) -> tuple[list[Path], dict]:
@@ -366,6 +394,31 @@ def overall(rows, label: str, keep) -> list[tuple[str, str, dict]]:
     return out
 
 
+def inside_rows(case, case_dir: Path, spec: Spec, base: Path, label: str) -> list:
+    """The rows of the one command (``--detector inside``): the detector's own points and
+    3D as the track kept them, and the fit, with the detector on every frame and on every
+    5th."""
+    rows = []
+    for every in (1, 5):
+        out = base / "fits" / f"{spec.name}-inside-every{every}"
+        try:
+            seconds, out, detector = run_inside(case_dir, spec, every, out)
+            if every == 1:
+                raw_lost = ~np.isfinite(detector["xy"][0]).all(axis=(1, 2))
+                raw = scores(case, detector["xy"], detector["world"], raw_lost, None,
+                             truth_axes=case.rig.cameras[0].R)  # fmt: skip
+                raw["abs"] = np.nan  # hand-centred: no absolute position
+                rows.append((label, "keypoints", raw))
+            pts, lost = fit_points(out, spec.side)
+            row = scores(case, project(case.rig, pts), pts, lost, seconds, out=out)
+            row |= check(out, every)
+        except RuntimeError as exc:  # scored as every frame lost
+            print(f"{spec.name} every {every}: failed: {exc}", file=sys.stderr)
+            row = {"frames": case.n_frames, "lost": float(case.n_frames), "failed": True}
+        rows.append((label, f"fit every {every}", row))
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="four 30-frame cases (~1 min)")
@@ -373,9 +426,11 @@ def main() -> None:
     parser.add_argument("--cases", default="", help="only cases whose name contains this")
     parser.add_argument("--no-fit", action="store_true", help="score the raw keypoints only")
     parser.add_argument(
-        "--detector", choices=("simulated", "mediapipe"), default="simulated",
+        "--detector", choices=("simulated", "mediapipe", "inside"), default="simulated",
         help="the keypoints given to the fit: the simulated detector's, or MediaPipe Hands "
-        "run on the rendered frames (its 3D, the world landmarks, scored in the first row)",
+        "run on the rendered frames (its 3D, the world landmarks, scored in the first row); "
+        "inside: the one command, handvar track with the detector inside the pipeline and "
+        "nothing else given (the detector's points as the track kept them in the first row)",
     )  # fmt: skip
     parser.add_argument(
         "--world", action="store_true",
@@ -408,6 +463,9 @@ def main() -> None:
             label = (f"{spec.name} ({spec.background}, {spec.distractor}, {spec.skin}, "
                      f"{case.n_frames} fr)")  # fmt: skip
             given = None  # the simulated detector's keypoints files
+            if args.detector == "inside":
+                rows += inside_rows(case, case_dir, spec, base, label)
+                continue
             if args.detector == "mediapipe":
                 given, detector = mediapipe_keypoints(case_dir, spec, args.mediapipe_python,
                                                       args.world)  # fmt: skip

@@ -299,6 +299,8 @@ def _detect_in_process(
     import collections
 
     workers = [_Worker(options) for _ in range(processes)]
+    for worker in workers:  # MediaPipe loaded and warmed up before the first frame is read
+        worker.received()
     slots = _Slots(depth * processes)
     pending: collections.deque = collections.deque()  # (index, seconds, images, slot, k)
     frames = iter(feed)
@@ -402,6 +404,9 @@ def _serve(requests, replies, options: list[dict]) -> None:
     detectors = [MediaPipeHands(**o) for o in options]
     for d in detectors:
         d._module = hands
+        d(np.zeros((64, 64, 3), np.uint8))  # the graph built and its models loaded now
+    pickle.dump([], replies)  # ready
+    replies.flush()
     attached: dict[str, object] = {}
     while True:
         try:
