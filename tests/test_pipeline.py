@@ -225,3 +225,80 @@ def test_errors_name_the_keyword(kwargs, message):
 def test_an_unknown_source_is_named():
     with pytest.raises(ValueError, match="source: expected a sequence directory"):
         track("nonesuch")
+
+
+def test_the_defaults_are_decided_without_a_video():
+    """`decide_defaults` gives the defaults of the module notes from the kind of source,
+    what came with it and the options alone."""
+    from handvar.pipeline import TrackOptions, decide_defaults
+
+    given = TrackOptions.checked()
+
+    def decided(d):
+        return d.hand, d.carry, d.keypoint_tips, d.recover, d.cut_wrist, d.first_pose
+
+    # a recording with keypoints: carried both ways, pads, recovery, the wrist cut while
+    # tracking, the first pose searched; keypoints without handedness: the right hand
+    d = decide_defaults(given, "recording", keypoints=True)
+    assert decided(d) == ("right", "both", "pad", True, True, "search")
+    assert d.allow_empty
+    # their handedness, or a detector's, decides the side
+    assert decide_defaults(given, "recording", keypoints=True, handedness=True).hand == "auto"
+    assert decide_defaults(given, "recording", detector=True).carry == "both"
+    assert decide_defaults(given, "recording", detector=True).hand == "auto"
+    # online (real time, a camera): carried forward only from a detector slower than the
+    # frames, up to its next frame
+    for kind, options in [("recording", {"realtime": True}), ("camera", {})]:
+        for every, carry in [(1, "none"), (5, "forward")]:
+            options_k = TrackOptions.checked(keypoint_every=every, **options)
+            d = decide_defaults(options_k, kind, detector=True)
+            assert (d.carry, d.recover, d.hand) == (carry, True, "auto"), (kind, every)
+    # a recording without keypoints: the silhouette tracker with recovery, the
+    # silhouettes cut at the wrist when computed
+    assert decided(decide_defaults(given, "recording")) == (
+        "right", "none", "pad", True, False, "search",
+    )  # fmt: skip
+    # a sequence: G(x) projected, its true first pose, recovery only with keypoints
+    d = decide_defaults(given, "synthetic")
+    assert decided(d) == ("right", "none", "end", False, False, "truth")
+    assert not d.allow_empty
+    assert decided(decide_defaults(given, "directory", keypoints=True)) == (
+        "right", "none", "end", True, False, "truth",
+    )  # fmt: skip
+    # what is given stays
+    chosen = TrackOptions.checked(hand="left", carry="forward", keypoint_tips="end",
+                                  recover=False, init="open")  # fmt: skip
+    assert decided(decide_defaults(chosen, "recording", keypoints=True)) == (
+        "left", "forward", "end", False, False, "init",
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("options", "kind", "given", "message"),
+    [
+        ({"recover": False}, "recording", {}, r"^v\.mp4: the sequence has no ground truth"),
+        ({"carry": "both"}, "recording", {}, r"^carry: expected a recording .* got no keypoints"),
+        ({"carry": "both"}, "synthetic", {"keypoints": True},
+         r"^carry: .* got the synthetic sequence 'v\.mp4'$"),
+        ({"realtime": True, "carry": "both"}, "recording", {"keypoints": True},
+         r"^realtime: expected recovery on .*; got recover=True, carry=both$"),
+        ({"on_frame": print, "recover": False, "init": "open"}, "recording", {},
+         r"^on_frame: expected only with recover"),
+        ({"hand": "auto"}, "recording", {}, r"^hand: auto expected .*; got no keypoints$"),
+    ],
+)  # fmt: skip
+def test_the_defaults_refuse_what_the_source_cannot_take(options, kind, given, message):
+    from handvar.pipeline import TrackOptions, decide_defaults
+
+    with pytest.raises(ValueError, match=message):
+        decide_defaults(TrackOptions.checked(**options), kind, name="v.mp4", **given)
+
+
+def test_the_options_are_checked_before_the_source_is_looked_at():
+    from handvar.pipeline import TrackOptions
+
+    options = TrackOptions.checked(keypoint_every=5, predictor="decel", init="fist", scale=1)
+    assert options.keypoint_every == 5 and options.predictor_key == "decelerating"
+    assert options.scale == 1.0 and options.init_pose.shape == (26,)
+    with pytest.raises(ValueError, match=r"^init: expected a named pose"):
+        track("nonesuch", init="nonesuch")  # the init is named, not the source

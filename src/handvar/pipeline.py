@@ -9,13 +9,22 @@ and every frame fitted, with the recovery of design §14.3 (refinement, re-seedi
 re-initialisation of lost frames) on recordings and wherever there are keypoints.
 `handvar track`, the example and the studies all call it.
 
-The defaults it decides:
+It reads as those stages: the options checked (`TrackOptions`), the source resolved, the
+detector chosen (`handvar.vision.detector.make_detectors`: "auto" is MediaPipe Hands when
+it is installed; none with keypoints or on a sequence) and the keypoints read, the
+defaults decided (`decide_defaults`), the source opened (`_open`), the tracker built,
+every frame fitted (`_fit`) and the `Track` assembled.
 
+The defaults it decides, in one function, `decide_defaults`:
+
+- the side (``hand``): "auto" (the detector's handedness, or the keypoint file's) with a
+  detector or keypoints with handedness, else "right";
 - ``carry``: "both" for a recording with keypoints (from the last detection and back
   from the next, a frame waiting for the next detection: on the realistic benchmark and
   the three real videos this tracks the frames between closer than "forward",
-  docs/keypoint-fit.md), "forward" when played in real time or live (causal), else
-  "none";
+  docs/keypoint-fit.md); played in real time or live (causal), "forward" from a
+  detector slower than the frames (``keypoint_every`` > 1, up to its next frame) and
+  else "none"; "none" without keypoints;
 - ``keypoint_tips``: "pad" on a recording (a detector marks the pad, design §14.6),
   "end" on a sequence (its keypoints are G(x) projected);
 - ``recover``: on for a recording and wherever there are keypoints;
@@ -23,7 +32,8 @@ The defaults it decides:
   wrist, else at the previous fit's); otherwise with the silhouettes;
 - empty silhouettes are allowed (carried by the prediction) only with recovery;
 - the first pose: ``init``, else the sequence's true first pose (a synthetic or
-  rendered sequence), else searched in the first frame (with recovery).
+  rendered sequence), else searched in the first frame (with recovery); a recording
+  without recovery and without ``init`` is refused before it is opened.
 
 The online form.  A recording with recovery is tracked one frame at a time: each frame
 read (or, with ``realtime``, the newest frame each time the tracker is free, after
@@ -595,226 +605,489 @@ def track(
         Naming the argument at fault (``keypoint_every: expected ...``), before any
         frame is read where it can be.
     """
-    seed = as_int(seed, "seed", minimum=0)
-    keypoint_every = as_int(keypoint_every, "keypoint_every", minimum=1)
-    if hand is None:  # decided with the detector and the keypoints below
-        hand = "auto"
-        side_given = False
-    else:
-        side_given = True
-    if frames is not None:
-        frames = as_int(frames, "frames", minimum=1)
-    scale = as_float(scale, "scale", minimum=0.0, exclusive_minimum=True)
-    hand_length = as_float(hand_length, "hand_length", minimum=0.0, exclusive_minimum=True)
-    one_of(hand, (*SIDES, "auto"), "hand")
-    one_of(model, MODELS, "model")
-    if carry is not None:
-        one_of(carry, CARRY, "carry")
-    if keypoint_tips is not None:
-        one_of(keypoint_tips, KEYPOINT_TIPS, "keypoint_tips")
-    if recover is not None:
-        as_instance(recover, bool, "recover")
-    as_instance(realtime, bool, "realtime")
-    if hand == "left" and model == "mesh":
-        raise ValueError(
-            "model: expected spheres for a left hand (the skinned mesh is a right hand); got mesh"
-        )
-    from handvar.predictors.catalogue import catalogue_key, make_predictor
+    options = TrackOptions.checked(
+        keypoints=keypoints, calib=calib, fov=fov, scale=scale, hand=hand,
+        hand_length=hand_length, model=model, predictor=predictor, init=init,
+        keypoint_every=keypoint_every, carry=carry, keypoint_tips=keypoint_tips,
+        recover=recover, seed=seed, frames=frames, progress=progress,
+        allow_short=allow_short, recovery=recovery, on_frame=on_frame, realtime=realtime,
+        detector=detector,
+    )  # fmt: skip
+    spec, label = _source_spec(source, options)
+    detectors, notice = _detectors(options.detector, options.keypoints, spec, spec.kind == "camera")
+    detected = _read_keypoints(
+        options.keypoints, spec, options.keypoint_every, detectors is not None
+    )
+    decided = decide_defaults(
+        options, spec.kind, keypoints=detected is not None, handedness=_handedness(detected),
+        detector=detectors is not None, name=label,
+    )  # fmt: skip
+    opened = _open(source, spec, options, decided, detected, detectors)
+    tracker, x0 = _tracker(opened, options, decided, label)
+    fitted = _fit(tracker, x0, opened, options, decided)
+    return _assemble(
+        fitted, opened, options, decided, spec, _detector_name(detector, detectors), notice
+    )
 
-    predictor_key = catalogue_key(as_instance(predictor, str, "predictor"), "predictor")
-    spec, label = _resolve_source(source)
-    live = spec.kind == "camera"
-    if live and (calib is not None or fov is not None or scale != 1.0 or keypoints is not None):
-        raise ValueError(
-            "calib, fov, scale, keypoints: expected none with a live camera (open_camera "
-            "takes the calibration, field of view and scale)"
-        )
-    if realtime and spec.kind != "recording":
-        raise ValueError(
-            f"realtime: expected a recording (a video file or an image folder); got the "
-            f"{spec.kind} sequence {label!r}"
-        )
-    detectors, notice = _detectors(detector, keypoints, spec, live)  # one per camera
-    if not side_given and detectors is None:
-        hand = "right" if keypoints is None else "auto"
-    detected = _read_keypoints(keypoints, spec, keypoint_every, detectors is not None)
-    if detected is not None and not side_given and all(
-        k.handedness is None for k in detected if k is not None
-    ):
-        hand = "right"  # keypoints without handedness: the default side
-    if carry not in (None, "none") and (detected is None or spec.kind != "recording"):
-        got = "no keypoints" if spec.kind == "recording" else f"the {spec.kind} sequence {label!r}"
+
+@dataclass(frozen=True, eq=False)
+class TrackOptions:
+    """`track`'s keyword arguments, checked before the source is opened (`checked`).
+
+    The attributes are `track`'s keywords as given (``hand``, ``carry``,
+    ``keypoint_tips`` and ``recover`` None where `decide_defaults` decides them), the
+    numbers as checked, and two more: ``predictor_key``, the catalogue's key of
+    ``predictor``, and ``init_pose``, ``init`` as the 26 parameters (None without it).
+    """
+
+    keypoints: Any = None
+    calib: Any = None
+    fov: float | None = None
+    scale: float = 1.0
+    hand: str | None = None
+    hand_length: float = 185.0
+    model: str = "spheres"
+    predictor: str = "rvar"
+    init: Any = None
+    keypoint_every: int = 1
+    carry: str | None = None
+    keypoint_tips: str | None = None
+    recover: bool | None = None
+    seed: int = 0
+    frames: int | None = None
+    progress: bool = False
+    allow_short: bool = False
+    recovery: Any = None
+    on_frame: Callable | None = None
+    realtime: bool = False
+    detector: Any = "auto"
+    predictor_key: str = "rvar"
+    init_pose: np.ndarray | None = None
+
+    @classmethod
+    def checked(cls, **arguments) -> TrackOptions:
+        """The options of `track`'s keyword `arguments` (its defaults for the others),
+        every one checked that can be without the source.
+
+        Raises
+        ------
+        TypeError, ValueError
+            Naming the keyword at fault, in `track`'s words.
+
+        Examples
+        --------
+        >>> options = TrackOptions.checked(keypoint_every=5, predictor="decel")
+        >>> options.keypoint_every, options.predictor_key, options.carry
+        (5, 'decelerating', None)
+        """
+        from handvar.predictors.catalogue import catalogue_key
+
+        given = cls(**arguments)
+        seed = as_int(given.seed, "seed", minimum=0)
+        every = as_int(given.keypoint_every, "keypoint_every", minimum=1)
+        frames = None if given.frames is None else as_int(given.frames, "frames", minimum=1)
+        scale = as_float(given.scale, "scale", minimum=0.0, exclusive_minimum=True)
+        hand_length = as_float(given.hand_length, "hand_length", minimum=0.0,
+                               exclusive_minimum=True)  # fmt: skip
+        if given.hand is not None:
+            one_of(given.hand, (*SIDES, "auto"), "hand")
+        one_of(given.model, MODELS, "model")
+        if given.carry is not None:
+            one_of(given.carry, CARRY, "carry")
+        if given.keypoint_tips is not None:
+            one_of(given.keypoint_tips, KEYPOINT_TIPS, "keypoint_tips")
+        if given.recover is not None:
+            as_instance(given.recover, bool, "recover")
+        as_instance(given.realtime, bool, "realtime")
+        if given.hand == "left" and given.model == "mesh":
+            raise ValueError(
+                "model: expected spheres for a left hand (the skinned mesh is a right hand); "
+                "got mesh"
+            )
+        key = catalogue_key(as_instance(given.predictor, str, "predictor"), "predictor")
+        return dataclasses.replace(
+            given, seed=seed, keypoint_every=every, frames=frames, scale=scale,
+            hand_length=hand_length, predictor_key=key, init_pose=_init_pose(given.init),
+        )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class TrackDefaults:
+    """What `track` decides for a source (`decide_defaults`; module notes).
+
+    Attributes
+    ----------
+    hand : {"right", "left", "auto"}
+        The side; "auto" is then the keypoint file's handedness or the detector's.
+    carry : {"forward", "both", "none"}
+    keypoint_tips : {"end", "pad"}
+    recover : bool
+    cut_wrist : bool
+        The wrist is cut while tracking (at the detected wrist, else at the previous
+        fit's): a recording with keypoints and recovery.  Otherwise a recording's
+        silhouettes are cut when computed and a sequence's taken as they are.
+    allow_empty : bool
+        Empty silhouettes are allowed (carried by the prediction): with recovery.
+    first_pose : {"init", "truth", "search"}
+        Where the first pose comes from: ``init``; the sequence's true first pose (a
+        sequence directory without one: searched, with recovery); searched in the
+        first frame.
+    """
+
+    hand: str
+    carry: str
+    keypoint_tips: str
+    recover: bool
+    cut_wrist: bool
+    allow_empty: bool
+    first_pose: str
+
+
+def decide_defaults(
+    options: TrackOptions, kind: str, *, keypoints: bool = False, handedness: bool = False,
+    detector: bool = False, name: str = "",
+) -> TrackDefaults:  # fmt: skip
+    """Every default of `track` (module notes), decided for a source of `kind`.
+
+    Parameters
+    ----------
+    options : TrackOptions
+        The options given (`TrackOptions.checked`).
+    kind : {"recording", "camera", "directory", "synthetic"}
+        The source: recordings, a live camera, a sequence directory or a synthetic
+        sequence (`handvar.io.SequenceSpec.kind`).
+    keypoints : bool, keyword-only
+        Keypoints were given.
+    handedness : bool, keyword-only
+        Some of them say which hand (a .npz of `handvar keypoints`).
+    detector : bool, keyword-only
+        A keypoint detector runs inside the pipeline (`handvar.vision.detector`).
+    name : str, keyword-only
+        How messages name the source.
+
+    Returns
+    -------
+    TrackDefaults
+
+    Raises
+    ------
+    ValueError
+        An option the source cannot take: ``carry`` without keypoints or on a
+        sequence, ``recovery`` or ``on_frame`` without recovery, real time without
+        recovery or with ``carry`` both, ``hand`` auto without a side to take it from,
+        a recording without recovery and without ``init``.
+
+    Examples
+    --------
+    >>> d = decide_defaults(TrackOptions.checked(), "recording", keypoints=True)
+    >>> d.carry, d.keypoint_tips, d.recover, d.hand, d.cut_wrist, d.first_pose
+    ('both', 'pad', True, 'right', True, 'search')
+    """
+    recording = kind in ("recording", "camera")
+    online = options.realtime or kind == "camera"  # one frame at a time, as it comes
+    keyed = keypoints or detector  # the track has keypoints
+    # the side of the detector's handedness or of a keypoint file's, else the right hand
+    hand = options.hand or ("auto" if detector or (keypoints and handedness) else "right")
+    carry = options.carry
+    if carry not in (None, "none") and (not keypoints or kind != "recording"):
+        got = "no keypoints" if kind == "recording" else f"the {kind} sequence {name!r}"
         raise ValueError(
             f"carry: expected a recording (a video file or an image folder) with "
             f"keypoints for {carry}; got {got}"
         )
-    recording = spec.kind in ("recording", "camera")
-    keyed = detected is not None or detectors is not None  # the track has keypoints
-    if carry is None:
-        carry = _default_carry(keyed and recording, realtime or live, keypoint_every)
-    if recover is None:
-        recover = recording or keyed
-    given = [name for name, v in (("recovery", recovery), ("on_frame", on_frame)) if v is not None]
+    if carry is None and not (keyed and recording):
+        carry = "none"
+    elif carry is None and not online:  # both ways off-line
+        carry = "both"
+    elif carry is None:  # online only from a detector slower than the frames, up to its
+        carry = "forward" if options.keypoint_every > 1 else "none"  # next frame
+    recover = (recording or keyed) if options.recover is None else options.recover
+    given = [k for k, v in (("recovery", options.recovery), ("on_frame", options.on_frame))
+             if v is not None]  # fmt: skip
     if given and not recover:
         raise ValueError(
             f"{', '.join(given)}: expected only with recover (on by default for a recording "
             f"or with keypoints); got it off"
         )
-    if keypoint_tips is None:  # a detector's keypoints on a recording, else G(x) projected
-        keypoint_tips = "pad" if recording else "end"
-    if (realtime or live) and (not recover or carry == "both"):
+    # a detector's keypoints on a recording, else G(x) projected
+    tips = options.keypoint_tips or ("pad" if recording else "end")
+    if online and (not recover or carry == "both"):
         raise ValueError(
             "realtime: expected recovery on and carry forward or none (one frame at a "
             f"time); got recover={recover}, carry={carry}"
         )
-    bar = _progress_bar if progress else None
-
-    opened, full_rig, used = None, None, detected  # the recording; its rig; the keypoints
-    outside = 0  # keypoints dropped as lying outside the frames
     if hand == "auto" and (not keyed or not recording):
         raise ValueError(
             "hand: auto expected a recording with a detector or keypoints with handedness; "
-            "got " + ("no keypoints" if not keyed else f"the {spec.kind} sequence {label!r}")
+            "got " + ("no keypoints" if not keyed else f"the {kind} sequence {name!r}")
         )
-    stage_seconds = {}
-    stream = None  # the online form (module notes)
-    if live:
-        opened, full_rig = source, source.rig  # its frames as delivered (open_camera scale)
-        stream = _Stream(source, None, carry=carry, frames=frames, realtime=True,
-                         detectors=detectors, every=keypoint_every)  # fmt: skip
-    elif recording:
-        from handvar.vision.sources import open_source
+    if options.init is not None:
+        first = "init"
+    elif not recording:
+        first = "truth"
+    elif recover:
+        first = "search"
+    else:  # a recording has no true poses
+        raise ValueError(f"{name}: the sequence has no ground truth; give the first pose with init")
+    return TrackDefaults(
+        hand=hand, carry=carry, keypoint_tips=tips, recover=recover,
+        cut_wrist=recording and recover and keyed, allow_empty=recover, first_pose=first,
+    )  # fmt: skip
 
-        opened = open_source(list(spec.paths), calib, fov=fov, scale=scale, allow_short=allow_short)
-        full_rig = (
-            opened.rig
-            if scale == 1.0
-            else open_source(list(spec.paths), calib, fov=fov, allow_short=allow_short).rig
+
+def _source_spec(source, options: TrackOptions):
+    """The `SequenceSpec` of `source` and how messages name it, checked against the
+    options only some sources take."""
+    spec, label = _resolve_source(source)
+    if spec.kind == "camera" and (
+        options.calib is not None or options.fov is not None or options.scale != 1.0
+        or options.keypoints is not None
+    ):  # fmt: skip
+        raise ValueError(
+            "calib, fov, scale, keypoints: expected none with a live camera (open_camera "
+            "takes the calibration, field of view and scale)"
         )
-        if detected is not None:
-            from handvar.vision.keypoints import check_keypoints
+    if options.realtime and spec.kind != "recording":
+        raise ValueError(
+            f"realtime: expected a recording (a video file or an image folder); got the "
+            f"{spec.kind} sequence {label!r}"
+        )
+    return spec, label
 
-            detected, hand, outside = check_keypoints(
-                detected, opened.n_frames, [r.size for r in opened.readers], hand
-            )
-            if len(detected) != opened.n_cameras:
-                raise ValueError(
-                    f"keypoints: expected one file per camera ({opened.n_cameras}); "
-                    f"got {len(detected)}"
-                )
-    if recording and not live and recover:  # frame by frame
-        stream = _Stream(opened, detected, carry=carry, frames=frames, realtime=realtime,
-                         detectors=detectors, every=keypoint_every)  # fmt: skip
-    elif recording and not live:  # the whole recording first (without recovery)
-        total = opened.n_frames if frames is None else min(frames, opened.n_frames)
-        clock = time.perf_counter()
-        # With keypoints and recovery the wrist is cut while tracking (at the detected
-        # wrist, else at the tracked model's); otherwise here.
-        sequence = opened.to_sequence(
-            stop=frames, allow_empty=recover,
-            progress=None if bar is None else bar("silhouettes", total),
-            **({"wrist": False} if recover and detected is not None else {"keypoints": detected}),
-        )  # fmt: skip
-        stage_seconds["silhouettes"] = time.perf_counter() - clock
-        clock = time.perf_counter()
-        if carry != "none":
-            used = opened.carried_keypoints(detected, stop=frames, both=carry == "both")
-        elif detected is not None:
-            used = opened.scaled_keypoints(detected)
-        stage_seconds["keypoints"] = time.perf_counter() - clock
-    elif calib is not None or fov is not None:
+
+def _handedness(detected) -> bool:
+    """Whether some camera's keypoints say which hand (a .npz of `handvar keypoints`)."""
+    return detected is not None and any(k.handedness is not None for k in detected if k is not None)
+
+
+@dataclass
+class _Opened:
+    """The source opened (`_open`): the frames to track and what came with them."""
+
+    rig: Rig  # of the tracked frames
+    full_rig: Rig  # of the full-resolution frames
+    hand: str  # the side, "auto" decided by the keypoints' or the detector's handedness
+    source: Any = None  # the recording or the camera; None for a sequence
+    stream: _Stream | None = None  # frame by frame (module notes: the online form)
+    sequence: Any = None  # the whole sequence, off-line
+    detected: list | None = None  # per camera the keypoints read (a recording's checked)
+    keypoints: list | None = None  # as the tracker is given them (thinned, carried)
+    outside: int = 0  # keypoints dropped as lying outside the frames
+    stage_seconds: dict = field(default_factory=dict)
+
+
+def _open(source, spec, options: TrackOptions, decided: TrackDefaults, detected,
+          detectors) -> _Opened:  # fmt: skip
+    """The source of `track` opened: a camera or a recording with recovery as a
+    `_Stream` (its side decided by the detector, which reads the first frames), a
+    recording without recovery read whole, a sequence read or synthesised."""
+    if spec.kind == "camera":  # its frames as delivered (open_camera scale)
+        stream = _Stream(source, None, carry=decided.carry, frames=options.frames,
+                         realtime=True, detectors=detectors,
+                         every=options.keypoint_every)  # fmt: skip
+        hand = decided.hand if detectors is None else stream.decide_side(decided.hand)
+        return _Opened(source.rig, source.rig, hand, source=source, stream=stream)
+    if spec.kind == "recording":
+        return _open_recording(spec, options, decided, detected, detectors)
+    if options.calib is not None or options.fov is not None:
         raise ValueError("calib, fov: expected only with a video or an image folder")
-    elif spec.kind == "directory":
+    if spec.kind == "directory":
         from handvar.io import read_sequence
 
         sequence = read_sequence(spec.paths[0], lazy=True)
-    elif spec.kind == "synthetic":
+    else:
         from handvar.synth.sequences import make_sequence
 
-        sequence = make_sequence(spec.name, n_frames=frames)
-    rig = opened.rig if stream is not None else sequence.rig  # of the tracked frames
-    if full_rig is None:
-        full_rig = rig
-    if used is not None and len(used) != len(rig):
-        raise ValueError(f"keypoints: expected one file per camera ({len(rig)}); got {len(used)}")
-    x0 = _first_pose(init, None if stream is not None else sequence.truth, recover, label)
-    if stream is not None and detectors is not None:
-        hand = stream.decide_side(hand)
+        sequence = make_sequence(spec.name, n_frames=options.frames)
+    return _Opened(sequence.rig, sequence.rig, decided.hand, sequence=sequence,
+                   detected=detected, keypoints=detected)  # fmt: skip
 
+
+def _open_recording(spec, options: TrackOptions, decided: TrackDefaults, detected,
+                    detectors) -> _Opened:  # fmt: skip
+    """A recording opened (its keypoints checked against it): with recovery as a
+    `_Stream`, without read whole first, its silhouettes and keypoints (carried)."""
+    from handvar.vision.sources import open_source
+
+    paths, calib, fov = list(spec.paths), options.calib, options.fov
+    opened = open_source(paths, calib, fov=fov, scale=options.scale,
+                         allow_short=options.allow_short)  # fmt: skip
+    full_rig = (
+        opened.rig
+        if options.scale == 1.0
+        else open_source(paths, calib, fov=fov, allow_short=options.allow_short).rig
+    )
+    hand, outside = decided.hand, 0
+    if detected is not None:
+        from handvar.vision.keypoints import check_keypoints
+
+        detected, hand, outside = check_keypoints(
+            detected, opened.n_frames, [r.size for r in opened.readers], hand
+        )
+        if len(detected) != opened.n_cameras:
+            raise ValueError(
+                f"keypoints: expected one file per camera ({opened.n_cameras}); got {len(detected)}"
+            )
+    if decided.recover:  # frame by frame
+        stream = _Stream(opened, detected, carry=decided.carry, frames=options.frames,
+                         realtime=options.realtime, detectors=detectors,
+                         every=options.keypoint_every)  # fmt: skip
+        if detectors is not None:
+            hand = stream.decide_side(hand)
+        return _Opened(opened.rig, full_rig, hand, source=opened, stream=stream,
+                       detected=detected, keypoints=detected, outside=outside)  # fmt: skip
+    # the whole recording first (without recovery)
+    frames, bar = options.frames, _progress_bar if options.progress else None
+    total = opened.n_frames if frames is None else min(frames, opened.n_frames)
+    stage_seconds = {}
+    clock = time.perf_counter()
+    # With keypoints and recovery the wrist is cut while tracking (at the detected
+    # wrist, else at the tracked model's); otherwise here.
+    sequence = opened.to_sequence(
+        stop=frames, allow_empty=decided.allow_empty,
+        progress=None if bar is None else bar("silhouettes", total),
+        **({"wrist": False} if decided.cut_wrist else {"keypoints": detected}),
+    )  # fmt: skip
+    stage_seconds["silhouettes"] = time.perf_counter() - clock
+    clock = time.perf_counter()
+    used = detected
+    if decided.carry != "none":
+        used = opened.carried_keypoints(detected, stop=frames, both=decided.carry == "both")
+    elif detected is not None:
+        used = opened.scaled_keypoints(detected)
+    stage_seconds["keypoints"] = time.perf_counter() - clock
+    return _Opened(sequence.rig, full_rig, hand, source=opened, sequence=sequence,
+                   detected=detected, keypoints=used, outside=outside,
+                   stage_seconds=stage_seconds)  # fmt: skip
+
+
+def _tracker(opened: _Opened, options: TrackOptions, decided: TrackDefaults, label: str):
+    """The tracker of `opened`'s frames and the first pose (None: searched)."""
     from handvar.hand.kinematics import HandModel
+    from handvar.predictors.catalogue import make_predictor
     from handvar.tracking import CostSettings, Tracker, TrackerSettings
 
-    hand_model = HandModel(HandShape.from_size(hand_length, side=hand), surface=model)
+    rig, used = opened.rig, opened.keypoints
+    if used is not None and len(used) != len(rig):
+        raise ValueError(f"keypoints: expected one file per camera ({len(rig)}); got {len(used)}")
+    truth = None if opened.sequence is None else opened.sequence.truth
+    x0 = _first_pose(decided, options.init_pose, truth, label)
+    hand_model = HandModel(HandShape.from_size(options.hand_length, side=opened.hand),
+                           surface=options.model)  # fmt: skip
     if x0 is not None:
-        check_in_front(hand_model.joints(x0), rig, "init" if init is not None else label)
-    settings = TrackerSettings(cost=CostSettings(keypoint_tips=keypoint_tips))
+        check_in_front(hand_model.joints(x0), rig, "init" if options.init is not None else label)
+    settings = TrackerSettings(cost=CostSettings(keypoint_tips=decided.keypoint_tips))
     tracker = Tracker(
-        rig, hand_model, make_predictor(predictor_key), np.random.default_rng(seed),
-        settings,
+        rig, hand_model, make_predictor(options.predictor_key),
+        np.random.default_rng(options.seed), settings,
     )  # fmt: skip
-    quality, search_seconds = None, np.zeros(0)
-    dropped = latency = found = None
-    clock = time.perf_counter()
-    if stream is not None:
-        recovered = _run_stream(tracker, stream, x0, recovery, on_frame, bar)
-        result, quality = _with_dropped(recovered, stream.rows(), stream.n_frames)
-        hand_model = tracker.hand  # the shape adapted to the first frames
-        search_seconds = np.asarray(recovered.init_seconds, dtype=float)
-        sequence, used = stream.sequence(), stream.keypoints(opened.names)
-        found = stream.detected(opened.names)
-        latency = stream.latency()
-        dropped = stream.dropped_mask() if stream.realtime else None
-        stage_seconds.update(stream.seconds)
-        clock += sum(stream.seconds.values())  # the tracking stage is the rest
-        if live:
-            opened = None  # its frames cannot be read again: overlays over the silhouettes
-    elif recover:
-        from handvar.tracking.recovery import track_with_recovery
+    return tracker, x0
 
-        n = sequence.n_frames if frames is None else min(frames, sequence.n_frames)
-        masks = (np.asarray(sequence.masks[t]) for t in range(n))
-        if bar is not None:
-            masks = bar(f"tracking {sequence.name}", n)(masks)
-        extra = {} if recovery is None else {"settings": recovery}
-        if on_frame is not None:
-            extra["on_frame"] = on_frame
-        recovered = track_with_recovery(
-            tracker, masks, x0, keypoints=None if used is None else _keypoints_at(used),
-            world=_world_cue(detected), cut_wrist=opened is not None and detected is not None,
-            **extra,
-        )  # fmt: skip
-        result, quality = recovered.track, recovered.quality
-        hand_model = tracker.hand  # the shape adapted to the first frames
-        search_seconds = np.asarray(recovered.init_seconds, dtype=float)
+
+@dataclass
+class _Fitted:
+    """Every frame fitted (`_fit`)."""
+
+    result: Any  # TrackResult
+    hand: Any  # HandModel: the shape adapted to the first frames
+    sequence: Any  # the tracked silhouettes
+    keypoints: list | None  # as the tracker was given them
+    quality: Any = None
+    search_seconds: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    found: list | None = None  # what the detector found
+    latency: np.ndarray | None = None
+    dropped: np.ndarray | None = None
+
+
+def _fit(tracker, x0, opened: _Opened, options: TrackOptions, decided: TrackDefaults) -> _Fitted:
+    """Every frame of `opened` fitted: one at a time (`_run_stream`), or a sequence with
+    recovery (`track_with_recovery`) or without (`Tracker.track`); the time it took in
+    ``opened.stage_seconds["tracking"]``."""
+    bar = _progress_bar if options.progress else None
+    clock = time.perf_counter()
+    if opened.stream is not None:
+        fitted = _fit_stream(tracker, x0, opened, options, bar)
+        clock += sum(opened.stream.seconds.values())  # the tracking stage is the rest
+    elif decided.recover:
+        fitted = _fit_with_recovery(tracker, x0, opened, options, decided, bar)
     else:
+        sequence = opened.sequence
         result = tracker.track(
-            sequence, x0, frames=frames, keypoints=used,
+            sequence, x0, frames=options.frames, keypoints=opened.keypoints,
             progress=None if bar is None else bar(f"tracking {sequence.name}", None),
         )  # fmt: skip
-    stage_seconds["tracking"] = time.perf_counter() - clock
+        fitted = _Fitted(result, tracker.hand, sequence, opened.keypoints)
+    opened.stage_seconds["tracking"] = time.perf_counter() - clock
+    return fitted
+
+
+def _fit_stream(tracker, x0, opened: _Opened, options: TrackOptions, bar) -> _Fitted:
+    """The frames of `opened.stream` fitted one at a time; the dropped ones filled in."""
+    stream = opened.stream
+    recovered = _run_stream(tracker, stream, x0, options.recovery, options.on_frame, bar)
+    result, quality = _with_dropped(recovered, stream.rows(), stream.n_frames)
+    fitted = _Fitted(
+        result, tracker.hand, stream.sequence(), stream.keypoints(opened.source.names),
+        quality=quality, search_seconds=np.asarray(recovered.init_seconds, dtype=float),
+        found=stream.detected(opened.source.names), latency=stream.latency(),
+        dropped=stream.dropped_mask() if stream.realtime else None,
+    )  # fmt: skip
+    opened.stage_seconds.update(stream.seconds)
+    return fitted
+
+
+def _fit_with_recovery(tracker, x0, opened: _Opened, options: TrackOptions,
+                       decided: TrackDefaults, bar) -> _Fitted:  # fmt: skip
+    """A sequence's frames fitted with recovery (`track_with_recovery`)."""
+    from handvar.tracking.recovery import track_with_recovery
+
+    sequence, frames, used = opened.sequence, options.frames, opened.keypoints
+    n = sequence.n_frames if frames is None else min(frames, sequence.n_frames)
+    masks = (np.asarray(sequence.masks[t]) for t in range(n))
+    if bar is not None:
+        masks = bar(f"tracking {sequence.name}", n)(masks)
+    extra = {} if options.recovery is None else {"settings": options.recovery}
+    if options.on_frame is not None:
+        extra["on_frame"] = options.on_frame
+    recovered = track_with_recovery(
+        tracker, masks, x0, keypoints=None if used is None else _keypoints_at(used),
+        world=_world_cue(opened.detected), cut_wrist=decided.cut_wrist, **extra,
+    )  # fmt: skip
+    return _Fitted(recovered.track, tracker.hand, sequence, used, quality=recovered.quality,
+                   search_seconds=np.asarray(recovered.init_seconds, dtype=float))  # fmt: skip
+
+
+def _assemble(fitted: _Fitted, opened: _Opened, options: TrackOptions,
+              decided: TrackDefaults, spec, detector: str, notice) -> Track:  # fmt: skip
+    """The `Track` of the frames fitted, with the options it was made with."""
+    result, sequence = fitted.result, fitted.sequence
     T = result.poses.shape[0]
-    projected = _project(full_rig, result.joints)
     seen = None
-    for k in (found or detected or ()):
+    for k in fitted.found or opened.detected or ():
         if k is not None:
             seen = np.zeros(T, dtype=bool) if seen is None else seen
             seen[: min(T, k.n_frames)] |= k.present[:T].any(axis=1)
-    options = {
+    resolved = {
         "source": [str(p) for p in spec.paths] or spec.name, "kind": spec.kind,
-        "hand_length": hand_length, "model": model, "scale": scale, "init": init is not None,
-        "keypoints": detected is not None, "keypoint_every": keypoint_every, "carry": carry,
-        "keypoint_tips": keypoint_tips, "recover": recover, "frames": frames,
-        "realtime": realtime or live,
-        "hand": hand, "outside_keypoints": outside,
-        "detector": _detector_name(detector, detectors), "notice": notice,
+        "hand_length": options.hand_length, "model": options.model, "scale": options.scale,
+        "init": options.init is not None, "keypoints": opened.detected is not None,
+        "keypoint_every": options.keypoint_every, "carry": decided.carry,
+        "keypoint_tips": decided.keypoint_tips, "recover": decided.recover,
+        "frames": options.frames, "realtime": options.realtime or spec.kind == "camera",
+        "hand": opened.hand, "outside_keypoints": opened.outside, "detector": detector,
+        "notice": notice,
     }  # fmt: skip
     return Track(
-        poses=result.poses, joints=result.joints, projected=projected, quality=quality,
-        rig=full_rig, shape=hand_model.shape, name=sequence.name, predictor=predictor,
-        seed=seed, fps=None if sequence.fps is None else float(sequence.fps), result=result,
-        search_seconds=search_seconds, detections=seen, keypoints=used, options=options,
-        stage_seconds=stage_seconds, sequence=sequence, source=opened, dropped=dropped,
-        latency=latency, detected=found,
+        poses=result.poses, joints=result.joints,
+        projected=_project(opened.full_rig, result.joints), quality=fitted.quality,
+        rig=opened.full_rig, shape=fitted.hand.shape, name=sequence.name,
+        predictor=options.predictor, seed=options.seed,
+        fps=None if sequence.fps is None else float(sequence.fps), result=result,
+        search_seconds=fitted.search_seconds, detections=seen, keypoints=fitted.keypoints,
+        options=resolved, stage_seconds=opened.stage_seconds, sequence=sequence,
+        # a camera's frames cannot be read again: overlays over the silhouettes
+        source=None if spec.kind == "camera" else opened.source, dropped=fitted.dropped,
+        latency=fitted.latency, detected=fitted.found,
     )  # fmt: skip
 
 
@@ -869,16 +1142,6 @@ def _detector_name(detector, detectors) -> str:
     return "callable" if callable(detector) else "mediapipe"
 
 
-def _default_carry(keyed: bool, online: bool, every: int) -> str:
-    """How keypoints are carried by default (module notes): both ways off-line; online
-    only from a detector slower than the frames (``every`` > 1), up to its next frame."""
-    if not keyed:
-        return "none"
-    if online:
-        return "forward" if every > 1 else "none"
-    return "both"
-
-
 def _resolve_source(source):
     """The `SequenceSpec` of `source` and how messages name it."""
     from handvar.io import SequenceSpec, resolve_sequence
@@ -925,23 +1188,31 @@ def _read_keypoints(keypoints, spec, every: int, detector: bool = False):
     return out
 
 
-def _first_pose(init, truth, recover: bool, label: str) -> np.ndarray | None:
-    """The pose of the first frame, or None to search it (module notes)."""
-    if init is not None:
-        from handvar.hand.kinematics import POSE_NAMES, named_pose
-        from handvar.params import check_pose
+def _init_pose(init) -> np.ndarray | None:
+    """`init` as the 26 parameters (a named pose or the parameters, checked); None
+    without it."""
+    if init is None:
+        return None
+    from handvar.hand.kinematics import POSE_NAMES, named_pose
+    from handvar.params import check_pose
 
-        if isinstance(init, str):
-            if init not in POSE_NAMES:
-                raise ValueError(
-                    f"init: expected a named pose ({', '.join(POSE_NAMES)}) or 26 parameters; "
-                    f"got {init!r}"
-                )
-            return named_pose(init)
-        return check_pose(init, "init")
-    if truth is not None:
+    if isinstance(init, str):
+        if init not in POSE_NAMES:
+            raise ValueError(
+                f"init: expected a named pose ({', '.join(POSE_NAMES)}) or 26 parameters; "
+                f"got {init!r}"
+            )
+        return named_pose(init)
+    return check_pose(init, "init")
+
+
+def _first_pose(decided: TrackDefaults, init_pose, truth, label: str) -> np.ndarray | None:
+    """The pose of the first frame (`TrackDefaults.first_pose`), or None to search it."""
+    if decided.first_pose == "init":
+        return init_pose
+    if decided.first_pose == "truth" and truth is not None:
         return truth.poses[0]
-    if recover:
+    if decided.recover:
         return None  # searched in the first frame
     raise ValueError(f"{label}: the sequence has no ground truth; give the first pose with init")
 
@@ -1054,8 +1325,10 @@ class _Once:
 
 
 #: Frames with a detected hand whose handedness decides the side of a track with a
-#: detector and ``hand`` "auto" (`_Stream.decide_side`): a third of a second at 30 fps.
-SIDE_FRAMES = 10
+#: detector and ``hand`` "auto" (`_Stream.decide_side`): a second at 30 fps.  On the
+#: realistic benchmark's renders the majority of 10 gave the true side on 27 of 32 runs,
+#: of 20, 30 or 60 on 29 (docs/detector.md).
+SIDE_FRAMES = 30
 
 
 class _Stream:
@@ -1141,7 +1414,7 @@ class _Stream:
 
                 feed = ((i, s, images, full if i % self.every == 0 else None)
                         for i, s, images, full in self._feed())  # fmt: skip
-                self._items = detect_ahead(feed, self.detectors)
+                self._items = detect_ahead(feed, self.detectors, depth=1 if self.realtime else 4)
         return self._items
 
     def decide_side(self, hand: str) -> str:
@@ -1392,7 +1665,6 @@ class _Stream:
                     a[r] = kps[j]
             out.append(Keypoints2D.from_array(a, name=names[j] if k is None else k.name))
         return out
-
 
     def detected(self, names) -> list | None:
         """With a detector, per camera what it found, as `handvar keypoints` writes it:
