@@ -72,19 +72,12 @@ def predict_command(
     recording every predictor's RMSE, R̃², rank and RMSE / best simple baseline
     (no motion, decelerating 0.2 / 0.4 / 0.6, Kalman CV, One Euro).
     """
-    import os
+    import functools
 
     from handvar.atomic import OutputSet, check_output_file
     from handvar.evaluation.openloop import (
-        Recording,
-        evaluate_open_loop,
         format_league,
-        format_table,
         league_table,
-        noise_variants,
-        read_pose_series,
-        smooth_variants,
-        write_csv,
         write_league_csv,
         write_league_figure,
     )
@@ -97,85 +90,14 @@ def predict_command(
         check_output_file(figure_out, "--figure", suffixes=(".png", ".pdf", ".svg"))
     keys = [catalogue_key(k, "--predictor") for k in keys] or None
     inner = {"htrack": "handvar"}.get(layout, layout)
-
-    def load(spec: str, option: str):
-        """The series of FILE[:START:STOP] in `layout`'s units, and its reset rows."""
-        path, rows = spec, None
-        if not os.path.isfile(spec) and spec.count(":") >= 2:
-            path, start, stop = spec.rsplit(":", 2)
-            try:
-                rows = (int(start) if start else 0, int(stop) if stop else None)
-            except ValueError:
-                raise ValueError(
-                    f"{option}: expected FILE or FILE:START:STOP with integer rows; got {spec!r}"
-                ) from None
-        X = read_pose_series(path)
-        if layout == "htrack":
-            from handvar.synth.motion import htrack_to_handvar
-
-            X = htrack_to_handvar(X)
-        elif layout == "keypoints":
-            X = 1000.0 * X  # metres -> millimetres
-        start, stop = (0, len(X)) if rows is None else (rows[0], rows[1] or len(X))
-        if not 0 <= start < stop <= len(X):
-            raise ValueError(f"{option}: expected rows within 0..{len(X)}; got {spec!r}")
-        if any(r >= len(X) for r in reset_at):
-            raise ValueError(f"--reset-at: expected rows below {len(X)}; got {list(reset_at)}")
-        biggest = float(max(X.max(), -X.min())) if X.size else 0.0  # no |X| copy
-        if biggest > _MAX_SERIES_VALUE:  # finite, but beyond any pose: the arithmetic overflows
-            raise ValueError(
-                f"{path}: expected poses in mm and degrees (|value| <= {_MAX_SERIES_VALUE:g}); "
-                f"got {biggest:g}"
-            )
-        X = X[start:stop]
-        local = [r - start for r in reset_at if start < r < stop]
-        # Reset rows map onto the first kept frame at or after them.
-        n = -(-len(X) // stride)
-        resets = sorted({-(-r // stride) for r in local if -(-r // stride) < n})
-        return X[::stride], tuple(resets)
+    load = functools.partial(_load_series, layout=layout, reset_at=reset_at, stride=stride)
 
     league = len(files) > 1 or noise or smooth or train or keys or figure_out
     if not league:
-        file = files[0]
-        X, resets = load(file, "FILE")
-        try:
-            rows = evaluate_open_loop(X, resets=resets, layout=inner)
-        except ValueError as exc:  # the series' shape or values: name the file
-            msg = str(exc)
-            raise ValueError(msg if msg.startswith(file) else f"{file}: {msg}") from None
-        if csv_out:
-            write_csv(rows, csv_out)  # first: a failure prints nothing but its one line
-        click.echo(f"{file}: {len(X)} frames, {X.shape[1]} parameters, layout {layout}")
-        click.echo(format_table(rows))
-        if csv_out:
-            click.echo(f"wrote {csv_out}")
+        _print_table(files[0], load, layout, inner, csv_out)
         return
-
-    recordings = []
-    for file in files:
-        X, resets = load(file, "FILE")
-        rec = Recording(os.path.basename(file), X, inner, resets)
-        for r in [rec, *(smooth_variants(rec) if smooth else [])]:
-            recordings += [r, *(noise_variants(r) if noise else [])]
-    extra = None
-    if train:
-        from handvar.evaluation.openloop import layout_structure
-        from handvar.predictors import OfflineVAR
-
-        Xt, rt = load(train, "--train")
-        try:
-            _, blocks = layout_structure(inner, Xt.shape[1])
-        except ValueError as exc:  # the series' shape: name the option and the file
-            raise ValueError(f"--train: {train}: {str(exc).removeprefix('X: ')}") from None
-        model = OfflineVAR(blocks=blocks).fit(Xt, resets=rt)
-        click.echo(f"offline VAR: order {model.order_} (BIC), fitted on {train}, {len(Xt)} frames")
-
-        def offline(rec):
-            if rec.X.shape[1] != Xt.shape[1]:
-                return None
-            return OfflineVAR(blocks=blocks).fit(Xt, resets=rt)
-
-        extra = {"offline VAR": offline}
+    recordings = _recordings(files, load, inner, noise=noise, smooth=smooth)
+    extra = _offline_var(train, load, inner) if train else None
     rows = league_table(recordings, rate=fps, keys=keys, extra=extra)
     with OutputSet() as out:  # both files, or neither
         if csv_out:
@@ -187,3 +109,101 @@ def predict_command(
         click.echo(f"wrote {csv_out}")
     if figure_out:
         click.echo(f"wrote {figure_out}")
+
+
+def _load_series(spec: str, option: str, *, layout: str, reset_at, stride: int):
+    """The series of FILE[:START:STOP] `spec` in `layout`'s units (every `stride`-th
+    row), and its reset rows; errors name `option`."""
+    import os
+
+    from handvar.evaluation.openloop import read_pose_series
+
+    path, rows = spec, None
+    if not os.path.isfile(spec) and spec.count(":") >= 2:
+        path, start, stop = spec.rsplit(":", 2)
+        try:
+            rows = (int(start) if start else 0, int(stop) if stop else None)
+        except ValueError:
+            raise ValueError(
+                f"{option}: expected FILE or FILE:START:STOP with integer rows; got {spec!r}"
+            ) from None
+    X = read_pose_series(path)
+    if layout == "htrack":
+        from handvar.synth.motion import htrack_to_handvar
+
+        X = htrack_to_handvar(X)
+    elif layout == "keypoints":
+        X = 1000.0 * X  # metres -> millimetres
+    start, stop = (0, len(X)) if rows is None else (rows[0], rows[1] or len(X))
+    if not 0 <= start < stop <= len(X):
+        raise ValueError(f"{option}: expected rows within 0..{len(X)}; got {spec!r}")
+    if any(r >= len(X) for r in reset_at):
+        raise ValueError(f"--reset-at: expected rows below {len(X)}; got {list(reset_at)}")
+    biggest = float(max(X.max(), -X.min())) if X.size else 0.0  # no |X| copy
+    if biggest > _MAX_SERIES_VALUE:  # finite, but beyond any pose: the arithmetic overflows
+        raise ValueError(
+            f"{path}: expected poses in mm and degrees (|value| <= {_MAX_SERIES_VALUE:g}); "
+            f"got {biggest:g}"
+        )
+    X = X[start:stop]
+    local = [r - start for r in reset_at if start < r < stop]
+    # Reset rows map onto the first kept frame at or after them.
+    n = -(-len(X) // stride)
+    resets = sorted({-(-r // stride) for r in local if -(-r // stride) < n})
+    return X[::stride], tuple(resets)
+
+
+def _print_table(file: str, load, layout: str, inner: str, csv_out) -> None:
+    """One FILE without a league option: per parameter group RMSE, mean absolute error
+    and R̃² against no motion (and the CSV)."""
+    from handvar.evaluation.openloop import evaluate_open_loop, format_table, write_csv
+
+    X, resets = load(file, "FILE")
+    try:
+        rows = evaluate_open_loop(X, resets=resets, layout=inner)
+    except ValueError as exc:  # the series' shape or values: name the file
+        msg = str(exc)
+        raise ValueError(msg if msg.startswith(file) else f"{file}: {msg}") from None
+    if csv_out:
+        write_csv(rows, csv_out)  # first: a failure prints nothing but its one line
+    click.echo(f"{file}: {len(X)} frames, {X.shape[1]} parameters, layout {layout}")
+    click.echo(format_table(rows))
+    if csv_out:
+        click.echo(f"wrote {csv_out}")
+
+
+def _recordings(files, load, inner: str, *, noise: bool, smooth: bool) -> list:
+    """The league's recordings: every FILE, with its smooth and noisy variants."""
+    import os
+
+    from handvar.evaluation.openloop import Recording, noise_variants, smooth_variants
+
+    recordings = []
+    for file in files:
+        X, resets = load(file, "FILE")
+        rec = Recording(os.path.basename(file), X, inner, resets)
+        for r in [rec, *(smooth_variants(rec) if smooth else [])]:
+            recordings += [r, *(noise_variants(r) if noise else [])]
+    return recordings
+
+
+def _offline_var(train: str, load, inner: str) -> dict:
+    """--train: an offline VAR fitted on that recording (its order printed), as the
+    league's extra predictor (none for a recording of another width)."""
+    from handvar.evaluation.openloop import layout_structure
+    from handvar.predictors import OfflineVAR
+
+    Xt, rt = load(train, "--train")
+    try:
+        _, blocks = layout_structure(inner, Xt.shape[1])
+    except ValueError as exc:  # the series' shape: name the option and the file
+        raise ValueError(f"--train: {train}: {str(exc).removeprefix('X: ')}") from None
+    model = OfflineVAR(blocks=blocks).fit(Xt, resets=rt)
+    click.echo(f"offline VAR: order {model.order_} (BIC), fitted on {train}, {len(Xt)} frames")
+
+    def offline(rec):
+        if rec.X.shape[1] != Xt.shape[1]:
+            return None
+        return OfflineVAR(blocks=blocks).fit(Xt, resets=rt)
+
+    return {"offline VAR": offline}

@@ -155,7 +155,6 @@ def track_command(
     """
 
     from handvar.atomic import check_output_dir
-    from handvar.cli.common import STARTED
 
     check_output_dir(out, "--out")  # before any work
     recovery = None  # handvar.track refuses one without recovery, naming the option
@@ -164,14 +163,8 @@ def track_command(
 
         recovery = RECOVERY_DEFAULTS.with_silhouette_term(silhouette_term)
     allow_short = click.get_current_context().meta.get("handvar.allow_short", False)
-    if camera is not None and seq:
-        raise ValueError(f"--camera: expected no SEQ with a camera; got {' '.join(seq)}")
-    if camera is None and not seq:
-        raise ValueError("SEQ: expected a sequence or a recording (or --camera N); got none")
+    _check_sources(seq, camera, realtime, show, scheduler, workers)
     if len(seq) > 1:
-        for name, given in (("--realtime", realtime), ("--show", show)):
-            if given:
-                raise ValueError(f"{name}: expected one recording; got {len(seq)}")
         _track_batch(
             seq, out, keypoint_files, video, scheduler, workers, calib=calib, fov=fov,
             scale=scale, hand=side, hand_length=hand_length, model=model,
@@ -181,12 +174,6 @@ def track_command(
             detector=detector,
         )  # fmt: skip
         return
-    if scheduler is not None or workers is not None:
-        raise ValueError("--scheduler, --workers: expected several SEQ (a batch); got one")
-    if show and not (realtime or camera is not None):
-        raise ValueError("--show: expected --camera or --realtime")
-    if show:
-        _check_display()
     source, options = (seq[0] if seq else None), {"calib": calib, "fov": fov, "scale": scale}
     if camera is not None:
         if keypoint_files:
@@ -204,6 +191,32 @@ def track_command(
             realtime=realtime and camera is None, show=show, allow_short=allow_short,
             recovery=recovery, detector=detector if not keypoint_files else "auto", **options,
         )  # fmt: skip
+    written = _save_track(result, out, video, reused)
+    _print_summary(result, written, out, predictor, seed)
+
+
+def _check_sources(seq, camera, realtime: bool, show: bool, scheduler, workers) -> None:
+    """SEQ or --camera, and the options that need one recording, a camera or a batch."""
+    if camera is not None and seq:
+        raise ValueError(f"--camera: expected no SEQ with a camera; got {' '.join(seq)}")
+    if camera is None and not seq:
+        raise ValueError("SEQ: expected a sequence or a recording (or --camera N); got none")
+    if len(seq) > 1:
+        for name, given in (("--realtime", realtime), ("--show", show)):
+            if given:
+                raise ValueError(f"{name}: expected one recording; got {len(seq)}")
+        return
+    if scheduler is not None or workers is not None:
+        raise ValueError("--scheduler, --workers: expected several SEQ (a batch); got one")
+    if show and not (realtime or camera is not None):
+        raise ValueError("--show: expected --camera or --realtime")
+    if show:
+        _check_display()
+
+
+def _save_track(result, out, video: bool, reused) -> dict:
+    """The track written into OUT with the detector's points (`_save_detected`); the
+    notes on standard error.  `reused`: the keypoint files of an earlier run used."""
     if result.options.get("notice"):
         click.echo(f"handvar: note: {result.options['notice']}", err=True)
     if reused:  # the detector's points of an earlier run: its name kept for the next
@@ -219,6 +232,14 @@ def track_command(
             f"a frame outside the frames were left out",
             err=True,
         )
+    return written
+
+
+def _print_summary(result, written: dict, out, predictor: str, seed: int) -> None:
+    """The lines `handvar track` prints of a track: what ran and the all-in rate, the fit
+    quality (`_print_quality`), the mean joint error against the ground truth, the
+    real-time line."""
+    from handvar.cli.common import STARTED
 
     T = result.n_frames
     tracked = T if result.dropped is None else int(T - result.dropped.sum())
@@ -234,27 +255,7 @@ def track_command(
         f"-> {out}" + (f" (with {written['video'].name})" if "video" in written else "")
     )
     if result.quality is not None:
-        text = f"fit quality: {result.quality.summary()}"
-        if result.detections is not None:
-            with_kp = int(result.quality.keypoints.sum())
-            text += f"; keypoints on {with_kp} frames"
-        if result.options["carry"] != "none":
-            seen = (
-                result.detections
-                if result.dropped is None
-                else (result.detections & ~result.dropped)
-            )  # the frames tracked
-            if int(seen.sum()) < with_kp:
-                text += f" ({int(seen.sum())} with a detection, the others carried)"
-        click.echo(text)
-        if result.detections is not None:
-            ok, worst, n_rejected = result.quality.check(frames=result.detections)
-            click.echo(
-                f"keypoint check: {'holds' if ok else 'FAILS'} (on every frame with a "
-                f"detection the joints lie within 0.2 hand sizes of at least 98 % of the "
-                f"keypoints kept; worst frame {100 * worst:.1f} %); {n_rejected} "
-                f"keypoints rejected as outliers"
-            )
+        _print_quality(result)
     truth = result.sequence.truth
     if truth is not None:
         from handvar.evaluation.metrics import mean_joint_error
@@ -263,6 +264,30 @@ def track_command(
         click.echo(f"mean joint error: {err.mean():.2f} mm (max {err.max():.2f} mm)")
     if result.latency is not None:
         click.echo(result.realtime_summary())
+
+
+def _print_quality(result) -> None:
+    """The fit quality of a track with recovery, the frames with keypoints (detected or
+    carried) and, with keypoints, the keypoint check."""
+    text = f"fit quality: {result.quality.summary()}"
+    if result.detections is not None:
+        with_kp = int(result.quality.keypoints.sum())
+        text += f"; keypoints on {with_kp} frames"
+    if result.options["carry"] != "none":
+        seen = (
+            result.detections if result.dropped is None else (result.detections & ~result.dropped)
+        )  # the frames tracked
+        if int(seen.sum()) < with_kp:
+            text += f" ({int(seen.sum())} with a detection, the others carried)"
+    click.echo(text)
+    if result.detections is not None:
+        ok, worst, n_rejected = result.quality.check(frames=result.detections)
+        click.echo(
+            f"keypoint check: {'holds' if ok else 'FAILS'} (on every frame with a "
+            f"detection the joints lie within 0.2 hand sizes of at least 98 % of the "
+            f"keypoints kept; worst frame {100 * worst:.1f} %); {n_rejected} "
+            f"keypoints rejected as outliers"
+        )
 
 
 def _lanes(result) -> str:
