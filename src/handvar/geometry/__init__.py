@@ -1,4 +1,5 @@
-"""Geometry below the hand model: lens distortion and cone-spheres in 3D and in the image.
+"""Geometry below the hand model: lens distortion, cone-spheres in 3D and in the image,
+and triangle meshes made coarser.
 
 A leaf package (design §12): it imports nothing from handvar but `handvar.validate`.
 
@@ -17,6 +18,7 @@ from handvar.geometry.cone_spheres import (
     intersect_cone_spheres,
     sample_cone_spheres,
 )
+from handvar.geometry.decimate import decimate_mesh
 from handvar.geometry.distortion import distort, distort_normalized, distortion_coefficients
 from handvar.geometry.projected import (
     ProjectedPrimitives,
@@ -30,6 +32,7 @@ __all__ = [
     "cone_sphere_areas",
     "cone_sphere_normals",
     "cone_sphere_sdf",
+    "decimate_mesh",
     "distort",
     "distort_normalized",
     "distortion_coefficients",
