@@ -400,10 +400,11 @@ def _track_one(source, *, show: bool, **options):
     from handvar.hand.kinematics import HandModel
     from handvar.render import overlay_views, side_by_side
 
-    hand = HandModel(
-        HandShape.from_size(options["hand_length"], side=options["hand"]),
-        surface=options["model"],
-    )
+    # the side as given; with the detector's side ("auto", the default) the window draws
+    # a right hand's outline (the track itself has the side the detector says)
+    side = options["hand"] if options.get("hand") in ("right", "left") else "right"
+    hand = HandModel(HandShape.from_size(options["hand_length"], side=side),
+                     surface=options["model"])  # fmt: skip
     rig = {}
 
     def draw(i, pose, quality, masks):
