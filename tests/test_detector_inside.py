@@ -207,3 +207,13 @@ def test_hand_tracker_refuses_a_wrong_frame():
     tracker = handvar.HandTracker(detector="none")
     with pytest.raises(ValueError, match=r"frames: expected \(H, W, 3\) uint8 BGR images"):
         tracker.process(np.zeros((10, 10)))
+
+
+def test_a_callback_that_takes_images_gets_the_colour_frame_being_fitted():
+    got = []
+
+    def on_frame(i, pose, quality, masks, images):
+        got.append((i, images[0].shape, images[0].dtype, bool(np.isfinite(pose).all())))
+
+    handvar.track(VIDEO, keypoints=str(KEYPOINTS), frames=4, scale=0.25, on_frame=on_frame)
+    assert got == [(i, (180, 320, 3), np.uint8, True) for i in range(4)]

@@ -48,6 +48,7 @@ recording first (docs/live-and-batch.md).
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import itertools
 import json
 import os
@@ -581,7 +582,8 @@ def track(
     on_frame : callable, optional
         With recovery: called as ``on_frame(i, pose, quality, masks)`` after every frame
         tracked, i its index in the recording (`track_with_recovery`), for instance to
-        keep the silhouettes fitted.
+        keep the silhouettes fitted; a callback with a parameter ``images`` also gets
+        the frame's colour images (BGR, one per camera, at `scale`) by that name.
     realtime : bool
         A recording only, with recovery: play it at its own frame rate and track the
         newest frame each time the tracker is free, skipping the others (module notes
@@ -1381,6 +1383,7 @@ class _Stream:
         self.exhausted = False  # every frame read without an error
         self.origin: list[float] = []  # paced playback: when its clock started
         self._ahead: list = []  # frames read ahead by `decide_side`
+        self.images: list | None = None  # the colour frames being fitted
         self.shape: tuple | None = None  # of a frame's silhouettes (n_cams, H, W)
         self._items = None
 
@@ -1543,6 +1546,7 @@ class _Stream:
             self.indices.append(index)
             self.capture.append(seconds)
             self.masks.append(masks)
+            self.images = images  # the frame being fitted (`on_frame`'s ``images``)
             yield masks, kps if present else None, world, absent
             if isinstance(masks, _Once):  # keep what was computed, not the frame's images
                 self.masks[-1] = masks.release()
@@ -1594,10 +1598,17 @@ class _Stream:
     def on_frame(self, user: Callable | None):
         """`track_with_recovery`'s callback: the finish time, then the user's."""
 
+        images = user is not None and "images" in inspect.signature(user).parameters
+
         def done(i, pose, quality, masks):
             self.finish.append(self.clock() - self.t0)
-            if user is not None:  # a frame fitted to keypoints alone: its silhouettes now
-                user(self.indices[i], pose, quality, masks() if callable(masks) else masks)
+            if user is None:
+                return
+            masks = masks() if callable(masks) else masks  # keypoints alone: computed now
+            if images:  # the colour frame too, for a callback that takes it
+                user(self.indices[i], pose, quality, masks, images=self.images)
+            else:
+                user(self.indices[i], pose, quality, masks)
 
         return done
 

@@ -394,7 +394,6 @@ def _track_one(source, *, show: bool, **options):
     if not show:
         return track(source, **options)
     import cv2
-    import numpy as np
 
     from handvar.hand.anthropometry import HandShape
     from handvar.hand.kinematics import HandModel
@@ -407,13 +406,16 @@ def _track_one(source, *, show: bool, **options):
                      surface=options["model"])  # fmt: skip
     rig = {}
 
-    def draw(i, pose, quality, masks):
+    def draw(i, pose, quality, masks, images=None):
         if "rig" not in rig:  # the tracked frames' cameras: the camera's, or the recording's
             rig["rig"] = _tracked_rig(source, options, masks)
-        if np.all(np.isfinite(pose)):
-            views = overlay_views(hand, rig["rig"], masks, pose)
-            image = side_by_side(views, [f"frame {i}"] * len(views))
-            cv2.imshow("handvar", cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+        # the model and its skeleton over the camera's image (over the silhouettes for a
+        # frame read ahead without it); a frame without a hand shows the image alone
+        backgrounds = masks if images is None else [
+            cv2.cvtColor(im, cv2.COLOR_BGR2RGB) for im in images]  # fmt: skip
+        views = overlay_views(hand, rig["rig"], backgrounds, pose)
+        image = side_by_side(views, [f"frame {i}"] * len(views))
+        cv2.imshow("handvar", cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
         if cv2.waitKey(1) & 0xFF == ord("q") and hasattr(source, "stop"):
             source.stop()
 
