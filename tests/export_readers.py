@@ -3,7 +3,9 @@
 The glTF reader takes the structure from pygltflib and does standard linear blend
 skinning itself (the glTF 2.0 specification's formula, every JOINTS_n/WEIGHTS_n set,
 node scale included); the BVH reader takes bvhio's
-forward kinematics; the viewer page's figure is decoded from its script with `json`.
+forward kinematics; the viewer page's figure is decoded from its script with `json`
+(plotly's typed arrays with `base64` and numpy), and its 3D view is computed from the
+layout by the OpenGL camera that plotly's gl-plot3d builds (`plotly_view_pixels`).
 None uses handvar's writers or kinematics.
 """
 
@@ -166,3 +168,43 @@ def plotly_page(html: str) -> tuple[list, dict, list]:
     start = re.search(r"Plotly\.addFrames\('[^']+',\s*", html).end()
     frames, _ = decoder.raw_decode(html, start)
     return data, layout, frames
+
+
+def plotly_array(value) -> np.ndarray:
+    """A data array of a plotly figure as floats: a JSON list (None: NaN) or plotly's
+    typed array ``{"dtype": "i2", "bdata": base64}`` (little-endian)."""
+    import base64
+
+    if isinstance(value, dict):
+        raw = base64.b64decode(value["bdata"])
+        return np.frombuffer(raw, dtype=np.dtype(value["dtype"]).newbyteorder("<")).astype(float)
+    return np.array([np.nan if v is None else v for v in value], dtype=float)
+
+
+def plotly_view_pixels(scene: dict, points, size: tuple[int, int]) -> np.ndarray:
+    """Where a plotly 3D scene shows world points, (N, 2) pixels of its viewport of
+    `size` (width, height), from its layout alone, as gl-plot3d draws it:
+
+    - model: each axis range [lo, hi] scaled to the aspect ratio a and centred,
+      ``m = a (p − (lo + hi)/2) / (hi − lo)`` (aspect mode ``cube``: a = 1);
+    - view: ``lookAt(eye, center, up)`` of the layout's ``camera`` (gl-matrix's: z from
+      the centre to the eye, x = up × z, y = z × x);
+    - projection: perspective, vertical field of view π/4, the viewport's aspect.
+    """
+    points = np.asarray(points, dtype=float)
+    ranges = np.array([scene[f"{k}axis"]["range"] for k in "xyz"], dtype=float)
+    aspect = np.ones(3) if scene.get("aspectmode") == "cube" else np.array(
+        [scene["aspectratio"][k] for k in "xyz"])  # fmt: skip
+    m = aspect * (points - ranges.mean(axis=1)) / (ranges[:, 1] - ranges[:, 0])
+    cam = scene["camera"]
+    eye, center, up = (np.array([cam[v][k] for k in "xyz"], dtype=float)
+                       for v in ("eye", "center", "up"))  # fmt: skip
+    z = (eye - center) / np.linalg.norm(eye - center)
+    x = np.cross(up, z)
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    view = (m - eye) @ np.column_stack([x, y, z])  # camera coordinates, looking along −z
+    f = 1.0 / np.tan(np.pi / 8.0)
+    w, h = size
+    ndc = np.column_stack([f * (h / w) * view[:, 0], f * view[:, 1]]) / -view[:, 2:3]
+    return np.column_stack([(ndc[:, 0] + 1.0) * w / 2.0, (1.0 - ndc[:, 1]) * h / 2.0])

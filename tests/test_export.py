@@ -9,7 +9,11 @@
   `tests/export_readers.py`, turned back from y-up metres by hand and compared with the
   model's mesh on every frame (exact to float32 rounding; 2 mm required); the Khronos
   validator (npm's gltf-validator, when installed) finds no error and no warning;
-- the viewer page: rendered by headless Chromium, no console message, not blank.
+- the viewer page: its figure decoded with `json`: keypoints and surface on the frames
+  with a hand and nothing on the others, the opening view computed from the layout as
+  gl-plot3d draws it and compared with the camera's projection, axes that hold the
+  hand, frames as small JPEGs, curves named by what they hold; rendered by headless
+  Chromium: no console message, the surface, the skeleton and the frame drawn.
 
 `benchmarks/export_roundtrip.py` prints the same round-trip errors.
 """
@@ -417,10 +421,18 @@ def _chromium() -> str | None:
 @pytest.mark.skipif(_chromium() is None, reason="headless Chromium is not installed "
                     "(apt-get install chromium)")  # fmt: skip
 def test_viewer_renders_in_headless_chromium(poses, tmp_path):
-    hand = HandModel()
-    joints = np.stack([hand.joints(x) for x in poses[:20]])
+    """No console message; the scene shows the hand's surface (skin tones) and the
+    skeleton's digit colours on the left, the frame (a blue image here) on the right."""
+    from handvar.export.viewer import hand_surface
+
+    shape = HandShape.from_size()
+    joints = np.stack([HandModel(shape).joints(x) for x in poses[:20]])
+    blue = np.zeros((480, 640, 3), np.uint8)
+    blue[..., 2] = 255
     page = tmp_path / "view.html"
-    page.write_text(viewer_html(joints, rig=Rig.default(), quality=np.linspace(0.7, 0.9, 20)))
+    page.write_text(viewer_html(joints, surface=hand_surface(shape, poses[:20]),
+                                images=[blue] * 20, rig=Rig.default(),
+                                quality=np.linspace(0.7, 0.9, 20)))  # fmt: skip
     text = page.read_text()
     assert "Plotly.newPlot" in text and not re.search(r"<script[^>]*\bsrc=", text)  # embedded
     # a copy that records console errors and uncaught exceptions into the page's title
@@ -454,10 +466,17 @@ def test_viewer_renders_in_headless_chromium(poses, tmp_path):
 
     image = cv2.imread(str(shot))
     assert image is not None and image.shape[0] > 100
-    # drawn: not one flat colour, and the WebGL scene shows the bones' red (#d62728)
+    # drawn: not one flat colour; in the WebGL scene (left half) skin and the thumb's
+    # red (230, 60, 60) and the index finger's orange (240, 170, 30); the frame's blue
+    # on the right
     assert image.std() > 10.0
-    b, g, r = (image[..., i].astype(int) for i in range(3))
-    assert np.sum((r > 150) & (g < 90) & (b < 90)) > 200
+    half = image.shape[1] // 2
+    b, g, r = (image[:, :half, i].astype(int) for i in range(3))
+    assert np.sum((r > 180) & (r - b > 25) & (r > g) & (g > b) & (g > 120)) > 2000  # skin
+    assert np.sum((r > 180) & (g < 110) & (b < 110)) > 50  # thumb
+    assert np.sum((r > 200) & (g > 130) & (g < 200) & (b < 90)) > 50  # index
+    b, g, r = (image[:, half:, i].astype(int) for i in range(3))
+    assert np.sum((b > 200) & (r < 60) & (g < 60)) > 20000
 
 
 # A track whose hand is absent on some frames: its pose there is NaN as a whole.
@@ -553,27 +572,184 @@ def test_gltf_hides_the_hand_on_frames_without_a_hand(poses, gappy, tmp_path):
     assert gltf.asset.extras["frames_without_hand"] == len(ABSENT)
 
 
-def test_viewer_shows_no_skeleton_on_frames_without_a_hand(poses, gappy, tmp_path):
-    from handvar.export import write_viewer
-    from tests.export_readers import plotly_page
+def _animated(data: list, frame: dict) -> dict[str, dict]:
+    """A page frame's data by the name of the trace each one updates."""
+    return {data[i]["name"]: d for i, d in zip(frame["traces"], frame["data"], strict=True)}
 
-    hand = HandModel()
+
+def test_viewer_shows_neither_skeleton_nor_surface_on_frames_without_a_hand(poses, gappy,
+                                                                            tmp_path):  # fmt: skip
+    """The frames with a hand show its keypoints (to 0.05 mm) and its surface (to half a
+    mm: whole mm on the page); the others nothing, and keep their place."""
+    from handvar.export import write_viewer
+    from handvar.export.viewer import hand_surface
+    from tests.export_readers import plotly_array, plotly_page
+
+    shape = HandShape.from_size()
+    hand = HandModel(shape)
     joints = np.full((8, 21, 3), np.nan)
     tracked = [t for t in range(8) if t not in ABSENT]
     joints[tracked] = [hand.joints(poses[t]) for t in tracked]
-    page = write_viewer(tmp_path / "view.html", joints, rig=Rig.default(),
-                        quality=np.linspace(0.0, 0.9, 8))  # fmt: skip
+    vertices, triangles = hand_surface(shape, gappy)
+    page = write_viewer(tmp_path / "view.html", joints, surface=(vertices, triangles),
+                        rig=Rig.default(), quality=np.linspace(0.0, 0.9, 8))  # fmt: skip
     data, layout, frames = plotly_page(page.read_text())
     assert [f["name"] for f in frames] == [str(t) for t in range(8)]
     assert len(layout["sliders"][0]["steps"]) == 8
+    (mesh,) = [d for d in data if d["type"] == "mesh3d"]
+    np.testing.assert_array_equal(np.column_stack([plotly_array(mesh[k]) for k in "ijk"]),
+                                  triangles)  # fmt: skip
     for t, frame in enumerate(frames):
-        bones, dots = frame["data"][0], frame["data"][1]
+        got = _animated(data, frame)
+        bones, dots, surface = got["bones"], got["keypoints"], got["surface"]
         if t in ABSENT:
             assert all(v is None for trace in (bones, dots) for k in "xyz" for v in trace[k])
+            assert surface["visible"] is False and surface["x"] == []
         else:
-            np.testing.assert_allclose(np.array([dots[k] for k in "xyz"]).T, joints[t])
+            xyz = np.column_stack([plotly_array(dots[k]) for k in "xyz"])
+            np.testing.assert_allclose(xyz, joints[t], atol=0.05)
             assert sum(v is not None for v in bones["x"]) == 40  # 20 bones, 2 ends each
+            assert surface["visible"] is True
+            xyz = np.column_stack([plotly_array(surface[k]) for k in "xyz"])
+            np.testing.assert_allclose(xyz, vertices[t], atol=0.5)
     assert all(v is None for v in data[1]["x"])  # the first frame, shown on opening
+    assert data[0]["visible"] is False
+
+
+def test_the_skeleton_has_the_overlays_colours():
+    from handvar.export.viewer import DIGIT_RGB
+    from handvar.render.overlay import _DIGIT_RGB
+
+    assert DIGIT_RGB == _DIGIT_RGB
+
+
+def _area(vertices: np.ndarray, triangles: np.ndarray) -> float:
+    a, b, c = (vertices[triangles[:, i]] for i in range(3))
+    return float(0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1).sum())
+
+
+def test_hand_surface_is_the_models_mesh(poses, gappy):
+    """Its vertices are vertices of the model's skinned mesh (`mesh_vertices`) on every
+    frame with a hand, for either hand, and its triangles cover the same area within
+    2 %; NaN on the frames without one."""
+    from scipy.spatial import cKDTree
+
+    from handvar.export.gltf import rest_mesh
+    from handvar.export.viewer import SURFACE_VERTICES, hand_surface
+
+    for side in SIDES:
+        shape = HandShape.from_size(175.0, side=side)
+        vertices, triangles = hand_surface(shape, gappy)
+        assert vertices.shape == (8, SURFACE_VERTICES, 3) and triangles.shape[1] == 3
+        assert np.isnan(vertices[ABSENT]).all()
+        full = mesh_vertices(shape, poses[:8])
+        _, full_triangles, _ = rest_mesh(shape)
+        for t in sorted(set(range(8)) - set(ABSENT)):
+            assert cKDTree(full[t]).query(vertices[t])[0].max() < 1e-9  # a subset
+            want = _area(full[t], full_triangles)
+            assert _area(vertices[t], triangles) == pytest.approx(want, rel=0.02)
+
+
+def test_viewer_opens_through_the_camera_with_the_hand_large(poses, tmp_path):
+    """The opening view, computed from the page's layout as gl-plot3d draws it
+    (`plotly_view_pixels`), shows the hand as the first camera does: its keypoints are
+    the camera's pixels up to a scale and a shift (no turn, no mirror: within 3 % of
+    the hand's size in the image), inside the view and at least half its height; the
+    free view looks from elsewhere, as far away."""
+    from tests.export_readers import plotly_page, plotly_view_pixels
+
+    rig = Rig.default()
+    hand = HandModel()
+    joints = np.stack([hand.joints(x) for x in poses[:30]])
+    _, layout, frames = plotly_page(viewer_html(joints, rig=rig))
+    scene = layout["scene"]
+    size = (800, 700)
+    got = plotly_view_pixels(scene, joints[0], size)
+    want = rig.cameras[0].project(joints[0])
+    # want ≈ s · got + shift, least squares
+    A = np.zeros((42, 3))
+    A[0::2, 0], A[1::2, 0] = got[:, 0], got[:, 1]
+    A[0::2, 1], A[1::2, 2] = 1.0, 1.0
+    (s, *_), *_ = np.linalg.lstsq(A, want.ravel(), rcond=None)
+    fit = A @ np.linalg.lstsq(A, want.ravel(), rcond=None)[0]
+    extent = np.ptp(want, axis=0).max()
+    assert s > 0 and np.abs(fit - want.ravel()).max() < 0.03 * extent
+    assert got.min() > 0 and (got < size).all()  # in the view
+    assert np.ptp(got, axis=0).max() > 0.5 * size[1]  # large
+    assert scene["aspectmode"] == "cube" and scene["dragmode"] == "orbit"
+    # the frame's ranges are the opening layout's (frame 0)
+    assert frames[0]["layout"]["scene"]["xaxis"]["range"] == scene["xaxis"]["range"]
+    views = {b["label"]: b["args"][0]["scene.camera"] for b in layout["updatemenus"][1]["buttons"]}
+    assert views["Camera view"] == scene["camera"]
+    eye = [np.array([views[v]["eye"][k] for k in "xyz"]) for v in ("Camera view", "Free view")]
+    assert np.linalg.norm(eye[0]) == pytest.approx(np.linalg.norm(eye[1]))
+    assert np.degrees(np.arccos(eye[0] @ eye[1] / (eye[0] @ eye[0]))) > 30.0
+
+
+def test_viewer_axes_follow_the_hand(poses):
+    """Every frame's axes are a cube of one side that holds that frame's hand; the hand
+    sweeping 400 mm sideways, the cube is smaller than the span and moves with it."""
+    from tests.export_readers import plotly_page
+
+    hand = HandModel()
+    moved = poses.copy()
+    moved[:, 0] += np.linspace(0.0, 400.0, len(poses))  # mm along x
+    joints = np.stack([hand.joints(x) for x in moved])
+    _, _, frames = plotly_page(viewer_html(joints, rig=Rig.default()))
+    ranges = np.array([[f["layout"]["scene"][f"{k}axis"]["range"] for k in "xyz"]
+                       for f in frames])  # fmt: skip  # (T, 3, 2)
+    sides = ranges[:, :, 1] - ranges[:, :, 0]
+    np.testing.assert_allclose(sides, sides[0, 0], atol=0.02)
+    assert (joints >= ranges[:, None, :, 0]).all() and (joints <= ranges[:, None, :, 1]).all()
+    assert sides[0, 0] < 0.7 * np.ptp(joints[..., 0])
+    assert np.ptp(ranges[:, 0, 0]) > 350.0  # it moved along
+
+
+def test_viewer_frames_are_embedded_as_small_jpegs(poses):
+    """The frames beside the scene: JPEG at most 320 pixels wide, the given image (to a
+    few grey levels), one per frame on the slider."""
+    import base64
+
+    import cv2
+
+    from tests.export_readers import plotly_page
+
+    hand = HandModel()
+    joints = np.stack([hand.joints(x) for x in poses[:3]])
+    ramp = np.linspace(0, 255, 640).astype(np.uint8)
+    images = [np.dstack([np.tile(ramp, (480, 1)), np.full((480, 640), 40 * t, np.uint8),
+                         np.tile(ramp[::-1], (480, 1))]) for t in range(3)]  # fmt: skip
+    data, _, frames = plotly_page(viewer_html(joints, images=images))
+    for t, frame in enumerate(frames):
+        source = _animated(data, frame)["frame"]["source"]
+        head, body = source.split(",", 1)
+        assert head == "data:image/jpeg;base64"
+        bgr = cv2.imdecode(np.frombuffer(base64.b64decode(body), np.uint8), cv2.IMREAD_COLOR)
+        assert bgr.shape == (240, 320, 3)
+        want = cv2.resize(images[t], (320, 240), interpolation=cv2.INTER_AREA)
+        assert np.abs(bgr[:, :, ::-1].astype(int) - want).mean() < 3.0
+    with pytest.raises(ValueError, match=r"^images: expected one frame per frame of the track"):
+        viewer_html(joints, images=images[:2])
+
+
+def test_viewer_labels_its_curves(poses):
+    """One curve per quality given, its axis titled by its label; a second on an axis of
+    its own."""
+    from tests.export_readers import plotly_page
+
+    joints = np.stack([HandModel().joints(x) for x in poses[:4]])
+    error = np.array([0.05, np.nan, 0.1, 0.07])
+    one = {"keypoint error (hand sizes)": error}
+    data, layout, _ = plotly_page(viewer_html(joints, quality=one))
+    (curve,) = [d for d in data if d["name"] == "keypoint error (hand sizes)"]
+    assert curve["y"] == [0.05, None, 0.1, 0.07]
+    assert layout["yaxis"]["title"]["text"] == "keypoint error (hand sizes)"
+    assert layout["yaxis"]["range"] == pytest.approx([0.0, 0.11])
+    both = {"silhouette IoU": np.full(4, 0.8), "keypoint error (hand sizes)": error}
+    _, layout, _ = plotly_page(viewer_html(joints, quality=both))
+    assert layout["yaxis"]["title"]["text"] == "silhouette IoU"
+    assert layout["yaxis"]["range"] == [0.0, 1.0]
+    assert layout["yaxis3"]["title"]["text"] == "keypoint error (hand sizes)"
 
 
 def test_a_pose_nan_in_part_or_infinite_is_refused(gappy):

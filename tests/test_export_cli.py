@@ -28,10 +28,10 @@ KNOWN = b"known bytes that must survive\n"
 
 
 def _saved_track(root: Path, side: str, length: float = 175.0, *, cameras=False, absent=(),
-                 quality=None, detections=None) -> Path:  # fmt: skip
+                 quality=None, detections=None, options=None) -> Path:  # fmt: skip
     """A 4-frame synthetic track saved in `root`; no hand (poses and joints NaN) on the
-    frames `absent`, as the tracker writes a frame where it found none; `quality` and
-    `detections` as `handvar.Track` holds them."""
+    frames `absent`, as the tracker writes a frame where it found none; `quality`,
+    `detections` and `options` as `handvar.Track` holds them."""
     from handvar.pipeline import Track
     from handvar.synth.sequences import make_sequence
     from handvar.tracking.tracker import TrackResult
@@ -52,7 +52,7 @@ def _saved_track(root: Path, side: str, length: float = 175.0, *, cameras=False,
     track = Track(
         poses=poses, joints=joints, projected=projected if cameras else projected[:0],
         quality=quality, rig=rig, shape=hand.shape, name=f"benchmark-{side}", predictor="rvar",
-        seed=0, fps=seq.fps, result=result, detections=detections,
+        seed=0, fps=seq.fps, result=result, detections=detections, options=options or {},
     )  # fmt: skip
     out = root / (f"track_{side}" + ("_cameras" if cameras else "") + "_absent" * bool(absent)
                   + "_quality" * (quality is not None))  # fmt: skip
@@ -334,3 +334,131 @@ def test_a_track_without_a_hand_is_refused_by_bvh_and_gltf(tmp_path):
     assert res.exit_code == 0, res.output
     frames = json.loads((track / "keypoints.json").read_text())["frames"]
     assert [f["world"] for f in frames] == [None] * 4
+
+
+def _quality(iou, keypoint_error):
+    """A `TrackQuality` of 4 frames with these IoU and keypoint errors."""
+    from handvar.tracking.recovery import TrackQuality
+
+    n = 4
+    return TrackQuality(
+        iou=np.asarray(iou, float), keypoint_error=np.asarray(keypoint_error, float),
+        cost=np.zeros(n), lost=np.zeros(n, bool), reinit=np.zeros(n, bool),
+        empty=np.zeros(n, bool), keypoints=np.isfinite(keypoint_error),
+    )  # fmt: skip
+
+
+def test_view_labels_the_quality_by_what_it_holds(tmp_path):
+    """Keypoints fitted without a silhouette: the keypoint error in hand sizes; the IoU
+    where it was measured (both when both were); the tracker's IoU without recovery."""
+    from tests.export_readers import plotly_page
+
+    nan = np.nan
+    cases = [
+        (_quality([nan] * 4, [0.05, 0.04, nan, 0.06]), {"keypoint error (hand sizes)"}),
+        (_quality([0.9, 0.8, 0.7, 0.9], [nan] * 4), {"silhouette IoU"}),
+        (_quality([0.9, 0.8, 0.7, 0.9], [0.05, 0.04, nan, 0.06]),
+         {"silhouette IoU", "keypoint error (hand sizes)"}),
+        (None, {"silhouette IoU"}),  # the tracker's record: 0.9 on every frame and camera
+    ]  # fmt: skip
+    for i, (quality, labels) in enumerate(cases):
+        track = _saved_track(tmp_path / str(i), "right", quality=quality)
+        res = _run("view", str(track), "--out", str(tmp_path / f"v{i}.html"), "--no-frames")
+        assert res.exit_code == 0, res.output
+        data, layout, _ = plotly_page((tmp_path / f"v{i}.html").read_text())
+        curves = {d["name"]: d["y"] for d in data
+                  if d["type"] == "scatter" and d["name"] != "frame"}  # fmt: skip
+        assert set(curves) == labels
+        assert "fit confidence" not in (tmp_path / f"v{i}.html").read_text()
+        assert layout["yaxis"]["title"]["text"] in labels
+        if quality is None:
+            assert curves["silhouette IoU"] == [0.9] * 4
+        elif "keypoint error (hand sizes)" in labels:
+            assert curves["keypoint error (hand sizes)"] == [0.05, 0.04, None, 0.06]
+
+
+def _recording(folder: Path, camera, n: int, grey: int = 100) -> Path:
+    """A recording of `n` plain grey frames of `camera`'s size, as an image folder."""
+    import cv2
+
+    folder.mkdir(parents=True)
+    w, h = camera.size
+    for t in range(n):
+        cv2.imwrite(str(folder / f"{t:04d}.png"), np.full((h, w, 3), grey, np.uint8))
+    return folder
+
+
+def test_view_shows_the_recording_with_the_model_drawn_over_it(tmp_path):
+    """--video: one JPEG per frame, at most 320 px wide, the model drawn in colour over
+    the grey frames where there is a hand and nothing where there is none (frame 2);
+    without a recording one line says the frames are left out; --no-frames says nothing."""
+    import base64
+
+    import cv2
+
+    from tests.export_readers import plotly_page
+
+    track = _saved_track(tmp_path, "right", cameras=True, absent=(2,))
+    camera = Rig.load(track / "cameras.yml").cameras[0]
+    video = _recording(tmp_path / "rec", camera, 5)
+    res = _run("view", str(track), "--out", str(tmp_path / "v.html"), "--video", str(video))
+    assert res.exit_code == 0 and "left out" not in res.output, res.output
+    data, _, frames = plotly_page((tmp_path / "v.html").read_text())
+    (index,) = [i for i, d in enumerate(data) if d["type"] == "image"]
+    for t, frame in enumerate(frames):
+        source = frame["data"][frame["traces"].index(index)]["source"]
+        jpeg = base64.b64decode(source.split(",", 1)[1])
+        image = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR).astype(int)
+        assert image.shape[1] <= 320 and image.shape[1] == min(320, camera.size[0])
+        coloured = np.sum(image.max(axis=2) - image.min(axis=2) > 60)  # the drawn model
+        assert (coloured == 0) if t == 2 else (coloured > 100), (t, coloured)
+
+    res = _run("view", str(track), "--out", str(tmp_path / "w.html"))
+    assert res.exit_code == 0, res.output
+    assert res.stderr.strip().splitlines() == [
+        "handvar: note: frames left out: the track names no recording; give one with "
+        "--video, or --no-frames"]  # fmt: skip
+    data, _, _ = plotly_page((tmp_path / "w.html").read_text())
+    assert not [d for d in data if d["type"] == "image"]
+    res = _run("view", str(track), "--out", str(tmp_path / "x.html"), "--no-frames")
+    assert res.exit_code == 0 and res.stderr == "", res.output
+
+
+def test_view_takes_the_frames_of_the_recording_the_track_names(tmp_path):
+    """Without --video, the recording the track was made from (its options' source),
+    where it still is; one line when it is not."""
+    from tests.export_readers import plotly_page
+
+    camera = Rig.default().cameras[0]
+    video = _recording(tmp_path / "rec", camera, 4)
+    options = {"kind": "recording", "source": [str(video)]}
+    track = _saved_track(tmp_path, "right", cameras=True, options=options)
+    res = _run("view", str(track), "--out", str(tmp_path / "v.html"))
+    assert res.exit_code == 0 and res.stderr == "", res.output
+    data, _, _ = plotly_page((tmp_path / "v.html").read_text())
+    assert [d["type"] for d in data].count("image") == 1
+    video.rename(tmp_path / "moved")
+    res = _run("view", str(track), "--out", str(tmp_path / "w.html"))
+    assert res.exit_code == 0, res.output
+    assert res.stderr.strip().splitlines() == [
+        f"handvar: note: frames left out: the recording {video} is not there; give it with "
+        "--video, or --no-frames"]  # fmt: skip
+
+
+def test_view_refuses_a_recording_that_does_not_fit(tmp_path):
+    track = _saved_track(tmp_path, "right", cameras=True)
+    bare = _saved_track(tmp_path / "bare", "left")  # no cameras to draw with
+    camera = Rig.load(track / "cameras.yml").cameras[0]
+    short = _recording(tmp_path / "short", camera, 3)
+    cases = [
+        ([str(track), "--video", str(tmp_path / "nothing.mp4")], "--video"),
+        ([str(track), "--video", str(short)], "--video: expected a recording of at least"),
+        ([str(track), "--video", str(short), "--no-frames"], "--video: expected without"),
+        ([str(bare), "--video", str(short)], "--video: expected the track's cameras"),
+    ]
+    for args, named in cases:
+        res = CliRunner().invoke(main, ["view", *args, "--out", str(tmp_path / "v.html")])
+        lines = res.output.strip().splitlines()
+        assert res.exit_code == 2 and len(lines) == 1, (args, res.output)
+        assert named in lines[0], (args, lines)
+        assert not (tmp_path / "v.html").exists()

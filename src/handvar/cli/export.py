@@ -134,29 +134,118 @@ def export_command(track_dir, fmt, out, corrective, units, up, calib):
     click.echo(f"{track.name}: {_frames(track)}, {track.shape.side} hand -> {out}")
 
 
+def _curves(track) -> dict:
+    """The per-frame quality the track holds, by what it is: the silhouette IoU (mean over
+    the cameras) where it was measured, the keypoint error in hand sizes where keypoints
+    were fitted; NaN on frames without a value."""
+    import numpy as np
+
+    error = None
+    if track.quality is not None:
+        iou, error = track.quality.iou, track.quality.keypoint_error
+    elif track.result is not None:  # tracked without recovery: the tracker's IoU
+        per_camera = np.asarray(track.result.iou, dtype=float).reshape(track.n_frames, -1)
+        seen = np.isfinite(per_camera).sum(axis=1)
+        iou = np.where(seen > 0, np.nansum(per_camera, axis=1) / np.maximum(seen, 1), np.nan)
+    else:
+        return {}
+    curves = {"silhouette IoU": np.asarray(iou, dtype=float)}
+    if error is not None:
+        curves["keypoint error (hand sizes)"] = np.asarray(error, dtype=float)
+    return {label: v for label, v in curves.items() if np.isfinite(v).any()}
+
+
+def _recording(track, video):
+    """The recording to take the viewer's frames from and, without one, why (one line):
+    `video` when given, else the one the track was made from where it still is."""
+    if video is not None:
+        return video, None
+    paths, kind = track.options.get("source"), track.options.get("kind")
+    if kind != "recording" or not isinstance(paths, list) or not paths:
+        what = {None: "the track names no recording",
+                "camera": "a live camera's frames are not kept"}.get(
+            kind, f"the track was made from {paths!r}, not a recording")  # fmt: skip
+        return None, f"frames left out: {what}; give one with --video, or --no-frames"
+    if not Path(paths[0]).exists():
+        return None, (f"frames left out: the recording {paths[0]} is not there; give it "
+                      "with --video, or --no-frames")  # fmt: skip
+    return paths[0], None
+
+
+def _viewer_images(track, video, width: int):
+    """The frames of `video` (the first camera's recording) at most `width` pixels wide,
+    with the model drawn over them at the track's poses (`overlay_views`), RGB: a
+    generator, one frame in memory at a time."""
+    import cv2
+
+    from handvar.camera import Rig
+    from handvar.render.overlay import overlay_views
+    from handvar.vision.sources import open_source
+
+    if track.rig is None:
+        raise ValueError("--video: expected the track's cameras to draw the model over the "
+                         "frames (the track holds none); give them with --calib")  # fmt: skip
+    camera = track.rig.cameras[0]
+    try:
+        source = open_source(video, Rig((camera,), track.rig.names[:1]),
+                             scale=min(1.0, width / camera.size[0]))  # fmt: skip
+    except (ValueError, FileNotFoundError) as exc:
+        raise ValueError(f"--video: {exc}") from None
+    T, hand = track.n_frames, track.hand
+    if source.n_frames < T:
+        raise ValueError(f"--video: expected a recording of at least the track's {T} "
+                         f"frames; got {source.n_frames} in {video}")  # fmt: skip
+
+    def frames():
+        try:
+            for t, (frame,) in source.frames(0, T):
+                rgb = cv2.cvtColor(frame, cv2.COLOR_BGR2RGB)
+                yield overlay_views(hand, source.rig, [rgb], track.poses[t], thickness=1)[0]
+        except ValueError as exc:  # a recording that stops early
+            raise ValueError(f"--video: {exc}") from None
+
+    return frames()
+
+
 @click.command("view")
 @click.argument("track_dir")
 @click.option("--out", default=None, help="Output page (.html) [default: TRACK_DIR/view.html].")
+@click.option("--video", type=click.Path(), default=None,
+              help="The recording the track was made from (the first camera's), for "
+              "its frames beside the 3D view [default: the track's own, where it is].")  # fmt: skip
+@click.option("--frames/--no-frames", default=True, show_default=True,
+              help="Show the recording's frames with the model drawn over them (JPEG, at "
+              "most 320 px wide).")  # fmt: skip
 @_calib_option
 @_one_line_errors
-def view_command(track_dir, out, calib):
+def view_command(track_dir, out, video, frames, calib):
     """Write a self-contained HTML page showing the track saved in TRACK_DIR in 3D.
 
-    The hand's skeleton over time (play, scrub, turn with the mouse), the cameras and
-    the per-frame fit quality (silhouette IoU) linked to the time slider; the page
-    needs no network.
+    The hand model's surface and skeleton over time, seen through the camera (a button
+    frees the view: drag to turn), the recording's frames with the model drawn over
+    them, and the per-frame quality (silhouette IoU, keypoint error), all on one time
+    slider; the page needs no network (docs/outputs.md).
     """
     from handvar.atomic import check_output_file
 
     if not Path(track_dir).is_dir():
         raise ValueError(f"TRACK_DIR: expected a track directory; got {track_dir}")
+    if video is not None and not frames:
+        raise ValueError(f"--video: expected without --no-frames; got {video}")
     out = str(Path(track_dir) / "view.html") if out is None else out
     check_output_file(out, "--out", suffixes=(".html",))
     track = _load(track_dir, calib)
-    from handvar.export.viewer import write_viewer
+    from handvar.export.viewer import IMAGE_WIDTH, hand_surface, write_viewer
 
-    conf = _confidence(track)
-    write_viewer(out, track.joints, rig=track.rig, quality=conf,
-                 quality_label="fit confidence (IoU)", fps=track.fps,
+    images = None
+    if frames:
+        recording, why = _recording(track, video)
+        if recording is None:
+            click.echo(f"handvar: note: {why}", err=True)
+        else:
+            images = _viewer_images(track, recording, IMAGE_WIDTH)
+    write_viewer(out, track.joints, surface=hand_surface(track.shape, track.poses),
+                 images=images, rig=track.rig, quality=_curves(track), fps=track.fps,
                  title=f"handvar track: {track.name}")  # fmt: skip
-    click.echo(f"{track.name}: {_frames(track)} -> {out}")
+    size = Path(out).stat().st_size / 1e6
+    click.echo(f"{track.name}: {_frames(track)} -> {out} ({size:.1f} MB)")
