@@ -732,6 +732,21 @@ def test_viewer_frames_are_embedded_as_small_jpegs(poses):
         viewer_html(joints, images=images[:2])
 
 
+def test_viewer_page_keeps_any_title_as_text(poses):
+    """The slashes of the figure's JSON are written plainly; a title with a closing
+    script tag, a slash and an escape's text stays text."""
+    from tests.export_readers import plotly_page
+
+    joints = np.stack([HandModel().joints(x) for x in poses[:2]])
+    title = "a/b </script><b>x</b> \\u002f \\\\u002f"
+    text = viewer_html(joints, title=title)
+    _, layout, _ = plotly_page(text)
+    assert layout["title"]["text"] == title
+    figure = text.split('<div id="', 1)[1]  # after plotly.js
+    assert "\\u002f" not in figure.replace(r"\\u002f", "") and "</script><b>" not in text
+    assert "<title>a/b &lt;/script&gt;&lt;b&gt;x&lt;/b&gt;" in text
+
+
 def test_viewer_labels_its_curves(poses):
     """One curve per quality given, its axis titled by its label; a second on an axis of
     its own."""
