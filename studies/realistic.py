@@ -319,9 +319,10 @@ def scores(
     est_2d = points_2d.reshape(-1, 21, 2)
     row = {"pck": pck_2d(truth_2d, est_2d), "px": mean_point_error(truth_2d, est_2d)[0]}
     if points_3d is None:
-        row.update(mpjpe=np.nan, pa=np.nan, auc=np.nan, abs=np.nan)
+        row.update(mpjpe=np.nan, pa=np.nan, auc=np.nan, abs=np.nan, accel=np.nan)
     else:
         truth = case.joints if truth_axes is None else case.joints @ np.asarray(truth_axes).T
+        row["accel"] = acceleration_error(truth, points_3d)
         seen = np.isfinite(points_3d).all(axis=(1, 2))
         truth, points_3d = truth[seen], points_3d[seen]
         wrist = joint_errors(truth, points_3d, alignment="wrist")
@@ -339,10 +340,55 @@ def scores(
     return row
 
 
-RUNS = ("keypoints", "fit every 1", "fit every 5")
+def acceleration_error(truth: np.ndarray, estimate: np.ndarray) -> float:
+    """Jitter: the mean |Δ²X − Δ²X_true| (mm per frame²) of the wrist-relative joints,
+    over the frames whose neighbours both have an estimate (T, 21, 3 each)."""
+    rel_t = truth - truth[:, :1]
+    rel_e = estimate - estimate[:, :1]
+    accel = lambda a: a[2:] - 2.0 * a[1:-1] + a[:-2]  # noqa: E731
+    d = np.linalg.norm(accel(rel_e) - accel(rel_t), axis=2)
+    return float(np.nanmean(d)) if np.isfinite(d).any() else np.nan
+
+
+def triangulated(case, xy: np.ndarray) -> np.ndarray:
+    """(T, 21, 3) mm: each point of the first two cameras' detections triangulated on
+    its own (``cv2.triangulatePoints``, the baseline of a user with two calibrated
+    cameras); NaN where a camera has none."""
+    import cv2
+
+    a, b = case.rig.cameras[:2]
+    P = [cam.K @ np.hstack([cam.R, cam.t.reshape(3, 1)]) for cam in (a, b)]
+    pa, pb = xy[0].reshape(-1, 2), xy[1].reshape(-1, 2)
+    ok = np.isfinite(pa).all(axis=1) & np.isfinite(pb).all(axis=1)
+    out = np.full((len(pa), 3), np.nan)
+    if ok.any():
+        X = cv2.triangulatePoints(P[0], P[1], pa[ok].T.astype(float), pb[ok].T.astype(float))
+        out[ok] = (X[:3] / X[3]).T
+    return out.reshape(xy.shape[1], -1, 3)
+
+
+def thinned(xy: np.ndarray, every: int, interpolate: bool) -> np.ndarray:
+    """(n_cams, T, 21, 2) detections kept on every `every`-th frame only, the frames between
+    filled by holding the last one or interpolating linearly to the next (which needs
+    the future; beyond the last, held)."""
+    out = np.full_like(xy, np.nan)
+    T = xy.shape[1]
+    for t in range(T):
+        t0 = t - t % every
+        t1 = t0 + every
+        if not interpolate or t1 >= T or t == t0:
+            out[:, t] = xy[:, t0]
+        else:
+            w = (t - t0) / every
+            out[:, t] = (1.0 - w) * xy[:, t0] + w * xy[:, t1]
+    return out
+
+
+RUNS = ("keypoints", "triangulated", "held every 5", "interpolated every 5", "fit every 1",
+        "fit every 5")  # fmt: skip
 COLUMNS = (("pck", "PCK@0.2", "{:.3f}"), ("px", "2D px", "{:.1f}"), ("mpjpe", "MPJPE", "{:.1f}"),
            ("pa", "PA-MPJPE", "{:.1f}"), ("auc", "AUC 20-50", "{:.3f}"),
-           ("abs", "abs 3D", "{:.1f}"), ("lost", "lost", "{:.0f}"),
+           ("abs", "abs 3D", "{:.1f}"), ("accel", "accel", "{:.2f}"), ("lost", "lost", "{:.0f}"),
            ("fail", "check fails", "{:.0f}"), ("rej", "rejected", "{:.0f}"),
            ("track_ms", "ms/frame", "{:.1f}"), ("ms", "with start-up", "{:.0f}"))  # fmt: skip
 
@@ -394,6 +440,25 @@ def overall(rows, label: str, keep) -> list[tuple[str, str, dict]]:
     return out
 
 
+def baseline_rows(case, detector: dict, label: str) -> list:
+    """What a user could do with the detector's output alone: its points and 3D, its
+    points triangulated (two cameras), and its every 5th frame held or interpolated."""
+    xy = detector["xy"]
+    raw_lost = ~np.isfinite(xy[0]).all(axis=(1, 2))
+    raw = scores(case, xy, detector["world"], raw_lost, None, truth_axes=case.rig.cameras[0].R)
+    raw["abs"] = np.nan  # hand-centred: no absolute position
+    rows = [(label, "keypoints", raw)]
+    if xy.shape[0] > 1:
+        points = triangulated(case, xy)
+        lost = ~np.isfinite(points).all(axis=(1, 2))
+        rows.append((label, "triangulated", scores(case, project(case.rig, points), points,
+                                                   lost, None)))  # fmt: skip
+    for run, interpolate in (("held every 5", False), ("interpolated every 5", True)):
+        held = thinned(xy, 5, interpolate)
+        rows.append((label, run, scores(case, held, None, None, None)))
+    return rows
+
+
 def inside_rows(case, case_dir: Path, spec: Spec, base: Path, label: str) -> list:
     """The rows of the one command (``--detector inside``): the detector's own points and
     3D as the track kept them, and the fit, with the detector on every frame and on every
@@ -404,11 +469,7 @@ def inside_rows(case, case_dir: Path, spec: Spec, base: Path, label: str) -> lis
         try:
             seconds, out, detector = run_inside(case_dir, spec, every, out)
             if every == 1:
-                raw_lost = ~np.isfinite(detector["xy"][0]).all(axis=(1, 2))
-                raw = scores(case, detector["xy"], detector["world"], raw_lost, None,
-                             truth_axes=case.rig.cameras[0].R)  # fmt: skip
-                raw["abs"] = np.nan  # hand-centred: no absolute position
-                rows.append((label, "keypoints", raw))
+                rows += baseline_rows(case, detector, label)
             pts, lost = fit_points(out, spec.side)
             row = scores(case, project(case.rig, pts), pts, lost, seconds, out=out)
             row |= check(out, every)
