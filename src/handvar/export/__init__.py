@@ -9,8 +9,9 @@ Every function here takes arrays and model objects (poses (T, 26), a `HandShape`
 - :mod:`~handvar.export.bvh`: the 26 parameters as a BVH skeleton and motion;
 - :mod:`~handvar.export.gltf`: the skinned mesh hand and its animation as glTF 2.0
   binary (.glb);
-- :mod:`~handvar.export.viewer`: one self-contained HTML page with the 3D skeleton over
-  time, the cameras and the quality curve.
+- :mod:`~handvar.export.viewer`: one self-contained HTML page with the hand's surface
+  and skeleton in 3D over time, seen through the camera, the recording's frames beside
+  it and the quality curves.
 
 A frame without a hand (its pose NaN as a whole) keeps its place in every one of them
 (:mod:`~handvar.export.absent`).
