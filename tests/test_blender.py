@@ -173,7 +173,8 @@ def palm_bones(pose: dict, joints: np.ndarray, tol: float = 2e-3) -> list[str]:
 
 
 def _glb_skin_joints(path) -> list[str]:
-    """The names of the skin's joints in a .glb, from its JSON chunk (the glTF 2.0 specification, section 4.4)."""
+    """The names of the skin's joints in a .glb, from its JSON chunk (the glTF 2.0
+    specification, section 4.4)."""
     data = path.read_bytes()
     length = int.from_bytes(data[12:16], "little")
     doc = json.loads(data[20 : 20 + length])
