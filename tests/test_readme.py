@@ -40,9 +40,7 @@ def test_python_blocks_are_found():
     assert len(block) - len(block.lstrip("\n")) == 8  # y = 2 is line 9
 
 
-@pytest.mark.parametrize(
-    "block", BLOCKS, ids=["track", "hand_tracker", "predictor"][: len(BLOCKS)]
-)
+@pytest.mark.parametrize("block", BLOCKS, ids=["track", "hand_tracker", "predictor"][: len(BLOCKS)])
 def test_readme_example_runs(block, tmp_path, monkeypatch):
     (tmp_path / "examples").symlink_to(ROOT / "examples", target_is_directory=True)
     monkeypatch.chdir(tmp_path)
