@@ -15,7 +15,7 @@
   hand, frames as small JPEGs, curves named by what they hold; rendered by headless
   Chromium: no console message, the surface, the skeleton and the frame drawn.
 
-`benchmarks/export_roundtrip.py` prints the same round-trip errors.
+`benchmarks/export_files.py` prints the same round-trip errors.
 """
 
 from __future__ import annotations
