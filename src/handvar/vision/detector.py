@@ -351,7 +351,7 @@ class _Worker:
         read, write = os.pipe()
         self.process = subprocess.Popen(
             [sys.executable, "-m", "handvar.vision.detector", str(write), json.dumps(options)],
-            stdin=subprocess.PIPE, pass_fds=(write,),
+            stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, pass_fds=(write,),
         )  # fmt: skip
         os.close(write)
         self.replies = os.fdopen(read, "rb")
