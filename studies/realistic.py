@@ -36,12 +36,16 @@ model of the shape the track fitted, `handvar.tracking.shape_fit`, read back wit
 
 With ``--detector mediapipe`` the keypoints are MediaPipe Hands' on the rendered
 frames instead (``handvar keypoints CAM --hand SIDE``, run by ``--mediapipe-python``, the
-Python of an environment with ``handvar[mediapipe]``: `make test-mediapipe` makes one in
-``.venv-mediapipe``), given to the fit as (T, 21, 2) pixel files as a user with a
-detector's points only would; the first row scores the detector: its 2D points, and
-its 3D (the world landmarks, hand-centred, in camera 0's axes) in the wrist-relative
-columns.  ``--world`` gives the fit the detector's ``.npz`` instead, its world
-landmarks as the fit's weak 3D cue.
+Python of an environment with ``handvar[mediapipe]``, by default this one), given to the
+fit as (T, 21, 2) pixel files as a user with a detector's points only would; the first
+row scores the detector: its 2D points, and its 3D (the world landmarks, hand-centred,
+in camera 0's axes) in the wrist-relative columns.  ``--world`` gives the fit the
+detector's ``.npz`` instead, its world landmarks as the fit's weak 3D cue.
+``--detector inside`` runs the one command instead (``handvar track CAMS --calib
+calib.yml --out DIR``: the detector inside, nothing else given) and prints beside it
+what a user has without the fit: the detector's points and 3D, its points triangulated
+(two cameras), its every 5th frame held or interpolated, and every 3D estimate's jitter
+(acceleration error).
 
 Run: ``PYTHONPATH=src .venv/bin/python studies/realistic.py`` (about 5–10 minutes on
 two cores); ``--quick`` for a one-minute subset; ``--out DIR`` keeps the generated cases
@@ -499,8 +503,7 @@ def main() -> None:
     )  # fmt: skip
     parser.add_argument(
         "--mediapipe-python", default=sys.executable,
-        help="the Python of an environment with handvar[mediapipe] (MediaPipe pins "
-        "numpy < 2: install it apart)",
+        help="the Python of an environment with handvar[mediapipe] (default: this one)",
     )  # fmt: skip
     parser.add_argument(
         "--silhouette-term", type=float, default=0.0,
