@@ -132,10 +132,14 @@ def init_command(
             masks = np.stack([cut_wrist(m, k) if m.any() else m
                               for m, k in zip(masks, kps, strict=True)])  # fmt: skip
     if kps is not None and not any(np.any(k[:, 2] > 0) for k in kps) and not masks.any():
+        from handvar.vision.keypoints import read_keypoints
+
+        first = min(int(np.argmax(k.present.any(axis=1)))
+                    for k in map(read_keypoints, keypoint_files))  # fmt: skip
         raise ValueError(
             f"--keypoints: expected keypoints or a hand's silhouette in frame {frame}; got "
-            "neither (`handvar track` without --init starts where the keypoints begin); "
-            "nothing written"
+            f"neither: the keypoints begin at frame {first} (--frame {first}; `handvar "
+            "track` without --init starts there); nothing written"
         )
     hand = HandModel(HandShape.from_size(hand_length, side=side))
     result = initial_pose(masks, rig, hand, keypoints=kps, rng=np.random.default_rng(seed))
