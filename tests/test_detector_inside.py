@@ -217,3 +217,17 @@ def test_a_callback_that_takes_images_gets_the_colour_frame_being_fitted():
 
     handvar.track(VIDEO, keypoints=str(KEYPOINTS), frames=4, scale=0.25, on_frame=on_frame)
     assert got == [(i, (180, 320, 3), np.uint8, True) for i in range(4)]
+
+
+def test_init_before_the_hand_says_where_the_keypoints_begin(tmp_path):
+    res = CliRunner().invoke(
+        main, ["init", str(COUNTING), "--keypoints", str(example_path("counting-keypoints")),
+               "--scale", "0.5", "--out", str(tmp_path / "x0.txt")],
+    )  # fmt: skip
+    assert res.exit_code == 2
+    assert "the keypoints begin at frame 111 (--frame 111;" in res.output
+    res = CliRunner().invoke(
+        main, ["init", str(COUNTING), "--keypoints", str(example_path("counting-keypoints")),
+               "--scale", "0.5", "--frame", "111", "--out", str(tmp_path / "x0.txt")],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
