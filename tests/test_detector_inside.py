@@ -231,3 +231,19 @@ def test_init_before_the_hand_says_where_the_keypoints_begin(tmp_path):
                "--scale", "0.5", "--frame", "111", "--out", str(tmp_path / "x0.txt")],
     )  # fmt: skip
     assert res.exit_code == 0, res.output
+
+
+def test_hand_tracker_turns_to_the_side_most_frames_say():
+    # the first hand is labelled left, the next three right: the majority turns at the
+    # third frame and the model is built again as a right hand
+    shipped = read_keypoints(KEYPOINTS)
+    sides = iter(["left", "right", "right", "right"])
+    count = iter(range(4))
+
+    def detect(image):
+        return {"points": shipped.frame(next(count)), "side": next(sides)}
+
+    tracker = handvar.HandTracker(detector=detect)
+    results = [tracker.process(frame) for frame in _frames(VIDEO, 4)]
+    assert tracker.side == "right" and tracker.hand.shape.side == "right"
+    assert not any(r.no_hand for r in results)

@@ -1326,13 +1326,6 @@ class _Once:
         return self._value
 
 
-#: Frames with a detected hand whose handedness decides the side of a track with a
-#: detector and ``hand`` "auto" (`_Stream.decide_side`): a second at 30 fps.  On the
-#: realistic benchmark's renders the majority of 10 gave the true side on 27 of 32 runs,
-#: of 20, 30 or 60 on 29 (docs/detector.md).
-SIDE_FRAMES = 30
-
-
 class _Stream:
     """The per-frame steps ahead of the fit, one frame at a time (docs/live-and-batch.md).
 
@@ -1431,7 +1424,7 @@ class _Stream:
         ValueError
             The detector found no hand in the whole recording.
         """
-        from handvar.vision.detector import vote_side
+        from handvar.vision.detector import SIDE_FRAMES, vote_side
 
         self.hand = hand
         if hand != "auto":

@@ -87,8 +87,9 @@ class HandTracker:
         one assumed camera (`handvar.vision.sources.assumed_camera`, field of view
         `fov`) of the first frame's size.
     hand : {"auto", "right", "left"}, keyword-only
-        The side tracked; "auto": the handedness of the first frame with a hand (a
-        detector that says no side: right).
+        The side tracked; "auto": the handedness of the frames with a hand so far, until
+        `handvar.vision.detector.SIDE_FRAMES` of them (a detector that says no side:
+        right); where the majority turns, the model is built again on the other side.
     detector : {"auto", "mediapipe", "none"} or callable, keyword-only
         The keypoint detector (`handvar.vision.detector.make_detectors`): "auto" is
         MediaPipe Hands when installed, else none (silhouettes alone); a callable
@@ -141,6 +142,7 @@ class HandTracker:
         n = 1 if self.rig is None else len(self.rig)
         self.detectors = make_detectors(detector, n, mirrored=mirrored)
         self.side = None if hand == "auto" else hand
+        self._votes = [] if hand == "auto" else None  # the hands found, while voting
         self.predictor = catalogue_key(as_instance(predictor, str, "predictor"), "predictor")
         self.hand_length = as_float(hand_length, "hand_length", minimum=0.0,
                                     exclusive_minimum=True)  # fmt: skip
@@ -170,7 +172,7 @@ class HandTracker:
         self.rig, self.detectors = tracker.rig, ([] if keyed else None)
         self.recovery = Recovery(tracker, settings=self.settings, cut_wrist=keyed)
         self.frames, self.seconds, self.frame_count = [], [], 0
-        self._carriers, self._skin = None, None
+        self._carriers, self._skin, self._votes = None, None, None  # the side is decided
         return self
 
     # -- one frame ----------------------------------------------------------------------
@@ -284,7 +286,7 @@ class HandTracker:
 
     def _keypoints(self, images, given):
         """Per camera the frame's keypoints, the detector's 3D, whether it looked."""
-        from handvar.vision.detector import choose, vote_side
+        from handvar.vision.detector import choose
 
         if given is not None:
             from handvar.vision.keypoints import as_frame_keypoints
@@ -303,14 +305,30 @@ class HandTracker:
             return None, None, False
         ran = self.frame_count % self.every == 0
         found = [d(image) for d, image in zip(self.detectors, images, strict=True)] if ran else None
-        if found is not None and self.side is None and any(found):
-            self.side = vote_side(found) or "right"
+        if found is not None and self._votes is not None and any(found):
+            self._vote(found)
         chosen = [choose(f, self.side or "auto") for f in found] if found else None
         kps = None if chosen is None else [p for p, _ in chosen]
         world = None if chosen is None or chosen[0][1] is None else chosen[0][1].world
         if self.every > 1:
             kps = self._carry(images, kps)
         return kps, world, ran
+
+    def _vote(self, found) -> None:
+        """With ``hand="auto"``: the side by the handedness of the frames with a hand so
+        far, `SIDE_FRAMES` of them at most (as `handvar.track` decides it before its first
+        fit).  Where the majority turns, the model is built again on the other side and
+        the predictor restarts at the next frame with a hand; the frames returned stay as
+        they were."""
+        from handvar.vision.detector import SIDE_FRAMES, vote_side
+
+        self._votes.extend(found)
+        side = vote_side(self._votes) or "right"
+        if side != self.side:
+            self.side = side
+            self.recovery = None  # built again at this frame (`process`)
+        if sum(1 for f in self._votes if f) >= SIDE_FRAMES * len(found):
+            self._votes = None  # decided
 
     def _carry(self, images, kps):
         """Carried forward by optical flow up to the next detector frame."""
