@@ -655,125 +655,144 @@ def _cost_kernel(
     N = s_bone.shape[0]
     M = pixels.shape[1]
     P = prim_bone.shape[0]
-    p = np.empty(3)
-    J3 = np.empty((3, n_par))
     uv = np.empty(2)
     J2 = np.empty((2, n_par))
-    # world sphere centres and their Jacobians (camera independent)
+    # world sphere centres and surface points, and their Jacobians (camera independent)
     cw = np.empty((P, 2, 3))
     cJ = np.empty((P, 2, 3, n_par))
-    for q in range(P):
-        for e in range(2):
-            _attached(Q, JQ, prim_bone[q], prim_local[q, e], p, J3)
-            cw[q, e] = p
-            cJ[q, e] = J3
+    for e in range(2):
+        _attached_all(Q, JQ, prim_bone, prim_local[:, e], cw[:, e], cJ[:, e])
+    sw = np.empty((N, 3))
+    sJ = np.empty((N, 3, n_par))
+    _attached_all(Q, JQ, s_bone, s_local, sw, sJ)
     pc = np.empty((P, 2, 2))
     prho = np.empty((P, 2))
     visible = np.empty(P, dtype=np.bool_)
     axes = np.zeros((P, 6))
     dth = np.empty((P, 6, n_par))
-    h = np.empty(2)
-    dh6 = np.empty((2, 6))
-    # surface points and their Jacobians (camera independent)
-    sw = np.empty((N, 3))
-    sJ = np.empty((N, 3, n_par))
-    for i in range(N):
-        _attached(Q, JQ, s_bone[i], s_local[i], p, J3)
-        sw[i] = p
-        sJ[i] = J3
     for j in range(cam_k.shape[0]):
-        base = 2 * (N + M) * j
         if not active[j]:
             continue
-        k = cam_k[j]
-        dist = cam_dist[j]
-        R = cam_R[j]
-        t = cam_t[j]
-        u0, v0, w, hgt = roi[j, 0], roi[j, 1], roi[j, 2], roi[j, 3]
-        # C_s: surface samples against the nearest silhouette pixel
-        for i in range(N):
-            z = _project(k, dist, cam_rational[j], R, t, sw[i], sJ[i], uv, J2)
-            row = base + 2 * i
-            if not (z > 0.0 and np.isfinite(uv[0]) and np.isfinite(uv[1])):
-                continue  # behind the camera: no match (rows stay zero)
-            for col in range(n_par):
-                sens[col] += a_s * a_s * (J2[0, col] * J2[0, col] + J2[1, col] * J2[1, col])
-            iu = np.floor(uv[0] + 0.5)
-            iv = np.floor(uv[1] + 0.5)
-            cu = int(min(max(iu - u0, 0.0), w - 1.0))
-            cv = int(min(max(iv - v0, 0.0), hgt - 1.0))
-            nearest = labels[j, cv, cu] - 1  # the silhouette pixel s*(p)
-            tu = silhouette[j, nearest, 0]
-            tv = silhouette[j, nearest, 1]
-            if tu == iu and tv == iv:
-                continue  # inside the silhouette
-            d0 = uv[0] - tu
-            d1 = uv[1] - tv
-            parts[0] += d0 * d0 + d1 * d1
-            e0 = a_s * d0
-            e1 = a_s * d1
-            r[row] = e0
-            r[row + 1] = e1
-            for col in range(n_par):
-                j0 = a_s * J2[0, col]
-                j1 = a_s * J2[1, col]
-                g[col] += e0 * j0 + e1 * j1
-                gn[col] += j0 * j0 + j1 * j1
-                if want_jacobian:
-                    J[row, col] = j0
-                    J[row + 1, col] = j1
-        # C_f: the model's image, cone-spheres as hulls of circles
-        f = 0.5 * (k[0] + k[1])
-        for q in range(P):
-            vis = True
-            for e in range(2):
-                z = _project(k, dist, cam_rational[j], R, t, cw[q, e], cJ[q, e], uv, J2)
-                pc[q, e, 0] = uv[0]
-                pc[q, e, 1] = uv[1]
-                rad = prim_radii[q, e]
-                zz = z * z - rad * rad
-                if z > rad:
-                    rho = f * rad / np.sqrt(zz)
-                else:
-                    rho = 0.0
-                    vis = False
-                prho[q, e] = rho
-                for col in range(n_par):
-                    dth[q, 2 * e, col] = J2[0, col]
-                    dth[q, 2 * e + 1, col] = J2[1, col]
-                    # ρ = f r (z² − r²)^(−1/2): dρ = −ρ z/(z² − r²) dz, dz = R[2] · dc
-                    dz = R[2, 0] * cJ[q, e, 0, col] + R[2, 1] * cJ[q, e, 1, col]
-                    dz += R[2, 2] * cJ[q, e, 2, col]
-                    dth[q, 4 + e, col] = -rho * z / zz * dz if vis else 0.0
-            visible[q] = vis
+        base = 2 * (N + M) * j
+        camera = (cam_k[j], cam_dist[j], cam_rational[j], cam_R[j], cam_t[j])
+        _silhouette_rows(camera, roi[j], labels[j], silhouette[j], sw, sJ, a_s, base,
+                         want_jacobian, r, J, g, parts, sens, gn, uv, J2)  # fmt: skip
+        _model_image(camera, cw, cJ, prim_radii, pc, prho, visible, dth, uv, J2)
         union_axes(pc, prho, visible, axes)
-        for i in range(M):
-            row = base + 2 * N + 2 * i
-            s0 = pixels[j, i, 0]
-            s1 = pixels[j, i, 1]
-            q, d = closest_point_on_union(s0, s1, pc, prho, axes, visible, h, dh6)
-            if q < 0 or d <= 0.0:
-                continue  # covered by the model
-            d0 = h[0] - s0
-            d1 = h[1] - s1
-            parts[1] += d0 * d0 + d1 * d1
-            e0 = a_f * d0
-            e1 = a_f * d1
-            r[row] = e0
-            r[row + 1] = e1
+        _filling_rows(pixels[j], pc, prho, axes, visible, dth, a_f, base + 2 * N,
+                      want_jacobian, r, J, g, parts, gn)  # fmt: skip
+
+
+@njit(cache=True)
+def _silhouette_rows(camera, roi, labels, silhouette, sw, sJ, a_s, base, want_jacobian, r,
+                     J, g, parts, sens, gn, uv, J2):  # fmt: skip  # pragma: no cover
+    """C_s of one camera: each surface sample against the nearest silhouette pixel s*(p),
+    rows from `base`, accumulated into ``g``, ``parts[0]``, ``sens`` and ``gn``."""
+    k, dist, rational, R, t = camera
+    n_par = sJ.shape[2]
+    u0, v0, w, hgt = roi[0], roi[1], roi[2], roi[3]
+    for i in range(sw.shape[0]):
+        z = _project(k, dist, rational, R, t, sw[i], sJ[i], uv, J2)
+        row = base + 2 * i
+        if not (z > 0.0 and np.isfinite(uv[0]) and np.isfinite(uv[1])):
+            continue  # behind the camera: no match (rows stay zero)
+        for col in range(n_par):
+            sens[col] += a_s * a_s * (J2[0, col] * J2[0, col] + J2[1, col] * J2[1, col])
+        iu = np.floor(uv[0] + 0.5)
+        iv = np.floor(uv[1] + 0.5)
+        cu = int(min(max(iu - u0, 0.0), w - 1.0))
+        cv = int(min(max(iv - v0, 0.0), hgt - 1.0))
+        nearest = labels[cv, cu] - 1  # the silhouette pixel s*(p)
+        tu = silhouette[nearest, 0]
+        tv = silhouette[nearest, 1]
+        if tu == iu and tv == iv:
+            continue  # inside the silhouette
+        d0 = uv[0] - tu
+        d1 = uv[1] - tv
+        parts[0] += d0 * d0 + d1 * d1
+        e0 = a_s * d0
+        e1 = a_s * d1
+        r[row] = e0
+        r[row + 1] = e1
+        for col in range(n_par):
+            j0 = a_s * J2[0, col]
+            j1 = a_s * J2[1, col]
+            g[col] += e0 * j0 + e1 * j1
+            gn[col] += j0 * j0 + j1 * j1
+            if want_jacobian:
+                J[row, col] = j0
+                J[row + 1, col] = j1
+
+
+@njit(cache=True)
+def _model_image(camera, cw, cJ, prim_radii, pc, prho, visible, dth, uv,
+                 J2):  # fmt: skip  # pragma: no cover - compiled
+    """The model's image in one camera, cone-spheres as hulls of circles: each sphere's
+    projected centre ``pc`` and radius ``prho`` (0 and not ``visible`` where the camera
+    is inside or behind it), and their derivatives ``dth`` (q, (u0, v0, u1, v1, ρ0, ρ1),
+    parameter)."""
+    k, dist, rational, R, t = camera
+    n_par = cJ.shape[3]
+    f = 0.5 * (k[0] + k[1])
+    for q in range(cw.shape[0]):
+        vis = True
+        for e in range(2):
+            z = _project(k, dist, rational, R, t, cw[q, e], cJ[q, e], uv, J2)
+            pc[q, e, 0] = uv[0]
+            pc[q, e, 1] = uv[1]
+            rad = prim_radii[q, e]
+            zz = z * z - rad * rad
+            if z > rad:
+                rho = f * rad / np.sqrt(zz)
+            else:
+                rho = 0.0
+                vis = False
+            prho[q, e] = rho
             for col in range(n_par):
-                j0 = 0.0
-                j1 = 0.0
-                for c in range(6):
-                    j0 += dh6[0, c] * dth[q, c, col]
-                    j1 += dh6[1, c] * dth[q, c, col]
-                j0 *= a_f
-                j1 *= a_f
-                g[col] += e0 * j0 + e1 * j1
-                gn[col] += j0 * j0 + j1 * j1
-                if want_jacobian:
-                    J[row, col] = j0
-                    J[row + 1, col] = j1
+                dth[q, 2 * e, col] = J2[0, col]
+                dth[q, 2 * e + 1, col] = J2[1, col]
+                # ρ = f r (z² − r²)^(−1/2): dρ = −ρ z/(z² − r²) dz, dz = R[2] · dc
+                dz = R[2, 0] * cJ[q, e, 0, col] + R[2, 1] * cJ[q, e, 1, col]
+                dz += R[2, 2] * cJ[q, e, 2, col]
+                dth[q, 4 + e, col] = -rho * z / zz * dz if vis else 0.0
+        visible[q] = vis
+
+
+@njit(cache=True)
+def _filling_rows(pixels, pc, prho, axes, visible, dth, a_f, base, want_jacobian, r, J, g,
+                  parts, gn):  # fmt: skip  # pragma: no cover - compiled
+    """C_f of one camera: each silhouette pixel sample against the nearest point h of the
+    model's image, rows from `base`, accumulated into ``g``, ``parts[1]`` and ``gn``."""
+    n_par = dth.shape[2]
+    h = np.empty(2)
+    dh6 = np.empty((2, 6))
+    for i in range(pixels.shape[0]):
+        row = base + 2 * i
+        s0 = pixels[i, 0]
+        s1 = pixels[i, 1]
+        q, d = closest_point_on_union(s0, s1, pc, prho, axes, visible, h, dh6)
+        if q < 0 or d <= 0.0:
+            continue  # covered by the model
+        d0 = h[0] - s0
+        d1 = h[1] - s1
+        parts[1] += d0 * d0 + d1 * d1
+        e0 = a_f * d0
+        e1 = a_f * d1
+        r[row] = e0
+        r[row + 1] = e1
+        for col in range(n_par):
+            j0 = 0.0
+            j1 = 0.0
+            for c in range(6):
+                j0 += dh6[0, c] * dth[q, c, col]
+                j1 += dh6[1, c] * dth[q, c, col]
+            j0 *= a_f
+            j1 *= a_f
+            g[col] += e0 * j0 + e1 * j1
+            gn[col] += j0 * j0 + j1 * j1
+            if want_jacobian:
+                J[row, col] = j0
+                J[row + 1, col] = j1
 
 
 # --- the numpy route -----------------------------------------------------------------------

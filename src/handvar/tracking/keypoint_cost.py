@@ -312,83 +312,110 @@ def _robust(d, c, loss):  # pragma: no cover - compiled
 def _joint_kernel(P, JP, cam_k, cam_dist, cam_rational, cam_R, cam_t, kp, has, L, delta,
                   loss, near, scale, a_k, a_z, want_jacobian, r, J, g, gn,
                   parts):  # fmt: skip  # pragma: no cover - compiled
-    """Rows, gradient and unweighted sums of C_k and C_z, in place (see `joint_terms`)."""
+    """Rows, gradient and unweighted sums of C_k and C_z, in place (see `joint_terms`).
+
+    Row layout per camera j (offset 63 j): 42 keypoint rows (C_k), then 21 depth rows
+    (C_z)."""
     n_par = JP.shape[2]
-    n_j = P.shape[0]
     uv = np.empty(2)
     J2 = np.empty((2, n_par))
-    dz = np.empty(n_par)
+    ds = np.empty(n_par)
     de = np.empty((2, n_par))
     row_j = np.empty((2, n_par))
     for j in range(cam_k.shape[0]):
         base = 63 * j
-        k = cam_k[j]
-        R = cam_R[j]
-        t = cam_t[j]
-        # C_z: hinge on every joint's depth
-        for i in range(n_j):
-            z = R[2, 0] * P[i, 0] + R[2, 1] * P[i, 1] + R[2, 2] * P[i, 2] + t[2]
-            if z >= near:
-                continue
-            row = base + 42 + i
-            e = a_z * (near - z)
-            parts[1] += 0.5 * ((near - z) / scale) ** 2
-            r[row] = e
-            for col in range(n_par):
-                jz = -a_z * (R[2, 0] * JP[i, 0, col] + R[2, 1] * JP[i, 1, col]
-                             + R[2, 2] * JP[i, 2, col])  # fmt: skip
-                g[col] += e * jz
-                gn[col] += jz * jz
-                if want_jacobian:
-                    J[row, col] = jz
+        _depth_rows(P, JP, cam_R[j], cam_t[j], near, scale, a_z, base + 42, want_jacobian,
+                    r, J, g, gn, parts)  # fmt: skip
         if not has[j]:
             continue
-        # C_k: the hand size s = f L / z_c at the palm point ½(G_0 + G_9)
-        f = 0.5 * (k[0] + k[1])
-        zc = 0.0
-        for c in range(3):
-            zc += R[2, c] * 0.5 * (P[0, c] + P[9, c])
-        zc += t[2]
-        clamped = zc < near
-        if clamped:
-            zc = near
-        s = f * L / zc
+        camera = (cam_k[j], cam_dist[j], cam_rational[j], cam_R[j], cam_t[j])
+        s = _hand_size(P, JP, camera, L, near, ds)
+        _keypoint_rows(P, JP, camera, kp[j], s, ds, delta, loss, a_k, base, want_jacobian,
+                       r, J, g, gn, parts, uv, J2, de, row_j)  # fmt: skip
+
+
+@njit(cache=True)
+def _depth_rows(P, JP, R, t, near, scale, a_z, base, want_jacobian, r, J, g, gn,
+                parts):  # fmt: skip  # pragma: no cover - compiled
+    """C_z of one camera: a hinge on every joint's depth, rows from `base`."""
+    n_par = JP.shape[2]
+    for i in range(P.shape[0]):
+        z = R[2, 0] * P[i, 0] + R[2, 1] * P[i, 1] + R[2, 2] * P[i, 2] + t[2]
+        if z >= near:
+            continue
+        row = base + i
+        e = a_z * (near - z)
+        parts[1] += 0.5 * ((near - z) / scale) ** 2
+        r[row] = e
         for col in range(n_par):
-            v = 0.0
-            if not clamped:
-                for c in range(3):
-                    v += R[2, c] * 0.5 * (JP[0, c, col] + JP[9, c, col])
-            dz[col] = -s / zc * v  # ds/dx = −s/z_c · dz_c/dx
-        for i in range(n_j):
-            conf = kp[j, i, 2]
-            if not conf > 0.0:
-                continue
-            z = project_point(k, cam_dist[j], cam_rational[j], R, t, P[i], JP[i], uv, J2)
-            if not (z > 0.0 and np.isfinite(uv[0]) and np.isfinite(uv[1])):
-                continue  # behind the camera: C_z pulls it in front
-            e0 = (uv[0] - kp[j, i, 0]) / s
-            e1 = (uv[1] - kp[j, i, 1]) / s
-            dist = np.sqrt(e0 * e0 + e1 * e1)
-            # de/dx = (dπ/dx − e · ds/dx) / s
-            for col in range(n_par):
-                de[0, col] = (J2[0, col] - e0 * dz[col]) / s
-                de[1, col] = (J2[1, col] - e1 * dz[col]) / s
-            rho, beta, dbeta = _robust(dist, delta, loss)
-            parts[0] += conf * rho
-            w = a_k * np.sqrt(conf)
-            row = base + 2 * i
-            r[row] = w * beta * e0
-            r[row + 1] = w * beta * e1
-            # r = w β(d) e: dr/dx = w (β de/dx + e β'(d) dd/dx), dd/dx = eᵀ de/dx / d
-            for col in range(n_par):
-                dd = (e0 * de[0, col] + e1 * de[1, col]) / dist if dist > 0.0 else 0.0
-                row_j[0, col] = w * (beta * de[0, col] + e0 * dbeta * dd)
-                row_j[1, col] = w * (beta * de[1, col] + e1 * dbeta * dd)
-                g[col] += r[row] * row_j[0, col] + r[row + 1] * row_j[1, col]
-                gn[col] += row_j[0, col] * row_j[0, col] + row_j[1, col] * row_j[1, col]
-                if want_jacobian:
-                    J[row, col] = row_j[0, col]
-                    J[row + 1, col] = row_j[1, col]
+            jz = -a_z * (R[2, 0] * JP[i, 0, col] + R[2, 1] * JP[i, 1, col]
+                         + R[2, 2] * JP[i, 2, col])  # fmt: skip
+            g[col] += e * jz
+            gn[col] += jz * jz
+            if want_jacobian:
+                J[row, col] = jz
+
+
+@njit(cache=True)
+def _hand_size(P, JP, camera, L, near, ds):  # pragma: no cover - compiled
+    """The hand size s = f L / z_c in one camera at the palm point ½(G_0 + G_9) (z_c held
+    at `near` in front of the camera), and ds/dx into ``ds``."""
+    k, _, _, R, t = camera
+    f = 0.5 * (k[0] + k[1])
+    zc = 0.0
+    for c in range(3):
+        zc += R[2, c] * 0.5 * (P[0, c] + P[9, c])
+    zc += t[2]
+    clamped = zc < near
+    if clamped:
+        zc = near
+    s = f * L / zc
+    for col in range(JP.shape[2]):
+        v = 0.0
+        if not clamped:
+            for c in range(3):
+                v += R[2, c] * 0.5 * (JP[0, c, col] + JP[9, c, col])
+        ds[col] = -s / zc * v  # ds/dx = −s/z_c · dz_c/dx
+    return s
+
+
+@njit(cache=True)
+def _keypoint_rows(P, JP, camera, kp, s, ds, delta, loss, a_k, base, want_jacobian, r, J, g,
+                   gn, parts, uv, J2, de, row_j):  # fmt: skip  # pragma: no cover
+    """C_k of one camera: each present keypoint against its projected joint, in hand sizes
+    `s`, under the robust loss; rows from `base`."""
+    k, dist_, rational, R, t = camera
+    n_par = JP.shape[2]
+    for i in range(P.shape[0]):
+        conf = kp[i, 2]
+        if not conf > 0.0:
+            continue
+        z = project_point(k, dist_, rational, R, t, P[i], JP[i], uv, J2)
+        if not (z > 0.0 and np.isfinite(uv[0]) and np.isfinite(uv[1])):
+            continue  # behind the camera: C_z pulls it in front
+        e0 = (uv[0] - kp[i, 0]) / s
+        e1 = (uv[1] - kp[i, 1]) / s
+        dist = np.sqrt(e0 * e0 + e1 * e1)
+        # de/dx = (dπ/dx − e · ds/dx) / s
+        for col in range(n_par):
+            de[0, col] = (J2[0, col] - e0 * ds[col]) / s
+            de[1, col] = (J2[1, col] - e1 * ds[col]) / s
+        rho, beta, dbeta = _robust(dist, delta, loss)
+        parts[0] += conf * rho
+        w = a_k * np.sqrt(conf)
+        row = base + 2 * i
+        r[row] = w * beta * e0
+        r[row + 1] = w * beta * e1
+        # r = w β(d) e: dr/dx = w (β de/dx + e β'(d) dd/dx), dd/dx = eᵀ de/dx / d
+        for col in range(n_par):
+            dd = (e0 * de[0, col] + e1 * de[1, col]) / dist if dist > 0.0 else 0.0
+            row_j[0, col] = w * (beta * de[0, col] + e0 * dbeta * dd)
+            row_j[1, col] = w * (beta * de[1, col] + e1 * dbeta * dd)
+            g[col] += r[row] * row_j[0, col] + r[row + 1] * row_j[1, col]
+            gn[col] += row_j[0, col] * row_j[0, col] + row_j[1, col] * row_j[1, col]
+            if want_jacobian:
+                J[row, col] = row_j[0, col]
+                J[row + 1, col] = row_j[1, col]
 
 
 def reprojection_error(G, rig, keypoints, length: float, *, near: float = 100.0) -> float:
