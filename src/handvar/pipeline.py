@@ -1331,7 +1331,7 @@ class _Stream:
 
     For each frame of the source (a recording, played at its own rate or as fast as
     it goes, or a live camera): its keypoints, detected by the detector stage
-    (`handvar.vision.detector.detect_ahead`, in a worker thread ahead of the fit) or
+    (`handvar.vision.detector.detect_ahead`, ahead of the fit) or
     read from a keypoint file, carried by optical flow inside the gaps between
     detections (`handvar.vision.carry`); and its skin-colour silhouettes, computed only
     when the fit asks.  `frames` hands them to the fit; `on_frame` notes when each fit
@@ -1340,7 +1340,12 @@ class _Stream:
 
     def __init__(self, source, detected, *, carry: str, frames: int | None, realtime: bool,
                  detectors: list | None = None, every: int = 1) -> None:  # fmt: skip
-        from handvar.vision.carry import CarrySettings, KeypointCarrier, TwoWayCarrier
+        from handvar.vision.carry import (
+            CARRY_SETTINGS,
+            KeypointCarrier,
+            TwoWayCarrier,
+            until_next_detection,
+        )
         from handvar.vision.skin import SkinModel
 
         self.source = source
@@ -1355,9 +1360,8 @@ class _Stream:
         self.carriers = None  # per camera, carrying forward, or both ways with a delay
         if self.keyed and carry in ("forward", "both"):
             kind = KeypointCarrier if carry == "forward" else TwoWayCarrier
-            settings = CarrySettings()
-            if carry == "forward" and every > 1:  # online: up to the next detector frame
-                settings = CarrySettings(max_frames=min(every - 1, settings.max_frames))
+            online = carry == "forward" and every > 1  # up to the next detector frame
+            settings = until_next_detection(every) if online else CARRY_SETTINGS
             self.carriers = [kind(settings) for _ in source.names]
         self.two_way = carry == "both"
         self.stop = frames
@@ -1491,13 +1495,13 @@ class _Stream:
 
     def _to_tracked(self, points: np.ndarray, camera: int) -> np.ndarray:
         """Full-resolution keypoints (21, 3) in the tracked frames' pixels (``scale``)."""
+        from handvar.vision.keypoints import scaled_pixels
+
         scale = getattr(self.source, "scale", 1.0)
         if self.live or scale == 1.0:
             return points
-        w, h = self.source.readers[camera].size
-        s = np.array([max(1, round(w * scale)) / w, max(1, round(h * scale)) / h])
         out = points.copy()
-        out[:, :2] = (points[:, :2] + 0.5) * s - 0.5
+        out[:, :2] = scaled_pixels(points[:, :2], scale, self.source.readers[camera].size)
         return out
 
     def expected(self) -> int | None:

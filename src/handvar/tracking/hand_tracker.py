@@ -35,6 +35,7 @@ import numpy as np
 from handvar.camera import Rig
 from handvar.hand.anthropometry import SIDES, HandShape
 from handvar.params import N_PARAMS
+from handvar.tracking.recovery import _Frame, _frame_quality, _present
 from handvar.validate import as_float, as_instance, as_int, one_of
 
 __all__ = ["FrameResult", "HandTracker"]
@@ -202,7 +203,7 @@ class HandTracker:
         kps, world, ran = self._keypoints(images, keypoints)
         if self.recovery is None:
             if self.detectors is not None and not _present(kps):  # no hand seen yet
-                return self._kept(_no_hand_frame(), 0.0, None)
+                return self._kept(_Frame.without_hand(), 0.0, None)
             self._start()
         return self.fit(lambda: self._silhouettes(images), kps, world, absent=ran)
 
@@ -210,20 +211,15 @@ class HandTracker:
         """Fit the next frame from its silhouettes (or a callable giving them) and its
         keypoints per camera (None: none); `absent`: the detector looked and found no
         hand (a frame without keypoints is then one without a hand)."""
-        from handvar.tracking.recovery import _frame_quality
-
         keyed = self.detectors is not None
         kps = keypoints if _present(keypoints) else None
         if not keyed and callable(masks):
             masks = masks()
-        f, s = self.recovery.step(masks, kps, world, with_keypoints=keyed,
-                                  absent=absent and kps is None)  # fmt: skip
+        f, s = self.recovery.step(masks, kps, world, with_keypoints=keyed, absent=absent)
         quality = _frame_quality(f.result, f.empty or f.no_hand)
         return self._kept(f, s, kps, quality)
 
     def _kept(self, f, seconds: float, kps, quality=None) -> FrameResult:
-        from handvar.tracking.recovery import _frame_quality
-
         self.frames.append(f)
         self.seconds.append(seconds)
         index, self.frame_count = self.frame_count, self.frame_count + 1
@@ -332,10 +328,10 @@ class HandTracker:
 
     def _carry(self, images, kps):
         """Carried forward by optical flow up to the next detector frame."""
-        from handvar.vision.carry import CarrySettings, KeypointCarrier
+        from handvar.vision.carry import KeypointCarrier, until_next_detection
 
         if self._carriers is None:
-            settings = CarrySettings(max_frames=min(self.every - 1, CarrySettings().max_frames))
+            settings = until_next_detection(self.every)
             self._carriers = [KeypointCarrier(settings) for _ in images]
         kps = kps or [None] * len(images)
         return [c.step(im, k) for c, im, k in zip(self._carriers, images, kps, strict=True)]
@@ -349,16 +345,6 @@ class HandTracker:
         return frame_silhouettes(images, self._skin, index=self.frame_count,
                                  names=self.rig.names, wrist=self.detectors is None,
                                  allow_empty=True)  # fmt: skip
-
-
-def _present(kps) -> bool:
-    return kps is not None and any(k is not None and np.any(np.asarray(k)[:, 2] > 0) for k in kps)
-
-
-def _no_hand_frame():
-    from handvar.tracking.recovery import _Frame
-
-    return _Frame(None, np.full(N_PARAMS, np.nan), no_hand=True)
 
 
 def _images(frames, n: int) -> list[np.ndarray]:

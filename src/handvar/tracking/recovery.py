@@ -425,6 +425,11 @@ class _Frame:
     rejected: int = 0
     distances: np.ndarray | None = None
 
+    @classmethod
+    def without_hand(cls) -> _Frame:
+        """A frame without a hand: nothing fitted, a NaN pose."""
+        return cls(None, np.full(N_PARAMS, np.nan), no_hand=True)
+
 
 class Recovery:
     """Track frame by frame with the keypoint-first fit and a few rules (module notes).
@@ -484,7 +489,7 @@ class Recovery:
         predictor left as it was.
         """
         if absent and kps is None:
-            return _Frame(None, np.full(N_PARAMS, np.nan), no_hand=True)
+            return _Frame.without_hand()
         if kps is not None:
             lazy = masks if callable(masks) else (lambda: masks)
             wanted = self.settings.keypoint_iou or self.fit_settings.silhouette > 0

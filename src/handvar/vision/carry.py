@@ -30,6 +30,7 @@ keypoints at once.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Iterable
 from dataclasses import dataclass
 
@@ -45,6 +46,7 @@ __all__ = [
     "KeypointCarrier",
     "TwoWayCarrier",
     "carry_keypoints",
+    "until_next_detection",
 ]
 
 
@@ -93,6 +95,14 @@ class CarrySettings:
 
 
 CARRY_SETTINGS = CarrySettings()
+
+
+def until_next_detection(every: int, settings: CarrySettings = CARRY_SETTINGS) -> CarrySettings:
+    """`settings` for carrying forward online beside a detector run on every `every`-th
+    frame: no farther than its next frame (``every − 1`` frames, at most
+    ``settings.max_frames``), where a detection that finds nothing means no hand."""
+    every = as_int(every, "every", minimum=2)
+    return dataclasses.replace(settings, max_frames=min(every - 1, settings.max_frames))
 
 
 def _grey(image, name: str) -> np.ndarray:

@@ -83,6 +83,7 @@ __all__ = [
     "choose",
     "hand_side",
     "read_keypoints",
+    "scaled_pixels",
     "vote_side",
     "world_in_mm",
     "write_keypoints",
@@ -367,13 +368,7 @@ class Keypoints2D:
         >>> float(kp.scaled(0.5).xy[0, 0, 0])
         49.5
         """
-        factor = as_float(factor, "factor", minimum=0.0, exclusive_minimum=True)
-        if size is None:
-            s = np.array([factor, factor])
-        else:
-            w, h = (as_int(v, "size", minimum=1) for v in size)
-            s = np.array([max(1, round(w * factor)) / w, max(1, round(h * factor)) / h])
-        return self._with((self.xy + 0.5) * s - 0.5, self.confidence)
+        return self._with(scaled_pixels(self.xy, factor, size), self.confidence)
 
     def every(self, k: int, *, offset: int = 0) -> Keypoints2D:
         """Keep every `k`-th frame (``t ≡ offset mod k``); the others become missing.
@@ -386,6 +381,25 @@ class Keypoints2D:
         keep = (np.arange(self.n_frames) - offset) % k == 0
         conf = np.where(keep[:, None], self.confidence, 0.0)
         return self._with(self.xy, conf, keep)
+
+
+def scaled_pixels(xy, factor: float, size: tuple[int, int] | None = None) -> np.ndarray:
+    """Pixels (…, 2) of a frame mapped to the frame resized by `factor` (`Keypoints2D.scaled`:
+    a pixel centre ``u`` goes to ``(u + ½)·s − ½``, ``s = round(W·factor) / W`` per axis
+    with the frame's size ``(W, H)``, else ``s = factor``).
+
+    Examples
+    --------
+    >>> scaled_pixels(np.array([[99.5, 9.5]]), 0.5).tolist()
+    [[49.5, 4.5]]
+    """
+    factor = as_float(factor, "factor", minimum=0.0, exclusive_minimum=True)
+    if size is None:
+        s = np.array([factor, factor])
+    else:
+        w, h = (as_int(v, "size", minimum=1) for v in size)
+        s = np.array([max(1, round(w * factor)) / w, max(1, round(h * factor)) / h])
+    return (np.asarray(xy, dtype=float) + 0.5) * s - 0.5
 
 
 def as_frame_keypoints(value, name: str = "keypoints") -> np.ndarray:
