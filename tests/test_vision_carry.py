@@ -13,7 +13,7 @@ import pytest
 
 from handvar.data import example_path
 from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
-from handvar.vision.carry import CarrySettings, KeypointCarrier, carry_keypoints
+from handvar.vision.carry import CarrySettings, KeypointCarrier, TwoWayCarrier, carry_keypoints
 from handvar.vision.keypoints import Keypoints2D, read_keypoints
 from handvar.vision.sources import open_source
 
@@ -149,6 +149,20 @@ def test_both_ways_spreads_the_next_detections_disagreement_linearly():
         np.testing.assert_allclose(carried.xy[t], want, atol=0.1)
     forward = carry_keypoints(frames, Keypoints2D.from_array(detected))
     assert np.abs(forward.xy[3] - carried.xy[3]).max() > 0.4  # the blend moved them
+
+
+def test_at_the_end_only_the_frames_the_detector_did_not_look_at_keep_the_forward_carry():
+    base, step = texture(), np.array([1.0, 0.5])
+    frames = [shifted(base, *(t * step)) for t in range(6)]
+    detected = points()
+    carrier = TwoWayCarrier()
+    for t, image in enumerate(frames):
+        carrier.step(image, detected if t == 0 else None)
+    # a detector on every 3rd frame did not look at frames 1, 2: carried forward there
+    ends = dict(carrier.flush(reach=2))
+    for t in (1, 2):
+        np.testing.assert_allclose(ends[t][:, :2], detected[:, :2] + t * step, atol=0.1)
+    assert ends[3] is None and ends[5] is None  # it looked at frame 3 and found no hand
 
 
 def test_both_ways_recovers_a_point_lost_forwards():

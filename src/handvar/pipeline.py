@@ -1589,7 +1589,7 @@ class _Stream:
             self.seconds["keypoints"] += self.clock() - clock
             yield from ready()
         for f, carrier in zip(final, self.carriers, strict=True):
-            f.update(carrier.flush())
+            f.update(carrier.flush(self.every - 1))  # the detector's last frames unseen
         yield from ready()
 
     def on_frame(self, user: Callable | None):

@@ -273,9 +273,18 @@ class TwoWayCarrier:
             return [(t, None)]
         return []
 
-    def flush(self) -> list[tuple[int, np.ndarray | None]]:
-        """The frames still held, after the last detection: none carried there."""
-        out, self._gap = [(t, None) for t, _, _ in self._gap], []
+    def flush(self, reach: int = 0) -> list[tuple[int, np.ndarray | None]]:
+        """The frames still held at the end, after the last detection: none carried
+        there, except to the `reach` frames right after it, which keep the points
+        carried forward (a detector run on every (reach + 1)-th frame did not look at
+        them: `until_next_detection`'s online rule)."""
+        reach = as_int(reach, "reach", minimum=0)
+        last = self._last
+
+        def kept(t, f):
+            return f if last is not None and t - last <= reach else None
+
+        out, self._gap = [(t, kept(t, f)) for t, _, f in self._gap], []
         return out
 
     def _blend(self, grey, detection) -> list[tuple[int, np.ndarray | None]]:
