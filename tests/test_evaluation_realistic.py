@@ -29,9 +29,11 @@ from handvar.evaluation.realistic import (
     GROSS_KINDS,
     DetectorErrors,
     detector_keypoints,
+    personal_shape,
     read_case,
     realistic_case,
 )
+from handvar.hand.anthropometry import HandShape
 from handvar.hand.kinematics import world_from_hand_rotation
 
 SMALL = (320, 180)
@@ -111,6 +113,24 @@ def test_the_same_seed_gives_the_same_case_and_another_seed_another(right_case):
     other = realistic_case("benchmark", seed=4, frames=(60, 64), size=SMALL, distractor="arm",
                            background="fridge")  # fmt: skip
     assert not np.array_equal(other.frames, right_case.frames)
+
+
+def test_a_persons_hand_moves_every_bone_and_knuckle_and_nothing_else():
+    base = HandShape.from_size(185.0, side="left")
+    one = personal_shape(base, 0.08, np.random.default_rng(0))
+    ratios = one.segments / base.segments
+    assert np.ptp(ratios) > 0.05 and np.all(np.abs(np.log(ratios)) < 0.5)
+    assert not np.allclose(one.bases, base.bases)
+    np.testing.assert_array_equal(one.radii, base.radii)
+    assert one.side == "left"
+    def tip(shape):  # wrist → middle fingertip along the bones
+        return shape.bases[2, 1] + shape.segments[2].sum()
+
+    assert one.length / base.length == pytest.approx(tip(one) / tip(base))
+    same = personal_shape(base, 0.08, np.random.default_rng(0))
+    np.testing.assert_array_equal(same.segments, one.segments)
+    flat = personal_shape(base, 0.0, np.random.default_rng(0))
+    np.testing.assert_array_equal(flat.segments, base.segments)
 
 
 def test_a_written_case_reads_back(right_case, tmp_path):

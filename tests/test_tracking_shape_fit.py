@@ -11,7 +11,7 @@ from handvar.hand import HandModel, named_pose
 from handvar.hand.anthropometry import HandShape
 from handvar.hand.kinematics import POSE_NAMES
 from handvar.tracking.frame_fit import fit_frame
-from handvar.tracking.shape_fit import adapt_shape, fit_shape
+from handvar.tracking.shape_fit import DETAIL_FACTORS, ShapeFitSettings, adapt_shape, fit_shape
 
 #: s, palm, thumb, index, middle, ring, little of the hand the keypoints come from
 TRUE = np.array([1.05, 1.08, 0.93, 1.1, 1.05, 0.95, 0.9])
@@ -51,12 +51,35 @@ def test_a_stereo_rig_recovers_every_factor():
     model, rig = HandModel(base), Rig.default()
     poses, kps = frames(rig, truth)
     starts = [fit_frame(k, rig, model, x).pose for k, x in zip(kps, poses, strict=True)]
-    fit = fit_shape(kps, rig, model, starts)
+    fit = fit_shape(kps, rig, model, starts, settings=ShapeFitSettings(detail=0.0))
     assert fit.metric
     np.testing.assert_allclose(fit.factors, TRUE, atol=0.02)  # the prior shrinks a little
     joints = np.array([truth.joints(x) for x in poses])
     fitted = np.array([HandModel(fit.shape).joints(x) for x in fit.poses])
     assert np.linalg.norm(fitted - joints, axis=2).mean() < 1.0  # mm
+
+
+def test_a_stereo_rig_recovers_a_persons_bones_in_detail():
+    """A hand whose every bone and knuckle is off the average proportions (not a shape
+    the seven factors can make): the detail factors bring its joints within 1 mm."""
+    base = HandShape.from_size(185.0)
+    rng = np.random.default_rng(3)
+    detail = np.exp(rng.normal(0.0, 0.04, len(DETAIL_FACTORS)))
+    truth = HandModel(adapt_shape(base, np.r_[TRUE, detail]))
+    model, rig = HandModel(base), Rig.default()
+    poses, kps = frames(rig, truth)
+    starts = [fit_frame(k, rig, model, x).pose for k, x in zip(kps, poses, strict=True)]
+    joints = np.array([truth.joints(x) for x in poses])
+
+    def error(settings):
+        fit = fit_shape(kps, rig, model, starts, settings=settings)
+        fitted = np.array([HandModel(fit.shape).joints(x) for x in fit.poses])
+        return fit, np.linalg.norm(fitted - joints, axis=2).mean()
+
+    fit, detailed = error(ShapeFitSettings())
+    assert fit.factors.shape == (7 + len(DETAIL_FACTORS),)
+    _, seven = error(ShapeFitSettings(detail=0.0))
+    assert detailed < 1.0 < seven  # mm
 
 
 def test_one_camera_keeps_the_given_length_and_moves_the_proportions_towards_the_truth():

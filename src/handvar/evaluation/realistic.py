@@ -701,6 +701,24 @@ def detector_keypoints(truth_2d, hand_size, rng: np.random.Generator,
 # --- the case ------------------------------------------------------------------------------
 
 
+def personal_shape(shape, spread: float, rng: np.random.Generator):
+    """`shape` as one person's hand: the palm's length and breadth each scaled by
+    exp(N(0, spread²)), each digit's three bones by another such factor, and each digit
+    base's position and each bone's length by one of half that spread on top (a
+    person's knuckles keep their arch, a digit's bones their ratios only roughly); the
+    radii kept.  The wrist → middle-tip length changes with them."""
+    spread = as_float(spread, "proportions", minimum=0.0)
+    z = rng.standard_normal
+    bones = np.exp(spread * z((5, 1)) + 0.5 * spread * z((5, 3)))
+    across = np.exp(spread * z() + 0.5 * spread * z(5))
+    along = np.exp(spread * z() + 0.5 * spread * z(5))
+    scale = np.stack([across, along, across], axis=1)
+    tip = (shape.bases[2, 1] * along[2] + (shape.segments[2] * bones[2]).sum()) / (
+        shape.bases[2, 1] + shape.segments[2].sum())  # fmt: skip
+    return dataclasses.replace(shape, segments=shape.segments * bones,
+                               bases=shape.bases * scale, length=shape.length * tip)  # fmt: skip
+
+
 def realistic_case(
     motion: str,
     *,
@@ -714,6 +732,7 @@ def realistic_case(
     size: tuple[int, int] | None = None,
     errors: DetectorErrors = DetectorErrors(),
     settings: SceneSettings = SceneSettings(),
+    proportions: float = 0.0,
 ) -> RealisticCase:
     """Generate a realistic recording of `motion` with its ground truth (module docstring).
 
@@ -739,6 +758,10 @@ def realistic_case(
         Image size (overrides `settings.size`; the focal length scales with the width).
     errors : DetectorErrors, keyword-only
     settings : SceneSettings, keyword-only
+    proportions : float, keyword-only
+        σ of the person's departure from the published average proportions (0: the
+        average hand): each bone's length and each digit base's position along and
+        across the palm scaled by exp(N(0, σ²)), drawn by the seed (`personal_shape`).
 
     Returns
     -------
@@ -774,6 +797,9 @@ def realistic_case(
     w, h = settings.size
     length = float(rng.uniform(172.0, 198.0))
     shape = HandShape.from_size(length, side=side)
+    if proportions > 0:
+        shape = personal_shape(shape, proportions, np.random.default_rng([seed, 21]))
+        length = float(shape.bases[2, 1] + shape.segments[2].sum())
     scene = _HandScene(shape)
     skin = skin if skin is not None else str(rng.choice(list(SKIN_TONES)))
     one_of(skin, tuple(SKIN_TONES), "skin")

@@ -8,8 +8,12 @@ keypoints at once, a few factors of the shape
     θ = (log s, log p, log f_thumb, log f_index, log f_middle, log f_ring, log f_little)
 
 (`adapt_shape`): s scales the whole hand, p the palm along the hand (the distance of
-the digits' base joints from the wrist), f_d the three bones of digit d.  The N frames'
-poses and θ minimise together
+the digits' base joints from the wrist), f_d the three bones of digit d.  With several
+cameras the keypoints are triangulated, and the person's hand is fitted in detail: 25
+factors more (`DETAIL_FACTORS`), each bone's length b_dl and each digit base's position
+across (a_d) and along (p_d) the palm on top of the seven, with a prior of σ_detail
+(`ShapeFitSettings.detail`), so that the model's joints can go where the detector marks
+that person's joints.  The N frames' poses and θ minimise together
 
     Σ_frames E_frame(x_n; θ)  +  ½ |θ / σ_θ|²
 
@@ -46,11 +50,26 @@ from handvar.tracking.frame_fit import (
 )
 from handvar.validate import as_float, as_int
 
-__all__ = ["SHAPE_FIT_DEFAULTS", "ShapeFit", "ShapeFitSettings", "adapt_shape", "fit_shape"]
+__all__ = [
+    "DETAIL_FACTORS",
+    "SHAPE_FIT_DEFAULTS",
+    "ShapeFit",
+    "ShapeFitSettings",
+    "adapt_shape",
+    "fit_shape",
+]
 
 #: Names of the factors θ, in order.
 FACTORS = ("scale", "palm", "thumb", "index", "middle", "ring", "little")
 _N = len(FACTORS)
+_DIGITS = FACTORS[2:]
+#: The detail factors fitted with several cameras, after `FACTORS`: each bone's length,
+#: each digit base's position across (x, and the thumb's z) and along (y) the palm.
+DETAIL_FACTORS = (
+    *(f"{d}_{bone}" for d in _DIGITS for bone in ("proximal", "middle", "distal")),
+    *(f"{d}_base_across" for d in _DIGITS),
+    *(f"{d}_base_along" for d in _DIGITS),
+)
 
 
 @dataclass(frozen=True)
@@ -73,6 +92,10 @@ class ShapeFitSettings:
     min_points : int
         A frame takes part when at least this many keypoints are present in one
         camera; 18.
+    detail : float
+        σ of the prior on the `DETAIL_FACTORS`' logs, fitted with several cameras;
+        0.04 (half the spread: a person's knuckles keep their arch and a digit's bones
+        their ratios more closely than hands differ in size).  0 leaves them out.
     """
 
     frames: int = 12
@@ -80,6 +103,7 @@ class ShapeFitSettings:
     bound: float = 0.3
     iterations: int = 8
     min_points: int = 18
+    detail: float = 0.04
 
     def __post_init__(self) -> None:
         as_int(self.frames, "frames", minimum=1)
@@ -87,6 +111,7 @@ class ShapeFitSettings:
         as_float(self.bound, "bound", minimum=0.0, exclusive_minimum=True)
         as_int(self.iterations, "iterations", minimum=1)
         as_int(self.min_points, "min_points", minimum=1)
+        as_float(self.detail, "detail", minimum=0.0)
 
 
 SHAPE_FIT_DEFAULTS = ShapeFitSettings()
@@ -100,8 +125,9 @@ class ShapeFit:
     ----------
     shape : HandShape
         The adapted shape.
-    factors : (7,) ndarray
-        s, p and the five digits' f (`FACTORS`; not logarithms).
+    factors : (7,) or (32,) ndarray
+        s, p and the five digits' f (`FACTORS`; not logarithms), then the
+        `DETAIL_FACTORS` where they were fitted.
     poses : (N, 26) ndarray
         The frames' poses fitted with it.
     metric : bool
@@ -125,8 +151,10 @@ def adapt_shape(shape: HandShape, factors) -> HandShape:
     Parameters
     ----------
     shape : HandShape
-    factors : (7,) array_like
-        s, p, f_thumb … f_little (`FACTORS`), positive.
+    factors : (7,) or (32,) array_like
+        s, p, f_thumb … f_little (`FACTORS`), positive; then optionally the
+        `DETAIL_FACTORS` (each bone's length, each digit base across and along the
+        palm).
 
     Examples
     --------
@@ -136,12 +164,17 @@ def adapt_shape(shape: HandShape, factors) -> HandShape:
     1.1
     """
     f = np.asarray(factors, dtype=float)
-    if f.shape != (_N,) or not np.all(np.isfinite(f)) or np.any(f <= 0):
-        raise ValueError(f"factors: expected {_N} positive numbers; got {f!r}")
-    s, p, digits = f[0], f[1], f[2:]
+    n_all = _N + len(DETAIL_FACTORS)
+    if f.shape not in ((_N,), (n_all,)) or not np.all(np.isfinite(f)) or np.any(f <= 0):
+        raise ValueError(f"factors: expected {_N} or {n_all} positive numbers; got {f!r}")
+    s, p, digits = f[0], f[1], f[2:_N]
     along = np.array([1.0, p, 1.0])
     segments = s * shape.segments * digits[:, None]
     bases = s * shape.bases * along
+    if len(f) == n_all:
+        segments = segments * f[_N : _N + 15].reshape(5, 3)
+        across, lengthwise = f[_N + 15 : _N + 20], f[_N + 20 :]
+        bases = bases * np.stack([across, lengthwise, across], axis=1)
     # the hand length follows the wrist → middle-fingertip distance
     tip = (bases[2, 1] + segments[2].sum()) / (shape.bases[2, 1] + shape.segments[2].sum())
     return dataclasses.replace(
@@ -208,6 +241,8 @@ def fit_shape(
     # The detector's 3D shapes the proportions but does not set the scale: MediaPipe's
     # world landmarks come at the size of its own average hand (docs/keypoint-fit.md).
     metric = len(rig) > 1
+    n_theta = _N + (len(DETAIL_FACTORS) if metric and settings.detail > 0 else 0)
+    sigma = np.r_[np.full(_N, settings.spread), np.full(n_theta - _N, settings.detail)]
     base = hand.shape
     kps = [_clean(k, len(rig), frame_settings.min_confidence) for k in keypoints]
     s = dataclasses.replace(frame_settings, iterations=1, polish=0)
@@ -236,10 +271,10 @@ def fit_shape(
     def cost(theta, x):
         rs, _ = residuals(theta, x, False)
         fit = sum(float(r @ r) for r in rs)
-        free = theta if metric else theta[1:]
-        return 0.5 * fit + 0.5 * float(free @ free) / settings.spread**2
+        prior = (theta / sigma)[int(not metric) :]
+        return 0.5 * fit + 0.5 * float(prior @ prior)
 
-    theta = np.zeros(_N)
+    theta = np.zeros(n_theta)
     x = poses.copy()
     lam, h = 1e-3, 1e-5
     current = cost(theta, x)
@@ -247,20 +282,20 @@ def fit_shape(
         rs, js = residuals(theta, x, True)
         sizes = [len(r) for r in rs]
         # d r / d θ by forward differences, every frame at once
-        Jt = np.zeros((sum(sizes), _N))
+        Jt = np.zeros((sum(sizes), n_theta))
         r0 = np.concatenate(rs)
-        for a in range(_N):
+        for a in range(n_theta):
             if a == 0 and not metric:
                 continue
-            e = np.zeros(_N)
+            e = np.zeros(n_theta)
             e[a] = h
             plus, _ = residuals(theta + e, x, False)
             Jt[:, a] = (np.concatenate(plus) - r0) / h
         # the normal equations: a 26 x 26 block per frame, θ's block, their coupling
         B = np.zeros((n, N_PARAMS, N_PARAMS))
-        C = np.zeros((n, N_PARAMS, _N))
+        C = np.zeros((n, N_PARAMS, n_theta))
         gx = np.zeros((n, N_PARAMS))
-        D = np.diag(np.full(_N, 1.0 / settings.spread**2))
+        D = np.diag(1.0 / sigma**2)
         gt = D @ theta
         row = 0
         for i, (r, J) in enumerate(zip(rs, js, strict=True)):
@@ -269,7 +304,7 @@ def fit_shape(
             D = D + Ji.T @ Ji
             gt = gt + Ji.T @ r
             row += len(r)
-        free = np.ones(_N, dtype=bool)
+        free = np.ones(n_theta, dtype=bool)
         free[0] = metric  # one camera without 3D: s is not a free factor
         improved = False
         for _ in range(6):

@@ -1,0 +1,164 @@
+"""A still hand before a calibrated stereo pair: the fit's 3D against triangulating the
+detections, for hands of a person's own proportions from small to large.
+
+Each case renders one frame of a realistic recording (`handvar.evaluation.realistic`,
+``proportions`` σ: every bone and every digit base of the person's hand off the average
+proportions) with a stereo pair of 640 × 480 cameras 120 mm apart, 450 mm from the hand,
+and repeats it ``--repeat`` times (the hand held still while the tracker fits its
+shape).  Its keypoints are the true points' projections with Gaussian noise of
+``--noise`` pixels per coordinate, the same on every repeated frame (a detector run on
+the same image twice gives the same points).  The user's stereo way runs on them::
+
+    handvar init cam0 cam1 --calib calib.yml --hand SIDE --keypoints k0.npy --keypoints k1.npy
+    handvar track cam0,cam1 --calib calib.yml --hand SIDE --init x0.txt \\
+        --keypoints k0.npy --keypoints k1.npy --out DIR
+
+and it prints per case and overall the absolute 3D error (mm, the 21 detector points,
+fingertips at the pads) of the fit and of each point triangulated on its own
+(``cv2.triangulatePoints``, what a user without handvar has), their ratio, the
+wrist → middle-MCP length of the truth, the fit and the triangulated points, and the
+hand's length (wrist → middle tip) true and fitted.  The last column is the same done
+with the first camera alone (``--calib`` of that camera, one keypoint file): one
+camera cannot tell the hand's size, so the hand keeps the given 185 mm and its depth
+is off by the size's ratio.
+
+Run: ``PYTHONPATH=src .venv/bin/python studies/stereo_shape.py [--cases 8] [--out DIR]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from handvar.camera import Rig
+from handvar.evaluation.realistic import SceneSettings, realistic_case
+from handvar.hand.anthropometry import MIDDLE_MCP, WRIST, HandLandmark
+from handvar.pipeline import Track
+from handvar.tracking.keypoint_cost import keypoint_points
+
+ROOT = Path(__file__).resolve().parents[1]
+HANDVAR = [sys.executable, "-m", "handvar"]
+sys.path.insert(0, str(ROOT / "studies"))
+from realistic import triangulated  # noqa: E402
+
+SETTINGS = SceneSettings(size=(640, 480), baseline=120.0, distance=450.0)
+MOTIONS = ("counting", "benchmark", "flexion", "flip")
+
+
+def marked(joints: np.ndarray, labels: str) -> np.ndarray:
+    """(21, 3) points a detector marks on a hand whose true points are `joints`:
+    ``"truth"`` the same; ``"detector"`` the thumb's base 0.3 of the way to its MCP, as
+    MediaPipe marks it on real video (+0.22 to +0.33, docs/keypoint-fit.md)."""
+    out = joints.copy()
+    if labels == "detector":
+        cmc, mcp = HandLandmark.THUMB_CMC, HandLandmark.THUMB_MCP
+        out[cmc] += 0.3 * (joints[mcp] - joints[cmc])
+    return out
+
+
+def make_case(k: int, spread: float, repeat: int, noise: float, labels: str,
+              directory: Path):  # fmt: skip
+    """Case `k`: one frame repeated, its noisy keypoints; the case and its files."""
+    motion = MOTIONS[k % len(MOTIONS)]
+    rng = np.random.default_rng([k, 7])
+    frame = int(rng.integers(0, 60))
+    side = ("right", "left")[k % 2]
+    case = realistic_case(motion, cameras=2, side=side, seed=k, frames=(frame, frame + 1),
+                          settings=SETTINGS, proportions=spread)  # fmt: skip
+    case.write(directory / "one")
+    keypoints = []
+    for j in range(2):
+        folder = directory / f"cam{j}"
+        folder.mkdir(parents=True, exist_ok=True)
+        image = (directory / "one" / f"cam{j}" / "00000.jpg").read_bytes()
+        for t in range(repeat):
+            (folder / f"{t:05d}.jpg").write_bytes(image)
+        points = case.rig.cameras[j].project(marked(case.joints[0], labels))
+        points = points + noise * rng.standard_normal((21, 2))
+        path = directory / f"keypoints{j}.npy"
+        np.save(path, np.repeat(points[None], repeat, axis=0))
+        keypoints.append(path)
+    return case, keypoints
+
+
+def run(directory: Path, side: str, keypoints: list[Path], name: str = "fit") -> Path:
+    """The user's way on the cameras of `keypoints` (the first one alone when given
+    one file: its calibration written beside the pair's)."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
+    calib = directory / "one" / "calib.yml"
+    if len(keypoints) == 1:
+        rig = Rig.load(calib)
+        calib = directory / "one" / "calib-cam0.yml"
+        Rig([rig.cameras[0]], [rig.names[0]]).save(calib)
+    cams = [str(directory / f"cam{j}") for j in range(len(keypoints))]
+    common = ["--calib", str(calib), "--hand", side]
+    kps = [a for p in keypoints for a in ("--keypoints", str(p))]
+    x0, out = directory / f"{name}-x0.txt", directory / name
+    for cmd in ([*HANDVAR, "init", *cams, *common, *kps, "--out", str(x0)],
+                [*HANDVAR, "track", ",".join(cams), *common, "--init", str(x0), *kps,
+                 "--out", str(out), "--no-video"]):  # fmt: skip
+        done = subprocess.run(cmd, capture_output=True, text=True, env=env)
+        if done.returncode != 0:
+            raise RuntimeError(f"{' '.join(cmd)}\n{done.stderr.strip()}")
+    return out
+
+
+def fitted(out: Path) -> tuple[np.ndarray, float]:
+    """The track's scored points (T, 21, 3) and its hand's wrist → middle-tip length."""
+    track = Track.load(out)
+    shape = track.hand.shape
+    points = np.stack([keypoint_points(track.hand, x, "pad") for x in track.poses])
+    return points, float(shape.bases[2, 1] + shape.segments[2].sum())
+
+
+def palm(points: np.ndarray) -> float:
+    return float(np.linalg.norm(points[..., MIDDLE_MCP, :] - points[..., WRIST, :], axis=-1).mean())
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--cases", type=int, default=8)
+    parser.add_argument("--proportions", type=float, default=0.08)
+    parser.add_argument("--repeat", type=int, default=15)
+    parser.add_argument("--noise", type=float, default=1.5, help="pixels per coordinate")
+    parser.add_argument("--labels", choices=("truth", "detector"), default="truth",
+                        help="where the keypoints mark the joints (function marked)")
+    parser.add_argument("--out", type=Path, default=None)
+    args = parser.parse_args()
+    base = args.out or Path(tempfile.mkdtemp(prefix="stereo-shape-"))
+    print(f"{args.cases} still hands, proportions σ {args.proportions}, {args.repeat} "
+          f"frames, keypoint noise {args.noise} px, labels {args.labels}; absolute 3D "
+          "error, mm")  # fmt: skip
+    print(f"{'case':28s} {'length: true':>12s} {'fit':>6s} {'stereo fit':>10s} "
+          f"{'tri.':>6s} {'ratio':>6s} {'palm: true':>10s} {'fit':>6s} {'tri.':>6s} "
+          f"{'mono fit':>8s}")  # fmt: skip
+    rows = []
+    for k in range(args.cases):
+        directory = base / f"case{k}"
+        case, keypoints = make_case(k, args.proportions, args.repeat, args.noise, args.labels,
+                                    directory)  # fmt: skip
+        truth = case.joints[0]
+        fit, length = fitted(run(directory, case.side, keypoints))
+        mono, _ = fitted(run(directory, case.side, keypoints[:1], "mono"))
+        tri = triangulated(case, np.stack([np.load(p) for p in keypoints]))
+        e = [float(np.linalg.norm(p - truth, axis=-1).mean()) for p in (fit, tri, mono)]
+        rows.append(e)
+        print(f"{case.name:28s} {case.hand_length:12.1f} {length:6.1f} {e[0]:10.1f} "
+              f"{e[1]:6.1f} {e[0] / e[1]:6.2f} {palm(truth):10.1f} {palm(fit):6.1f} "
+              f"{palm(tri):6.1f} {e[2]:8.1f}")  # fmt: skip
+    f, t, m = np.mean(rows, axis=0)
+    worst = max(r[0] / r[1] for r in rows)
+    print(f"{'mean':28s} {'':12s} {'':6s} {f:10.1f} {t:6.1f} {f / t:6.2f} "
+          f"{'':10s} {'':6s} {'':6s} {m:8.1f}")  # fmt: skip
+    print(f"the fit over triangulation: {f / t:.2f} on average, {worst:.2f} at worst; "
+          f"one camera (the given 185 mm hand): {m:.1f} mm")
+
+
+if __name__ == "__main__":
+    main()
