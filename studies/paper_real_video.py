@@ -24,7 +24,8 @@ they are not the truth, and they are not given to the tracker.  Printed per pred
   silhouettes.
 
 Run: ``PYTHONPATH=src .venv/bin/python studies/paper_real_video.py`` (about 5 minutes;
-``--videos`` adds the clips; ``--predictors rvar,decel`` for some only; ``--frames N``
+``--videos`` adds the clips, ``--video NAME`` runs one; ``--predictors rvar,decel`` for
+some only; ``--frames N``
 for the first N frames; ``--seed S``).
 """
 
@@ -167,13 +168,16 @@ def table(results: dict) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--videos", action="store_true", help="add the two clips")
+    parser.add_argument("--video", action="append", choices=VIDEOS,
+                        help="this video only (repeatable)")
     parser.add_argument("--predictors", default=",".join(PREDICTORS))
     parser.add_argument("--frames", type=int, default=None)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
     predictors = [p.strip() for p in args.predictors.split(",") if p.strip()]
     results = {}
-    for name in VIDEOS if args.videos else VIDEOS[:1]:
+    names = args.video or (VIDEOS if args.videos else VIDEOS[:1])
+    for name in names:
         print(f"{name}: {example_path(name).name}", flush=True)
         results[name] = run(name, predictors, args.frames, args.seed)
     print()
