@@ -358,18 +358,21 @@ def test_a_recording_that_starts_without_a_hand_writes_its_outputs(tmp_path):
     assert np.isnan(poses[0]).all() and np.isfinite(poses[-1]).all()
 
 
-def test_a_recording_is_carried_both_ways_by_default_but_not_past_its_last_detection():
-    # the frames after the last detection (11, 12) are given out when the recording ends,
-    # without keypoints: frames without a hand (tests/test_live_batch.py compares the
-    # carry with the whole recording's)
+def test_a_recording_is_carried_both_ways_by_default_and_forwards_past_its_last_detection():
+    # the frames after the last detection (11, 12), which the detector on every 5th frame
+    # skipped, are given out when the recording ends with the points carried forwards
+    # (tests/test_live_batch.py compares the carry with the whole recording's)
     detected = read_keypoints(KEYPOINTS)
     t = handvar.track(VIDEO, keypoints=detected, frames=13, keypoint_every=5, scale=0.5)
     assert t.options["carry"] == "both"
-    whole = open_source(VIDEO, scale=0.5).carried_keypoints([detected.every(5)], 13, both=True)
+    source = open_source(VIDEO, scale=0.5)
+    whole = source.carried_keypoints([detected.every(5)], 13, both=True, every=5)
     np.testing.assert_array_equal(t.keypoints[0].to_array(), whole[0].to_array()[:13])
-    assert t.keypoints[0].present[:11].any(axis=1).all()
-    assert not t.keypoints[0].present[11:].any()
-    assert np.isnan(t.poses[11:]).all() and t.quality.no_hand[11:].all()
+    assert t.keypoints[0].present.any(axis=1).all()
+    assert np.isfinite(t.poses).all() and not t.quality.no_hand.any()
+    # with the detector on every frame nothing is carried past the last detection
+    unseen = source.carried_keypoints([detected.every(5)], 13, both=True)
+    assert not unseen[0].present[11:13].any()
 
 
 @pytest.mark.parametrize("carry", [False, True])

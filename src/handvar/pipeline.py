@@ -954,7 +954,8 @@ def _open_recording(spec, options: TrackOptions, decided: TrackDefaults, detecte
     clock = time.perf_counter()
     used = detected
     if decided.carry != "none":
-        used = opened.carried_keypoints(detected, stop=frames, both=decided.carry == "both")
+        used = opened.carried_keypoints(detected, stop=frames, both=decided.carry == "both",
+                                        every=options.keypoint_every)  # fmt: skip
     elif detected is not None:
         used = opened.scaled_keypoints(detected)
     stage_seconds["keypoints"] = time.perf_counter() - clock

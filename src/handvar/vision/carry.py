@@ -326,6 +326,7 @@ def carry_keypoints(
     settings: CarrySettings = CARRY_SETTINGS,
     *,
     both: bool = False,
+    every: int = 1,
 ) -> Keypoints2D:
     """One camera's keypoints carried by optical flow over the frames without a detection.
 
@@ -340,6 +341,10 @@ def carry_keypoints(
     both : bool, keyword-only
         Also carry the next detection backwards, and blend (`TwoWayCarrier`): not
         causal, a frame's keypoints wait for the next detection.
+    every : int, keyword-only
+        The detector ran on every `every`-th frame: carried both ways, the frames after
+        the last detection that it skipped (``every − 1`` at most) keep the points
+        carried forward (`TwoWayCarrier.flush`).
 
     Returns
     -------
@@ -354,7 +359,7 @@ def carry_keypoints(
         two_way = TwoWayCarrier(settings)
         done = [d for t, image in frames
                 for d in two_way.step(_grey(image, "images"), keypoints.frame(t))]  # fmt: skip
-        done += two_way.flush()
+        done += two_way.flush(as_int(every, "every", minimum=1) - 1)
     else:
         forward = KeypointCarrier(settings)
         done = [(t, forward.step(_grey(image, "images"), keypoints.frame(t)))

@@ -372,8 +372,9 @@ class VideoSource:
         return out
 
     def carried_keypoints(
-        self, keypoints, stop: int | None = None, settings=None, *, both: bool = False
-    ):
+        self, keypoints, stop: int | None = None, settings=None, *, both: bool = False,
+        every: int = 1,
+    ):  # fmt: skip
         """Per-camera keypoints carried by optical flow between detections (design §14.5).
 
         Parameters
@@ -387,6 +388,8 @@ class VideoSource:
         both : bool, keyword-only
             Carry each detection backwards too, and blend (not causal;
             `handvar.vision.carry.carry_keypoints`).
+        every : int, keyword-only
+            The detector ran on every `every`-th frame (`carry_keypoints`).
 
         Returns
         -------
@@ -404,7 +407,11 @@ class VideoSource:
             None
             if k is None
             else carry_keypoints(
-                (images[j] for _, images in self.frames(0, stop)), k, settings, both=both
+                (images[j] for _, images in self.frames(0, stop)),
+                k,
+                settings,
+                both=both,
+                every=every,
             )
             for j, k in enumerate(scaled)
         ]
