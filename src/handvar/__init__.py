@@ -13,7 +13,9 @@ optimisers)::
 
 - `track`, `Track`: the whole pipeline in one call (`handvar.pipeline`);
 - `HandTracker`, `FrameResult`: the per-frame tracker, ``tracker.process(frame)``
-  (`handvar.tracking.hand_tracker`);
+  (`handvar.tracking.hand_tracker`); `HandsTracker`, `HandsResult`, `HandsTrack`: both
+  hands at once, each under an identity kept by tracking (`handvar.tracking.hands`,
+  ``handvar.track(..., hands=2)``);
 - `HandModel`, `HandShape`: the hand model (`handvar.hand`);
 - the motion predictors (`RVAR`, `VAR`, `AdaptiveBank`, ...; `handvar.predictors`) and
   `make_predictor` (by name, `handvar.predictors.catalogue`).
@@ -30,6 +32,9 @@ __version__ = "0.1.0"
 _LAZY = {
     "track": "handvar.pipeline",
     "Track": "handvar.pipeline",
+    "HandsTrack": "handvar.pipeline",
+    "HandsTracker": "handvar.tracking.hands",
+    "HandsResult": "handvar.tracking.hands",
     "HandTracker": "handvar.tracking.hand_tracker",
     "FrameResult": "handvar.tracking.hand_tracker",
     "HandModel": "handvar.hand.kinematics",
@@ -57,6 +62,9 @@ __all__ = [
     "HandModel",
     "HandShape",
     "HandTracker",
+    "HandsResult",
+    "HandsTrack",
+    "HandsTracker",
     "KalmanCV",
     "NoMotion",
     "OfflineVAR",
@@ -71,7 +79,7 @@ __all__ = [
 if TYPE_CHECKING:  # what static checkers and editors see
     from handvar.hand.anthropometry import HandLandmark, HandShape
     from handvar.hand.kinematics import HandModel
-    from handvar.pipeline import Track, track
+    from handvar.pipeline import HandsTrack, Track, track
     from handvar.predictors import (
         RVAR,
         VAR,
@@ -85,6 +93,7 @@ if TYPE_CHECKING:  # what static checkers and editors see
     )
     from handvar.predictors.catalogue import make_predictor
     from handvar.tracking.hand_tracker import FrameResult, HandTracker
+    from handvar.tracking.hands import HandsResult, HandsTracker
 
 
 def __getattr__(name: str):

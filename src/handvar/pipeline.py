@@ -66,7 +66,17 @@ from handvar.hand.anthropometry import JOINTS, SIDES, HandShape
 from handvar.params import NAMES
 from handvar.validate import as_float, as_instance, as_int, one_of
 
-__all__ = ["CARRY", "KEYPOINT_TIPS", "MODELS", "Track", "paced_frames", "track"]
+__all__ = [
+    "CARRY",
+    "KEYPOINT_TIPS",
+    "MODELS",
+    "HandsTrack",
+    "Track",
+    "paced_frames",
+    "project_joints",
+    "track",
+    "track_hands",
+]
 
 #: How detected keypoints are carried over the frames without a detection (design §14.5).
 CARRY: tuple[str, ...] = ("forward", "both", "none")
@@ -350,7 +360,7 @@ class Track:
             shape = _default_shape(result.poses, result.joints, path)
         if rig is not None:
             rig = as_instance(rig, Rig, "rig", what="a Rig")
-            projected = _project(rig, result.joints)
+            projected = project_joints(rig, result.joints)
         else:
             if (folder / "cameras.yml").is_file():
                 rig = Rig.load(folder / "cameras.yml")
@@ -361,7 +371,7 @@ class Track:
             elif "projected" in stored:
                 projected = stored["projected"]
             else:
-                projected = _project(rig, result.joints)
+                projected = project_joints(rig, result.joints)
         quality = None
         if f"{_QUALITY_PREFIX}iou" in stored:
             quality = TrackQuality(**{
@@ -475,7 +485,7 @@ def _default_shape(poses: np.ndarray, joints: np.ndarray, path: Path) -> HandSha
     return shape
 
 
-def _project(rig: Rig, joints: np.ndarray) -> np.ndarray:
+def project_joints(rig: Rig, joints: np.ndarray) -> np.ndarray:
     """(n_cameras, T, 21, 2) pixels of the (T, 21, 3) `joints` in every camera of `rig`;
     NaN where a frame has no pose (before the hand was first seen)."""
     T = joints.shape[0]
@@ -516,6 +526,7 @@ def track(
     on_frame: Callable | None = None,
     realtime: bool = False,
     detector="auto",
+    hands: int = 1,
 ) -> Track:
     """Track the hand through a recording or a sequence (module notes: the defaults).
 
@@ -596,10 +607,16 @@ def track(
         (`handvar.vision.detector.user_detector`).  It runs on every `keypoint_every`-th
         frame, in a worker thread ahead of the fit; what it found is the track's
         ``detected``.
+    hands : {1, 2}
+        2: both hands, each under an identity kept by tracking (`track_hands`, which
+        returns a `HandsTrack`); a recording with the detector inside, without the
+        options of one hand (``keypoints``, ``init``, ``hand``, ``keypoint_every``,
+        ``carry``, ``realtime``, ...).
 
     Returns
     -------
     Track
+        (A `HandsTrack` with ``hands=2``.)
 
     Raises
     ------
@@ -607,6 +624,27 @@ def track(
         Naming the argument at fault (``keypoint_every: expected ...``), before any
         frame is read where it can be.
     """
+    if as_int(hands, "hands", minimum=1, maximum=2) == 2:
+        alone = {
+            "keypoints": keypoints,
+            "hand": hand,
+            "init": init,
+            "carry": carry,
+            "keypoint_tips": keypoint_tips,
+            "recover": recover,
+            "recovery": recovery,
+            "on_frame": on_frame,
+            "realtime": realtime or None,
+            "allow_short": allow_short or None,
+            "keypoint_every": None if keypoint_every == 1 else keypoint_every,
+        }
+        given = [k for k, v in alone.items() if v is not None]
+        if given:
+            raise ValueError(f"{', '.join(given)}: expected none with hands=2 (one hand's "
+                             f"options); got {', '.join(given)}")  # fmt: skip
+        return track_hands(source, calib=calib, fov=fov, scale=scale, hand_length=hand_length,
+                           model=model, predictor=predictor, seed=seed, frames=frames,
+                           progress=progress, detector=detector)  # fmt: skip
     options = TrackOptions.checked(
         keypoints=keypoints, calib=calib, fov=fov, scale=scale, hand=hand,
         hand_length=hand_length, model=model, predictor=predictor, init=init,
@@ -1082,7 +1120,7 @@ def _assemble(fitted: _Fitted, opened: _Opened, options: TrackOptions,
     }  # fmt: skip
     return Track(
         poses=result.poses, joints=result.joints,
-        projected=_project(opened.full_rig, result.joints), quality=fitted.quality,
+        projected=project_joints(opened.full_rig, result.joints), quality=fitted.quality,
         rig=opened.full_rig, shape=fitted.hand.shape, name=sequence.name,
         predictor=options.predictor, seed=options.seed,
         fps=None if sequence.fps is None else float(sequence.fps), result=result,
@@ -1741,3 +1779,189 @@ def _with_dropped(recovered, rows: np.ndarray, n: int):
         for f in dataclasses.fields(TrackQuality)
     })  # fmt: skip
     return result, quality
+
+
+# --- both hands ------------------------------------------------------------------------
+
+#: Colours (RGB) the overlay draws each side in.
+SIDE_RGB = {"right": (255, 150, 40), "left": (60, 200, 255)}
+
+
+@dataclass(eq=False)
+class HandsTrack:
+    """Both hands of a recording, tracked.
+
+    Attributes
+    ----------
+    tracks : dict
+        Hand id → its `Track` (``track.shape.side``: its side); only the hands seen.
+    name : str
+    fps : float or None
+    seconds : (T,) ndarray
+        Wall time of each frame (assignment and fits), seconds.
+    source : VideoSource or None
+        The recording, for the overlay.
+    """
+
+    tracks: dict
+    name: str
+    fps: float | None
+    seconds: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    source: object = field(default=None, repr=False)
+
+    @property
+    def n_frames(self) -> int:
+        return len(self.seconds)
+
+    def side(self, side: str) -> Track | None:
+        """The track of the hand of `side`, or None."""
+        return next((t for t in self.tracks.values() if t.shape.side == side), None)
+
+    def save(self, directory: str | os.PathLike, *, video: bool = True) -> dict[str, Path]:
+        """Write each hand's track into ``directory/<side>/`` (as one hand's ``--out``,
+        without its own overlay), ``hands.json`` (id, side, folder of each) and, with
+        `video`, ``overlay.mp4``: both hands over the frames, each side in its colour."""
+        out = Path(directory)
+        out.mkdir(parents=True, exist_ok=True)
+        written: dict[str, Path] = {}
+        listing = []
+        for k, t in sorted(self.tracks.items()):
+            side = t.shape.side
+            t.save(out / side, video=False, overlays=False)
+            written[side] = out / side
+            listing.append({"id": k, "side": side, "directory": side})
+        index = out / "hands.json"
+        index.write_text(json.dumps({"name": self.name, "fps": self.fps, "hands": listing},
+                                    indent=2) + "\n")  # fmt: skip
+        written["hands"] = index
+        if video and self.source is not None and self.tracks:
+            written["video"] = self._overlay(out / "overlay.mp4")
+        return written
+
+    def _overlay(self, path: Path) -> Path:
+        import cv2
+
+        from handvar.render.overlay import OverlayWriter, draw_overlay, side_by_side
+
+        rig = next(iter(self.tracks.values())).rig
+        with OverlayWriter(path, self.fps or 30.0) as writer:
+            for t, _, originals in self.source.frames(stop=self.n_frames, originals=True):
+                views = []
+                for j, image in enumerate(originals):
+                    rgb = cv2.cvtColor(image, cv2.COLOR_BGR2RGB)
+                    for track in self.tracks.values():
+                        joints, side = track.joints[t], track.shape.side
+                        if not np.isfinite(joints).all():
+                            continue  # not in this frame
+                        rgb = draw_overlay(rgb, rig.cameras[j], joints, colour=SIDE_RGB[side])
+                        x, y = track.projected[j, t, 0]
+                        cv2.putText(rgb, side, (int(x) + 8, int(y) + 16), cv2.FONT_HERSHEY_SIMPLEX,
+                                    0.6, SIDE_RGB[side], 2, cv2.LINE_AA)  # fmt: skip
+                    views.append(rgb)
+                frame = side_by_side(views, list(rig.names))
+                writer.write(cv2.cvtColor(frame, cv2.COLOR_RGB2BGR))
+        return writer.path_written
+
+
+def track_hands(
+    source,
+    *,
+    calib=None,
+    fov: float | None = None,
+    scale: float = 1.0,
+    hands: int = 2,
+    hand_length: float = 185.0,
+    model: str = "spheres",
+    predictor: str = "rvar",
+    seed: int = 0,
+    frames: int | None = None,
+    progress: bool = False,
+    detector="auto",
+    mirrored: bool = False,
+) -> HandsTrack:
+    """Track both hands through a recording (module notes).
+
+    Parameters
+    ----------
+    source : str, path-like, or list of them
+        A video file or an image folder, or one per camera of `calib`.
+    calib, fov, scale, hand_length, model, predictor, seed, frames, progress
+        As `handvar.track`.
+    hands : {1, 2}
+        Hands tracked at most.
+    detector : {"auto", "mediapipe"} or callable
+        The keypoint detector (`handvar.vision.detector.make_detectors`); a detector is
+        needed (the hands' identities come from its detections).
+    mirrored : bool
+        MediaPipe: the frames are mirrored (a selfie camera).
+
+    Returns
+    -------
+    HandsTrack
+    """
+    from handvar.tracking.hands import HandsTracker
+    from handvar.vision.detector import detect_ahead, make_detectors
+    from handvar.vision.sources import open_source
+
+    hands = as_int(hands, "hands", minimum=1, maximum=2)
+    scale = as_float(scale, "scale", minimum=0.0, exclusive_minimum=True)
+    frames = None if frames is None else as_int(frames, "frames", minimum=1)
+    if model == "mesh":
+        raise ValueError("model: expected spheres with two hands (the skinned mesh is a "
+                         "right hand); got mesh")  # fmt: skip
+    paths = [p for p in str(source).split(",")] if isinstance(source, str) else source
+    paths = list(paths) if isinstance(paths, list | tuple) else [paths]
+    opened = open_source(paths, calib, fov=fov, scale=scale)
+    full = opened.rig if scale == 1.0 else open_source(paths, calib, fov=fov).rig
+    detectors = make_detectors("mediapipe" if detector == "auto" else detector,
+                               opened.n_cameras, mirrored=mirrored)  # fmt: skip
+    if detectors is None:
+        raise ValueError("detector: expected a keypoint detector with hands=2; got none")
+    tracker = HandsTracker(opened.rig, hands=hands, detector=None, predictor=predictor,
+                           hand_length=hand_length, model=model, seed=seed)  # fmt: skip
+    sizes = [r.size for r in opened.readers]
+    feed = ((i, 0.0, images, originals)
+            for i, images, originals in opened.frames(stop=frames, originals=True))  # fmt: skip
+    items = detect_ahead(feed, detectors)
+    if progress:
+        from tqdm import tqdm
+
+        total = opened.n_frames if frames is None else min(frames, opened.n_frames)
+        items = tqdm(items, total=total, desc="tracking", unit="frame", leave=False)
+    seconds = []
+    for _, _, images, found in items:
+        given = [
+            [_scaled(d, scale, size) for d in ds] for ds, size in zip(found, sizes, strict=True)
+        ]
+        t0 = time.perf_counter()
+        tracker.process(images, detections=given)
+        seconds.append(time.perf_counter() - t0)
+    tracks = {}
+    for h in tracker.hands:
+        if h.tracker.recovery is None:  # never seen
+            continue
+        r = h.tracker.recovered(keypoints=True)
+        tracks[h.id] = Track(
+            poses=r.track.poses, joints=r.track.joints,
+            projected=project_joints(full, r.track.joints), quality=r.quality, rig=full,
+            shape=r.shape, name=opened.names[0] if opened.names else "recording",
+            predictor=predictor, seed=seed, fps=opened.fps, result=r.track,
+            options={"hands": hands, "scale": scale, "hand_length": hand_length,
+                     "model": model, "hand": h.side, "keypoints": True, "recover": True,
+                     "detector": "mediapipe" if detector == "auto" else "user"},
+        )  # fmt: skip
+    return HandsTrack(tracks, opened.names[0] if opened.names else "recording", opened.fps,
+                      np.asarray(seconds), source=opened)  # fmt: skip
+
+
+def _scaled(d, scale: float, size):
+    """A detection of a full-resolution frame in the frame resized by `scale`."""
+    if scale == 1.0:
+        return d
+    import dataclasses
+
+    from handvar.vision.keypoints import scaled_pixels
+
+    points = d.points.copy()
+    points[:, :2] = scaled_pixels(points[:, :2], scale, size)
+    return dataclasses.replace(d, points=points)

@@ -68,6 +68,10 @@ def _check_predictor(ctx, param, value: str) -> str:
                    "(pip install 'handvar[mediapipe]'), else none (skin-colour silhouettes "
                    "alone, for plain backgrounds). Its points are kept in OUT/keypoints.npz "
                    "and reused by a rerun into OUT.")  # fmt: skip
+@click.option("--hands", type=click.IntRange(min=1, max=2), default=1, show_default=True,
+              help="Hands tracked: 2 tracks both, each under an identity kept by tracking "
+                   "(OUT/left/, OUT/right/, OUT/hands.json; a recording with the detector "
+                   "inside).")  # fmt: skip
 @click.option("--model", type=click.Choice(("spheres", "mesh")), default="spheres",
               show_default=True, help="Surface of the tracked hand model.")  # fmt: skip
 @click.option("--keypoints", "keypoint_files", multiple=True, type=click.Path(dir_okay=False),
@@ -109,7 +113,7 @@ def _check_predictor(ctx, param, value: str) -> str:
 @_one_line_errors
 @_locks_out
 def track_command(
-    seq, predictor, init, seed, n_frames, out, video, hand_length, side, detector, model,
+    seq, predictor, init, seed, n_frames, out, video, hand_length, side, detector, hands, model,
     keypoint_files, keypoint_every, carry, keypoint_tips, silhouette_term, recover, camera,
     realtime, show, scheduler, workers, calib, fov, scale,
 ) -> None:  # fmt: skip
@@ -164,6 +168,13 @@ def track_command(
         recovery = RECOVERY_DEFAULTS.with_silhouette_term(silhouette_term)
     allow_short = click.get_current_context().meta.get("handvar.allow_short", False)
     _check_sources(seq, camera, realtime, show, scheduler, workers)
+    if hands == 2:
+        _track_hands(seq, out, video, keypoint_files=keypoint_files, camera=camera,
+                     realtime=realtime, side=side, init=init, keypoint_every=keypoint_every,
+                     carry=carry, predictor=predictor, seed=seed, frames=n_frames,
+                     hand_length=hand_length, model=model, detector=detector, calib=calib,
+                     fov=fov, scale=scale)  # fmt: skip
+        return
     if len(seq) > 1:
         _track_batch(
             seq, out, keypoint_files, video, scheduler, workers, calib=calib, fov=fov,
@@ -193,6 +204,38 @@ def track_command(
         )  # fmt: skip
     written = _save_track(result, out, video, reused)
     _print_summary(result, written, out, predictor, seed)
+
+
+def _track_hands(seq, out, video: bool, *, keypoint_files, camera, realtime, side, init,
+                 keypoint_every, carry, detector, **options) -> None:  # fmt: skip
+    """--hands 2: both hands of one recording (`handvar.pipeline.track_hands`)."""
+    from handvar.cli.common import STARTED
+    from handvar.pipeline import track
+
+    alone = {"--keypoints": bool(keypoint_files), "--camera": camera is not None,
+             "--realtime": realtime, "--hand": side is not None, "--init": init is not None,
+             "--keypoint-every": keypoint_every != 1, "--carry": carry is not None,
+             "SEQ": len(seq) != 1}  # fmt: skip
+    given = [name for name, on in alone.items() if on]
+    if given:
+        raise ValueError(f"{', '.join(given)}: expected none with --hands 2 (one recording, "
+                         f"the detector inside); got {', '.join(given)}")  # fmt: skip
+    if detector == "none":
+        raise ValueError("--detector: expected auto or mediapipe with --hands 2; got none")
+    with _option_names(seq[0]):
+        result = track(seq[0], hands=2, progress=True, detector=detector, **options)
+    written = result.save(out, video=video)
+    fps = result.n_frames / max(time.perf_counter() - STARTED, 1e-9)
+    video_note = " (with overlay.mp4)" if "video" in written else ""
+    click.echo(f"{result.name}: {result.n_frames} frames, both hands, {fps:.1f} frames/s "
+               f"all-in -> {out}{video_note}")  # fmt: skip
+    for k, t in sorted(result.tracks.items()):
+        q = t.quality
+        seen = int((~q.no_hand).sum())
+        click.echo(f"hand {k} ({t.shape.side}): on {seen} frames, {int(q.empty.sum())} of them "
+                   f"carried hidden; fit quality: {q.summary()}")  # fmt: skip
+    if not result.tracks:
+        click.echo("no hand found in any frame", err=True)
 
 
 def _check_sources(seq, camera, realtime: bool, show: bool, scheduler, workers) -> None:

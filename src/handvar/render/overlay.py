@@ -68,6 +68,7 @@ def draw_overlay(
     mask: np.ndarray | None = None,
     *,
     thickness: int = 2,
+    colour: tuple[int, int, int] | None = None,
 ) -> np.ndarray:
     """Draw the 21 joints and the bones (and optionally a mask outline) on an image.
 
@@ -83,6 +84,9 @@ def draw_overlay(
         A silhouette whose outline is drawn in yellow (e.g. the model's).
     thickness : int, optional
         Line thickness, pixels.
+    colour : (int, int, int), keyword-only, optional
+        RGB of every bone (one hand of two told apart); the joints keep their digits'
+        colours.
 
     Returns
     -------
@@ -123,12 +127,13 @@ def draw_overlay(
     for i, j in SKELETON:
         if not (finite[i] and finite[j]):
             continue
-        colour = _PALM_RGB if (i != 0 and j - i != 1) else _DIGIT_RGB[JOINT_DIGIT[max(i, j)]]
-        cv2.line(img, tuple(pts[i]), tuple(pts[j]), colour, thickness, cv2.LINE_AA, shift)
+        bone = _PALM_RGB if (i != 0 and j - i != 1) else _DIGIT_RGB[JOINT_DIGIT[max(i, j)]]
+        bone = bone if colour is None else colour
+        cv2.line(img, tuple(pts[i]), tuple(pts[j]), bone, thickness, cv2.LINE_AA, shift)
     for i in range(21):
         if finite[i]:
-            colour = (255, 255, 255) if i == 0 else _DIGIT_RGB[JOINT_DIGIT[i]]
-            cv2.circle(img, tuple(pts[i]), (thickness + 2) << shift, colour, -1, cv2.LINE_AA, shift)
+            dot = (255, 255, 255) if i == 0 else _DIGIT_RGB[JOINT_DIGIT[i]]
+            cv2.circle(img, tuple(pts[i]), (thickness + 2) << shift, dot, -1, cv2.LINE_AA, shift)
     return img
 
 

@@ -28,6 +28,7 @@ Examples
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -65,6 +66,12 @@ class FrameResult:
         The fit failed the lost rule (design §14.3).
     seconds : float
         Wall time of the fit, seconds.
+    side : str
+        The side of the hand tracked ("right", "left"; "" before it is decided).
+    id : int
+        The hand's identity (`handvar.tracking.hands.HandsTracker`; 0 for one hand).
+    hidden : bool
+        The hand was hidden and its pose carried by the motion prediction (`carried`).
     """
 
     index: int
@@ -76,6 +83,9 @@ class FrameResult:
     no_hand: bool
     lost: bool
     seconds: float
+    side: str = ""
+    id: int = 0
+    hidden: bool = False
 
 
 class HandTracker:
@@ -178,7 +188,7 @@ class HandTracker:
 
     # -- one frame ----------------------------------------------------------------------
 
-    def process(self, frames, *, keypoints=None) -> FrameResult:
+    def process(self, frames, *, keypoints=None, world=None) -> FrameResult:
         """Track the next frame.
 
         Parameters
@@ -188,6 +198,9 @@ class HandTracker:
         keypoints : list of (21, 2|3) array_like or None, keyword-only, optional
             The frame's keypoints per camera from the caller's own detector, pixels of
             the frames given; instead of the tracker's detector.
+        world : (21, 3) array_like, keyword-only, optional
+            With `keypoints`: the detector's metric 3D points of the first camera's
+            hand, mm (`handvar.vision.keypoints.Detection.world`).
 
         Returns
         -------
@@ -200,7 +213,8 @@ class HandTracker:
             h, w = images[0].shape[:2]
             fov = SOURCE_SETTINGS.fov if self.fov is None else self.fov
             self.rig = Rig([assumed_camera((w, h), fov=fov)])
-        kps, world, ran = self._keypoints(images, keypoints)
+        kps, found_world, ran = self._keypoints(images, keypoints)
+        world = found_world if keypoints is None else world
         if self.recovery is None:
             if self.detectors is not None and not _present(kps):  # no hand seen yet
                 return self._kept(_Frame.without_hand(), 0.0, None)
@@ -219,6 +233,19 @@ class HandTracker:
         quality = _frame_quality(f.result, f.empty or f.no_hand)
         return self._kept(f, s, kps, quality)
 
+    def carried(self) -> FrameResult:
+        """The next frame with the hand hidden from every camera: its pose carried by the
+        motion prediction, which learns it (a frame ``empty`` and ``hidden``)."""
+        if self.recovery is None:
+            raise ValueError("carried: expected a hand tracked before; got none yet")
+        tracker = self.recovery.tracker
+        pose = tracker.prediction()
+        tracker.accept(pose)
+        self.recovery.previous = pose
+        f = _Frame(None, pose, empty=True)
+        r = self._kept(f, 0.0, None, _frame_quality(None, True))
+        return dataclasses.replace(r, hidden=True)
+
     def _kept(self, f, seconds: float, kps, quality=None) -> FrameResult:
         self.frames.append(f)
         self.seconds.append(seconds)
@@ -234,7 +261,7 @@ class HandTracker:
         return FrameResult(
             index=index, pose=pose, joints=joints, projected=projected, keypoints=kps,
             quality=quality, no_hand=bool(f.no_hand), lost=bool(quality.lost),
-            seconds=seconds,
+            seconds=seconds, side=self.side or "",
         )  # fmt: skip
 
     # -- a whole track ------------------------------------------------------------------

@@ -1,0 +1,480 @@
+"""Two hands at once: ``result = tracker.process(frame)`` with an identity per hand (design §17).
+
+`HandsTracker` holds one `HandTracker` per hand, each with its own model (a left and a
+right hand), shape, predictor and quality, and gives them the detector's hands frame
+by frame.  Which detection is which hand is decided by tracking, not by the
+detector's label:
+
+1. **Where each hand is expected.**  A tracked hand's 21 points in every camera,
+   extrapolated from its last two fits at constant velocity (only from its last one
+   after a gap); its size s the wrist → middle-MCP distance there.
+2. **Assignment.**  Per camera, the cost of giving detection d to hand h is the median
+   over their common points of |p_h − p_d| / s_h, plus `LABEL_COST` · (2 score − 1)
+   when the detector labels d with the other side; the assignment of least total cost
+   (`scipy.optimize.linear_sum_assignment`) keeps the pairs under `GATE` hand sizes
+   (wider after frames without the hand: `GATE` · (1 + missing / 2)).  The label is
+   one vote among others: a hand that crosses the other keeps its identity when the
+   detector's labels swap.
+3. **A new hand.**  A detection left over, not within `DUPLICATE` hand sizes of a
+   tracked hand's detection (MediaPipe sometimes finds one hand twice), starts the
+   free hand.  Its side: the other side than the tracked hand's if there is one (two
+   hands of one person), else the detector's label.  So a hand that leaves and comes
+   back is re-acquired with its side.
+4. **The side of a hand** never changes within a track, except on overwhelming
+   evidence: after `SIDE_FRAMES` labelled detections given to a new hand, a weighted
+   share `SIDE_SWAP` or more of them for the other side turns it (and the other hand's
+   with it, the two staying opposite); the model is built again on the new side at
+   the next frame.
+5. **One hand hiding the other.**  Per camera, the keypoints of a hand that fall
+   inside the other hand's expected outline (the convex hull of its points, widened
+   by 0.15 of its size) while the other is nearer the camera by `FRONT` mm or more
+   get their confidence times `HIDDEN_WEIGHT`.  A tracked hand given no detection while
+   most of its expected points lie inside the nearer hand's outline is carried by its
+   motion prediction (``hidden``, its quality ``empty``) for up to `HIDDEN_FRAMES`
+   frames; a hand given no detection in the open is a frame without that hand.
+
+A frame's `HandsResult` holds one `FrameResult` per hand, under its id (0, 1: the order
+in which the hands were first seen) with its side.  One hand (``hands=1``) is the
+one-hand tracker's track exactly, with the detector's hands assigned by the same rules.
+
+Examples
+--------
+>>> import numpy as np
+>>> tracker = HandsTracker(detector=lambda image: None)  # a detector that finds nothing
+>>> result = tracker.process(np.zeros((48, 64, 3), np.uint8))
+>>> [(h.id, h.no_hand) for h in result.hands]
+[(0, True), (1, True)]
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from handvar.hand.anthropometry import SIDES
+from handvar.validate import as_int
+
+__all__ = [
+    "DUPLICATE",
+    "FRONT",
+    "GATE",
+    "HIDDEN_FRAMES",
+    "HIDDEN_WEIGHT",
+    "LABEL_COST",
+    "SIDE_FRAMES",
+    "SIDE_SWAP",
+    "HandsResult",
+    "HandsTracker",
+    "assign",
+    "expected_points",
+]
+
+#: Hand sizes (wrist → middle MCP) within which a detection may be a tracked hand's.
+GATE = 1.0
+#: Hand sizes added to the cost of a detection labelled the other side, times its
+#: score's margin 2·score − 1.
+LABEL_COST = 0.25
+#: Hand sizes within which a second detection is the same hand found twice.
+DUPLICATE = 0.35
+#: Labelled detections of a new hand after which its side may turn.
+SIDE_FRAMES = 30
+#: Weighted share of labels for the other side that turns a new hand's side.
+SIDE_SWAP = 0.8
+#: mm nearer the camera that the other hand must be to hide a hand's points.
+FRONT = 30.0
+#: Confidence factor of a keypoint inside the outline of the hand in front.
+HIDDEN_WEIGHT = 0.2
+#: Frames a hidden hand is carried by its motion prediction.
+HIDDEN_FRAMES = 15
+#: Frames without a detection after which a hand is no longer expected anywhere.
+GONE_FRAMES = 10
+
+
+@dataclass(frozen=True, eq=False)
+class HandsResult:
+    """What `HandsTracker.process` gives for one frame.
+
+    Attributes
+    ----------
+    index : int
+        The frame's number, from 0.
+    hands : tuple of FrameResult
+        One per hand, in the order of their ids (``hands[k].id == k``), each with its
+        ``side`` ("" before the hand was first seen), ``no_hand`` where it is not in
+        the frame and ``hidden`` where it was carried behind the other.
+    seconds : float
+        Wall time of the frame (assignment and fits), seconds.
+    """
+
+    index: int
+    hands: tuple
+    seconds: float
+
+    def side(self, side: str):
+        """The hand of `side` ("right" or "left"), or None where no hand has it."""
+        for h in self.hands:
+            if h.side == side:
+                return h
+        return None
+
+
+def expected_points(last, before) -> np.ndarray | None:
+    """A hand's points expected in this frame per camera, (n_cams, 21, 2), from its last
+    two `FrameResult` with a hand (`before` None or not the frame before `last`: the last
+    one's points); None without any."""
+    if last is None:
+        return None
+    p = last.projected
+    if before is not None and before.index == last.index - 1:
+        p = p + (p - before.projected)  # constant velocity
+    return p
+
+
+def _size(points: np.ndarray) -> float:
+    """Hand size in pixels: wrist → middle MCP, at least 8 px."""
+    from handvar.vision.keypoints import HandLandmark
+
+    d = points[HandLandmark.MIDDLE_FINGER_MCP] - points[HandLandmark.WRIST]
+    s = float(np.hypot(*d))
+    return s if np.isfinite(s) and s > 8.0 else 8.0
+
+
+def _distance(expected: np.ndarray, detected: np.ndarray) -> float:
+    """Median distance of the common points over the hand size; inf without any."""
+    d = np.linalg.norm(expected - detected[:, :2], axis=1)
+    d = d[np.isfinite(d) & (detected[:, 2] > 0)]
+    return float(np.median(d)) / _size(expected) if d.size else np.inf
+
+
+def assign(expected: list, sides: list, found: list, gates: list) -> dict[int, int]:
+    """Detections given to tracked hands in one camera (module notes, rule 2).
+
+    Parameters
+    ----------
+    expected : list of (21, 2) ndarray or None
+        Per hand, its expected points (None: not expected anywhere).
+    sides : list of str
+        Per hand, its side.
+    found : list of Detection
+    gates : list of float
+        Per hand, the largest cost of a detection given to it, hand sizes.
+
+    Returns
+    -------
+    dict
+        Hand index → detection index.
+
+    Examples
+    --------
+    >>> from handvar.vision.keypoints import Detection
+    >>> a, b = np.zeros((21, 2)), np.zeros((21, 2))
+    >>> a[9], b[:, 0], b[9] = (0, 40), 100, (100, 40)
+    >>> found = [Detection(np.c_[b, np.ones(21)], side="left"),
+    ...          Detection(np.c_[a, np.ones(21)], side="left", score=0.9)]
+    >>> assign([a, b], ["right", "left"], found, [1.0, 1.0])  # the labels are outvoted
+    {0: 1, 1: 0}
+    """
+    from scipy.optimize import linear_sum_assignment
+
+    rows = [h for h, e in enumerate(expected) if e is not None]
+    if not rows or not found:
+        return {}
+    cost = np.full((len(rows), len(found)), np.inf)
+    for r, h in enumerate(rows):
+        for k, d in enumerate(found):
+            c = _distance(expected[h], d.points)
+            if d.side and d.side != sides[h]:
+                c += LABEL_COST * (2.0 * d.score - 1.0)
+            cost[r, k] = c
+    big = 1e6
+    i, j = linear_sum_assignment(np.where(np.isfinite(cost), cost, big))
+    return {rows[r]: int(k) for r, k in zip(i, j, strict=True) if cost[r, k] <= gates[rows[r]]}
+
+
+def _outline(points: np.ndarray) -> np.ndarray | None:
+    """The convex hull (float32 contour) of a hand's finite points, or None."""
+    import cv2
+
+    p = points[np.isfinite(points).all(axis=1)]
+    if len(p) < 3:
+        return None
+    return cv2.convexHull(p.astype(np.float32))
+
+
+def _inside(outline, points: np.ndarray, margin: float) -> np.ndarray:
+    """Which of `points` (21, 2) lie within `margin` pixels of `outline` or inside it."""
+    import cv2
+
+    out = np.zeros(len(points), dtype=bool)
+    if outline is None:
+        return out
+    for i, (x, y) in enumerate(points):
+        if np.isfinite(x) and np.isfinite(y):
+            out[i] = cv2.pointPolygonTest(outline, (float(x), float(y)), True) >= -margin
+    return out
+
+
+@dataclass
+class _Hand:
+    """One tracked hand: its id, side, per-frame tracker and recent fits."""
+
+    id: int
+    side: str
+    tracker: object  # HandTracker
+    last: object = None  # its last FrameResult with a hand
+    before: object = None  # the one before it
+    missing: int = 0  # frames since it was last fitted
+    hidden: int = 0  # frames it has been carried hidden
+    votes: list = dataclasses.field(default_factory=list)  # signed label scores, while new
+
+    @property
+    def expected(self):
+        if self.last is None or self.missing > GONE_FRAMES:
+            return None
+        return expected_points(self.last, self.before)
+
+    def depth(self, camera) -> float:
+        """Mean depth of its last joints in `camera`, mm."""
+        return float(np.nanmean(camera.camera_from_world(self.last.joints)[:, 2]))
+
+
+class HandsTracker:
+    """Track up to two hands frame by frame (module notes).
+
+    Parameters
+    ----------
+    rig : Rig, path-like or None
+        The cameras (as `HandTracker`).
+    hands : {1, 2}, keyword-only
+        Hands tracked at most.
+    detector : {"auto", "mediapipe", "none"} or callable, keyword-only
+        The keypoint detector (`handvar.vision.detector.make_detectors`), asked for
+        every hand it finds; "none" needs `process` to be given the detections.
+    mirrored : bool, keyword-only
+        MediaPipe: the frames are mirrored (a selfie camera).
+    **options
+        For each hand's `HandTracker`: ``predictor``, ``hand_length``, ``model``,
+        ``keypoint_tips``, ``recovery``, ``seed``, ``fov``.
+    """
+
+    def __init__(self, rig=None, *, hands: int = 2, detector="auto", mirrored: bool = False,
+                 **options) -> None:  # fmt: skip
+        from handvar.camera import Rig
+        from handvar.tracking.hand_tracker import HandTracker
+        from handvar.vision.detector import make_detectors
+
+        n_hands = as_int(hands, "hands", minimum=1, maximum=2)
+        for key in ("hand", "detector", "keypoint_every"):
+            if key in options:
+                raise TypeError(f"{key}: not an option of HandsTracker (each hand's side is "
+                                f"decided by tracking)")  # fmt: skip
+        if rig is not None and not isinstance(rig, Rig):
+            rig = Rig.load(rig)
+        self.rig = rig
+        n = 1 if rig is None else len(rig)
+        self.detectors = make_detectors(detector, n, mirrored=mirrored) if detector else None
+        # each hand fitted from the detections given to it (its side set at its birth)
+        self.hands = [_Hand(k, "", HandTracker(rig, hand="right", detector=None, **options))
+                      for k in range(n_hands)]  # fmt: skip
+        self.frame_count = 0
+
+    # -- one frame ----------------------------------------------------------------------
+
+    def process(self, frames, *, detections=None) -> HandsResult:
+        """Track the next frame.
+
+        Parameters
+        ----------
+        frames : (H, W, 3) uint8 ndarray or list of them
+            The BGR colour frame of every camera.
+        detections : list of list of Detection, keyword-only, optional
+            Per camera the hands found in this frame (pixels of the frames given),
+            instead of the tracker's detector.
+
+        Returns
+        -------
+        HandsResult
+        """
+        from handvar.tracking.hand_tracker import _images
+
+        t0 = time.perf_counter()
+        n = 1 if self.rig is None else len(self.rig)
+        images = _images(frames, n)
+        if detections is None:
+            if not self.detectors:
+                raise ValueError(
+                    "detections: expected the hands found per camera with detector none; got None"
+                )
+            detections = [d(image) for d, image in zip(self.detectors, images, strict=True)]
+        if len(detections) != n:
+            raise ValueError(
+                f"detections: expected one list per camera ({n}); got {len(detections)}"
+            )
+        if self.rig is None:  # one assumed camera of the first frame's size, for every hand
+            from handvar.camera import Rig
+            from handvar.vision.sources import SOURCE_SETTINGS, assumed_camera
+
+            height, width = images[0].shape[:2]
+            fov = self.hands[0].tracker.fov or SOURCE_SETTINGS.fov
+            self.rig = Rig([assumed_camera((width, height), fov=fov)])
+            for h in self.hands:
+                h.tracker.rig = self.rig
+        given = self._given(detections)
+        results = []
+        for h in self.hands:
+            kps, world = given.get(h.id, (None, None))
+            results.append(self._fit(h, images, kps, world))
+        for h, r in zip(self.hands, results, strict=True):
+            if not r.no_hand and not r.hidden:
+                h.before, h.last, h.missing = h.last, r, 0
+            elif not r.no_hand:  # carried: its place moves on, it stays expected
+                h.before, h.last = h.last, r
+                h.missing += 1
+            else:
+                h.missing += 1
+        index, self.frame_count = self.frame_count, self.frame_count + 1
+        return HandsResult(index, tuple(results), time.perf_counter() - t0)
+
+    def _given(self, detections) -> dict[int, tuple]:
+        """Per hand id, its keypoints per camera and the first camera's world points."""
+        n = len(detections)
+        given: dict[int, list] = {h.id: [None] * n for h in self.hands}
+        world: dict[int, object] = {}
+        births: list = []
+        for j, found in enumerate(detections):
+            expected = [None if h.expected is None else h.expected[j] for h in self.hands]
+            gates = [GATE * (1.0 + 0.5 * h.missing) for h in self.hands]
+            pairs = assign(expected, [h.side for h in self.hands], found, gates)
+            for hand, k in pairs.items():
+                given[self.hands[hand].id][j] = found[k]
+            if j == 0:
+                taken = {k for k in pairs.values()}
+                births = [found[k] for k in range(len(found)) if k not in taken]
+        self._born(births, given, detections)
+        for h in self.hands:
+            dets = given[h.id]
+            if dets[0] is not None and dets[0].world is not None:
+                world[h.id] = dets[0].world
+            self._vote(h, dets[0])
+        out = {}
+        for h in self.hands:
+            kps = [None if d is None else d.points.copy() for d in given[h.id]]
+            out[h.id] = (self._down_weighted(h, kps), world.get(h.id))
+        return out
+
+    def _born(self, births, given, detections) -> None:
+        """Start the free hands on the detections of the first camera left over."""
+        for d in sorted(births, key=lambda d: -np.count_nonzero(d.points[:, 2] > 0)):
+            taken = [g[0] for g in given.values() if g[0] is not None]
+            if any(_distance(t.points[:, :2], d.points) < DUPLICATE for t in taken):
+                continue  # the same hand found twice
+            free = [h for h in self.hands if h.expected is None and given[h.id][0] is None]
+            if not free:
+                return
+            others = [h.side for h in self.hands if h.side and h.expected is not None]
+            side = _opposite(others[0]) if others else (d.side or "right")
+            hand = next((h for h in free if h.side == side), free[0])
+            if hand.side != side:
+                self._set_side(hand, side)
+            hand.last = hand.before = None  # a new track
+            other = next((h for h in self.hands if h is not hand), None)
+            if other is not None and not other.side:
+                other.side = _opposite(side)
+                other.tracker.side = other.side
+            hand.votes = []
+            given[hand.id][0] = d
+            for j in range(1, len(detections)):  # the other cameras: by their label
+                rest = [e for e in detections[j] if e not in _given_values(given, j)]
+                same = [e for e in rest if e.side in ("", side)] or rest
+                given[hand.id][j] = max(same, key=lambda e: e.score) if same else None
+
+    def _vote(self, h: _Hand, d) -> None:
+        """Rule 4: a new hand's side turned by overwhelming labels (module notes)."""
+        if h.votes is None or d is None or not d.side:
+            return
+        h.votes.append(d.score if d.side == h.side else -d.score)
+        if len(h.votes) < SIDE_FRAMES:
+            return
+        against = -sum(v for v in h.votes if v < 0) / sum(abs(v) for v in h.votes)
+        h.votes = None  # decided
+        if against >= SIDE_SWAP:
+            for other in self.hands:
+                if other.side:
+                    self._set_side(other, _opposite(other.side))
+
+    def _set_side(self, h: _Hand, side: str) -> None:
+        """The hand's side set; its model is built again on it at its next frame with
+        a hand (where it is expected stays as it was)."""
+        h.side = side
+        h.tracker.side = side
+        h.tracker.recovery = None
+
+    def _down_weighted(self, h: _Hand, kps: list) -> list:
+        """Rule 5: its keypoints inside the outline of the hand in front, down-weighted."""
+        for other in self.hands:
+            if other is h or other.expected is None or h.last is None:
+                continue
+            for j, k in enumerate(kps):
+                if k is None:
+                    continue
+                camera = self.rig.cameras[j]
+                if other.depth(camera) > h.depth(camera) - FRONT:
+                    continue
+                e = other.expected[j]
+                inside = _inside(_outline(e), k[:, :2], 0.15 * _size(e))
+                k[inside, 2] *= HIDDEN_WEIGHT
+        return kps
+
+    def _fit(self, h: _Hand, images, kps, world):
+        """The hand's frame: fitted to its keypoints, carried hidden, or without it."""
+        tracker = h.tracker
+        present = any(k is not None for k in kps)
+        if not present and self._hidden(h):
+            h.hidden += 1
+            r = tracker.carried()
+        else:
+            h.hidden = 0 if present else h.hidden
+            r = tracker.process(images, keypoints=kps, world=world)
+            r = dataclasses.replace(r, hidden=False)
+        return dataclasses.replace(r, id=h.id, side=h.side)
+
+    def _hidden(self, h: _Hand) -> bool:
+        """A tracked hand without a detection, most of it behind the other (rule 5)."""
+        if h.expected is None or h.hidden >= HIDDEN_FRAMES or h.tracker.recovery is None:
+            return False
+        camera = self.rig.cameras[0]
+        for other in self.hands:
+            if other is h or other.last is None or other.missing:
+                continue
+            if other.depth(camera) > h.depth(camera) - FRONT:
+                continue
+            e = other.expected[0]
+            if _inside(_outline(e), h.expected[0], 0.15 * _size(e)).mean() > 0.5:
+                return True
+        return False
+
+    # -- tracks -------------------------------------------------------------------------
+
+    def close(self) -> None:
+        """Release the detectors."""
+        for d in self.detectors or ():
+            if hasattr(d, "close"):
+                d.close()
+
+    def __enter__(self) -> HandsTracker:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _given_values(given: dict, j: int) -> list:
+    """The detections of camera `j` already given to a hand."""
+    return [g[j] for g in given.values() if g[j] is not None]
+
+
+def _opposite(side: str) -> str:
+    return SIDES[1 - SIDES.index(side)]

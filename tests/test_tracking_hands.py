@@ -1,0 +1,144 @@
+"""Two hands at once (`handvar.tracking.hands`): identities by tracking, against the truth.
+
+The detections are the true 21 points of a left and a right hand (projected, with
+noise), given in a random order each frame with labels that lie on a share of the
+frames, as a detector's do; every assertion compares the tracks with those true points.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from handvar.evaluation.realistic import motion_poses, realistic_rig
+from handvar.hand.anthropometry import HandShape
+from handvar.hand.kinematics import HandModel
+from handvar.tracking.hands import HandsTracker, assign
+from handvar.tracking.keypoint_cost import keypoint_points
+from handvar.vision.keypoints import Detection
+
+SIDES = ("left", "right")
+IMAGE = np.zeros((360, 640, 3), np.uint8)
+
+
+def _truth(T: int, *, swap: bool = True, leave=None):
+    """Per side the true points (T, 21, 2) of camera 0 (NaN where out of view): the
+    counting motion, the hands 260 mm apart and (`swap`) crossing, the left one 80 mm
+    behind the right."""
+    rig = realistic_rig(1)
+    cam = rig.cameras[0]
+    poses, _ = motion_poses("counting", 0)
+    out = {}
+    for s, sign in (("left", -1.0), ("right", 1.0)):
+        P = poses[:T].copy()
+        path = np.cos(np.linspace(0, np.pi, T)) if swap else np.ones(T)
+        P[:, 0] += sign * 130.0 * path
+        P[:, 2] += 40.0 * -sign
+        model = HandModel(HandShape.from_size(180.0 if s == "left" else 190.0, side=s))
+        pts = np.stack([cam.project(keypoint_points(model, x, "pad")) for x in P])
+        if leave is not None and s == leave[0]:
+            pts[leave[1] : leave[2]] = np.nan
+        out[s] = pts
+    return rig, out
+
+
+def _detections(truth, t, rng, wrong: float):
+    found = []
+    for s in SIDES:
+        p = truth[s][t]
+        if np.isnan(p).all():
+            continue
+        label = s if rng.random() >= wrong else SIDES[1 - SIDES.index(s)]
+        found.append(Detection(np.c_[p + rng.normal(0, 2.0, p.shape), np.ones(21)],
+                               side=label, score=0.9))  # fmt: skip
+    rng.shuffle(found)
+    return found
+
+
+def _run(rig, truth, T, wrong=0.2, seed=0, **kw):
+    rng = np.random.default_rng(seed)
+    tracker = HandsTracker(rig, detector=None, **kw)
+    return [tracker.process(IMAGE, detections=[_detections(truth, t, rng, wrong)])
+            for t in range(T)]  # fmt: skip
+
+
+def _matched(results, truth):
+    """Per hand id, per frame, the side whose true points its fit is nearest (None
+    without a fit) and the distance in pixels."""
+    out = {}
+    for k in (0, 1):
+        rows = []
+        for r in results:
+            h = r.hands[k]
+            if h.no_hand:
+                rows.append((None, np.nan))
+                continue
+            d = {s: np.linalg.norm(h.projected[0] - truth[s][r.index], axis=1).mean()
+                 for s in SIDES if np.isfinite(truth[s][r.index]).all()}  # fmt: skip
+            s = min(d, key=d.get) if d else None
+            rows.append((s, d[s] if d else np.nan))
+        out[k] = rows
+    return out
+
+
+def test_crossing_hands_keep_their_identity_when_the_labels_lie():
+    T = 40
+    rig, truth = _truth(T)
+    results = _run(rig, truth, T, wrong=0.25)
+    matched = _matched(results, truth)
+    for k in (0, 1):
+        sides = {s for s, _ in matched[k]}
+        assert len(sides) == 1, f"hand {k} switched between {sides}"
+        (s,) = sides
+        assert {r.hands[k].side for r in results} == {s}  # its side is the true one's
+        assert np.nanmax([d for _, d in matched[k]]) < 20.0  # pixels, on 40-pixel hands
+
+
+def test_a_hand_that_leaves_comes_back_with_its_side_and_nothing_is_drawn_meanwhile():
+    T = 45
+    rig, truth = _truth(T, swap=False, leave=("left", 12, 30))
+    results = _run(rig, truth, T, wrong=0.2)
+    matched = _matched(results, truth)
+    left = next(k for k in (0, 1) if {s for s, _ in matched[k]} - {None} == {"left"})
+    gone = [results[t].hands[left].no_hand for t in range(12, 30)]
+    assert sum(gone) >= 18 - 2  # carried at most a frame or two, then no hand
+    back = [results[t].hands[left] for t in range(32, T)]
+    assert all(not h.no_hand and h.side == "left" for h in back)
+
+
+def test_one_hand_leaves_the_other_hand_without_a_hand():
+    T = 12
+    rig, truth = _truth(T, swap=False, leave=("left", 0, T))
+    results = _run(rig, truth, T, wrong=0.0)
+    assert all(r.hands[1].no_hand for r in results)
+    assert not any(r.hands[0].no_hand for r in results)
+    assert {r.hands[0].side for r in results} == {"right"}
+
+
+def test_a_hand_found_twice_is_one_hand():
+    T = 10
+    rig, truth = _truth(T, swap=False, leave=("left", 0, T))
+    rng = np.random.default_rng(1)
+    tracker = HandsTracker(rig, detector=None)
+    for t in range(T):
+        found = _detections(truth, t, rng, 0.0)
+        twin = Detection(found[0].points + np.r_[3.0, -2.0, 0.0], side="left", score=0.6)
+        r = tracker.process(IMAGE, detections=[[*found, twin]])
+        assert r.hands[1].no_hand
+
+
+def test_assign_keeps_identities_by_place_and_leaves_far_detections_out():
+    a = np.zeros((21, 2))
+    a[9] = (0.0, 40.0)
+    far = Detection(np.c_[a + 500.0, np.ones(21)], side="right")
+    near = Detection(np.c_[a + 2.0, np.ones(21)], side="left", score=0.99)
+    assert assign([a], ["right"], [far, near], [1.0]) == {0: 1}
+    assert assign([a], ["right"], [far], [1.0]) == {}
+
+
+def test_wrong_input_names_the_argument():
+    with pytest.raises(ValueError, match="hands"):
+        HandsTracker(hands=3, detector=None)
+    tracker = HandsTracker(detector=None)
+    with pytest.raises(ValueError, match="detections"):
+        tracker.process(IMAGE)
