@@ -451,18 +451,21 @@ def _distractor_mesh(kind: str, rng: np.random.Generator, n_frames: int, fps: fl
 # --- rendering -----------------------------------------------------------------------------
 
 
-def _render_view(camera, parts, background, light, ambient, diffuse):
+def _render_view(camera, parts, background, light, ambient, diffuse, *, labels: bool = False):
     """One camera's shaded image (float32 RGB, H × W × 3) and the hand's mask.
 
     `parts`: (vertices, triangles, albedo RGB, is_hand) in drawing order; one depth
-    buffer for all (the nearest surface wins).
+    buffer for all (the nearest surface wins).  With `labels`, also the index into
+    `parts` of the surface seen at each pixel ((H, W) int, −1 for the background) and its
+    camera depth ((H, W), mm, inf for the background): ``img, mask, part, depth``.
     """
     from handvar.hand.raster import rasterize_triangles
     from handvar.render.mesh import pixel_normals, vertex_normals
 
-    verts, tris, albedo, hand_tri, normals = [], [], [], [], []
+    verts, tris, albedo, hand_tri, normals, part_tri = [], [], [], [], [], []
     offset = 0
-    for v, t, colour, is_hand in parts:
+    for k, (v, t, colour, is_hand) in enumerate(parts):
+        part_tri.append(np.full(len(t), k))
         verts.append(v)
         tris.append(t + offset)
         normals.append(vertex_normals(v, t))
@@ -474,7 +477,7 @@ def _render_view(camera, parts, background, light, ambient, diffuse):
     z = camera.camera_from_world(V)[:, 2]
     uv = camera.project(V)
     uv[z <= 1.0] = np.nan
-    _, tri_id, _ = rasterize_triangles(uv, Tr, camera.size, coverage="centre", depth=z)
+    _, tri_id, zbuf = rasterize_triangles(uv, Tr, camera.size, coverage="centre", depth=z)
     img = background.astype(np.float32).copy()
     rows, cols = np.nonzero(tri_id >= 0)
     mask = np.zeros(tri_id.shape, dtype=bool)
@@ -484,7 +487,79 @@ def _render_view(camera, parts, background, light, ambient, diffuse):
         lambert = np.maximum(n @ light, 0.0)
         img[rows, cols] = A[t] * (ambient + diffuse * lambert)[:, None]
         mask[rows, cols] = H[t]
-    return img, mask
+    if not labels:
+        return img, mask
+    part = np.full(tri_id.shape, -1, dtype=np.int64)
+    part[rows, cols] = np.concatenate(part_tri)[tri_id[rows, cols]]
+    return img, mask, part, zbuf
+
+
+def _background(background, size: tuple[int, int], rng: np.random.Generator) -> np.ndarray:
+    """The case's background, (H, W, 3) uint8: generated (`textured_background`) for a name,
+    else the caller's RGB image resized to `size`."""
+    if isinstance(background, str):
+        return textured_background(background, size, rng)
+    bg = np.asarray(background)
+    if bg.ndim != 3 or bg.shape[2] != 3:
+        raise ValueError(f"background: expected an (H, W, 3) image; got shape {bg.shape}")
+    return cv2.resize(bg.astype(np.uint8), size, interpolation=cv2.INTER_AREA)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Look:
+    """The light and the camera's response of a case (drawn by `_scene_look`)."""
+
+    light: np.ndarray  # (3,) unit vector towards the light
+    ambient: float
+    diffuse: float
+    cast: np.ndarray  # (3,) float32 white balance
+    gain: np.ndarray  # (T,) brightness of each frame
+
+
+def _scene_look(rng: np.random.Generator, T: int, fps: float, settings: SceneSettings) -> _Look:
+    """Draw the light, the colour cast and the brightness of each frame (a slow sine and
+    one exposure step)."""
+    light = np.array([rng.uniform(-0.6, 0.6), rng.uniform(-0.9, -0.3), -1.0])
+    light /= np.linalg.norm(light)
+    ambient, diffuse = float(rng.uniform(0.35, 0.5)), float(rng.uniform(0.5, 0.7))
+    cast = rng.uniform(0.9, 1.1, 3).astype(np.float32)  # white balance
+    tt = np.arange(T) / fps
+    gain = 1.0 + settings.brightness * np.sin(2 * np.pi * tt / rng.uniform(2.0, 5.0)
+                                              + rng.uniform(0, 2 * np.pi))  # fmt: skip
+    jump = int(rng.integers(T // 3, max(T // 3 + 1, 2 * T // 3)))
+    gain[jump:] *= rng.choice([0.8, 1.2])  # an exposure step
+    return _Look(light, ambient, diffuse, cast, gain)
+
+
+def _image_speed(rig, model, poses, prev, width: int) -> np.ndarray:
+    """(T,) the fastest joint's image speed from `prev` to `poses`, pixels per frame at
+    640 wide, the fastest camera's."""
+    T = len(poses)
+    ends = np.stack([model.joints(x) for x in prev])
+    speed = np.zeros(T)
+    for cam in rig:
+        now = cam.project(np.stack([model.joints(x) for x in poses]).reshape(-1, 3))
+        before = cam.project(ends.reshape(-1, 3))
+        v = np.linalg.norm(now - before, axis=1).reshape(T, 21).max(1) * 640.0 / width
+        speed = np.maximum(speed, v)
+    return speed
+
+
+def _sub_frames(speed: float, blurred: bool, settings: SceneSettings):
+    """The fractions s of the frame interval rendered and averaged for motion blur
+    (``[1.0]``: the frame time only)."""
+    n_sub = int(min(6, math.ceil(speed * settings.exposure / 2.0))) if blurred else 1
+    return np.linspace(1.0 - settings.exposure, 1.0, n_sub) if n_sub > 1 else [1.0]
+
+
+def _develop(acc, n_sub: int, look: _Look, t: int, settings: SceneSettings,
+             rng: np.random.Generator) -> np.ndarray:  # fmt: skip
+    """The camera's frame t from the sum `acc` of `n_sub` shaded renderings: colour cast,
+    gain, optical blur, sensor noise; (H, W, 3) uint8."""
+    img = acc / np.float32(n_sub) * look.cast * np.float32(look.gain[t])
+    img = cv2.GaussianBlur(img, (0, 0), 0.7)
+    img += np.float32(settings.noise_sigma) * rng.standard_normal(img.shape, dtype=np.float32)
+    return np.clip(np.rint(img), 0, 255).astype(np.uint8)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -805,41 +880,20 @@ def realistic_case(
     one_of(skin, tuple(SKIN_TONES), "skin")
     albedo = np.asarray(SKIN_TONES[skin], np.float32) * np.float32(rng.uniform(0.92, 1.05))
     other_albedo = np.asarray(SKIN_TONES[str(rng.choice(list(SKIN_TONES)))], np.float32)
-    if isinstance(background, str):
-        bg = textured_background(background, (w, h), rng)
-    else:
-        bg = np.asarray(background)
-        if bg.ndim != 3 or bg.shape[2] != 3:
-            raise ValueError(f"background: expected an (H, W, 3) image; got shape {bg.shape}")
-        bg = cv2.resize(bg.astype(np.uint8), (w, h), interpolation=cv2.INTER_AREA)
-    light = np.array([rng.uniform(-0.6, 0.6), rng.uniform(-0.9, -0.3), -1.0])
-    light /= np.linalg.norm(light)
-    ambient, diffuse = float(rng.uniform(0.35, 0.5)), float(rng.uniform(0.5, 0.7))
-    cast = rng.uniform(0.9, 1.1, 3).astype(np.float32)  # white balance
-    tt = np.arange(T) / fps
-    gain = 1.0 + settings.brightness * np.sin(2 * np.pi * tt / rng.uniform(2.0, 5.0)
-                                              + rng.uniform(0, 2 * np.pi))  # fmt: skip
-    jump = int(rng.integers(T // 3, max(T // 3 + 1, 2 * T // 3)))
-    gain[jump:] *= rng.choice([0.8, 1.2])  # an exposure step
+    bg = _background(background, (w, h), rng)
+    look = _scene_look(rng, T, fps, settings)
     distract = _distractor_mesh(distractor, rng, T, fps)
 
     joints = np.stack([keypoint_points(scene.model, x, "pad") for x in poses])
     n_cams = len(rig)
     truth_2d = np.stack([cam.project(joints.reshape(-1, 3)).reshape(T, 21, 2) for cam in rig])
-    ends = np.stack([scene.model.joints(x) for x in prev])
-    speed = np.zeros(T)
-    for cam in rig:
-        now = cam.project(np.stack([scene.model.joints(x) for x in poses]).reshape(-1, 3))
-        before = cam.project(ends.reshape(-1, 3))
-        v = np.linalg.norm(now - before, axis=1).reshape(T, 21).max(1) * 640.0 / w
-        speed = np.maximum(speed, v)
+    speed = _image_speed(rig, scene.model, poses, prev, w)
     blurred = speed > settings.blur_speed
 
     images = np.empty((n_cams, T, h, w, 3), np.uint8)
     masks = np.zeros((n_cams, T, h, w), dtype=bool)
     for t in range(T):
-        n_sub = int(min(6, math.ceil(speed[t] * settings.exposure / 2.0))) if blurred[t] else 1
-        subs = np.linspace(1.0 - settings.exposure, 1.0, n_sub) if n_sub > 1 else [1.0]
+        subs = _sub_frames(speed[t], blurred[t], settings)
         acc = np.zeros((n_cams, h, w, 3), np.float32)
         for s in subs:
             x = prev[t] + s * (poses[t] - prev[t])
@@ -851,17 +905,13 @@ def realistic_case(
             if other is not None:
                 parts.append((other[0], other[1], other_albedo, False))
             for j, cam in enumerate(rig):
-                img, mask = _render_view(cam, parts, bg, light, ambient, diffuse)
+                img, mask = _render_view(cam, parts, bg, look.light, look.ambient,
+                                         look.diffuse)  # fmt: skip
                 acc[j] += img
                 if s == 1.0:
                     masks[j, t] = mask
         for j in range(n_cams):
-            img = acc[j] / np.float32(len(subs)) * cast * np.float32(gain[t])
-            img = cv2.GaussianBlur(img, (0, 0), 0.7)
-            img += np.float32(settings.noise_sigma) * rng.standard_normal(
-                img.shape, dtype=np.float32
-            )
-            images[j, t] = np.clip(np.rint(img), 0, 255).astype(np.uint8)
+            images[j, t] = _develop(acc[j], len(subs), look, t, settings, rng)
 
     kps = np.empty((n_cams, T, 21, 2))
     gross = np.zeros((n_cams, T), np.int64)
