@@ -62,7 +62,8 @@ def _sample(times: np.ndarray, values: np.ndarray, t: np.ndarray, how: str) -> n
     return np.stack([np.interp(t, times, values[:, c]) for c in range(values.shape[1])], -1)
 
 
-def gltf_skinned_vertices(path, frames, *, first_set: bool = False) -> dict[int, np.ndarray]:
+def gltf_skinned_vertices(path, frames, *, first_set: bool = False,
+                          mesh: int = 0) -> dict[int, np.ndarray]:  # fmt: skip
     """Skinned vertex positions (V, 3), in the file's units and axes, at the animation's
     keys `frames` (indices into its longest sampler input): node transforms T · R · S
     from the animation, then v = Σ w_j (N_j · IBM_j) (p + Σ μ_i Δ_i) over every
@@ -72,7 +73,8 @@ def gltf_skinned_vertices(path, frames, *, first_set: bool = False) -> dict[int,
 
     gltf = pygltflib.GLTF2().load(str(path))
     blob = gltf.binary_blob()
-    prim = gltf.meshes[0].primitives[0]
+    mesh_node = [i for i, n in enumerate(gltf.nodes) if n.mesh is not None][mesh]
+    prim = gltf.meshes[gltf.nodes[mesh_node].mesh].primitives[0]
     attrs = prim.attributes
     position = accessor(gltf, blob, attrs.POSITION)
     sets = []
@@ -83,12 +85,11 @@ def gltf_skinned_vertices(path, frames, *, first_set: bool = False) -> dict[int,
     if first_set:
         sets = [(sets[0][0], sets[0][1] / sets[0][1].sum(axis=1, keepdims=True))]
     targets = [accessor(gltf, blob, t["POSITION"]) for t in (prim.targets or [])]
-    skin = gltf.skins[0]
+    skin = gltf.skins[gltf.nodes[mesh_node].skin]
     ibm = accessor(gltf, blob, skin.inverseBindMatrices).reshape(-1, 4, 4).transpose(0, 2, 1)
     anim = gltf.animations[0]
     inputs = [accessor(gltf, blob, s.input)[:, 0] for s in anim.samplers]
     t = max(inputs, key=len)[list(frames)]
-    mesh_node = next(i for i, n in enumerate(gltf.nodes) if n.mesh is not None)
     parent = {c: i for i, n in enumerate(gltf.nodes) for c in (n.children or [])}
     n_f = len(t)
     trs = {i: {"translation": np.tile(n.translation or [0.0, 0.0, 0.0], (n_f, 1)),
@@ -151,6 +152,32 @@ def bvh_world_joints(path, names) -> np.ndarray:
                 out[t, i] = np.array(j.pointToWorld(ends[name[:-4]]))
             else:
                 out[t, i] = np.array(joints[name].PositionWorld)
+    return out
+
+
+def bvh_roots(text: str) -> list[str]:
+    """A BVH file of several ROOT hierarchies as one single-root BVH text per root (for
+    readers that take one root, as bvhio does): each root's block of the HIERARCHY, and
+    of every MOTION line the values of its channels (counted from its ``CHANNELS``
+    lines, the roots' channels following each other in the file's order)."""
+    lines = text.splitlines()
+    motion = lines.index("MOTION")
+    blocks: list[list[str]] = []
+    depth = 0
+    for line in lines[1:motion]:
+        word = line.split()[0] if line.split() else ""
+        if depth == 0 and word == "ROOT":
+            blocks.append([])
+        blocks[-1].append(line)
+        depth += line.count("{") - line.count("}")
+    counts = [sum(int(ln.split()[1]) for ln in b if ln.split()[0] == "CHANNELS") for b in blocks]
+    header, rows = lines[motion : motion + 3], [ln.split() for ln in lines[motion + 3 :] if ln]
+    out, start = [], 0
+    for block, count in zip(blocks, counts, strict=True):
+        values = [" ".join(r[start : start + count]) for r in rows]
+        out.append("\n".join(["HIERARCHY", *block, *header, *values]) + "\n")
+        start += count
+    assert all(len(r) == start for r in rows), "MOTION lines do not hold the roots' channels"
     return out
 
 

@@ -34,6 +34,96 @@ def _load(track_dir, calib):
         raise ValueError(f"TRACK_DIR: {str(exc).removeprefix('directory: ')}") from None
 
 
+#: The index of a directory of both hands (`handvar.HandsTrack.save`).
+HANDS_INDEX = "hands.json"
+
+
+def _is_hands(track_dir) -> bool:
+    """Whether TRACK_DIR holds both hands (their index, `HANDS_INDEX`) rather than one."""
+    return (Path(track_dir) / HANDS_INDEX).is_file()
+
+
+def _load_hands(track_dir, calib):
+    """The name and the hands of a two-hand directory: its index (`HANDS_INDEX`: name,
+    fps, hands with id, side and folder) and each hand's track (`handvar.Track.load`),
+    as ``[(id, track), ...]``; an index that is broken, names a folder that is not
+    there or a hand of another side is refused naming the index."""
+    import json
+
+    from handvar.pipeline import Track
+
+    index = Path(track_dir) / HANDS_INDEX
+    expect = f"{index}: expected {{'name', 'fps', 'hands': [{{'id', 'side', 'directory'}}]}}"
+    try:
+        doc = json.loads(index.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{expect}; got JSON it cannot read ({exc})") from None
+    entries = doc.get("hands") if isinstance(doc, dict) else None
+    if not isinstance(entries, list):
+        raise ValueError(f"{expect}; got no list of hands")
+    if not entries:
+        raise ValueError(f"{index}: expected at least one hand; got none (no hand was tracked)")
+    rig = None
+    if calib is not None:
+        from handvar.camera import Rig
+
+        rig = Rig.load(calib)
+    hands, sides = [], []
+    for i, entry in enumerate(entries):
+        ok = isinstance(entry, dict) and isinstance(entry.get("id"), int)
+        ok = (
+            ok
+            and entry.get("side") in ("right", "left")
+            and isinstance(entry.get("directory"), str)
+        )
+        if not ok:
+            raise ValueError(f"{expect}; got hand {i}: {entry!r}")
+        folder = Path(track_dir) / entry["directory"]
+        if not folder.is_dir() or Path(entry["directory"]).is_absolute():
+            raise ValueError(f"{index}: expected the folder of each hand inside the directory; "
+                             f"got {entry['directory']!r} for the {entry['side']} hand, which "
+                             "is not there")  # fmt: skip
+        try:
+            track = Track.load(folder, rig=rig)
+        except ValueError as exc:
+            raise ValueError(f"{index}: the {entry['side']} hand's folder {folder}: "
+                             f"{str(exc).removeprefix('directory: ')}") from None  # fmt: skip
+        if track.shape.side != entry["side"]:
+            raise ValueError(f"{index}: expected a {entry['side']} hand in {folder}; got a "
+                             f"{track.shape.side} hand")  # fmt: skip
+        sides.append(entry["side"])
+        hands.append((entry["id"], track))
+    if len(set(sides)) != len(sides):
+        raise ValueError(f"{index}: expected at most one hand of each side; got {sides}")
+    if len({len(t.poses) for _, t in hands}) != 1:
+        raise ValueError(
+            f"{index}: expected the hands' tracks over the same frames; got "
+            + ", ".join(f"{t.shape.side} {len(t.poses)}" for _, t in hands)
+        )
+    name = doc.get("name") if isinstance(doc.get("name"), str) else hands[0][1].name
+    return name, hands
+
+
+def _tracked(hands) -> list:
+    """The hands of `_load_hands` as the exports take them (`TrackedHand`)."""
+    from handvar.export.hands import TrackedHand
+    from handvar.hand.kinematics import HandModel
+
+    return [TrackedHand(t.poses, HandModel(t.shape), id=k, confidence=_confidence(t),
+                        support=_support(t)) for k, t in hands]  # fmt: skip
+
+
+def _hands_frames(hands) -> str:
+    """``T frames, right hand (k without), left hand``: each hand and its absent frames."""
+    import numpy as np
+
+    parts = []
+    for _, t in hands:
+        absent = int(np.isnan(t.poses).all(axis=1).sum())
+        parts.append(f"{t.shape.side} hand" + (f" ({absent} frames without it)" if absent else ""))
+    return f"{len(hands[0][1].poses)} frames, " + ", ".join(parts)
+
+
 def _confidence(track):
     """Per-frame fit confidence: the tracker's silhouette IoU, or on frames fitted to
     keypoints alone the share of them honoured; 0 on lost frames."""
@@ -102,6 +192,8 @@ def export_command(track_dir, fmt, out, corrective, units, up, calib):
         check_output_dir(out, "--out", parents=False)
     else:
         check_output_file(out, "--out", suffixes=_SUFFIXES[fmt])
+    if _is_hands(track_dir):
+        return _export_hands(track_dir, fmt, out, corrective, units, up, calib)
     track = _load(track_dir, calib)
     if fmt in ("bvh", "gltf") and np.isnan(track.poses).all():
         raise ValueError(
@@ -132,6 +224,43 @@ def export_command(track_dir, fmt, out, corrective, units, up, calib):
 
         write_glb(out, track.poses, track.shape, fps=track.fps, corrective=corrective)
     click.echo(f"{track.name}: {_frames(track)}, {track.shape.side} hand -> {out}")
+
+
+def _export_hands(track_dir, fmt, out, corrective, units, up, calib) -> None:
+    """`handvar export` of a directory of both hands: one file (folder) holding them all
+    (docs/outputs.md, "Both hands")."""
+    import numpy as np
+
+    name, hands = _load_hands(track_dir, calib)
+    if fmt in ("bvh", "gltf"):
+        for _, t in hands:
+            if np.isnan(t.poses).all():
+                raise ValueError(
+                    f"TRACK_DIR: expected each hand on at least one frame ({fmt} holds a pose "
+                    f"on every frame); the {t.shape.side} hand of {name} is on none of its "
+                    f"{len(t.poses)} frames"
+                )
+    tracked = _tracked(hands)
+    rig = hands[0][1].rig
+    if fmt == "json":
+        from handvar.export.keypoints import hands_keypoint_frames, write_keypoints_json
+
+        write_keypoints_json(out, hands_keypoint_frames(tracked, rig))
+    elif fmt == "openpose":
+        from handvar.export.keypoints import hands_openpose_frames, write_openpose
+
+        if rig is None:
+            raise ValueError("--calib: expected the cameras (the track holds none); got none")
+        write_openpose(out, hands_openpose_frames(tracked, rig), rig.names)
+    elif fmt == "bvh":
+        from handvar.export.bvh import write_hands_bvh
+
+        write_hands_bvh(out, tracked, fps=hands[0][1].fps, units=units, up=up)
+    else:
+        from handvar.export.gltf import write_hands_glb
+
+        write_hands_glb(out, tracked, fps=hands[0][1].fps, corrective=corrective)
+    click.echo(f"{name}: {_hands_frames(hands)} -> {out}")
 
 
 def _curves(track) -> dict:
@@ -234,6 +363,8 @@ def view_command(track_dir, out, video, frames, calib):
         raise ValueError(f"--video: expected without --no-frames; got {video}")
     out = str(Path(track_dir) / "view.html") if out is None else out
     check_output_file(out, "--out", suffixes=(".html",))
+    if _is_hands(track_dir):
+        return _view_hands(track_dir, out, video, frames, calib)
     track = _load(track_dir, calib)
     from handvar.export.viewer import IMAGE_WIDTH, hand_surface, write_viewer
 
@@ -249,3 +380,71 @@ def view_command(track_dir, out, video, frames, calib):
                  title=f"handvar track: {track.name}")  # fmt: skip
     size = Path(out).stat().st_size / 1e6
     click.echo(f"{track.name}: {_frames(track)} -> {out} ({size:.1f} MB)")
+
+
+def _hands_viewer_images(hands, video, width: int):
+    """`_viewer_images` of both hands: each hand's bones drawn over the frames in its
+    side's colour (`handvar.pipeline.SIDE_RGB`), as the two-hand overlay draws them."""
+    import cv2
+    import numpy as np
+
+    from handvar.camera import Rig
+    from handvar.pipeline import SIDE_RGB
+    from handvar.render.overlay import draw_overlay
+    from handvar.vision.sources import open_source
+
+    first = hands[0][1]
+    if first.rig is None:
+        raise ValueError("--video: expected the track's cameras to draw the model over the "
+                         "frames (the track holds none); give them with --calib")  # fmt: skip
+    camera = first.rig.cameras[0]
+    try:
+        source = open_source(video, Rig((camera,), first.rig.names[:1]),
+                             scale=min(1.0, width / camera.size[0]))  # fmt: skip
+    except (ValueError, FileNotFoundError) as exc:
+        raise ValueError(f"--video: {exc}") from None
+    T = first.n_frames
+    if source.n_frames < T:
+        raise ValueError(f"--video: expected a recording of at least the track's {T} "
+                         f"frames; got {source.n_frames} in {video}")  # fmt: skip
+    shown = source.rig.cameras[0]
+
+    def frames():
+        try:
+            for t, (frame,) in source.frames(0, T):
+                rgb = cv2.cvtColor(frame, cv2.COLOR_BGR2RGB)
+                for _, track in hands:
+                    if np.isfinite(track.joints[t]).all():
+                        rgb = draw_overlay(rgb, shown, track.joints[t], thickness=1,
+                                           colour=SIDE_RGB[track.shape.side])  # fmt: skip
+                yield rgb
+        except ValueError as exc:  # a recording that stops early
+            raise ValueError(f"--video: {exc}") from None
+
+    return frames()
+
+
+def _view_hands(track_dir, out, video, frames, calib) -> None:
+    """`handvar view` of a directory of both hands: one page, each hand in its side's
+    colour (docs/outputs.md, "Both hands")."""
+    from handvar.export.viewer import IMAGE_WIDTH, write_hands_viewer
+    from handvar.pipeline import SIDE_RGB
+
+    name, hands = _load_hands(track_dir, calib)
+    first = hands[0][1]
+    images = None
+    if frames:
+        recording, why = _recording(first, video)
+        if recording is None:
+            click.echo(f"handvar: note: {why}", err=True)
+        else:
+            images = _hands_viewer_images(hands, recording, IMAGE_WIDTH)
+    quality = {}  # each hand's first curve, by side: two at most
+    for _, t in hands:
+        for label, values in list(_curves(t).items())[:1]:
+            quality[f"{t.shape.side}: {label}"] = values
+    write_hands_viewer(out, _tracked(hands), colours=SIDE_RGB, images=images, rig=first.rig,
+                       quality=quality, fps=first.fps,
+                       title=f"handvar track: {name}")  # fmt: skip
+    size = Path(out).stat().st_size / 1e6
+    click.echo(f"{name}: {_hands_frames(hands)} -> {out} ({size:.1f} MB)")

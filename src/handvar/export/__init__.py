@@ -16,13 +16,26 @@ Every function here takes arrays and model objects (poses (T, 26), a `HandShape`
 A frame without a hand (its pose NaN as a whole) keeps its place in every one of them
 (:mod:`~handvar.export.absent`).
 
+Both hands of a track go into one file of each format (`hands_keypoint_frames`,
+`hands_openpose_frames`, `hands_bvh_text`, `hands_glb_bytes`, `hands_viewer_html`), each
+hand given as a `TrackedHand` (:mod:`~handvar.export.hands`).
+
 The formats, frames, units and conventions are described in docs/outputs.md.
 """
 
-from handvar.export.bvh import bvh_text, write_bvh
-from handvar.export.gltf import glb_bytes, mesh_vertices, write_glb
+from handvar.export.bvh import bvh_text, hands_bvh_text, write_bvh, write_hands_bvh
+from handvar.export.gltf import (
+    glb_bytes,
+    hands_glb_bytes,
+    mesh_vertices,
+    write_glb,
+    write_hands_glb,
+)
+from handvar.export.hands import TrackedHand
 from handvar.export.keypoints import (
     fit_confidence,
+    hands_keypoint_frames,
+    hands_openpose_frames,
     joint_visibility,
     keypoint_frames,
     keypoint_share,
@@ -30,12 +43,18 @@ from handvar.export.keypoints import (
     write_keypoints_json,
     write_openpose,
 )
-from handvar.export.viewer import viewer_html, write_viewer
+from handvar.export.viewer import hands_viewer_html, viewer_html, write_hands_viewer, write_viewer
 
 __all__ = [
+    "TrackedHand",
     "bvh_text",
     "fit_confidence",
     "glb_bytes",
+    "hands_bvh_text",
+    "hands_glb_bytes",
+    "hands_keypoint_frames",
+    "hands_openpose_frames",
+    "hands_viewer_html",
     "joint_visibility",
     "keypoint_frames",
     "keypoint_share",
@@ -44,6 +63,9 @@ __all__ = [
     "viewer_html",
     "write_bvh",
     "write_glb",
+    "write_hands_bvh",
+    "write_hands_glb",
+    "write_hands_viewer",
     "write_keypoints_json",
     "write_openpose",
     "write_viewer",

@@ -34,6 +34,9 @@ BVH has a value of every channel on every frame and no way to hide the hand: a f
 without a hand (its pose NaN as a whole) holds the last tracked pose, or before the
 first tracked frame the first one (`handvar.export.absent.held_poses`), so the motion
 keeps the recording's frames and times.
+
+Several hands (`hands_bvh_text`): one ROOT hierarchy per hand in one file, every joint's
+name prefixed by the hand's side, a frame's line holding each hand's channels in turn.
 """
 
 from __future__ import annotations
@@ -47,12 +50,13 @@ from scipy.spatial.transform import Rotation
 
 from handvar.atomic import write_atomic
 from handvar.export.absent import held_poses
+from handvar.export.hands import checked_hands
 from handvar.hand.anthropometry import BONES, HandShape, bone_index
 from handvar.params import DIGITS
 from handvar.validate import as_instance, one_of
 
 __all__ = ["FOREARM_STUB", "UNITS", "UP_FROM_CAMERA", "bvh_joint_order", "bvh_text",
-           "write_bvh"]  # fmt: skip
+           "hands_bvh_text", "write_bvh", "write_hands_bvh"]  # fmt: skip
 
 #: File units per millimetre for ``units``. Blender's BVH importer reads the numbers as
 #: metres at its default scale 1, so "m" shows a hand ~0.18 m long.
@@ -77,10 +81,11 @@ def _wrist_name(digit: int) -> str:
     return "thumb_carpal" if digit == 0 else f"{DIGITS[digit]}_metacarpal"
 
 
-def bvh_joint_order() -> list[str]:
+def bvh_joint_order(prefix: str = "") -> list[str]:
     """Name of the BVH joint (or ``<bone>_end`` for an end site) at each of the 21
     keypoints of G(x), in the order of `JOINTS`; the wrist is the middle finger's
-    metacarpal joint (the five wrist joints all lie there).
+    metacarpal joint (the five wrist joints all lie there). `prefix` starts every name
+    (``"left_"``: a hand's joints in `hands_bvh_text`).
 
     Examples
     --------
@@ -92,7 +97,7 @@ def bvh_joint_order() -> list[str]:
     for k in range(5):
         bones = [BONES[bone_index(k, level)] for level in range(3)]
         names += [*bones, f"{bones[2]}_end"]
-    return names
+    return [prefix + name for name in names]
 
 
 def _first_bone_angles(poses: np.ndarray, shape: HandShape, digit: int) -> np.ndarray:
@@ -144,11 +149,65 @@ def bvh_text(poses, shape: HandShape, *, fps: float | None = None, units: str = 
     """
     poses = held_poses(poses)
     as_instance(shape, HandShape, "shape")
+    scale, turn, fps = _options(units, up, fps)
+    lines, rows = _hand(poses, shape, scale, turn, up, prefix="")
+    return _file(lines, [rows], poses.shape[0], fps)
+
+
+def hands_bvh_text(hands, *, fps: float | None = None, units: str = "m",
+                   up: str = "y") -> str:  # fmt: skip
+    """The BVH file of several hands: one ROOT hierarchy per hand, in the order given.
+
+    Each hand's hierarchy and channels are `bvh_text`'s, every joint's name prefixed
+    with the hand's side (``right_forearm``, ``left_index_proximal``, …; `bvh_joint_order`
+    with ``prefix``), so that the names are unique in the file; a frame's line holds
+    the first hand's channels, then the next one's. A frame without a hand holds that
+    hand's last tracked pose (`held_poses`), as `bvh_text` does.
+
+    Parameters
+    ----------
+    hands : sequence of TrackedHand
+        At most one of each side, over the same frames (`checked_hands`); each with a
+        hand on some frame.
+    fps, units, up : keyword-only
+        As `bvh_text`.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    ValueError
+        If a hand has no frame with a hand, a pose is NaN in part, or an option is
+        unknown.
+    """
+    hands = checked_hands(hands)
+    scale, turn, fps = _options(units, up, fps)
+    lines: list[str] = []
+    rows = []
+    for h in hands:
+        poses = held_poses(h.poses, name=f"hands ({h.side}) poses")
+        hierarchy, values = _hand(poses, h.hand.shape, scale, turn, up, prefix=f"{h.side}_")
+        lines += hierarchy
+        rows.append(values)
+    return _file(lines, rows, len(rows[0]), fps)
+
+
+def _options(units: str, up: str, fps):
+    """The file's scale (units per mm), its turn from the camera frame, the frame rate."""
     scale = UNITS[one_of(units, tuple(UNITS), "units")]
     turn = UP_FROM_CAMERA[one_of(up, tuple(UP_FROM_CAMERA), "up")]
     fps = _DEFAULT_FPS if fps is None else float(fps)
     if not (np.isfinite(fps) and fps > 0):
         raise ValueError(f"fps: expected a positive frame rate; got {fps}")
+    return scale, turn, fps
+
+
+def _hand(poses: np.ndarray, shape: HandShape, scale: float, turn: np.ndarray, up: str, *,
+          prefix: str) -> tuple[list[str], list[str]]:  # fmt: skip
+    """One hand's ROOT hierarchy (lines, its joints' names prefixed with `prefix`) and
+    its channels' values per frame, formatted (module docstring)."""
     digits = 6 + round(float(-np.log10(scale)))  # lengths to a micron in any unit
     stub = FOREARM_STUB * float(np.linalg.norm(shape.bases[2]))  # palm length: wrist-MCP
 
@@ -156,15 +215,15 @@ def bvh_text(poses, shape: HandShape, *, fps: float | None = None, units: str = 
         return f"{pad}OFFSET {_fmt(np.asarray(xyz, float) * scale, digits)}"
 
     root = "CHANNELS 6 Xposition Yposition Zposition Xrotation Yrotation Zrotation"
-    lines = ["HIERARCHY", f"ROOT {_ROOT}", "{", offset("  ", (0.0, 0.0, 0.0)), f"  {root}"]
+    lines = [f"ROOT {prefix}{_ROOT}", "{", offset("  ", (0.0, 0.0, 0.0)), f"  {root}"]
     for k in range(5):
-        lines += ["  JOINT " + _wrist_name(k), "  {", offset("    ", (0.0, stub, 0.0)),
+        lines += [f"  JOINT {prefix}{_wrist_name(k)}", "  {", offset("    ", (0.0, stub, 0.0)),
                   f"    {_ROT}"]  # fmt: skip
         depth = 2
         for level in range(3):
             pad = "  " * depth
             at = shape.bases[k] if level == 0 else (0.0, shape.segments[k, level - 1], 0.0)
-            lines += [f"{pad}JOINT {BONES[bone_index(k, level)]}", pad + "{",
+            lines += [f"{pad}JOINT {prefix}{BONES[bone_index(k, level)]}", pad + "{",
                       offset(pad + "  ", at), f"{pad}  {_ROT}"]  # fmt: skip
             depth += 1
         pad = "  " * depth
@@ -185,10 +244,14 @@ def bvh_text(poses, shape: HandShape, *, fps: float | None = None, units: str = 
         values[:, col : col + 3] = _first_bone_angles(poses, shape, k)
         for level in (1, 2):
             values[:, col + 3 * level + 2] = poses[:, 11 + 3 * k + level]  # X: flexion
-    lines += ["MOTION", f"Frames: {n}", f"Frame Time: {1.0 / fps:.8f}"]
-    lines += [
-        " ".join([_fmt(row[:3], digits), _fmt(row[3:], 6)]) for row in values
-    ]  # fmt: skip
+    rows = [" ".join([_fmt(row[:3], digits), _fmt(row[3:], 6)]) for row in values]
+    return lines, rows
+
+
+def _file(hierarchies: list[str], rows: list[list[str]], n: int, fps: float) -> str:
+    """The BVH text: the hierarchies, then per frame the hands' channels on one line."""
+    lines = ["HIERARCHY", *hierarchies, "MOTION", f"Frames: {n}", f"Frame Time: {1.0 / fps:.8f}"]
+    lines += [" ".join(frame) for frame in zip(*rows, strict=True)]
     return "\n".join(lines) + "\n"
 
 
@@ -196,5 +259,13 @@ def write_bvh(path: str | os.PathLike, poses, shape: HandShape, *, fps=None, uni
               up="y") -> Path:  # fmt: skip
     """Write the BVH of a track (`bvh_text`, same options) to `path`, atomically."""
     text = bvh_text(poses, shape, fps=fps, units=units, up=up)
+    write_atomic(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+    return Path(path)
+
+
+def write_hands_bvh(path: str | os.PathLike, hands, *, fps=None, units="m", up="y") -> Path:
+    """Write the BVH of several hands (`hands_bvh_text`, same options) to `path`,
+    atomically."""
+    text = hands_bvh_text(hands, fps=fps, units=units, up=up)
     write_atomic(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
     return Path(path)

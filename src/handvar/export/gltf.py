@@ -44,6 +44,9 @@ A left hand: the package's mesh is a right hand; its mirror image in the hand fr
 y–z plane (`HandShape.mirrored`) is exported, with the triangles' winding reversed so
 their normals still face outwards. The skeleton is the left hand's own (proper
 rotations), so a left track animates it with the same 26 parameters.
+
+Several hands (`hands_glb_bytes`): each hand's nodes, skin and mesh as above, named by
+side, in one file; one animation holds every hand's channels.
 """
 
 from __future__ import annotations
@@ -58,12 +61,22 @@ from scipy.spatial.transform import Rotation
 
 from handvar.atomic import write_atomic
 from handvar.export.absent import hand_frames, held_poses
+from handvar.export.hands import checked_hands
 from handvar.hand.anthropometry import BONES, HandShape, bone_index
 from handvar.hand.kinematics import HandModel, world_from_hand_rotation
 from handvar.params import DIGITS, N_PARAMS
 from handvar.validate import as_array, as_instance
 
-__all__ = ["SKIN_COLOUR", "Y_UP", "glb_bytes", "mesh_vertices", "rest_mesh", "write_glb"]
+__all__ = [
+    "SKIN_COLOUR",
+    "Y_UP",
+    "glb_bytes",
+    "hands_glb_bytes",
+    "mesh_vertices",
+    "rest_mesh",
+    "write_glb",
+    "write_hands_glb",
+]
 
 _M = 1e-3  # metres per mm
 _DEFAULT_FPS = 30.0
@@ -321,13 +334,130 @@ def glb_bytes(
     present = hand_frames(poses, "poses", (None, N_PARAMS))[1]
     poses = held_poses(poses)
     as_instance(shape, HandShape, "shape")
+    fps = _frame_rate(fps)
+    n = poses.shape[0]
+    model = _mesh_model(shape) if model is None else model
+    buf = _Buffer()
+    nodes: list[dict] = []
+    hand = _skinned_hand(buf, nodes, poses, shape, model, corrective, prefix="", index=0)
+    times = buf.accessor((np.arange(n) / fps).astype(np.float32), "SCALAR", bounds=True)
+    samplers: list[dict] = []
+    channels: list[dict] = []
+    _channels(buf, samplers, channels, hand, present, times, fps)
+
+    extras = {"fps": fps, "frames": n, "frames_without_hand": int(n - present.sum())}
+    document = {
+        "asset": {"version": "2.0", "generator": "handvar", "extras": extras},
+        "scene": 0,
+        "scenes": [
+            {"name": "track", "nodes": [hand["root"], hand["mesh_node"]], "extras": {"fps": fps}}
+        ],
+        "nodes": nodes,
+        "meshes": [hand["mesh"]],
+        "materials": [_MATERIAL],
+        "skins": [hand["skin"]],
+        "animations": [{"name": "track", "samplers": samplers, "channels": channels}],
+        "accessors": buf.accessors,
+        "bufferViews": buf.views,
+        "buffers": [{"byteLength": len(buf.data)}],
+    }
+    return _glb(document, bytes(buf.data))
+
+
+def hands_glb_bytes(hands, *, fps: float | None = None, corrective: bool = True) -> bytes:
+    """The .glb file of several hands: per hand a skinned mesh, its skin and its node
+    hierarchy as `glb_bytes` writes them, named by side, and one animation holding the
+    channels of every hand.
+
+    A hand's nodes, mesh and skin are named as one hand's, prefixed with its side
+    (``right_palm``, ``left_index_tip``, mesh and skin ``left_hand``, mesh node
+    ``left_hand_mesh``); the hands share the material and the key times. A frame
+    without a hand hides that hand (its palm scaled to 0), as `glb_bytes` does.
+
+    Parameters
+    ----------
+    hands : sequence of TrackedHand
+        At most one of each side, over the same frames (`checked_hands`); each with a
+        hand on some frame.
+    fps, corrective : keyword-only
+        As `glb_bytes`.
+
+    Returns
+    -------
+    bytes
+
+    Raises
+    ------
+    ValueError
+        If a hand has no frame with a hand, or a pose is NaN in part.
+    """
+    hands = checked_hands(hands)
+    fps = _frame_rate(fps)
+    buf = _Buffer()
+    nodes: list[dict] = []
+    parts = []
+    for i, h in enumerate(hands):
+        name = f"hands ({h.side}) poses"
+        present = hand_frames(h.poses, name, (None, N_PARAMS))[1]
+        poses = held_poses(h.poses, name=name)
+        shape = h.hand.shape
+        part = _skinned_hand(buf, nodes, poses, shape, _mesh_model(shape), corrective,
+                             prefix=f"{h.side}_", index=i)  # fmt: skip
+        parts.append((part, present))
+    n = len(parts[0][1])
+    times = buf.accessor((np.arange(n) / fps).astype(np.float32), "SCALAR", bounds=True)
+    samplers: list[dict] = []
+    channels: list[dict] = []
+    for part, present in parts:
+        _channels(buf, samplers, channels, part, present, times, fps)
+
+    roots = [i for p, _ in parts for i in (p["root"], p["mesh_node"])]
+    extras = {"fps": fps, "frames": n,
+              "hands": [{"side": h.side, "id": int(h.id),
+                         "frames_without_hand": int(n - present.sum())}
+                        for h, (_, present) in zip(hands, parts, strict=True)]}  # fmt: skip
+    document = {
+        "asset": {"version": "2.0", "generator": "handvar", "extras": extras},
+        "scene": 0,
+        "scenes": [{"name": "track", "nodes": roots, "extras": {"fps": fps}}],
+        "nodes": nodes,
+        "meshes": [p["mesh"] for p, _ in parts],
+        "materials": [_MATERIAL],
+        "skins": [p["skin"] for p, _ in parts],
+        "animations": [{"name": "track", "samplers": samplers, "channels": channels}],
+        "accessors": buf.accessors,
+        "bufferViews": buf.views,
+        "buffers": [{"byteLength": len(buf.data)}],
+    }
+    return _glb(document, bytes(buf.data))
+
+
+_MATERIAL = {
+    "name": "skin",
+    "pbrMetallicRoughness": {
+        "baseColorFactor": list(SKIN_COLOUR),
+        "metallicFactor": 0.0,
+        "roughnessFactor": 0.6,
+    },
+}
+
+
+def _frame_rate(fps) -> float:
     fps = _DEFAULT_FPS if fps is None else float(fps)
     if not (np.isfinite(fps) and fps > 0):
         raise ValueError(f"fps: expected a positive frame rate; got {fps}")
-    n = poses.shape[0]
-    model = _mesh_model(shape) if model is None else model
+    return fps
+
+
+def _skinned_hand(
+    buf: _Buffer, nodes: list[dict], poses: np.ndarray, shape: HandShape, model: HandModel,
+    corrective: bool, *, prefix: str, index: int,
+) -> dict:  # fmt: skip
+    """One hand's nodes (appended to `nodes`, named with `prefix`), its mesh (number
+    `index`, material 0) and skin, their data in `buf`; returns them with the root's
+    and the mesh node's indices and the animation's values (module docstring)."""
+    at = len(nodes)  # this hand's first node
     rest, triangles, weights, d, R0, o0 = _rest_skin(shape, model, corrective)
-    buf = _Buffer()
     parents = _parents()
     trans = _local_translations(shape)
     rot = _local_rotations(poses, shape)
@@ -336,43 +466,43 @@ def glb_bytes(
     palm_t = poses[:, 0:3] @ Y_UP.T * _M
 
     # nodes: bones, tips, helpers, the mesh
-    nodes: list[dict] = []
     for b, name in enumerate(BONES):
         translation = palm_t[0] if b == 0 else trans[b] * _M
-        node = {"name": name, "translation": translation.tolist(),
+        node = {"name": prefix + name, "translation": translation.tolist(),
                 "rotation": quats[0, b].tolist(), "children": []}  # fmt: skip
         nodes.append(node)
     for c, p in enumerate(parents):
         if p >= 0:
-            nodes[p]["children"].append(c)
+            nodes[at + p]["children"].append(at + c)
     tips = []
     for k in range(5):
         tips.append(len(nodes))
-        nodes.append({"name": f"{DIGITS[k]}_tip",
+        nodes.append({"name": f"{prefix}{DIGITS[k]}_tip",
                       "translation": [0.0, float(shape.segments[k, 2] * _M), 0.0]})  # fmt: skip
-        nodes[bone_index(k, 2)]["children"].append(tips[-1])
+        nodes[at + bone_index(k, 2)]["children"].append(tips[-1])
     bind = _frame(R0, o0 * _M)  # rest frames of the bones (metres), hand = camera frame
     tip_bind = np.stack([bind[bone_index(k, 2)] @ _frame(np.eye(3), nodes[t]["translation"])
                          for k, t in enumerate(tips)])  # fmt: skip
-    joints = list(range(len(BONES))) + tips
+    joints = [at + b for b in range(len(BONES))] + tips
     ibm = [np.linalg.inv(_frame(Y_UP, np.zeros(3)) @ m) for m in (*bind, *tip_bind)]
     reach = _helper_reach(d)
     if corrective:
         for b, name in enumerate(BONES):
             for axis, sign in ((a, s) for a in range(3) for s in (1.0, -1.0)):
                 joints.append(len(nodes))
-                nodes[b]["children"].append(len(nodes))
-                nodes.append({"name": f"{name}_fix{'+' if sign > 0 else '-'}{'xyz'[axis]}"})
+                nodes[at + b]["children"].append(len(nodes))
+                nodes.append({"name": f"{prefix}{name}_fix{'+' if sign > 0 else '-'}"
+                                      f"{'xyz'[axis]}"})  # fmt: skip
                 offset = np.zeros(3)
                 offset[axis] = sign * reach * _M
                 ibm.append(_frame(np.eye(3), offset) @ ibm[b])  # T(±s e_axis) IBM_b
-    for node in nodes:
+    for node in nodes[at:]:
         if not node.get("children", True):
             del node["children"]
     mesh_node = len(nodes)
-    nodes.append({"name": "hand_mesh", "mesh": 0, "skin": 0})
+    nodes.append({"name": f"{prefix}hand_mesh", "mesh": index, "skin": index})
 
-    # the mesh: rest positions, normals, weights in sets of four, triangles, material
+    # the mesh: rest positions, normals, weights in sets of four, triangles
     positions = rest @ Y_UP.T * _M
     attributes = {
         "POSITION": buf.accessor(positions.astype(np.float32), "VEC3", target=34962,
@@ -387,47 +517,47 @@ def glb_bytes(
     primitive = {"attributes": attributes, "mode": 4, "material": 0,
                  "indices": buf.accessor(triangles.reshape(-1).astype(np.uint32), "SCALAR",
                                          target=34963)}  # fmt: skip
-    pbr = {"baseColorFactor": list(SKIN_COLOUR), "metallicFactor": 0.0, "roughnessFactor": 0.6}
-    material = {"name": "skin", "pbrMetallicRoughness": pbr}
-    skin = {"name": "hand", "joints": joints, "skeleton": 0,
+    skin = {"name": f"{prefix}hand", "joints": joints, "skeleton": at,
             "inverseBindMatrices": buf.accessor(
                 np.stack(ibm).transpose(0, 2, 1).reshape(-1, 16).astype(np.float32),
                 "MAT4")}  # fmt: skip  # column-major
+    return {
+        "root": at,
+        "mesh_node": mesh_node,
+        "skin": skin,
+        "palm_t": palm_t,
+        "quats": quats,
+        "mesh": {"name": f"{prefix}hand", "primitives": [primitive]},
+    }
 
-    # the animation
-    times = buf.accessor((np.arange(n) / fps).astype(np.float32), "SCALAR", bounds=True)
-    samplers: list[dict] = []
-    channels: list[dict] = []
+
+def _channels(
+    buf: _Buffer,
+    samplers: list[dict],
+    channels: list[dict],
+    hand: dict,
+    present: np.ndarray,
+    times: int,
+    fps: float,
+) -> None:
+    """Append one hand's animation (`_skinned_hand`'s) to `samplers` and `channels`: a
+    key per frame at `times` for the palm's translation and every bone's rotation, and
+    the palm's scale, 0 on frames without the hand (module docstring)."""
+    root = hand["root"]
 
     def channel(node: int, path: str, values, kind: str, *, at=times, how="LINEAR") -> None:
         out = buf.accessor(np.asarray(values, dtype=np.float32), kind)
         samplers.append({"input": at, "output": out, "interpolation": how})
         channels.append({"sampler": len(samplers) - 1, "target": {"node": node, "path": path}})
 
-    channel(0, "translation", palm_t, "VEC3")
+    channel(root, "translation", hand["palm_t"], "VEC3")
     for b in range(len(BONES)):
-        channel(b, "rotation", quats[:, b], "VEC4")
+        channel(root + b, "rotation", hand["quats"][:, b], "VEC4")
     if not present.all():  # hide the hand: palm scale 0, keyed where it comes and goes
         keys = np.flatnonzero(np.r_[True, present[1:] != present[:-1]])
         at = buf.accessor((keys / fps).astype(np.float32), "SCALAR", bounds=True)
         scale = np.repeat(present[keys, None].astype(float), 3, axis=1)
-        channel(0, "scale", scale, "VEC3", at=at, how="STEP")
-
-    extras = {"fps": fps, "frames": n, "frames_without_hand": int(n - present.sum())}
-    document = {
-        "asset": {"version": "2.0", "generator": "handvar", "extras": extras},
-        "scene": 0,
-        "scenes": [{"name": "track", "nodes": [0, mesh_node], "extras": {"fps": fps}}],
-        "nodes": nodes,
-        "meshes": [{"name": "hand", "primitives": [primitive]}],
-        "materials": [material],
-        "skins": [skin],
-        "animations": [{"name": "track", "samplers": samplers, "channels": channels}],
-        "accessors": buf.accessors,
-        "bufferViews": buf.views,
-        "buffers": [{"byteLength": len(buf.data)}],
-    }
-    return _glb(document, bytes(buf.data))
+        channel(root, "scale", scale, "VEC3", at=at, how="STEP")
 
 
 def _glb(document: dict, binary: bytes) -> bytes:
@@ -446,5 +576,13 @@ def _glb(document: dict, binary: bytes) -> bytes:
 def write_glb(path: str | os.PathLike, poses, shape: HandShape, **options) -> Path:
     """Write the .glb of a track (`glb_bytes`, same keyword options) to `path`, atomically."""
     data = glb_bytes(poses, shape, **options)
+    write_atomic(path, lambda tmp: Path(tmp).write_bytes(data))
+    return Path(path)
+
+
+def write_hands_glb(path: str | os.PathLike, hands, **options) -> Path:
+    """Write the .glb of several hands (`hands_glb_bytes`, same keyword options) to
+    `path`, atomically."""
+    data = hands_glb_bytes(hands, **options)
     write_atomic(path, lambda tmp: Path(tmp).write_bytes(data))
     return Path(path)

@@ -12,6 +12,9 @@ Two layouts (docs/outputs.md):
   hand; zeros where nothing was found), the tracked hand in ``hand_right_*`` or
   ``hand_left_*`` by its side.
 
+Both hands (`hands_keypoint_frames`, `hands_openpose_frames`; `handvar.export.hands`):
+the JSON lists each hand's frames under ``hands``, OpenPose's person holds both.
+
 A frame without a hand (its pose NaN as a whole, `handvar.export.absent`) is written
 without points: ``world`` null, confidence 0 and no ``views`` in the JSON, no
 ``people`` in OpenPose's.
@@ -42,6 +45,7 @@ import numpy as np
 
 from handvar.atomic import OutputSet, check_output_dir, write_atomic
 from handvar.export.absent import hand_frames
+from handvar.export.hands import checked_hands
 from handvar.hand.anthropometry import JOINTS
 from handvar.validate import as_array
 
@@ -49,6 +53,8 @@ __all__ = [
     "OPENPOSE_LENGTHS",
     "PointScores",
     "fit_confidence",
+    "hands_keypoint_frames",
+    "hands_openpose_frames",
     "joint_reach",
     "joint_visibility",
     "keypoint_frames",
@@ -369,6 +375,44 @@ def keypoint_frames(poses, hand, rig=None, *, confidence=None, support=None,
     }
 
 
+def hands_keypoint_frames(hands, rig=None, *, scores: PointScores = PointScores()) -> dict:
+    """The keypoints of several hands as one JSON-ready document (docs/outputs.md).
+
+    Each hand's part is `keypoint_frames`' document without what the hands share: the
+    ``joints`` names, ``units`` and ``cameras`` are at the top, each hand under
+    ``hands`` with its ``id``, ``side`` and ``frames`` (as `keypoint_frames` writes
+    them: a frame without that hand has ``world`` null, ``confidence`` 0, no ``views``).
+
+    Parameters
+    ----------
+    hands : sequence of TrackedHand
+        At most one of each side, over the same frames (`checked_hands`).
+    rig : Rig, optional
+        Cameras; without it only the world keypoints are written.
+    scores : PointScores, keyword-only
+
+    Returns
+    -------
+    dict
+        ``{"format": "handvar-keypoints-hands", "version": 1, "joints", "units",
+        "cameras", "hands": [{"id", "side", "frames"}, ...]}``.
+    """
+    parts = [
+        (h, keypoint_frames(h.poses, h.hand, rig, confidence=h.confidence, support=h.support,
+                            scores=scores))
+        for h in checked_hands(hands)
+    ]  # fmt: skip
+    first = parts[0][1]
+    return {
+        "format": "handvar-keypoints-hands",
+        "version": 1,
+        "joints": first["joints"],
+        "units": first["units"],
+        "cameras": first["cameras"],
+        "hands": [{"id": int(h.id), "side": h.side, "frames": doc["frames"]} for h, doc in parts],
+    }
+
+
 def write_keypoints_json(path: str | os.PathLike, document: dict) -> Path:
     """Write `document` (`keypoint_frames`) to the JSON file `path`, atomically."""
     write_atomic(path, lambda tmp: Path(tmp).write_text(json.dumps(document), encoding="utf-8"))
@@ -414,31 +458,72 @@ def openpose_frames(poses, hand, rig, *, confidence=None, support=None, with_3d:
         ``[camera][frame]``.
     """
     poses, present, confidence, support = _check_inputs(poses, hand, rig, confidence, support)
+    return _openpose([(poses, present, hand, confidence, support)], rig, with_3d, scores)
+
+
+def _openpose(hands, rig, with_3d: bool, scores: PointScores) -> list:
+    """`openpose_frames` of several hands, each ``(poses, present, hand, confidence,
+    support)`` checked, of different sides: one person holding every hand in the frame."""
     if rig is None:
         raise ValueError("rig: expected the cameras to project the keypoints into; got None")
-    side = f"hand_{hand.shape.side}"
+    n = hands[0][0].shape[0]
     out: list[list[dict]] = [[] for _ in rig.cameras]
-    for t, x in enumerate(poses):
-        if not present[t]:
+    for t in range(n):
+        here = [h for h in hands if h[1][t]]
+        if not here:
             for per_camera in out:
                 per_camera.append({"version": _OPENPOSE_VERSION, "people": []})
             continue
-        joints, views = _views(hand, x, rig)
-        found = 1.0 if confidence is None or confidence[t] > 0 else 0.0
-        for j, (uv, _, visible, inside) in enumerate(views):
-            score = _point_scores(t, confidence, support, visible, inside, scores)
-            flat2 = np.where((score > 0)[:, None], np.column_stack([uv, score]), 0.0)
+        lists2: list[dict[str, np.ndarray]] = [{} for _ in rig.cameras]  # per camera
+        lists3: dict[str, np.ndarray] = {}
+        for poses, _, hand, confidence, support in here:
+            side = f"hand_{hand.shape.side}"
+            joints, views = _views(hand, poses[t], rig)
+            found = 1.0 if confidence is None or confidence[t] > 0 else 0.0
+            lists3[side] = np.column_stack([joints, np.ones(_N_JOINTS)]) * found
+            for j, (uv, _, visible, inside) in enumerate(views):
+                score = _point_scores(t, confidence, support, visible, inside, scores)
+                lists2[j][side] = np.where((score > 0)[:, None], np.column_stack([uv, score]),
+                                           0.0)  # fmt: skip
+        for j in range(len(rig.cameras)):
             person: dict = {"person_id": [-1]}
-            for part, n in OPENPOSE_LENGTHS.items():
-                points = flat2 if part == side else np.zeros((n, 3))
+            for part, k in OPENPOSE_LENGTHS.items():
+                points = lists2[j].get(part, np.zeros((k, 3)))
                 person[f"{part}_keypoints_2d"] = _rounded(points.reshape(-1), 4)
-            for part, n in OPENPOSE_LENGTHS.items():
-                points = np.zeros((n, 4))
-                if part == side:
-                    points = np.column_stack([joints, np.ones(_N_JOINTS)]) * found
+            for part, k in OPENPOSE_LENGTHS.items():
+                points = lists3.get(part, np.zeros((k, 4)))
                 person[f"{part}_keypoints_3d"] = _rounded(points.reshape(-1), 4) if with_3d else []
             out[j].append({"version": _OPENPOSE_VERSION, "people": [person]})
     return out
+
+
+def hands_openpose_frames(hands, rig, *, with_3d: bool = True,
+                          scores: PointScores = PointScores()) -> list:  # fmt: skip
+    """Several hands in OpenPose's per-frame JSON layout, one list of frames per camera.
+
+    As `openpose_frames`, with one person per frame holding every hand in the frame, each
+    in the lists of its side (``hand_right_*``, ``hand_left_*``), zeros for a hand not in
+    the frame; ``"people": []`` on a frame with none of them, as OpenPose writes it.
+
+    Parameters
+    ----------
+    hands : sequence of TrackedHand
+        At most one of each side, over the same frames (`checked_hands`).
+    rig : Rig
+    with_3d, scores : keyword-only
+        As `openpose_frames`.
+
+    Returns
+    -------
+    list of list of dict
+        ``[camera][frame]``.
+    """
+    checked = []
+    for h in checked_hands(hands):
+        poses, present, confidence, support = _check_inputs(h.poses, h.hand, rig,
+                                                            h.confidence, h.support)  # fmt: skip
+        checked.append((poses, present, h.hand, confidence, support))
+    return _openpose(checked, rig, with_3d, scores)
 
 
 def openpose_name(camera: str, frame: int) -> str:

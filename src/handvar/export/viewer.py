@@ -27,12 +27,14 @@ import base64
 import math
 import os
 import re
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from handvar.atomic import write_atomic
 from handvar.export.absent import hand_frames
+from handvar.export.hands import checked_hands
 from handvar.hand.anthropometry import JOINT_DIGIT, JOINTS, HandShape
 from handvar.params import N_PARAMS
 from handvar.validate import as_array, as_instance
@@ -45,7 +47,9 @@ __all__ = [
     "camera_view",
     "hand_boxes",
     "hand_surface",
+    "hands_viewer_html",
     "viewer_html",
+    "write_hands_viewer",
     "write_viewer",
 ]
 
@@ -370,10 +374,11 @@ def _layout(
           "args": [{"scene.camera": through}]},
          {"label": "Free view", "method": "relayout", "args": [{"scene.camera": free}]}],
     ]  # fmt: skip
-    if surface:
+    if surface:  # the surface traces' indices
         menus.append([
-            {"label": "See-through", "method": "restyle", "args": [{"opacity": _SEE_THROUGH}, [0]]},
-            {"label": "Solid", "method": "restyle", "args": [{"opacity": 1.0}, [0]]},
+            {"label": "See-through", "method": "restyle",
+             "args": [{"opacity": _SEE_THROUGH}, list(surface)]},
+            {"label": "Solid", "method": "restyle", "args": [{"opacity": 1.0}, list(surface)]},
         ])  # fmt: skip
     colours = _CURVE_COLOURS
     scene_x, scene_y = ([0.0, 0.56], [0.08, 0.94]) if right else ([0.0, 1.0], [0.3, 0.94])
@@ -461,21 +466,125 @@ def viewer_html(
     str
         A complete HTML document with plotly.js embedded.
     """
+    joints, present = hand_frames(joints, "joints", (None, len(JOINTS), 3), what="keypoints")
+    if joints.shape[0] < 1:
+        raise ValueError("joints: expected at least one frame; got 0")
+    vertices, triangles = _checked_surface(surface, joints.shape[0], present)
+    layer = _Layer(joints, present, vertices, triangles, _SKIN, _BONE_COLOURS, _JOINT_COLOURS,
+                   "")  # fmt: skip
+    return _viewer([layer], images=images, rig=rig, quality=quality,
+                   quality_label=quality_label, fps=fps, title=title,
+                   image_width=image_width)  # fmt: skip
+
+
+def hands_viewer_html(
+    hands, *, colours=None, images=None, rig=None, quality=None,
+    quality_label: str = "quality", fps: float | None = None,
+    title: str = "handvar track", image_width: int = IMAGE_WIDTH,
+    n_vertices: int = SURFACE_VERTICES,
+) -> str:  # fmt: skip
+    """The viewer page of several hands: each hand's surface (`hand_surface`), bones and
+    keypoints in the scene, as `viewer_html` draws one, in its side's colour.
+
+    With `colours`, a hand's surface and bones are drawn in the colour of its side and
+    its keypoints in the digits' colours (`DIGIT_RGB`), as the two-hand overlay draws
+    them; the See-through and Solid buttons act on every surface. The axes and the
+    opening view hold every hand; a hand's keypoints hover with its side's name.
+
+    Parameters
+    ----------
+    hands : sequence of TrackedHand
+        At most one of each side, over the same frames (`checked_hands`).
+    colours : dict of str to (int, int, int), keyword-only, optional
+        RGB per side (`handvar.pipeline.SIDE_RGB`); None: every hand as `viewer_html`
+        draws one (skin, bones in the digits' colours).
+    images, rig, quality, quality_label, fps, title, image_width : keyword-only
+        As `viewer_html`; the frames should show every hand (the caller draws them).
+    n_vertices : int, keyword-only
+        Vertices of each hand's surface (`hand_surface`).
+
+    Returns
+    -------
+    str
+        A complete HTML document with plotly.js embedded.
+    """
+    from handvar.hand.kinematics import HandModel
+
+    layers = []
+    for h in checked_hands(hands):
+        model = HandModel(h.hand.shape)
+        poses, present = hand_frames(h.poses, f"hands ({h.side}) poses", (None, N_PARAMS))
+        joints = np.full((len(poses), len(JOINTS), 3), np.nan)
+        for t in np.flatnonzero(present):
+            joints[t] = model.joints(poses[t])
+        vertices, triangles = hand_surface(h.hand.shape, poses, n_vertices=n_vertices)
+        if colours is None:
+            skin, bones = _SKIN, _BONE_COLOURS
+        else:
+            colour = colours.get(h.side)
+            if colour is None:
+                raise ValueError(f"colours: expected a colour for every hand's side; got none "
+                                 f"for {h.side} in {sorted(colours)}")  # fmt: skip
+            skin, bones = _rgb(colour), [_rgb(colour)] * len(_BONE_COLOURS)
+        layers.append(_Layer(joints, present, vertices, triangles.astype(np.int32), skin, bones,
+                             _JOINT_COLOURS, h.side))  # fmt: skip
+    if len(layers[0].joints) < 1:
+        raise ValueError("hands: expected at least one frame; got 0")
+    return _viewer(layers, images=images, rig=rig, quality=quality, quality_label=quality_label,
+                   fps=fps, title=title, image_width=image_width)  # fmt: skip
+
+
+@dataclass(frozen=True, eq=False)
+class _Layer:
+    """One hand on the page: its keypoints (T, 21, 3) and frames with it, its surface
+    (or None), the colours of its surface, bones (per line point) and keypoints, and its
+    label (empty for one hand: the traces keep their plain names)."""
+
+    joints: np.ndarray
+    present: np.ndarray
+    vertices: np.ndarray | None
+    triangles: np.ndarray | None
+    skin: str
+    bones: list
+    keypoints: list
+    label: str
+
+    def name(self, what: str) -> str:
+        return f"{self.label} {what}" if self.label else what
+
+
+def _together(layers) -> tuple[np.ndarray, np.ndarray]:
+    """(T, N, 3) the points of every hand per frame (keypoints, surface) and which frames
+    have a hand. On a frame where some hand is absent and another there, the absent
+    hand's points are all the wrist of the first hand there, which leaves the hands'
+    bounding box as it is; a frame without any hand is NaN as a whole (`hand_boxes`)."""
+    parts = [ly.joints if ly.vertices is None else np.concatenate([ly.joints, ly.vertices], 1)
+             for ly in layers]  # fmt: skip
+    present = np.any([ly.present for ly in layers], axis=0)
+    if len(parts) == 1:
+        return parts[0], present
+    wrist = np.full((len(present), 3), np.nan)
+    for ly in reversed(layers):  # the first hand there wins
+        wrist[ly.present] = ly.joints[ly.present, 0]
+    filled = [np.where(ly.present[:, None, None], part, wrist[:, None, :])
+              for part, ly in zip(parts, layers, strict=True)]  # fmt: skip
+    return np.concatenate(filled, axis=1), present
+
+
+def _viewer(layers, *, images, rig, quality, quality_label, fps, title, image_width) -> str:
+    """The page of `layers` (`_Layer`, one per hand): `viewer_html`'s figure."""
     import plotly.graph_objects as go
 
-    joints, present = hand_frames(joints, "joints", (None, len(JOINTS), 3), what="keypoints")
-    n = joints.shape[0]
-    if n < 1:
-        raise ValueError("joints: expected at least one frame; got 0")
-    vertices, triangles = _checked_surface(surface, n, present)
+    n = layers[0].joints.shape[0]
     sources = None if images is None else [_jpeg_uri(im, image_width) for im in images]
     if sources is not None and len(sources) != n:
         raise ValueError(f"images: expected one frame per frame of the track ({n}); "
                          f"got {len(sources)}")  # fmt: skip
     curves = _curves(quality, quality_label, n)
     fps = _DEFAULT_FPS if fps is None else float(fps)
-    points = joints if vertices is None else np.concatenate([joints, vertices], axis=1)
-    margin = 25.0 if vertices is None else 10.0  # the flesh around the keypoints
+    points, present = _together(layers)
+    with_surface = any(ly.vertices is not None for ly in layers)
+    margin = 10.0 if with_surface else 25.0  # the flesh around the keypoints
     centres, side = hand_boxes(points, fps=fps, margin=margin)
     if not present.any() and rig is not None:  # no hand at all: a cube ahead of the camera
         centres[:] = rig.cameras[0].center + 500.0 * rig.cameras[0].axis
@@ -488,11 +597,14 @@ def viewer_html(
 
     def frame(t: int) -> list[dict]:
         """What changes from frame to frame: the animated traces' coordinates."""
-        data = [] if vertices is None else [_surface_frame(vertices[t])]
-        xs, ys, zs = _segments(joints[t])
-        data.append({"type": "scatter3d", "x": xs, "y": ys, "z": zs})
-        x, y, z = (_coordinates(joints[t, :, i]) for i in range(3))
-        data.append({"type": "scatter3d", "x": x, "y": y, "z": z})
+        data = []
+        for ly in layers:
+            if ly.vertices is not None:
+                data.append(_surface_frame(ly.vertices[t]))
+            xs, ys, zs = _segments(ly.joints[t])
+            data.append({"type": "scatter3d", "x": xs, "y": ys, "z": zs})
+            x, y, z = (_coordinates(ly.joints[t, :, i]) for i in range(3))
+            data.append({"type": "scatter3d", "x": x, "y": y, "z": z})
         data.append({"type": "scatter", "x": [t, t]})
         if sources is not None:
             data.append({"type": "image", "source": sources[t]})
@@ -500,21 +612,26 @@ def viewer_html(
 
     fig = go.Figure()
     first = iter(frame(0))
-    if vertices is not None:
-        fig.add_trace(go.Mesh3d(
-            **_no_type(next(first)), i=triangles[:, 0], j=triangles[:, 1], k=triangles[:, 2],
-            color=_SKIN, opacity=_SEE_THROUGH, name="surface", hoverinfo="skip",
-            lighting={"ambient": 0.55, "diffuse": 0.7, "specular": 0.15, "roughness": 0.7,
-                      "fresnel": 0.1},
+    surfaces = []
+    for ly in layers:
+        if ly.vertices is not None:
+            surfaces.append(len(fig.data))
+            fig.add_trace(go.Mesh3d(
+                **_no_type(next(first)), i=ly.triangles[:, 0], j=ly.triangles[:, 1],
+                k=ly.triangles[:, 2], color=ly.skin, opacity=_SEE_THROUGH,
+                name=ly.name("surface"), hoverinfo="skip",
+                lighting={"ambient": 0.55, "diffuse": 0.7, "specular": 0.15, "roughness": 0.7,
+                          "fresnel": 0.1},
+            ))  # fmt: skip
+        fig.add_trace(go.Scatter3d(**_no_type(next(first)), mode="lines", name=ly.name("bones"),
+                                   line={"color": ly.bones, "width": 7},
+                                   hoverinfo="skip"))  # fmt: skip
+        text = [ly.name(j) for j in JOINTS]
+        fig.add_trace(go.Scatter3d(
+            **_no_type(next(first)), mode="markers", name=ly.name("keypoints"), text=text,
+            marker={"size": 4, "color": ly.keypoints, "line": {"color": "black", "width": 1}},
+            hovertemplate="%{text}: %{x:.0f}, %{y:.0f}, %{z:.0f} mm<extra></extra>",
         ))  # fmt: skip
-    fig.add_trace(go.Scatter3d(**_no_type(next(first)), mode="lines", name="bones",
-                               line={"color": _BONE_COLOURS, "width": 7},
-                               hoverinfo="skip"))  # fmt: skip
-    fig.add_trace(go.Scatter3d(
-        **_no_type(next(first)), mode="markers", name="keypoints", text=list(JOINTS),
-        marker={"size": 4, "color": _JOINT_COLOURS, "line": {"color": "black", "width": 1}},
-        hovertemplate="%{text}: %{x:.0f}, %{y:.0f}, %{z:.0f} mm<extra></extra>",
-    ))  # fmt: skip
     low, high = y_ranges[0] if y_ranges else (0.0, 1.0)
     fig.add_trace(go.Scatter(**_no_type(next(first)), y=[low, high], mode="lines",
                              name="frame", line={"color": "black", "width": 1},
@@ -546,7 +663,7 @@ def viewer_html(
                         [0.0, 0.0, 1.0])  # fmt: skip
     fig.update_layout(_layout(
         title, n, fps, curves, y_ranges, through, _free_view(through), ranges(opening),
-        sources is not None, surface=vertices is not None, cameras=rig is not None,
+        sources is not None, surface=surfaces, cameras=rig is not None,
     ))  # fmt: skip
     jump = (
         "var gd = document.getElementById('{plot_id}');"
@@ -586,5 +703,13 @@ def _page(body: str, title: str) -> str:
 def write_viewer(path: str | os.PathLike, joints, **options) -> Path:
     """Write the viewer page (`viewer_html`, same keyword options) to `path`, atomically."""
     html = viewer_html(joints, **options)
+    write_atomic(path, lambda tmp: Path(tmp).write_text(html, encoding="utf-8"))
+    return Path(path)
+
+
+def write_hands_viewer(path: str | os.PathLike, hands, **options) -> Path:
+    """Write the viewer page of several hands (`hands_viewer_html`, same keyword options)
+    to `path`, atomically."""
+    html = hands_viewer_html(hands, **options)
     write_atomic(path, lambda tmp: Path(tmp).write_text(html, encoding="utf-8"))
     return Path(path)
