@@ -1946,7 +1946,8 @@ def track_hands(
             projected=project_joints(full, r.track.joints), quality=r.quality, rig=full,
             shape=r.shape, name=opened.names[0] if opened.names else "recording",
             predictor=predictor, seed=seed, fps=opened.fps, result=r.track,
-            options={"hands": hands, "scale": scale, "hand_length": hand_length,
+            options={"source": [str(p) for p in paths], "kind": "recording",
+                     "hands": hands, "scale": scale, "hand_length": hand_length,
                      "model": model, "hand": h.side, "keypoints": True, "recover": True,
                      "detector": "mediapipe" if detector == "auto" else "user"},
         )  # fmt: skip

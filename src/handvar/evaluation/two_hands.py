@@ -771,9 +771,11 @@ def score_two_hands(case: TwoHandCase, tracks: dict, *, camera: int = 0,
                     threshold: float = 0.2, gate: float = 0.5) -> TwoHandScore:  # fmt: skip
     """Score tracks of two hands against `case`'s truth on one camera.
 
-    Each frame, the tracks present (a finite point) are matched one to one to the true
-    hands by the least total mean 2D distance (Hungarian assignment), each distance in
-    the true hand's size (f · L / z, `handvar.synth.keypoints.hand_size_px`); a pair more
+    Each frame, as CLEAR MOT does, the previous frame's pairs whose track is present (a
+    finite point) and still within the gate are kept, and the other tracks present are
+    matched one to one to the other true hands by the least total mean 2D distance
+    (Hungarian assignment), each distance in the true hand's size (f · L / z,
+    `handvar.synth.keypoints.hand_size_px`); a pair more
     than `gate` hand sizes apart is no match.  Every true hand takes part, in view or
     not.  Identity switches count, over the matched frames (gaps bridged, as CLEAR MOT's),
     each change of a track's true hand and each change of a true hand's track.  A true
@@ -831,10 +833,20 @@ def score_two_hands(case: TwoHandCase, tracks: dict, *, camera: int = 0,
             with np.errstate(invalid="ignore"):
                 d = np.linalg.norm(points[i][t][None] - truth[:, t], axis=-1)  # (2, 21)
             cost[a] = np.nanmean(d, axis=1) / size[:, t]
-        rows, cols = linear_sum_assignment(np.where(cost <= gate, cost, 1e6))
+        kept = {}  # CLEAR MOT: last frame's pairs still within the gate are kept
+        for k in range(2):
+            i = match[k, t - 1] if t else -1
+            if i in present and cost[present.index(i), k] <= gate:
+                kept[k] = i
+        free_rows = [a for a, i in enumerate(present) if i not in kept.values()]
+        free_cols = [k for k in range(2) if k not in kept]
+        sub = cost[np.ix_(free_rows, free_cols)]
+        rows, cols = linear_sum_assignment(np.where(sub <= gate, sub, 1e6))
         for a, k in zip(rows, cols, strict=True):
-            if cost[a, k] <= gate:
-                match[k, t] = present[a]
+            if sub[a, k] <= gate:
+                kept[free_cols[k]] = present[free_rows[a]]
+        for k, i in kept.items():
+            match[k, t] = i
     hand_switches = sum(_changes(match[k]) for k in range(2))
     track_of = np.full((len(ids), T), -1, dtype=np.int64)
     for k in range(2):

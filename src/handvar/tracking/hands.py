@@ -7,17 +7,19 @@ detector's label:
 
 1. **Where each hand is expected.**  A tracked hand's 21 points in every camera,
    extrapolated from its last two fits at constant velocity (only from its last one
-   after a gap); its size s the wrist → middle-MCP distance there.
+   after a gap), or where its last fit put them, whichever is nearer a detection; its
+   size s the wrist → middle-MCP distance there.
 2. **Assignment.**  Per camera, the cost of giving detection d to hand h is the median
    over their common points of |p_h − p_d| / s_h, plus `LABEL_COST` · (2 score − 1)
    when the detector labels d with the other side; the assignment of least total cost
    (`scipy.optimize.linear_sum_assignment`) keeps the pairs under `GATE` hand sizes
-   (wider after frames without the hand: `GATE` · (1 + missing / 2)).  The label is
+   (wider by `GATE_GROWTH` for each frame since the hand was last fitted).  The label is
    one vote among others: a hand that crosses the other keeps its identity when the
    detector's labels swap.
 3. **A new hand.**  A detection left over, not within `DUPLICATE` hand sizes of a
-   tracked hand's detection (MediaPipe sometimes finds one hand twice), starts the
-   free hand.  Its side: the other side than the tracked hand's if there is one (two
+   tracked hand's detection (MediaPipe sometimes finds one hand twice) nor within
+   `NEW_HAND` of a tracked hand given none (that hand's, off by a gross error), starts
+   the free hand.  Its side: the other side than the tracked hand's if there is one (two
    hands of one person), else the detector's label.  So a hand that leaves and comes
    back is re-acquired with its side.
 4. **The side of a hand** never changes within a track, except on overwhelming
@@ -28,14 +30,18 @@ detector's label:
 5. **One hand hiding the other.**  Per camera, the keypoints of a hand that fall
    inside the other hand's expected outline (the convex hull of its points, widened
    by 0.15 of its size) while the other is nearer the camera by `FRONT` mm or more
-   get their confidence times `HIDDEN_WEIGHT`.  A tracked hand given no detection while
-   most of its expected points lie inside the nearer hand's outline is carried by its
-   motion prediction (``hidden``, its quality ``empty``) for up to `HIDDEN_FRAMES`
-   frames; a hand given no detection in the open is a frame without that hand.
+   get their confidence times `HIDDEN_WEIGHT`.  A hand fitted until a frame ago and
+   given no detection is carried by its motion prediction (``hidden``, its quality
+   ``empty``): for up to `HIDDEN_FRAMES` frames while `BEHIND_SHARE` of its expected
+   points or more lie inside the other hand's outline (behind it, or touching it),
+   for up to `MISSED_FRAMES` in the open (a detector's miss); after that it is a
+   frame without that hand.
 
 A frame's `HandsResult` holds one `FrameResult` per hand, under its id (0, 1: the order
-in which the hands were first seen) with its side.  One hand (``hands=1``) is the
-one-hand tracker's track exactly, with the detector's hands assigned by the same rules.
+in which the hands were first seen) with its side.  With ``hands=1`` it tracks the
+first hand it sees by the same rules; the one-hand `HandTracker` and ``handvar.track``
+are not changed by it.  Only detections drive it: without any it draws nothing (the
+silhouette tracker is one hand's).
 
 Examples
 --------
@@ -58,12 +64,16 @@ from handvar.hand.anthropometry import SIDES
 from handvar.validate import as_int
 
 __all__ = [
+    "BEHIND_SHARE",
     "DUPLICATE",
     "FRONT",
     "GATE",
+    "GATE_GROWTH",
     "HIDDEN_FRAMES",
     "HIDDEN_WEIGHT",
     "LABEL_COST",
+    "MISSED_FRAMES",
+    "NEW_HAND",
     "SIDE_FRAMES",
     "SIDE_SWAP",
     "HandsResult",
@@ -74,11 +84,16 @@ __all__ = [
 
 #: Hand sizes (wrist → middle MCP) within which a detection may be a tracked hand's.
 GATE = 1.0
+#: Hand sizes the gate widens by for each frame since the hand was last fitted.
+GATE_GROWTH = 0.2
 #: Hand sizes added to the cost of a detection labelled the other side, times its
 #: score's margin 2·score − 1.
 LABEL_COST = 0.25
 #: Hand sizes within which a second detection is the same hand found twice.
 DUPLICATE = 0.35
+#: Hand sizes from a tracked hand given no detection within which a detection left over
+#: is that hand's, off by a detector's gross error, not a new hand.
+NEW_HAND = 2.0
 #: Labelled detections of a new hand after which its side may turn.
 SIDE_FRAMES = 30
 #: Weighted share of labels for the other side that turns a new hand's side.
@@ -89,6 +104,10 @@ FRONT = 30.0
 HIDDEN_WEIGHT = 0.2
 #: Frames a hidden hand is carried by its motion prediction.
 HIDDEN_FRAMES = 15
+#: Share of a hand's expected points inside the nearer hand's outline that makes it hidden.
+BEHIND_SHARE = 0.2
+#: Frames a hand given no detection in the open is carried (a detector's miss).
+MISSED_FRAMES = 2
 #: Frames without a detection after which a hand is no longer expected anywhere.
 GONE_FRAMES = 10
 
@@ -133,20 +152,26 @@ def expected_points(last, before) -> np.ndarray | None:
     return p
 
 
-def _size(points: np.ndarray) -> float:
-    """Hand size in pixels: wrist → middle MCP, at least 8 px."""
+def _size(*hands: np.ndarray) -> float:
+    """Hand size in pixels: wrist → middle MCP, the smallest of `hands` (21, 2) where
+    both points are seen, at least 8 px."""
     from handvar.vision.keypoints import HandLandmark
 
-    d = points[HandLandmark.MIDDLE_FINGER_MCP] - points[HandLandmark.WRIST]
-    s = float(np.hypot(*d))
-    return s if np.isfinite(s) and s > 8.0 else 8.0
+    sizes = [float(np.hypot(*(p[HandLandmark.MIDDLE_FINGER_MCP] - p[HandLandmark.WRIST])))
+             for p in hands]  # fmt: skip
+    sizes = [s for s in sizes if np.isfinite(s)]
+    return max(min(sizes), 8.0) if sizes else 8.0
 
 
 def _distance(expected: np.ndarray, detected: np.ndarray) -> float:
-    """Median distance of the common points over the hand size; inf without any."""
+    """Median distance of the common points over the hand size, inf without any; of
+    several places a hand may be (k, 21, 2), the nearest."""
+    if expected.ndim == 3:
+        return min(_distance(e, detected) for e in expected)
     d = np.linalg.norm(expected - detected[:, :2], axis=1)
     d = d[np.isfinite(d) & (detected[:, 2] > 0)]
-    return float(np.median(d)) / _size(expected) if d.size else np.inf
+    size = _size(expected, detected[:, :2])  # the smaller: a far hand is far
+    return float(np.median(d)) / size if d.size else np.inf
 
 
 def assign(expected: list, sides: list, found: list, gates: list) -> dict[int, int]:
@@ -154,8 +179,9 @@ def assign(expected: list, sides: list, found: list, gates: list) -> dict[int, i
 
     Parameters
     ----------
-    expected : list of (21, 2) ndarray or None
-        Per hand, its expected points (None: not expected anywhere).
+    expected : list of (21, 2) or (k, 21, 2) ndarray or None
+        Per hand, its expected points, or k places it may be (the nearest counts);
+        None: not expected anywhere.
     sides : list of str
         Per hand, its side.
     found : list of Detection
@@ -235,6 +261,12 @@ class _Hand:
         if self.last is None or self.missing > GONE_FRAMES:
             return None
         return expected_points(self.last, self.before)
+
+    def places(self, j: int):
+        """Where it may be in camera j, (2, 21, 2): extrapolated and as last fitted (a
+        glitch of the last fit is not extrapolated alone); None if not expected."""
+        e = self.expected
+        return None if e is None else np.stack([e[j], self.last.projected[j]])
 
     def depth(self, camera) -> float:
         """Mean depth of its last joints in `camera`, mm."""
@@ -345,8 +377,8 @@ class HandsTracker:
         world: dict[int, object] = {}
         births: list = []
         for j, found in enumerate(detections):
-            expected = [None if h.expected is None else h.expected[j] for h in self.hands]
-            gates = [GATE * (1.0 + 0.5 * h.missing) for h in self.hands]
+            expected = [h.places(j) for h in self.hands]
+            gates = [GATE + GATE_GROWTH * h.missing for h in self.hands]
             pairs = assign(expected, [h.side for h in self.hands], found, gates)
             for hand, k in pairs.items():
                 given[self.hands[hand].id][j] = found[k]
@@ -371,6 +403,13 @@ class HandsTracker:
             taken = [g[0] for g in given.values() if g[0] is not None]
             if any(_distance(t.points[:, :2], d.points) < DUPLICATE for t in taken):
                 continue  # the same hand found twice
+            if any(
+                h.expected is not None
+                and given[h.id][0] is None
+                and _distance(h.places(0), d.points) < NEW_HAND
+                for h in self.hands
+            ):
+                continue  # a tracked hand's detection off by more than the gate
             free = [h for h in self.hands if h.expected is None and given[h.id][0] is None]
             if not free:
                 return
@@ -442,17 +481,20 @@ class HandsTracker:
         return dataclasses.replace(r, id=h.id, side=h.side)
 
     def _hidden(self, h: _Hand) -> bool:
-        """A tracked hand without a detection, most of it behind the other (rule 5)."""
-        if h.expected is None or h.hidden >= HIDDEN_FRAMES or h.tracker.recovery is None:
+        """A hand fitted until a frame ago, carried since, given no detection: carried on
+        behind the nearer hand (up to `HIDDEN_FRAMES`) or through a detector's miss in
+        the open (up to `MISSED_FRAMES`) (rule 5)."""
+        if h.expected is None or h.tracker.recovery is None or h.missing != h.hidden:
             return False
-        camera = self.rig.cameras[0]
-        for other in self.hands:
+        if h.hidden < MISSED_FRAMES:
+            return True
+        if h.hidden >= HIDDEN_FRAMES:
+            return False
+        for other in self.hands:  # in front of it, or touching it (no depth asked)
             if other is h or other.last is None or other.missing:
                 continue
-            if other.depth(camera) > h.depth(camera) - FRONT:
-                continue
             e = other.expected[0]
-            if _inside(_outline(e), h.expected[0], 0.15 * _size(e)).mean() > 0.5:
+            if _inside(_outline(e), h.expected[0], 0.15 * _size(e)).mean() >= BEHIND_SHARE:
                 return True
         return False
 

@@ -1,0 +1,171 @@
+"""Both hands on the two-hand benchmark: identities, accuracy and lost frames, fit against detector.
+
+Usage: PYTHONPATH=src python studies/two_hands.py [--seeds N] [--cameras 1|2]
+       [--detector simulated|mediapipe] [--scenario NAME ...] [--size W H]
+
+For every scenario of `handvar.evaluation.two_hands.SCENARIOS` and seed, renders the
+case (640×360 by default) and tracks it with `handvar.tracking.hands.HandsTracker`, the
+detector's hands given to it frame by frame: the simulated detector's (labels that
+flip, one detection where the hands overlap, hidden points displaced) or MediaPipe
+Hands run on the rendered frames.  Prints per true hand (left, right), for the raw
+detections taken as a user of the labels would (the label is the identity) and for
+the fit:
+
+- identity switches (a track changing hands plus a hand changing tracks, CLEAR MOT's
+  count, `score_two_hands`);
+- 2D PCK@0.2 over the frames the hand is in view (a frame without a track on it counts
+  as wrong);
+- lost: frames in view without a track within 0.5 hand sizes;
+- the fit's wrist-relative and absolute 3D error (mm), and with MediaPipe its world
+  landmarks' wrist-relative error beside it;
+- the tracker's rate (fits and assignment, frames/s).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import cv2
+import numpy as np
+
+
+def fitted_tracks(case, detections):
+    """Track `case` with the given detections per frame; the tracks as `score_two_hands`
+    takes them (camera 0), and the frames/s of the tracker."""
+    from handvar.tracking.hands import HandsTracker
+    from handvar.tracking.keypoint_cost import keypoint_points
+
+    tracker = HandsTracker(case.rig, detector=None)
+    T = case.n_frames
+    n = len(case.rig)
+    results = []
+    camera = case.rig.cameras[0]
+    points = np.full((len(tracker.hands), T, 21, 2), np.nan)
+    joints = np.full((len(tracker.hands), T, 21, 3), np.nan)
+    seconds = 0.0
+    for t in range(T):
+        images = [cv2.cvtColor(case.frames[j, t], cv2.COLOR_RGB2BGR) for j in range(n)]
+        t0 = time.perf_counter()
+        r = tracker.process(images, detections=[detections[j][t] for j in range(n)])
+        seconds += time.perf_counter() - t0
+        results.append(r)
+        for h in tracker.hands:  # the points detectors mark, on the hand's model of now
+            x = r.hands[h.id].pose
+            if np.isfinite(x).all():
+                joints[h.id, t] = keypoint_points(h.tracker.hand, x, "pad")
+                points[h.id, t] = camera.project(joints[h.id, t])
+    tracks = {h.id: {"points_2d": points[h.id], "joints": joints[h.id]}
+              for h in tracker.hands if h.tracker.hand is not None}  # fmt: skip
+    return tracks, T / seconds, results
+
+
+def mediapipe_detections(case):
+    """MediaPipe Hands on every rendered frame, per camera; and its world landmarks'
+    wrist-relative 3D per true hand (matched by 2D place), for the baseline."""
+    from handvar.vision.mediapipe import MediaPipeHands
+
+    out = []
+    for j in range(len(case.rig)):
+        detect = MediaPipeHands()
+        out.append([detect(cv2.cvtColor(case.frames[j, t], cv2.COLOR_RGB2BGR))
+                    for t in range(case.n_frames)])  # fmt: skip
+        detect.close()
+    return out
+
+
+def world_error(case, detections):
+    """Per true hand, the wrist-relative error (mm) of the detector's world landmarks on
+    the frames a detection lies within 0.5 hand sizes of it (camera 0)."""
+    from handvar.evaluation.metrics import joint_errors
+    from handvar.synth.keypoints import hand_size_px
+
+    errs = [[], []]
+    for k in range(2):
+        size = hand_size_px(case.rig.cameras[0], case.joints[k])
+        for t, found in enumerate(detections[0]):
+            best = None
+            for d in found:
+                if d.world is None:
+                    continue
+                dist = np.nanmean(np.linalg.norm(d.points[:, :2] - case.truth_2d[0, k, t], axis=1))
+                if dist < 0.5 * size[t] and (best is None or dist < best[0]):
+                    best = (dist, d.world)
+            if best is not None and case.in_view[0, k, t]:
+                errs[k].append(joint_errors(case.joints[k, t][None], best[1][None]).mean())
+    return [float(np.mean(e)) if e else np.nan for e in errs]
+
+
+def main() -> None:
+    from handvar.evaluation.two_hands import (
+        SCENARIOS,
+        detections_as_tracks,
+        score_two_hands,
+        two_hand_case,
+    )
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=2)
+    parser.add_argument("--cameras", type=int, default=1, choices=(1, 2))
+    parser.add_argument("--detector", default="simulated", choices=("simulated", "mediapipe"))
+    parser.add_argument("--scenario", nargs="*", default=list(SCENARIOS))
+    parser.add_argument("--size", type=int, nargs=2, default=(640, 360))
+    args = parser.parse_args()
+    print(f"{args.detector} detector, {args.cameras} camera(s), {args.size[0]}x{args.size[1]}, "
+          f"seeds 0..{args.seeds - 1}")  # fmt: skip
+    head = (f"{'case':<16}{'hand':<6}{'switches det/fit':>17}{'PCK det':>9}{'PCK fit':>9}"
+            f"{'lost det/fit':>13}{'3D rel':>8}{'abs':>7}")  # fmt: skip
+    if args.detector == "mediapipe":
+        head += f"{'MP 3D':>7}"
+    print(head + f"{'fits/s':>8}")
+    totals = {"det": [], "fit": [], "sw_det": 0, "sw_fit": 0, "lost_det": 0, "lost_fit": 0,
+              "rel": [], "abs": [], "mp": [], "fps": [], "view": 0}  # fmt: skip
+    for scenario in args.scenario:
+        for seed in range(args.seeds):
+            case = two_hand_case(scenario, cameras=args.cameras, seed=seed, size=tuple(args.size))
+            detections = case.detections
+            if args.detector == "mediapipe":
+                detections = mediapipe_detections(case)
+                case = _with_detections(case, detections)
+            raw = score_two_hands(case, detections_as_tracks(case))
+            tracks, fps, _ = fitted_tracks(case, detections)
+            fit = score_two_hands(case, tracks)
+            mp = world_error(case, detections) if args.detector == "mediapipe" else None
+            for k, side in enumerate(case.sides):
+                if not case.in_view[0, k].any():
+                    continue
+                line = (f"{case.name:<16}{side:<6}{raw.switches:>8}/{fit.switches:<8}"
+                        f"{raw.pck[k]:>9.3f}{fit.pck[k]:>9.3f}{raw.lost[k]:>7}/{fit.lost[k]:<5}"
+                        f"{fit.mpjpe_relative[k]:>8.1f}{fit.mpjpe[k]:>7.1f}")  # fmt: skip
+                if mp is not None:
+                    line += f"{mp[k]:>7.1f}"
+                    totals["mp"].append(mp[k])
+                print(line + f"{fps:>8.1f}", flush=True)
+                totals["det"].append(raw.pck[k])
+                totals["fit"].append(fit.pck[k])
+                totals["rel"].append(fit.mpjpe_relative[k])
+                totals["abs"].append(fit.mpjpe[k])
+                totals["lost_det"] += int(raw.lost[k])
+                totals["lost_fit"] += int(fit.lost[k])
+                totals["view"] += int(case.in_view[0, k].sum())
+            totals["sw_det"] += raw.switches
+            totals["sw_fit"] += fit.switches
+            totals["fps"].append(fps)
+    print(f"all: identity switches {totals['sw_det']} (detector's labels) / {totals['sw_fit']} "
+          f"(fit); PCK {np.nanmean(totals['det']):.3f} / {np.nanmean(totals['fit']):.3f}; "
+          f"lost {totals['lost_det']} / {totals['lost_fit']} of {totals['view']} hand-frames "
+          f"in view; fit 3D {np.nanmean(totals['rel']):.1f} mm wrist-relative, "
+          f"{np.nanmean(totals['abs']):.1f} mm absolute"
+          + (f" (MediaPipe's world landmarks {np.nanmean(totals['mp']):.1f} mm)"
+             if totals["mp"] else "")
+          + f"; {np.mean(totals['fps']):.1f} fits/s (both hands)")  # fmt: skip
+
+
+def _with_detections(case, detections):
+    import dataclasses
+
+    return dataclasses.replace(case, detections=detections)
+
+
+if __name__ == "__main__":
+    main()
