@@ -17,7 +17,9 @@ the fit:
   as wrong);
 - lost: frames in view without a track within 0.5 hand sizes;
 - the fit's wrist-relative and absolute 3D error (mm), and with MediaPipe its world
-  landmarks' wrist-relative error beside it;
+  landmarks' wrist-relative error beside it; with two cameras, the absolute error of
+  each hand's detections triangulated point by point (given to it by the truth: the
+  baseline at its best) and the fit's on the same frames;
 - the tracker's rate (fits and assignment, frames/s).
 """
 
@@ -96,6 +98,27 @@ def world_error(case, detections):
     return [float(np.mean(e)) if e else np.nan for e in errs]
 
 
+def triangulation_error(case, k: int, tracks: dict, score) -> tuple[float, float]:
+    """True hand k's detections in the first two cameras triangulated point by point
+    (`studies/realistic.py`'s `triangulated`, each hand's points given it by the truth:
+    the baseline at its best), and the fit on the same frames: mean absolute 3D error, mm."""
+    from handvar.evaluation.metrics import joint_errors
+    from realistic import triangulated
+
+    tri = triangulated(case, case.keypoints[:2, k, :, :, :2])
+    fit = np.full_like(tri, np.nan)
+    for t in np.flatnonzero(score.match[k] >= 0):
+        fit[t] = tracks[score.ids[score.match[k, t]]]["joints"][t]
+    both = (
+        case.in_view[0, k] & np.isfinite(tri).all(axis=(1, 2)) & np.isfinite(fit).all(axis=(1, 2))
+    )
+    if not both.any():
+        return np.nan, np.nan
+    truth = case.joints[k, both]
+    return (float(joint_errors(truth, tri[both], alignment="none").mean()),
+            float(joint_errors(truth, fit[both], alignment="none").mean()))  # fmt: skip
+
+
 def main() -> None:
     from handvar.evaluation.two_hands import (
         SCENARIOS,
@@ -113,13 +136,16 @@ def main() -> None:
     args = parser.parse_args()
     print(f"{args.detector} detector, {args.cameras} camera(s), {args.size[0]}x{args.size[1]}, "
           f"seeds 0..{args.seeds - 1}")  # fmt: skip
-    head = (f"{'case':<16}{'hand':<6}{'switches det/fit':>17}{'PCK det':>9}{'PCK fit':>9}"
+    head = (f"{'case':<18}{'hand':<6}{'switches det/fit':>17}{'PCK det':>9}{'PCK fit':>9}"
             f"{'lost det/fit':>13}{'3D rel':>8}{'abs':>7}")  # fmt: skip
     if args.detector == "mediapipe":
         head += f"{'MP 3D':>7}"
+    if args.cameras == 2:
+        head += f"{'tri':>7}{'fit':>7}"
     print(head + f"{'fits/s':>8}")
     totals = {"det": [], "fit": [], "sw_det": 0, "sw_fit": 0, "lost_det": 0, "lost_fit": 0,
-              "rel": [], "abs": [], "mp": [], "fps": [], "view": 0}  # fmt: skip
+              "rel": [], "abs": [], "mp": [], "tri": [], "same": [], "fps": [],
+              "view": 0}  # fmt: skip
     for scenario in args.scenario:
         for seed in range(args.seeds):
             case = two_hand_case(scenario, cameras=args.cameras, seed=seed, size=tuple(args.size))
@@ -134,12 +160,17 @@ def main() -> None:
             for k, side in enumerate(case.sides):
                 if not case.in_view[0, k].any():
                     continue
-                line = (f"{case.name:<16}{side:<6}{raw.switches:>8}/{fit.switches:<8}"
+                line = (f"{case.name:<18}{side:<6}{raw.switches:>8}/{fit.switches:<8}"
                         f"{raw.pck[k]:>9.3f}{fit.pck[k]:>9.3f}{raw.lost[k]:>7}/{fit.lost[k]:<5}"
                         f"{fit.mpjpe_relative[k]:>8.1f}{fit.mpjpe[k]:>7.1f}")  # fmt: skip
                 if mp is not None:
                     line += f"{mp[k]:>7.1f}"
                     totals["mp"].append(mp[k])
+                if args.cameras == 2:
+                    tri, same = triangulation_error(case, k, tracks, fit)
+                    line += f"{tri:>7.1f}{same:>7.1f}"
+                    totals["tri"].append(tri)
+                    totals["same"].append(same)
                 print(line + f"{fps:>8.1f}", flush=True)
                 totals["det"].append(raw.pck[k])
                 totals["fit"].append(fit.pck[k])
@@ -158,6 +189,9 @@ def main() -> None:
           f"{np.nanmean(totals['abs']):.1f} mm absolute"
           + (f" (MediaPipe's world landmarks {np.nanmean(totals['mp']):.1f} mm)"
              if totals["mp"] else "")
+          + (f"; absolute 3D on the frames both cameras detected the hand: triangulated "
+             f"{np.nanmean(totals['tri']):.1f} mm, fit {np.nanmean(totals['same']):.1f} mm"
+             if totals["tri"] else "")
           + f"; {np.mean(totals['fps']):.1f} fits/s (both hands)")  # fmt: skip
 
 

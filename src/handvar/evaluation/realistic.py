@@ -628,13 +628,7 @@ class RealisticCase:
         out.mkdir(parents=True, exist_ok=True)
         frames, kps = [], []
         for j in range(len(self.rig)):
-            folder = out / f"cam{j}"
-            folder.mkdir(exist_ok=True)
-            for t in range(self.n_frames):
-                bgr = cv2.cvtColor(self.frames[j, t], cv2.COLOR_RGB2BGR)
-                if not cv2.imwrite(str(folder / f"{t:05d}.jpg"), bgr,
-                                   [cv2.IMWRITE_JPEG_QUALITY, 92]):  # fmt: skip
-                    raise OSError(f"{folder}: cannot write the frames")
+            folder = _write_frames(out / f"cam{j}", self.frames[j])
             np.save(out / f"keypoints{j}.npy", self.keypoints[j])
             frames.append(folder)
             kps.append(out / f"keypoints{j}.npy")
@@ -650,6 +644,28 @@ class RealisticCase:
                 "truth": out / "truth.npz"}  # fmt: skip
 
 
+def _write_frames(folder: Path, frames: np.ndarray) -> Path:
+    """RGB `frames` (T, H, W, 3) as the JPEG image folder ``folder/00000.jpg``, …"""
+    folder.mkdir(exist_ok=True)
+    for t, rgb in enumerate(frames):
+        if not cv2.imwrite(str(folder / f"{t:05d}.jpg"), cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR),
+                           [cv2.IMWRITE_JPEG_QUALITY, 92]):  # fmt: skip
+            raise OSError(f"{folder}: cannot write the frames")
+    return folder
+
+
+def _read_frames(directory: Path, n_cams: int, T: int, read: bool) -> np.ndarray:
+    """The RGB frames (n_cams, T, H, W, 3) of ``directory/cam{j}/`` (`_write_frames`);
+    empty ones when not `read`."""
+    if not read:
+        return np.zeros((n_cams, T, 0, 0, 3), np.uint8)
+    return np.stack([
+        np.stack([cv2.cvtColor(cv2.imread(str(directory / f"cam{j}" / f"{t:05d}.jpg")),
+                               cv2.COLOR_BGR2RGB) for t in range(T)])
+        for j in range(n_cams)
+    ])  # fmt: skip
+
+
 def read_case(directory: str | os.PathLike, *, frames: bool = False) -> RealisticCase:
     """A case written by `RealisticCase.write` (its frames read back only with `frames`)."""
     from handvar.camera import Rig
@@ -659,14 +675,7 @@ def read_case(directory: str | os.PathLike, *, frames: bool = False) -> Realisti
     rig = Rig.load(d / "calib.yml")
     masks = np.unpackbits(z["masks"], axis=-1, count=int(z["width"])).astype(bool)
     n_cams, T = z["keypoints"].shape[:2]
-    if frames:
-        images = np.stack([
-            np.stack([cv2.cvtColor(cv2.imread(str(d / f"cam{j}" / f"{t:05d}.jpg")),
-                                   cv2.COLOR_BGR2RGB) for t in range(T)])
-            for j in range(n_cams)
-        ])  # fmt: skip
-    else:
-        images = np.zeros((n_cams, T, 0, 0, 3), np.uint8)
+    images = _read_frames(d, n_cams, T, frames)
     return RealisticCase(
         name=str(z["name"]), fps=float(z["fps"]), rig=rig, side=str(z["side"]),
         hand_length=float(z["hand_length"]), skin=str(z["skin"]), poses=z["poses"],

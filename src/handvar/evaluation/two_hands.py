@@ -67,7 +67,6 @@ import os
 from pathlib import Path
 from typing import ClassVar
 
-import cv2
 import numpy as np
 
 from handvar.evaluation.realistic import (
@@ -80,10 +79,12 @@ from handvar.evaluation.realistic import (
     _distractor_mesh,
     _HandScene,
     _image_speed,
+    _read_frames,
     _render_view,
     _runs,
     _scene_look,
     _sub_frames,
+    _write_frames,
     detector_keypoints,
     motion_poses,
     realistic_rig,
@@ -433,13 +434,7 @@ class TwoHandCase:
         out.mkdir(parents=True, exist_ok=True)
         frames, found = [], []
         for j in range(len(self.rig)):
-            folder = out / f"cam{j}"
-            folder.mkdir(exist_ok=True)
-            for t in range(self.n_frames):
-                bgr = cv2.cvtColor(self.frames[j, t], cv2.COLOR_RGB2BGR)
-                if not cv2.imwrite(str(folder / f"{t:05d}.jpg"), bgr,
-                                   [cv2.IMWRITE_JPEG_QUALITY, 92]):  # fmt: skip
-                    raise OSError(f"{folder}: cannot write the frames")
+            folder = _write_frames(out / f"cam{j}", self.frames[j])
             rows = [[_detection_json(d) for d in frame] for frame in self.detections[j]]
             path = out / f"detections{j}.json"
             path.write_text(json.dumps(rows), encoding="utf-8")
@@ -484,14 +479,7 @@ def read_two_hand_case(directory: str | os.PathLike, *, frames: bool = False) ->
     rig = Rig.load(d / "calib.yml")
     masks = np.unpackbits(z["masks"], axis=-1, count=int(z["width"])).astype(bool)
     n_cams, _, T = z["detected"].shape
-    if frames:
-        images = np.stack([
-            np.stack([cv2.cvtColor(cv2.imread(str(d / f"cam{j}" / f"{t:05d}.jpg")),
-                                   cv2.COLOR_BGR2RGB) for t in range(T)])
-            for j in range(n_cams)
-        ])  # fmt: skip
-    else:
-        images = np.zeros((n_cams, T, 0, 0, 3), np.uint8)
+    images = _read_frames(d, n_cams, T, frames)
     detections = [read_detections(d / f"detections{j}.json") for j in range(n_cams)]
     return TwoHandCase(
         name=str(z["name"]), scenario=str(z["scenario"]), fps=float(z["fps"]), rig=rig,

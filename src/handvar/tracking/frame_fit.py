@@ -529,13 +529,15 @@ def reinitialise(
 
     The perspective-n-point palm poses of each camera's keypoints
     (`handvar.tracking.keypoint_fit.palm_candidates`, four per camera) with the fingers
-    open are fitted without a prior, and the fit of the lowest cost is kept.  None
-    when no camera shows the wrist and the four MCPs.
+    open are fitted without a prior, and the fit of the lowest cost is kept, of those
+    in front of every camera with keypoints.  None when no camera shows the wrist and
+    the four MCPs, or every fit lies behind a camera.
     """
     from handvar.hand.kinematics import named_pose
-    from handvar.tracking.keypoint_fit import palm_candidates
+    from handvar.tracking.keypoint_fit import _behind, palm_candidates
 
     kp = _clean(keypoints, len(rig), settings.min_confidence)
+    seen = [k if (k[:, 2] > 0).any() else None for k in kp]
     best = None
     base = named_pose("open")
     for cam, k in zip(rig, kp, strict=True):
@@ -546,6 +548,8 @@ def reinitialise(
             x0[:6] = p
             fit = fit_frame(kp, rig, hand, x0, world=world, silhouettes=silhouettes,
                             settings=settings)  # fmt: skip
+            if _behind(fit.pose, hand, rig, seen):
+                continue  # a point reflection through a camera's centre projects alike
             if best is None or fit.cost < best.cost:
                 best = fit
     return best

@@ -19,9 +19,10 @@ detector's label:
 3. **A new hand.**  A detection left over, not within `DUPLICATE` hand sizes of a
    tracked hand's detection (MediaPipe sometimes finds one hand twice) nor within
    `NEW_HAND` of a tracked hand given none (that hand's, off by a gross error), starts
-   the free hand.  Its side: the other side than the tracked hand's if there is one (two
-   hands of one person), else the detector's label.  So a hand that leaves and comes
-   back is re-acquired with its side.
+   the free hand (in the other cameras, the detection whose rays pass nearest the
+   first camera's, within `RAY_GAP` mm).  Its side: the other side than the tracked
+   hand's if there is one (two hands of one person), else the detector's label.  So a
+   hand that leaves and comes back is re-acquired with its side.
 4. **The side of a hand** never changes within a track, except on overwhelming
    evidence: after `SIDE_FRAMES` labelled detections given to a new hand, a weighted
    share `SIDE_SWAP` or more of them for the other side turns it (and the other hand's
@@ -74,6 +75,7 @@ __all__ = [
     "LABEL_COST",
     "MISSED_FRAMES",
     "NEW_HAND",
+    "RAY_GAP",
     "SIDE_FRAMES",
     "SIDE_SWAP",
     "HandsResult",
@@ -108,6 +110,11 @@ HIDDEN_FRAMES = 15
 BEHIND_SHARE = 0.2
 #: Frames a hand given no detection in the open is carried (a detector's miss).
 MISSED_FRAMES = 2
+#: mm: a new hand's detection in another camera is the one whose rays pass nearest those
+#: of the first camera's (median over the points), within this.
+RAY_GAP = 20.0
+#: mm: the wrist → middle-MCP length a hand's points seen by two cameras may make.
+PALM_MM = (50.0, 130.0)
 #: Frames without a detection after which a hand is no longer expected anywhere.
 GONE_FRAMES = 10
 
@@ -425,10 +432,12 @@ class HandsTracker:
                 other.tracker.side = other.side
             hand.votes = []
             given[hand.id][0] = d
-            for j in range(1, len(detections)):  # the other cameras: by their label
+            cameras = self.rig.cameras
+            for j in range(1, len(detections)):  # the other cameras: the same hand's rays
                 rest = [e for e in detections[j] if e not in _given_values(given, j)]
-                same = [e for e in rest if e.side in ("", side)] or rest
-                given[hand.id][j] = max(same, key=lambda e: e.score) if same else None
+                gaps = [_ray_gap(cameras[0], d.points, cameras[j], e.points) for e in rest]
+                near = [e for e, g in zip(rest, gaps, strict=True) if g <= RAY_GAP]
+                given[hand.id][j] = min(near, key=lambda e: gaps[rest.index(e)]) if near else None
 
     def _vote(self, h: _Hand, d) -> None:
         """Rule 4: a new hand's side turned by overwhelming labels (module notes)."""
@@ -511,6 +520,35 @@ class HandsTracker:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def _ray_gap(camera_a, points_a: np.ndarray, camera_b, points_b: np.ndarray) -> float:
+    """Median distance (mm) between the rays of the points two cameras see of a hand:
+    small when they are one hand's (each point's two rays meet), inf when fewer than
+    three points are seen in both or the points where the rays meet do not make a hand
+    (wrist → middle MCP outside `PALM_MM`, as two hands at one height in a side-by-side
+    rig would pair)."""
+    from handvar.vision.keypoints import HandLandmark
+
+    seen = (points_a[:, 2] > 0) & (points_b[:, 2] > 0)
+    if seen.sum() < 3:
+        return np.inf
+    oa, da = camera_a.rays(points_a[seen, :2])
+    ob, db = camera_b.rays(points_b[seen, :2])
+    w = oa - ob  # closest points oa + s da, ob + t db of each pair of rays
+    a, b, c = (da * da).sum(1), (da * db).sum(1), (db * db).sum(1)
+    d, e = (da * w).sum(1), (db * w).sum(1)
+    den = np.maximum(a * c - b * b, 1e-12)
+    pa = oa + ((b * e - c * d) / den)[:, None] * da
+    pb = ob + ((a * e - b * d) / den)[:, None] * db
+    index = np.flatnonzero(seen)
+    wrist, mcp = HandLandmark.WRIST, HandLandmark.MIDDLE_FINGER_MCP
+    if wrist in index and mcp in index:
+        mid = 0.5 * (pa + pb)
+        palm = np.linalg.norm(mid[index == mcp][0] - mid[index == wrist][0])
+        if not PALM_MM[0] <= palm <= PALM_MM[1]:
+            return np.inf
+    return float(np.median(np.linalg.norm(pa - pb, axis=1)))
 
 
 def _given_values(given: dict, j: int) -> list:

@@ -12,7 +12,10 @@ front of the palm; 2D keypoints of the 21 points of `G(x)` can.
    about the hand's long axis (which side of the hand faces the camera is ambiguous
    when the palm is seen edge-on), are candidates.  Position and distance come with
    it: the model's palm has a known size (the hand length), so its image size fixes
-   the depth.
+   the depth.  Where the keypoints' noise mirrors the flat arc of knuckles, IPPE's
+   poses lie behind the camera (a point reflection through its centre projects
+   alike); SQPnP's proper pose (``cv2.SOLVEPNP_SQPNP``) and its turn are taken instead,
+   and no fit whose joints lie behind a camera with keypoints is kept.
 2. *Everything* by least squares over the 26 parameters (``scipy.optimize.least_squares``,
    joint limits as bounds, the analytic Jacobian ``J_proj · J_G``) from every candidate
    combined with a few named finger postures, minimising over all cameras and present
@@ -199,6 +202,12 @@ def palm_candidates(keypoints, camera: Camera, hand) -> np.ndarray:
     _, rvecs, tvecs, _ = cv2.solvePnPGeneric(
         obj, k[palm, :2].copy(), camera.K, camera.dist, flags=cv2.SOLVEPNP_IPPE
     )
+    if any(t.ravel()[2] <= 0 for t in tvecs):
+        # the keypoints' noise mirrored the flat palm's arc of knuckles: IPPE's poses lie
+        # behind the camera (a point reflection projects alike); SQPnP's proper pose
+        _, rvec, tvec = cv2.solvePnP(obj, k[palm, :2].copy(), camera.K, camera.dist,
+                                     flags=cv2.SOLVEPNP_SQPNP)  # fmt: skip
+        rvecs, tvecs = (rvec,), (tvec,)
     # 180° about the hand's long axis (y): the other side of the hand towards the camera
     flip = np.diag([-1.0, 1.0, -1.0])
     out = []
@@ -210,6 +219,16 @@ def palm_candidates(keypoints, camera: Camera, hand) -> np.ndarray:
             t_wh = camera.R.T @ (t_ch - camera.t)
             out.append(np.concatenate([t_wh, euler_from_matrix(R_wh)]))
     return np.asarray(out)
+
+
+def _behind(x, hand, rig, frames) -> bool:
+    """Whether a joint of pose `x` lies behind a camera that has keypoints."""
+    joints = hand.joints(x)
+    return any(
+        (cam.camera_from_world(joints)[:, 2] <= 0).any()
+        for cam, k in zip(rig, frames, strict=True)
+        if k is not None
+    )
 
 
 def _residuals(x, hand, rig, frames, x_prior, prior, tips="end"):
@@ -253,7 +272,8 @@ def fit_keypoints(
     Returns
     -------
     KeypointFit or None
-        None when no camera shows the wrist and all four MCPs.
+        None when no camera shows the wrist and all four MCPs, or every fit lies behind
+        a camera (a point reflection through its centre projects alike).
 
     Examples
     --------
@@ -310,8 +330,12 @@ def fit_keypoints(
             )
             n += 1
             cost = 2.0 * float(sol.cost)
+            if _behind(clamp(sol.x), hand, rig, frames):
+                continue  # a point reflection through a camera's centre projects alike
             if best is None or cost < best[0]:
                 best = (cost, clamp(sol.x))
+    if best is None:
+        return None
     cost, pose = best
     return KeypointFit(
         pose=pose,
