@@ -169,7 +169,12 @@ def test_track_hands_keeps_each_true_hand_under_one_id_through_a_crossing(tmp_pa
     assert np.all(fit.pck >= raw.pck - 0.02)
     written = result.save(tmp_path / "out", video=False)
     assert {"left", "right", "hands"} <= set(written)
-    assert handvar.Track.load(tmp_path / "out" / "left").shape.side == "left"
+    back = handvar.HandsTrack.load(tmp_path / "out")
+    assert {k: t.shape.side for k, t in back.tracks.items()} == {
+        k: t.shape.side for k, t in result.tracks.items()
+    }
+    for k, t in back.tracks.items():
+        np.testing.assert_array_equal(t.poses, result.tracks[k].poses)
 
 
 @pytest.mark.parametrize(
@@ -190,3 +195,26 @@ def test_the_command_refuses_one_hands_options_with_two_hands(tmp_path, extra, n
     lines = res.output.strip().splitlines()
     assert len(lines) == 1 and named in lines[0] and "--hands 2" in lines[0]
     assert not (tmp_path / "o").exists()
+
+
+def test_both_hands_from_a_live_camera():
+    """A video read as a camera (the same VideoCapture calls), MediaPipe inside: the one
+    right hand of the example video is tracked, no second hand is drawn."""
+    import cv2
+
+    import handvar
+    from handvar.data import example_path
+    from handvar.vision.detector import mediapipe_available
+    from handvar.vision.sources import open_camera
+
+    if not mediapipe_available():
+        pytest.skip("MediaPipe (the optional extra) is not installed")
+    camera = open_camera(0, capture=cv2.VideoCapture(str(example_path("video"))), scale=0.5)
+    try:
+        result = handvar.track(camera, hands=2, frames=12)
+    finally:
+        camera.close()
+    assert 1 <= result.n_frames <= 12 and result.source is None
+    assert [t.shape.side for t in result.tracks.values()] == ["right"]
+    with pytest.raises(ValueError, match="calib, fov, scale"):
+        handvar.track(camera, hands=2, scale=0.5)

@@ -68,6 +68,7 @@ from handvar.validate import as_float, as_instance, as_int, one_of
 
 __all__ = [
     "CARRY",
+    "HANDS_INDEX",
     "KEYPOINT_TIPS",
     "MODELS",
     "HandsTrack",
@@ -1785,6 +1786,8 @@ def _with_dropped(recovered, rows: np.ndarray, n: int):
 
 #: Colours (RGB) the overlay draws each side in.
 SIDE_RGB = {"right": (255, 150, 40), "left": (60, 200, 255)}
+#: The index of a directory of both hands (`HandsTrack.save`).
+HANDS_INDEX = "hands.json"
 
 
 @dataclass(eq=False)
@@ -1830,13 +1833,69 @@ class HandsTrack:
             t.save(out / side, video=False, overlays=False)
             written[side] = out / side
             listing.append({"id": k, "side": side, "directory": side})
-        index = out / "hands.json"
+        index = out / HANDS_INDEX
         index.write_text(json.dumps({"name": self.name, "fps": self.fps, "hands": listing},
                                     indent=2) + "\n")  # fmt: skip
         written["hands"] = index
         if video and self.source is not None and self.tracks:
             written["video"] = self._overlay(out / "overlay.mp4")
         return written
+
+    @classmethod
+    def load(cls, directory: str | os.PathLike, *, rig: Rig | None = None) -> HandsTrack:
+        """Read a directory written by `save` (``handvar track --hands 2 --out``): its
+        index (`HANDS_INDEX`: name, fps, each hand's id, side and folder) and each hand's
+        track (`Track.load`, with `rig` instead of the stored cameras when given).
+
+        Raises
+        ------
+        ValueError
+            Naming the index: one that is broken, names a folder that is not there or
+            a hand of another side, two hands of one side, hands over different frames.
+        """
+        index = Path(directory) / HANDS_INDEX
+        expect = f"{index}: expected {{'name', 'fps', 'hands': [{{'id', 'side', 'directory'}}]}}"
+        try:
+            doc = json.loads(index.read_text(encoding="utf-8"))
+        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise ValueError(f"{expect}; got JSON it cannot read ({exc})") from None
+        entries = doc.get("hands") if isinstance(doc, dict) else None
+        if not isinstance(entries, list):
+            raise ValueError(f"{expect}; got no list of hands")
+        if not entries:
+            raise ValueError(f"{index}: expected at least one hand; got none (no hand was tracked)")
+        tracks, sides = {}, []
+        for i, entry in enumerate(entries):
+            ok = isinstance(entry, dict) and isinstance(entry.get("id"), int)
+            ok = ok and entry.get("side") in SIDES and isinstance(entry.get("directory"), str)
+            if not ok:
+                raise ValueError(f"{expect}; got hand {i}: {entry!r}")
+            folder = Path(directory) / entry["directory"]
+            if not folder.is_dir() or Path(entry["directory"]).is_absolute():
+                raise ValueError(f"{index}: expected the folder of each hand inside the "
+                                 f"directory; got {entry['directory']!r} for the "
+                                 f"{entry['side']} hand, which is not there")  # fmt: skip
+            try:
+                track = Track.load(folder, rig=rig)
+            except ValueError as exc:
+                raise ValueError(f"{index}: the {entry['side']} hand's folder {folder}: "
+                                 f"{str(exc).removeprefix('directory: ')}") from None  # fmt: skip
+            if track.shape.side != entry["side"]:
+                raise ValueError(f"{index}: expected a {entry['side']} hand in {folder}; got a "
+                                 f"{track.shape.side} hand")  # fmt: skip
+            sides.append(entry["side"])
+            tracks[entry["id"]] = track
+        if len(set(sides)) != len(sides):
+            raise ValueError(f"{index}: expected at most one hand of each side; got {sides}")
+        if len({t.n_frames for t in tracks.values()}) != 1:
+            raise ValueError(
+                f"{index}: expected the hands' tracks over the same frames; got "
+                + ", ".join(f"{t.shape.side} {t.n_frames}" for t in tracks.values())
+            )
+        first = next(iter(tracks.values()))
+        name = doc.get("name") if isinstance(doc.get("name"), str) else first.name
+        fps = doc.get("fps") if isinstance(doc.get("fps"), int | float) else first.fps
+        return cls(tracks, name, fps, np.zeros(first.n_frames))
 
     def _overlay(self, path: Path) -> Path:
         import cv2
@@ -1883,8 +1942,11 @@ def track_hands(
 
     Parameters
     ----------
-    source : str, path-like, or list of them
-        A video file or an image folder, or one per camera of `calib`.
+    source : str, path-like, list of them, or CameraSource
+        A video file or an image folder, or one per camera of `calib`; or a live camera
+        (`handvar.vision.sources.open_camera`, which takes its calibration, field of view
+        and scale), its newest frame each time the tracker is free, until `frames` or its
+        ``stop()``.
     calib, fov, scale, hand_length, model, predictor, seed, frames, progress
         As `handvar.track`.
     hands : {1, 2}
@@ -1901,7 +1963,7 @@ def track_hands(
     """
     from handvar.tracking.hands import HandsTracker
     from handvar.vision.detector import detect_ahead, make_detectors
-    from handvar.vision.sources import open_source
+    from handvar.vision.sources import CameraSource, open_source
 
     hands = as_int(hands, "hands", minimum=1, maximum=2)
     scale = as_float(scale, "scale", minimum=0.0, exclusive_minimum=True)
@@ -1909,24 +1971,32 @@ def track_hands(
     if model == "mesh":
         raise ValueError("model: expected spheres with two hands (the skinned mesh is a "
                          "right hand); got mesh")  # fmt: skip
-    paths = [p for p in str(source).split(",")] if isinstance(source, str) else source
-    paths = list(paths) if isinstance(paths, list | tuple) else [paths]
-    opened = open_source(paths, calib, fov=fov, scale=scale)
-    full = opened.rig if scale == 1.0 else open_source(paths, calib, fov=fov).rig
+    if isinstance(source, CameraSource):  # its frames as delivered (open_camera's scale)
+        if calib is not None or fov is not None or scale != 1.0:
+            raise ValueError("calib, fov, scale: expected none with a live camera (open_camera "
+                             "takes the calibration, field of view and scale)")  # fmt: skip
+        opened, full, paths, scale, total = source, source.rig, [], 1.0, frames
+        sizes = [source.image_size]
+        feed = ((i, t, images, images) for i, t, images in source.stream(stop=frames))
+    else:
+        paths = [p for p in str(source).split(",")] if isinstance(source, str) else source
+        paths = list(paths) if isinstance(paths, list | tuple) else [paths]
+        opened = open_source(paths, calib, fov=fov, scale=scale)
+        full = opened.rig if scale == 1.0 else open_source(paths, calib, fov=fov).rig
+        sizes = [r.size for r in opened.readers]
+        total = opened.n_frames if frames is None else min(frames, opened.n_frames)
+        feed = ((i, 0.0, images, originals)
+                for i, images, originals in opened.frames(stop=frames, originals=True))  # fmt: skip
     detectors = make_detectors("mediapipe" if detector == "auto" else detector,
-                               opened.n_cameras, mirrored=mirrored)  # fmt: skip
+                               len(opened.rig), mirrored=mirrored)  # fmt: skip
     if detectors is None:
         raise ValueError("detector: expected a keypoint detector with hands=2; got none")
     tracker = HandsTracker(opened.rig, hands=hands, detector=None, predictor=predictor,
                            hand_length=hand_length, model=model, seed=seed)  # fmt: skip
-    sizes = [r.size for r in opened.readers]
-    feed = ((i, 0.0, images, originals)
-            for i, images, originals in opened.frames(stop=frames, originals=True))  # fmt: skip
     items = detect_ahead(feed, detectors)
     if progress:
         from tqdm import tqdm
 
-        total = opened.n_frames if frames is None else min(frames, opened.n_frames)
         items = tqdm(items, total=total, desc="tracking", unit="frame", leave=False)
     seconds = []
     for _, _, images, found in items:
@@ -1936,6 +2006,8 @@ def track_hands(
         t0 = time.perf_counter()
         tracker.process(images, detections=given)
         seconds.append(time.perf_counter() - t0)
+    live = isinstance(source, CameraSource)
+    name = opened.names[0] if opened.names else "recording"
     tracks = {}
     for h in tracker.hands:
         if h.tracker.recovery is None:  # never seen
@@ -1944,15 +2016,17 @@ def track_hands(
         tracks[h.id] = Track(
             poses=r.track.poses, joints=r.track.joints,
             projected=project_joints(full, r.track.joints), quality=r.quality, rig=full,
-            shape=r.shape, name=opened.names[0] if opened.names else "recording",
-            predictor=predictor, seed=seed, fps=opened.fps, result=r.track,
-            options={"source": [str(p) for p in paths], "kind": "recording",
-                     "hands": hands, "scale": scale, "hand_length": hand_length,
-                     "model": model, "hand": h.side, "keypoints": True, "recover": True,
+            shape=r.shape, name=name, predictor=predictor, seed=seed, fps=opened.fps,
+            result=r.track,
+            options={"source": [str(p) for p in paths] or name,
+                     "kind": "camera" if live else "recording", "hands": hands,
+                     "scale": scale, "hand_length": hand_length, "model": model,
+                     "hand": h.side, "keypoints": True, "recover": True,
                      "detector": "mediapipe" if detector == "auto" else "user"},
         )  # fmt: skip
-    return HandsTrack(tracks, opened.names[0] if opened.names else "recording", opened.fps,
-                      np.asarray(seconds), source=opened)  # fmt: skip
+    # a camera's frames cannot be read again: no overlay over them
+    return HandsTrack(tracks, name, opened.fps, np.asarray(seconds),
+                      source=None if live else opened)  # fmt: skip
 
 
 def _scaled(d, scale: float, size):

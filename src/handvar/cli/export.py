@@ -34,74 +34,25 @@ def _load(track_dir, calib):
         raise ValueError(f"TRACK_DIR: {str(exc).removeprefix('directory: ')}") from None
 
 
-#: The index of a directory of both hands (`handvar.HandsTrack.save`).
-HANDS_INDEX = "hands.json"
-
-
 def _is_hands(track_dir) -> bool:
-    """Whether TRACK_DIR holds both hands (their index, `HANDS_INDEX`) rather than one."""
+    """Whether TRACK_DIR holds both hands (their index) rather than one."""
+    from handvar.pipeline import HANDS_INDEX
+
     return (Path(track_dir) / HANDS_INDEX).is_file()
 
 
 def _load_hands(track_dir, calib):
-    """The name and the hands of a two-hand directory: its index (`HANDS_INDEX`: name,
-    fps, hands with id, side and folder) and each hand's track (`handvar.Track.load`),
-    as ``[(id, track), ...]``; an index that is broken, names a folder that is not
-    there or a hand of another side is refused naming the index."""
-    import json
+    """The name and the hands of a two-hand directory (`handvar.HandsTrack.load`), as
+    ``[(id, track), ...]``."""
+    from handvar.pipeline import HandsTrack
 
-    from handvar.pipeline import Track
-
-    index = Path(track_dir) / HANDS_INDEX
-    expect = f"{index}: expected {{'name', 'fps', 'hands': [{{'id', 'side', 'directory'}}]}}"
-    try:
-        doc = json.loads(index.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ValueError(f"{expect}; got JSON it cannot read ({exc})") from None
-    entries = doc.get("hands") if isinstance(doc, dict) else None
-    if not isinstance(entries, list):
-        raise ValueError(f"{expect}; got no list of hands")
-    if not entries:
-        raise ValueError(f"{index}: expected at least one hand; got none (no hand was tracked)")
     rig = None
     if calib is not None:
         from handvar.camera import Rig
 
         rig = Rig.load(calib)
-    hands, sides = [], []
-    for i, entry in enumerate(entries):
-        ok = isinstance(entry, dict) and isinstance(entry.get("id"), int)
-        ok = (
-            ok
-            and entry.get("side") in ("right", "left")
-            and isinstance(entry.get("directory"), str)
-        )
-        if not ok:
-            raise ValueError(f"{expect}; got hand {i}: {entry!r}")
-        folder = Path(track_dir) / entry["directory"]
-        if not folder.is_dir() or Path(entry["directory"]).is_absolute():
-            raise ValueError(f"{index}: expected the folder of each hand inside the directory; "
-                             f"got {entry['directory']!r} for the {entry['side']} hand, which "
-                             "is not there")  # fmt: skip
-        try:
-            track = Track.load(folder, rig=rig)
-        except ValueError as exc:
-            raise ValueError(f"{index}: the {entry['side']} hand's folder {folder}: "
-                             f"{str(exc).removeprefix('directory: ')}") from None  # fmt: skip
-        if track.shape.side != entry["side"]:
-            raise ValueError(f"{index}: expected a {entry['side']} hand in {folder}; got a "
-                             f"{track.shape.side} hand")  # fmt: skip
-        sides.append(entry["side"])
-        hands.append((entry["id"], track))
-    if len(set(sides)) != len(sides):
-        raise ValueError(f"{index}: expected at most one hand of each side; got {sides}")
-    if len({len(t.poses) for _, t in hands}) != 1:
-        raise ValueError(
-            f"{index}: expected the hands' tracks over the same frames; got "
-            + ", ".join(f"{t.shape.side} {len(t.poses)}" for _, t in hands)
-        )
-    name = doc.get("name") if isinstance(doc.get("name"), str) else hands[0][1].name
-    return name, hands
+    hands = HandsTrack.load(track_dir, rig=rig)
+    return hands.name, sorted(hands.tracks.items())
 
 
 def _tracked(hands) -> list:

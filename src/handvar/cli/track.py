@@ -70,8 +70,8 @@ def _check_predictor(ctx, param, value: str) -> str:
                    "and reused by a rerun into OUT.")  # fmt: skip
 @click.option("--hands", type=click.IntRange(min=1, max=2), default=1, show_default=True,
               help="Hands tracked: 2 tracks both, each under an identity kept by tracking "
-                   "(OUT/left/, OUT/right/, OUT/hands.json; a recording with the detector "
-                   "inside).")  # fmt: skip
+                   "(OUT/left/, OUT/right/, OUT/hands.json; a recording or --camera, with "
+                   "the detector inside).")  # fmt: skip
 @click.option("--model", type=click.Choice(("spheres", "mesh")), default="spheres",
               show_default=True, help="Surface of the tracked hand model.")  # fmt: skip
 @click.option("--keypoints", "keypoint_files", multiple=True, type=click.Path(dir_okay=False),
@@ -212,18 +212,22 @@ def _track_hands(seq, out, video: bool, *, keypoint_files, camera, realtime, sid
     from handvar.cli.common import STARTED
     from handvar.pipeline import track
 
-    alone = {"--keypoints": bool(keypoint_files), "--camera": camera is not None,
-             "--realtime": realtime, "--hand": side is not None, "--init": init is not None,
+    alone = {"--keypoints": bool(keypoint_files), "--realtime": realtime,
+             "--hand": side is not None, "--init": init is not None,
              "--keypoint-every": keypoint_every != 1, "--carry": carry is not None,
-             "SEQ": len(seq) != 1}  # fmt: skip
+             "SEQ": len(seq) > 1}  # fmt: skip
     given = [name for name, on in alone.items() if on]
     if given:
-        raise ValueError(f"{', '.join(given)}: expected none with --hands 2 (one recording, "
-                         f"the detector inside); got {', '.join(given)}")  # fmt: skip
+        raise ValueError(f"{', '.join(given)}: expected none with --hands 2 (one recording "
+                         f"or --camera, the detector inside); got {', '.join(given)}")  # fmt: skip
     if detector == "none":
         raise ValueError("--detector: expected auto or mediapipe with --hands 2; got none")
-    with _option_names(seq[0]):
-        result = track(seq[0], hands=2, progress=True, detector=detector, **options)
+    source = seq[0] if seq else None
+    if camera is not None:
+        source = _open_camera(camera, options.pop("calib"), options.pop("fov"),
+                              options.pop("scale"))  # fmt: skip
+    with _option_names(seq[0] if seq else "--camera"), _stop_on_interrupt(source):
+        result = track(source, hands=2, progress=camera is None, detector=detector, **options)
     written = result.save(out, video=video)
     fps = result.n_frames / max(time.perf_counter() - STARTED, 1e-9)
     video_note = " (with overlay.mp4)" if "video" in written else ""
