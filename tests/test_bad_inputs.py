@@ -353,6 +353,19 @@ CASES = [
        "k22.yml: key 'camera_matrix': expected a pinhole matrix (K[2][2] = 1", subprocess=True),
     _c("init-calib-skew", "init {r}/short.avi --calib {r}/skew.yml --out {r}/existing.txt",
        "skew.yml: key 'camera_matrix': expected no skew (K[0][1] = 0", subprocess=True),
+    # both hands
+    _c("track-hands-three", "track {r}/skin.avi --hands 3 --out {r}/t1", "--hands"),
+    _c("track-hands-keypoints",
+       "track {r}/skin.avi --hands 2 --keypoints {r}/kp_skin4.npy --out {r}/t1",
+       "--keypoints: expected none with --hands 2"),
+    _c("track-hands-every", "track {r}/skin.avi --hands 2 --keypoint-every 5 --out {r}/t1",
+       "--keypoint-every: expected none with --hands 2"),
+    _c("track-hands-carry", "track {r}/skin.avi --hands 2 --carry forward --out {r}/t1",
+       "--carry: expected none with --hands 2"),
+    _c("track-hands-detector-none", "track {r}/skin.avi --hands 2 --detector none --out {r}/t1",
+       "--detector: expected auto or mediapipe with --hands 2"),
+    _c("track-hands-skin-video", "track {r}/skin.avi --hands 2 --out {r}/track_out",
+       "skin.avi: expected a hand; the detector found none in its 4 frames", subprocess=True),
     # keypoint files that are not what `handvar keypoints` writes
     _c("init-keypoints-truncated-npz",
        "init {r}/seq --keypoints {r}/kp_half.npz --keypoints {r}/kp_half.npz "

@@ -2008,6 +2008,9 @@ def track_hands(
         seconds.append(time.perf_counter() - t0)
     live = isinstance(source, CameraSource)
     name = opened.names[0] if opened.names else "recording"
+    if all(h.tracker.recovery is None for h in tracker.hands):
+        raise ValueError(f"{name}: expected a hand; the detector found none in its "
+                         f"{len(seconds)} frames")  # fmt: skip
     tracks = {}
     for h in tracker.hands:
         if h.tracker.recovery is None:  # never seen
