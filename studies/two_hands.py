@@ -1,7 +1,7 @@
 """Both hands on the two-hand benchmark: identities, accuracy and lost frames, fit against detector.
 
 Usage: PYTHONPATH=src python studies/two_hands.py [--seeds N] [--cameras 1|2]
-       [--detector simulated|mediapipe] [--scenario NAME ...] [--size W H]
+       [--detector simulated|mediapipe] [--every K] [--scenario NAME ...] [--size W H]
 
 For every scenario of `handvar.evaluation.two_hands.SCENARIOS` and seed, renders the
 case (640×360 by default) and tracks it with `handvar.tracking.hands.HandsTracker`, the
@@ -21,24 +21,29 @@ the fit:
   each hand's detections triangulated point by point (given to it by the truth: the
   baseline at its best) and the fit's on the same frames;
 - the tracker's rate (fits and assignment, frames/s).
+
+With ``--every K`` the detector runs on every K-th frame only; the fit carries each
+hand's detection by optical flow over the frames between, and the detections' baseline
+is interpolated linearly between the detector's frames.
 """
 
 from __future__ import annotations
 
 import argparse
+import itertools
 import time
 
 import cv2
 import numpy as np
 
 
-def fitted_tracks(case, detections):
+def fitted_tracks(case, detections, every: int = 1):
     """Track `case` with the given detections per frame; the tracks as `score_two_hands`
     takes them (camera 0), and the frames/s of the tracker."""
     from handvar.tracking.hands import HandsTracker
     from handvar.tracking.keypoint_cost import keypoint_points
 
-    tracker = HandsTracker(case.rig, detector=None)
+    tracker = HandsTracker(case.rig, detector=None, keypoint_every=every)
     T = case.n_frames
     n = len(case.rig)
     results = []
@@ -49,7 +54,8 @@ def fitted_tracks(case, detections):
     for t in range(T):
         images = [cv2.cvtColor(case.frames[j, t], cv2.COLOR_RGB2BGR) for j in range(n)]
         t0 = time.perf_counter()
-        r = tracker.process(images, detections=[detections[j][t] for j in range(n)])
+        found = [detections[j][t] for j in range(n)] if t % every == 0 else None
+        r = tracker.process(images, detections=found)
         seconds += time.perf_counter() - t0
         results.append(r)
         for h in tracker.hands:  # the points detectors mark, on the hand's model of now
@@ -60,6 +66,24 @@ def fitted_tracks(case, detections):
     tracks = {h.id: {"points_2d": points[h.id], "joints": joints[h.id]}
               for h in tracker.hands if h.tracker.hand is not None}  # fmt: skip
     return tracks, T / seconds, results
+
+
+def interpolated(tracks: dict, every: int) -> dict:
+    """The detector's labelled hands on every `every`-th frame only, each point linearly
+    interpolated between two such frames where both have it (which needs the next
+    detection: what a user with the detections and no tracker can do at best)."""
+    out = {}
+    for key, track in tracks.items():
+        p = np.asarray(track["points_2d"], dtype=float)
+        q = np.full_like(p, np.nan)
+        kept = np.arange(0, len(p), every)
+        q[kept] = p[kept]
+        for a, b in itertools.pairwise(kept):
+            for t in range(a + 1, b):
+                w = (t - a) / (b - a)
+                q[t] = (1 - w) * p[a] + w * p[b]  # NaN where either end has no point
+        out[key] = {"points_2d": q, "joints": None}
+    return out
 
 
 def mediapipe_detections(case):
@@ -133,9 +157,12 @@ def main() -> None:
     parser.add_argument("--detector", default="simulated", choices=("simulated", "mediapipe"))
     parser.add_argument("--scenario", nargs="*", default=list(SCENARIOS))
     parser.add_argument("--size", type=int, nargs=2, default=(640, 360))
+    parser.add_argument("--every", type=int, default=1,
+                        help="the detector on every K-th frame (the detections' baseline: "
+                             "interpolated between them)")  # fmt: skip
     args = parser.parse_args()
-    print(f"{args.detector} detector, {args.cameras} camera(s), {args.size[0]}x{args.size[1]}, "
-          f"seeds 0..{args.seeds - 1}")  # fmt: skip
+    print(f"{args.detector} detector on every {args.every} frame(s), {args.cameras} camera(s), "
+          f"{args.size[0]}x{args.size[1]}, seeds 0..{args.seeds - 1}")  # fmt: skip
     head = (f"{'case':<18}{'hand':<6}{'switches det/fit':>17}{'PCK det':>9}{'PCK fit':>9}"
             f"{'lost det/fit':>13}{'3D rel':>8}{'abs':>7}")  # fmt: skip
     if args.detector == "mediapipe":
@@ -153,8 +180,11 @@ def main() -> None:
             if args.detector == "mediapipe":
                 detections = mediapipe_detections(case)
                 case = _with_detections(case, detections)
-            raw = score_two_hands(case, detections_as_tracks(case))
-            tracks, fps, _ = fitted_tracks(case, detections)
+            raw_tracks = detections_as_tracks(case)
+            if args.every > 1:
+                raw_tracks = interpolated(raw_tracks, args.every)
+            raw = score_two_hands(case, raw_tracks)
+            tracks, fps, _ = fitted_tracks(case, detections, args.every)
             fit = score_two_hands(case, tracks)
             mp = world_error(case, detections) if args.detector == "mediapipe" else None
             for k, side in enumerate(case.sides):

@@ -358,8 +358,6 @@ CASES = [
     _c("track-hands-keypoints",
        "track {r}/skin.avi --hands 2 --keypoints {r}/kp_skin4.npy --out {r}/t1",
        "--keypoints: expected none with --hands 2"),
-    _c("track-hands-every", "track {r}/skin.avi --hands 2 --keypoint-every 5 --out {r}/t1",
-       "--keypoint-every: expected none with --hands 2"),
     _c("track-hands-carry", "track {r}/skin.avi --hands 2 --carry forward --out {r}/t1",
        "--carry: expected none with --hands 2"),
     _c("track-hands-detector-none", "track {r}/skin.avi --hands 2 --detector none --out {r}/t1",

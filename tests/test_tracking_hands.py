@@ -179,7 +179,7 @@ def test_track_hands_keeps_each_true_hand_under_one_id_through_a_crossing(tmp_pa
 
 @pytest.mark.parametrize(
     ("extra", "named"),
-    [(["--keypoint-every", "5"], "--keypoint-every"), (["--hand", "left"], "--hand"),
+    [(["--carry", "forward"], "--carry"), (["--hand", "left"], "--hand"),
      (["--detector", "none"], "--detector")],
 )  # fmt: skip
 def test_the_command_refuses_one_hands_options_with_two_hands(tmp_path, extra, named):
@@ -218,3 +218,17 @@ def test_both_hands_from_a_live_camera():
     assert [t.shape.side for t in result.tracks.values()] == ["right"]
     with pytest.raises(ValueError, match="calib, fov, scale"):
         handvar.track(camera, hands=2, scale=0.5)
+
+
+def test_a_slower_detector_carries_each_hand_to_the_frames_it_skips():
+    T, every = 24, 3
+    rig, truth = _truth(T, swap=False)  # blank frames: the points are held, not followed
+    rng = np.random.default_rng(0)
+    tracker = HandsTracker(rig, detector=None, keypoint_every=every)
+    results = []
+    for t in range(T):
+        found = [_detections(truth, t, rng, 0.2)] if t % every == 0 else None
+        results.append(tracker.process(IMAGE, detections=found))
+    assert not any(h.no_hand for r in results for h in r.hands)  # carried between
+    matched = _matched(results, truth)
+    assert {tuple({s for s, _ in matched[k]}) for k in (0, 1)} == {("left",), ("right",)}

@@ -637,7 +637,6 @@ def track(
             "on_frame": on_frame,
             "realtime": realtime or None,
             "allow_short": allow_short or None,
-            "keypoint_every": None if keypoint_every == 1 else keypoint_every,
         }
         given = [k for k, v in alone.items() if v is not None]
         if given:
@@ -645,7 +644,8 @@ def track(
                              f"options); got {', '.join(given)}")  # fmt: skip
         return track_hands(source, calib=calib, fov=fov, scale=scale, hand_length=hand_length,
                            model=model, predictor=predictor, seed=seed, frames=frames,
-                           progress=progress, detector=detector)  # fmt: skip
+                           progress=progress, detector=detector,
+                           keypoint_every=keypoint_every)  # fmt: skip
     options = TrackOptions.checked(
         keypoints=keypoints, calib=calib, fov=fov, scale=scale, hand=hand,
         hand_length=hand_length, model=model, predictor=predictor, init=init,
@@ -1937,6 +1937,7 @@ def track_hands(
     progress: bool = False,
     detector="auto",
     mirrored: bool = False,
+    keypoint_every: int = 1,
 ) -> HandsTrack:
     """Track both hands through a recording (module notes).
 
@@ -1956,6 +1957,9 @@ def track_hands(
         needed (the hands' identities come from its detections).
     mirrored : bool
         MediaPipe: the frames are mirrored (a selfie camera).
+    keypoint_every : int
+        Run the detector on every K-th frame only; each hand's last detection is carried
+        forward by optical flow over the frames between (`HandsTracker`).
 
     Returns
     -------
@@ -1966,6 +1970,7 @@ def track_hands(
     from handvar.vision.sources import CameraSource, open_source
 
     hands = as_int(hands, "hands", minimum=1, maximum=2)
+    every = as_int(keypoint_every, "keypoint_every", minimum=1)
     scale = as_float(scale, "scale", minimum=0.0, exclusive_minimum=True)
     frames = None if frames is None else as_int(frames, "frames", minimum=1)
     if model == "mesh":
@@ -1977,7 +1982,8 @@ def track_hands(
                              "takes the calibration, field of view and scale)")  # fmt: skip
         opened, full, paths, scale, total = source, source.rig, [], 1.0, frames
         sizes = [source.image_size]
-        feed = ((i, t, images, images) for i, t, images in source.stream(stop=frames))
+        feed = ((i, t, images, images if i % every == 0 else None)
+                for i, t, images in source.stream(stop=frames))  # fmt: skip
     else:
         paths = [p for p in str(source).split(",")] if isinstance(source, str) else source
         paths = list(paths) if isinstance(paths, list | tuple) else [paths]
@@ -1985,14 +1991,15 @@ def track_hands(
         full = opened.rig if scale == 1.0 else open_source(paths, calib, fov=fov).rig
         sizes = [r.size for r in opened.readers]
         total = opened.n_frames if frames is None else min(frames, opened.n_frames)
-        feed = ((i, 0.0, images, originals)
+        feed = ((i, 0.0, images, originals if i % every == 0 else None)
                 for i, images, originals in opened.frames(stop=frames, originals=True))  # fmt: skip
     detectors = make_detectors("mediapipe" if detector == "auto" else detector,
                                len(opened.rig), mirrored=mirrored)  # fmt: skip
     if detectors is None:
         raise ValueError("detector: expected a keypoint detector with hands=2; got none")
     tracker = HandsTracker(opened.rig, hands=hands, detector=None, predictor=predictor,
-                           hand_length=hand_length, model=model, seed=seed)  # fmt: skip
+                           hand_length=hand_length, model=model, seed=seed,
+                           keypoint_every=every)  # fmt: skip
     items = detect_ahead(feed, detectors)
     if progress:
         from tqdm import tqdm
@@ -2000,9 +2007,9 @@ def track_hands(
         items = tqdm(items, total=total, desc="tracking", unit="frame", leave=False)
     seconds = []
     for _, _, images, found in items:
-        given = [
+        given = None if found is None else [
             [_scaled(d, scale, size) for d in ds] for ds, size in zip(found, sizes, strict=True)
-        ]
+        ]  # fmt: skip
         t0 = time.perf_counter()
         tracker.process(images, detections=given)
         seconds.append(time.perf_counter() - t0)
@@ -2025,6 +2032,7 @@ def track_hands(
                      "kind": "camera" if live else "recording", "hands": hands,
                      "scale": scale, "hand_length": hand_length, "model": model,
                      "hand": h.side, "keypoints": True, "recover": True,
+                     "keypoint_every": every,
                      "detector": "mediapipe" if detector == "auto" else "user"},
         )  # fmt: skip
     # a camera's frames cannot be read again: no overlay over them

@@ -214,8 +214,7 @@ def _track_hands(seq, out, video: bool, *, keypoint_files, camera, realtime, sid
 
     alone = {"--keypoints": bool(keypoint_files), "--realtime": realtime,
              "--hand": side is not None, "--init": init is not None,
-             "--keypoint-every": keypoint_every != 1, "--carry": carry is not None,
-             "SEQ": len(seq) > 1}  # fmt: skip
+             "--carry": carry is not None, "SEQ": len(seq) > 1}  # fmt: skip
     given = [name for name, on in alone.items() if on]
     if given:
         raise ValueError(f"{', '.join(given)}: expected none with --hands 2 (one recording "
@@ -227,7 +226,8 @@ def _track_hands(seq, out, video: bool, *, keypoint_files, camera, realtime, sid
         source = _open_camera(camera, options.pop("calib"), options.pop("fov"),
                               options.pop("scale"))  # fmt: skip
     with _option_names(seq[0] if seq else "--camera"), _stop_on_interrupt(source):
-        result = track(source, hands=2, progress=camera is None, detector=detector, **options)
+        result = track(source, hands=2, progress=camera is None, detector=detector,
+                       keypoint_every=keypoint_every, **options)  # fmt: skip
     written = result.save(out, video=video)
     fps = result.n_frames / max(time.perf_counter() - STARTED, 1e-9)
     video_note = " (with overlay.mp4)" if "video" in written else ""

@@ -264,6 +264,7 @@ class _Hand:
     missing: int = 0  # frames since it was last fitted
     hidden: int = 0  # frames it has been carried hidden
     votes: list = dataclasses.field(default_factory=list)  # signed label scores, while new
+    carriers: list | None = None  # per camera, with a slower detector
 
     @property
     def expected(self):
@@ -296,22 +297,25 @@ class HandsTracker:
         every hand it finds; "none" needs `process` to be given the detections.
     mirrored : bool, keyword-only
         MediaPipe: the frames are mirrored (a selfie camera).
+    keypoint_every : int, keyword-only
+        Run the detector on every K-th frame only; on the frames between, each hand's
+        last detection is carried forward by optical flow, up to the next one.
     **options
         For each hand's `HandTracker`: ``predictor``, ``hand_length``, ``model``,
         ``keypoint_tips``, ``recovery``, ``seed``, ``fov``.
     """
 
     def __init__(self, rig=None, *, hands: int = 2, detector="auto", mirrored: bool = False,
-                 **options) -> None:  # fmt: skip
+                 keypoint_every: int = 1, **options) -> None:  # fmt: skip
         from handvar.camera import Rig
         from handvar.tracking.hand_tracker import HandTracker
         from handvar.vision.detector import make_detectors
 
         n_hands = as_int(hands, "hands", minimum=1, maximum=2)
-        for key in ("hand", "detector", "keypoint_every"):
-            if key in options:
-                raise TypeError(f"{key}: not an option of HandsTracker (each hand's side is "
-                                f"decided by tracking)")  # fmt: skip
+        self.every = as_int(keypoint_every, "keypoint_every", minimum=1)
+        if "hand" in options:
+            raise TypeError("hand: not an option of HandsTracker (each hand's side is "
+                            "decided by tracking)")  # fmt: skip
         if rig is not None and not isinstance(rig, Rig):
             rig = Rig.load(rig)
         self.rig = rig
@@ -333,7 +337,8 @@ class HandsTracker:
             The BGR colour frame of every camera.
         detections : list of list of Detection, keyword-only, optional
             Per camera the hands found in this frame (pixels of the frames given),
-            instead of the tracker's detector.
+            instead of the tracker's detector; not needed on a frame the detector skips
+            (``keypoint_every``).
 
         Returns
         -------
@@ -344,7 +349,10 @@ class HandsTracker:
         t0 = time.perf_counter()
         n = 1 if self.rig is None else len(self.rig)
         images = _images(frames, n)
-        if detections is None:
+        ran = self.frame_count % self.every == 0  # the detector's frame
+        if not ran:
+            detections = [[] for _ in images]
+        elif detections is None:
             if not self.detectors:
                 raise ValueError(
                     "detections: expected the hands found per camera with detector none; got None"
@@ -363,10 +371,12 @@ class HandsTracker:
             self.rig = Rig([assumed_camera((width, height), fov=fov)])
             for h in self.hands:
                 h.tracker.rig = self.rig
-        given = self._given(detections)
+        given = self._given(detections) if ran else {}
         results = []
         for h in self.hands:
-            kps, world = given.get(h.id, (None, None))
+            kps, world = given.get(h.id, ([None] * n, None))
+            if self.every > 1:
+                kps = self._carry(h, images, kps)
             results.append(self._fit(h, images, kps, world))
         for h, r in zip(self.hands, results, strict=True):
             if not r.no_hand and not r.hidden:
@@ -452,6 +462,17 @@ class HandsTracker:
             gaps = [_ray_gap(cameras[0], d.points, cameras[j], e.points) for e in rest]
             near = [e for e, g in zip(rest, gaps, strict=True) if g <= RAY_GAP]
             given[hand.id][j] = min(near, key=lambda e: gaps[rest.index(e)]) if near else None
+
+    def _carry(self, h: _Hand, images, kps: list) -> list:
+        """A detector slower than the frames: on the frames it skips, each hand's last
+        detection carried forward by optical flow up to its next frame
+        (`handvar.vision.carry.KeypointCarrier`, as one hand's tracker does)."""
+        from handvar.vision.carry import KeypointCarrier, until_next_detection
+
+        if h.carriers is None:
+            settings = until_next_detection(self.every)
+            h.carriers = [KeypointCarrier(settings) for _ in images]
+        return [c.step(image, k) for c, image, k in zip(h.carriers, images, kps, strict=True)]
 
     def _vote(self, h: _Hand, d) -> None:
         """Rule 4: a new hand's side turned by overwhelming labels (module notes)."""
