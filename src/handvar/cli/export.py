@@ -252,14 +252,10 @@ def _recording(track, video):
     return paths[0], None
 
 
-def _viewer_images(track, video, width: int):
-    """The frames of `video` (the first camera's recording) at most `width` pixels wide,
-    with the model drawn over them at the track's poses (`overlay_views`), RGB: a
-    generator, one frame in memory at a time."""
-    import cv2
-
+def _video_source(track, video, width: int):
+    """The recording `video` opened in the track's first camera, at most `width` pixels
+    wide, checked to hold the track's frames; its errors naming --video."""
     from handvar.camera import Rig
-    from handvar.render.overlay import overlay_views
     from handvar.vision.sources import open_source
 
     if track.rig is None:
@@ -271,10 +267,22 @@ def _viewer_images(track, video, width: int):
                              scale=min(1.0, width / camera.size[0]))  # fmt: skip
     except (ValueError, FileNotFoundError) as exc:
         raise ValueError(f"--video: {exc}") from None
+    if source.n_frames < track.n_frames:
+        raise ValueError(f"--video: expected a recording of at least the track's "
+                         f"{track.n_frames} frames; got {source.n_frames} in {video}")  # fmt: skip
+    return source
+
+
+def _viewer_images(track, video, width: int):
+    """The frames of `video` (the first camera's recording) at most `width` pixels wide,
+    with the model drawn over them at the track's poses (`overlay_views`), RGB: a
+    generator, one frame in memory at a time."""
+    import cv2
+
+    from handvar.render.overlay import overlay_views
+
+    source = _video_source(track, video, width)
     T, hand = track.n_frames, track.hand
-    if source.n_frames < T:
-        raise ValueError(f"--video: expected a recording of at least the track's {T} "
-                         f"frames; got {source.n_frames} in {video}")  # fmt: skip
 
     def frames():
         try:
@@ -339,25 +347,12 @@ def _hands_viewer_images(hands, video, width: int):
     import cv2
     import numpy as np
 
-    from handvar.camera import Rig
     from handvar.pipeline import SIDE_RGB
     from handvar.render.overlay import draw_overlay
-    from handvar.vision.sources import open_source
 
     first = hands[0][1]
-    if first.rig is None:
-        raise ValueError("--video: expected the track's cameras to draw the model over the "
-                         "frames (the track holds none); give them with --calib")  # fmt: skip
-    camera = first.rig.cameras[0]
-    try:
-        source = open_source(video, Rig((camera,), first.rig.names[:1]),
-                             scale=min(1.0, width / camera.size[0]))  # fmt: skip
-    except (ValueError, FileNotFoundError) as exc:
-        raise ValueError(f"--video: {exc}") from None
+    source = _video_source(first, video, width)
     T = first.n_frames
-    if source.n_frames < T:
-        raise ValueError(f"--video: expected a recording of at least the track's {T} "
-                         f"frames; got {source.n_frames} in {video}")  # fmt: skip
     shown = source.rig.cameras[0]
 
     def frames():
