@@ -22,9 +22,7 @@ detector's label:
    the free hand (in the other cameras, the detection whose rays pass nearest the
    first camera's, within `RAY_GAP` mm).  Its side: the other side than the tracked
    hand's if there is one (two hands of one person), else the detector's label.  So a
-   hand that leaves and comes back is re-acquired with its side.  Where both labels
-   say the tracked hand took the new one's detection (it followed the front hand over
-   a hidden one, or two touching hands' one detection), the two are swapped.
+   hand that leaves and comes back is re-acquired with its side.
 4. **The side of a hand** never changes within a track, except on overwhelming
    evidence: after `SIDE_FRAMES` labelled detections given to a new hand, a weighted
    share `SIDE_SWAP` or more of them for the other side turns it (and the other hand's
@@ -444,13 +442,6 @@ class HandsTracker:
                 other.tracker.side = other.side
             hand.votes = []
             given[hand.id][0] = d
-            e = None if other is None else given[other.id][0]
-            if e is not None and e.side == hand.side and d.side == other.side:
-                # both labels say the tracked hand took the other's place (it followed two
-                # touching hands' one detection, or the front hand's over the hidden one)
-                given[hand.id][0], given[other.id][0] = e, d
-                given[other.id][1:] = [None] * (len(detections) - 1)
-                self._match_cameras(other, given, detections)
             self._match_cameras(hand, given, detections)
 
     def _match_cameras(self, hand: _Hand, given, detections) -> None:
