@@ -30,6 +30,7 @@ is interpolated linearly between the detector's frames.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import itertools
 import time
 
@@ -179,7 +180,7 @@ def main() -> None:
             detections = case.detections
             if args.detector == "mediapipe":
                 detections = mediapipe_detections(case)
-                case = _with_detections(case, detections)
+                case = dataclasses.replace(case, detections=detections)
             raw_tracks = detections_as_tracks(case)
             if args.every > 1:
                 raw_tracks = interpolated(raw_tracks, args.every)
@@ -223,12 +224,6 @@ def main() -> None:
              f"{np.nanmean(totals['tri']):.1f} mm, fit {np.nanmean(totals['same']):.1f} mm"
              if totals["tri"] else "")
           + f"; {np.mean(totals['fps']):.1f} fits/s (both hands)")  # fmt: skip
-
-
-def _with_detections(case, detections):
-    import dataclasses
-
-    return dataclasses.replace(case, detections=detections)
 
 
 if __name__ == "__main__":

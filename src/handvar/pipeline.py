@@ -1985,7 +1985,7 @@ def track_hands(
         feed = ((i, t, images, images if i % every == 0 else None)
                 for i, t, images in source.stream(stop=frames))  # fmt: skip
     else:
-        paths = [p for p in str(source).split(",")] if isinstance(source, str) else source
+        paths = str(source).split(",") if isinstance(source, str) else source
         paths = list(paths) if isinstance(paths, list | tuple) else [paths]
         opened = open_source(paths, calib, fov=fov, scale=scale)
         full = opened.rig if scale == 1.0 else open_source(paths, calib, fov=fov).rig

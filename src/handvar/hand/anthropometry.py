@@ -111,6 +111,17 @@ _LEFT_ABDUCTION_SIGN = readonly(-ABDUCTION_SIGN)
 SIDES: tuple[str, ...] = ("right", "left")
 
 
+def other_side(side: str) -> str:
+    """The other hand's side: "left" for "right" and back.
+
+    Examples
+    --------
+    >>> other_side("right")
+    'left'
+    """
+    return SIDES[1 - SIDES.index(side)]
+
+
 def bone_index(digit: int, level: int) -> int:
     """Index into `BONES` of bone `level` (0 proximal … 2 distal) of digit `digit`."""
     return 1 + 3 * digit + level
@@ -334,7 +345,7 @@ class HandShape:
             palm_radii=self.palm_radii,
             length=self.length,
             breadth=self.breadth,
-            side="left" if self.side == "right" else "right",
+            side=other_side(self.side),
         )
 
     @classmethod
@@ -427,4 +438,5 @@ __all__ = [
     "HandProportions",
     "HandShape",
     "bone_index",
+    "other_side",
 ]

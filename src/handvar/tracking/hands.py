@@ -61,7 +61,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from handvar.hand.anthropometry import SIDES
+from handvar.hand.anthropometry import other_side
 from handvar.validate import as_int
 
 __all__ = [
@@ -391,7 +391,6 @@ class HandsTracker:
         """Per hand id, its keypoints per camera and the first camera's world points."""
         n = len(detections)
         given: dict[int, list] = {h.id: [None] * n for h in self.hands}
-        world: dict[int, object] = {}
         births: list = []
         for j, found in enumerate(detections):
             expected = [h.places(j) for h in self.hands]
@@ -400,18 +399,15 @@ class HandsTracker:
             for hand, k in pairs.items():
                 given[self.hands[hand].id][j] = found[k]
             if j == 0:
-                taken = {k for k in pairs.values()}
-                births = [found[k] for k in range(len(found)) if k not in taken]
+                taken = set(pairs.values())
+                births = [d for k, d in enumerate(found) if k not in taken]
         self._born(births, given, detections)
-        for h in self.hands:
-            dets = given[h.id]
-            if dets[0] is not None and dets[0].world is not None:
-                world[h.id] = dets[0].world
-            self._vote(h, dets[0])
         out = {}
         for h in self.hands:
+            first = given[h.id][0]
+            self._vote(h, first)
             kps = [None if d is None else d.points.copy() for d in given[h.id]]
-            out[h.id] = (self._down_weighted(h, kps), world.get(h.id))
+            out[h.id] = (self._down_weighted(h, kps), None if first is None else first.world)
         return out
 
     def _born(self, births, given, detections) -> None:
@@ -431,14 +427,14 @@ class HandsTracker:
             if not free:
                 return
             others = [h.side for h in self.hands if h.side and h.expected is not None]
-            side = _opposite(others[0]) if others else (d.side or "right")
+            side = other_side(others[0]) if others else (d.side or "right")
             hand = next((h for h in free if h.side == side), free[0])
             if hand.side != side:
                 self._set_side(hand, side)
             hand.last = hand.before = None  # a new track
             other = next((h for h in self.hands if h is not hand), None)
             if other is not None and not other.side:
-                other.side = _opposite(side)
+                other.side = other_side(side)
                 other.tracker.side = other.side
             hand.votes = []
             given[hand.id][0] = d
@@ -477,7 +473,7 @@ class HandsTracker:
         if against >= SIDE_SWAP:
             for other in self.hands:
                 if other.side:
-                    self._set_side(other, _opposite(other.side))
+                    self._set_side(other, other_side(other.side))
 
     def _set_side(self, h: _Hand, side: str) -> None:
         """The hand's side set; its model is built again on it at its next frame with
@@ -510,9 +506,9 @@ class HandsTracker:
             h.hidden += 1
             r = tracker.carried()
         else:
-            h.hidden = 0 if present else h.hidden
+            if present:
+                h.hidden = 0
             r = tracker.process(images, keypoints=kps, world=world)
-            r = dataclasses.replace(r, hidden=False)
         return dataclasses.replace(r, id=h.id, side=h.side)
 
     def _hidden(self, h: _Hand) -> bool:
@@ -580,7 +576,3 @@ def _ray_gap(camera_a, points_a: np.ndarray, camera_b, points_b: np.ndarray) -> 
 def _given_values(given: dict, j: int) -> list:
     """The detections of camera `j` already given to a hand."""
     return [g[j] for g in given.values() if g[j] is not None]
-
-
-def _opposite(side: str) -> str:
-    return SIDES[1 - SIDES.index(side)]

@@ -143,10 +143,10 @@ def handedness_side(label: str, mirrored: bool = False) -> str:
     """
     if label not in ("Left", "Right"):
         raise ValueError(f"label: expected Left or Right; got {label!r}")
+    from handvar.hand.anthropometry import other_side
+
     side = label.lower()
-    if mirrored:
-        return side
-    return "right" if side == "left" else "left"
+    return side if mirrored else other_side(side)
 
 
 class MediaPipeHands:
