@@ -232,3 +232,38 @@ def test_a_slower_detector_carries_each_hand_to_the_frames_it_skips():
     assert not any(h.no_hand for r in results for h in r.hands)  # carried between
     matched = _matched(results, truth)
     assert {tuple({s for s, _ in matched[k]}) for k in (0, 1)} == {("left",), ("right",)}
+
+
+@pytest.mark.slow
+def test_a_real_video_beside_its_mirror_keeps_each_hand_on_its_half(tmp_path):
+    """Real pixels with MediaPipe inside: the fingerspelling clip beside its mirror image
+    (a right hand and the same motion as a left hand, never crossing the middle; as
+    `studies/two_hands_mirrored.py` makes it). Each side stays on one half of the frame
+    on every frame it is drawn, and the two halves never swap."""
+    import cv2
+
+    import handvar
+    from handvar.data import example_path
+
+    pytest.importorskip("mediapipe")
+    source = cv2.VideoCapture(str(example_path("video").parent / "tfjs-asl-hand.mp4"))
+    video = tmp_path / "mirrored.mp4"
+    writer = None
+    for _ in range(120):
+        ok, frame = source.read()
+        assert ok
+        both = np.hstack([frame, np.full_like(frame[:, :64], 128), cv2.flip(frame, 1)])
+        if writer is None:
+            size = (both.shape[1], both.shape[0])
+            writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"mp4v"), 25.0, size)
+        writer.write(both)
+    writer.release()
+    result = handvar.track(str(video), hands=2, scale=0.5)
+    halves = {}
+    for track in result.tracks.values():
+        drawn = ~track.quality.no_hand & np.isfinite(track.projected[0]).all(axis=(1, 2))
+        assert drawn.mean() > 0.9
+        x = track.projected[0, drawn, :, 0].mean(axis=1)
+        halves[track.shape.side] = set((x > size[0] / 2).tolist())
+    # the real (right) hand on the left half, its mirror (a left hand) on the right
+    assert halves == {"right": {False}, "left": {True}}

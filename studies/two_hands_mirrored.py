@@ -1,0 +1,167 @@
+"""Both hands on real pixels: each real video beside its mirror image, by the one command.
+
+Usage: PYTHONPATH=src python studies/two_hands_mirrored.py --out DIR [--video NAME ...]
+       [--scale S] [--gap PX]
+
+No real recording of two hands with ground truth ships with handvar.  This study makes
+one whose identities are known without labelling: each real one-hand video of
+``examples/data`` is put beside its own mirror image (frame | ``--gap`` grey columns |
+flipped frame), so the real hand is on one half and a hand of the other side, the same motion
+mirrored, on the other; they never cross the middle.  It is tracked as a user would,
+``handvar track VIDEO --hands 2 --scale S --fov F --out DIR --no-video`` (MediaPipe
+inside; F gives each half the focal length assumed for the video alone), and read
+back with `handvar.pipeline.HandsTrack.load`.  Printed per video:
+
+- identity switches: per hand, the changes of the half its fitted points lie in (mean
+  x), over the frames it is drawn;
+- hands drawn on the wrong half: frames where both hands lie on one half, and frames
+  where a hand is drawn though MediaPipe found no hand on the video alone (its points
+  shipped beside the video, ``*-mediapipe.npz``; the dex video has none and is
+  skipped for this);
+- each hand's keypoint check (`handvar.tracking.recovery.TrackQuality.check`: on
+  every frame with a detection the joints within 0.2 hand sizes of 98 % of the
+  keypoints kept) and the frames it fails on;
+- mirror agreement: the composite is its own mirror image about its middle column and
+  the assumed camera's principal point lies on it, so the scene is symmetric about the
+  camera's x = 0 plane; the right hand's joints against the left hand's with x negated
+  (mm, mean over joints and the frames both are drawn), wrist-relative and absolute.
+  It measures how differently the pipeline treats one image and its mirror (MediaPipe
+  included), not accuracy;
+- the command's frames/s all-in (start to exit, as a process).
+
+The shipped videos are sanity checks: no rule or constant is chosen here.
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
+VIDEOS = {
+    "dex": "dex-human-hand-video.mp4",
+    "fingerspelling": "tfjs-asl-hand.mp4",
+    "counting": "boreep-counting.mp4",
+}
+
+
+def mirrored_video(src: Path, dst: Path, gap: int = 0) -> tuple[int, int, float]:
+    """Write `src` beside its mirror image, `gap` grey columns between, to `dst` (MP4);
+    its frames, width and fps."""
+    cap = cv2.VideoCapture(str(src))
+    fps = cap.get(cv2.CAP_PROP_FPS) or 30.0
+    writer, n, width = None, 0, 0
+    while True:
+        ok, frame = cap.read()
+        if not ok:
+            break
+        middle = np.full((frame.shape[0], gap, 3), 128, np.uint8)
+        both = np.hstack([frame, middle, cv2.flip(frame, 1)])
+        if writer is None:
+            width = both.shape[1]
+            fourcc = cv2.VideoWriter_fourcc(*"mp4v")
+            writer = cv2.VideoWriter(str(dst), fourcc, fps, (width, both.shape[0]))
+        writer.write(both)
+        n += 1
+    cap.release()
+    writer.release()
+    return n, width, fps
+
+
+def reference_presence(name: str, n: int) -> np.ndarray | None:
+    """(n,) bool: frames where MediaPipe found a hand on the video alone, or None."""
+    path = DATA / VIDEOS[name].replace(".mp4", "-mediapipe.npz")
+    if not path.exists():
+        return None
+    with np.load(path, allow_pickle=False) as z:
+        seen = np.isfinite(z["landmarks_px"]).any(axis=(1, 2))
+    return seen[:n] if len(seen) >= n else None
+
+
+def study(name: str, out: Path, scale: float, gap: int) -> None:
+    from handvar.pipeline import HandsTrack
+    from handvar.vision.sources import SOURCE_SETTINGS
+
+    video = out / f"{name}-mirrored.mp4"
+    _, width, _ = mirrored_video(DATA / VIDEOS[name], video, gap)
+    target = out / name
+    # each half seen by the camera assumed for the video alone (its focal length)
+    alone = (width - gap) / 2
+    fov = 2 * np.degrees(np.arctan(width / alone * np.tan(np.radians(SOURCE_SETTINGS.fov) / 2)))
+    command = [sys.executable, "-m", "handvar", "track", str(video), "--hands", "2",
+               "--scale", str(scale), "--fov", f"{fov:.4f}", "--out", str(target),
+               "--no-video"]  # fmt: skip
+    t0 = time.perf_counter()
+    run = subprocess.run(command, capture_output=True, text=True)
+    seconds = time.perf_counter() - t0
+    if run.returncode:
+        print(f"{name}: the command failed: {run.stderr.strip().splitlines()[-1:]}")
+        return
+    hands = HandsTrack.load(target)
+    T = hands.n_frames
+    half, drawn = {}, {}
+    for track in hands.tracks.values():
+        side = track.shape.side
+        with np.errstate(invalid="ignore"):
+            x = np.nanmean(track.projected[0, :, :, 0], axis=1)  # full-resolution pixels
+        drawn[side] = np.isfinite(x) & ~track.quality.no_hand
+        half[side] = np.where(drawn[side], (x >= width / 2).astype(int), -1)
+    switches = 0
+    for h in half.values():
+        seen = h[h >= 0]
+        switches += int(np.count_nonzero(seen[1:] != seen[:-1]))
+    same_half = 0
+    if len(half) == 2:
+        a, b = half.values()
+        same_half = int(np.count_nonzero((a >= 0) & (a == b)))
+    reference = reference_presence(name, T)
+    phantom = "-"
+    if reference is not None:
+        phantom = str(sum(int(np.count_nonzero(d & ~reference)) for d in drawn.values()))
+    checks = []
+    for side, track in sorted((t.shape.side, t) for t in hands.tracks.values()):
+        frames = track.quality.keypoints  # every frame with keypoints: all detected here
+        ok, worst, _ = track.quality.check(frames=frames)
+        failing = track.quality.failing(frames=frames)
+        checks.append(f"{side} {'holds' if ok else 'FAILS'} (fails on {failing} of "
+                      f"{int(frames.sum())} frames with a detection; worst "
+                      f"{100 * worst:.1f} %)")  # fmt: skip
+    mirror = "-"
+    if len(hands.tracks) == 2:
+        left, right = hands.side("left").joints, hands.side("right").joints
+        m = left * np.array([-1.0, 1.0, 1.0])
+        both = drawn["left"] & drawn["right"]
+        both &= np.isfinite(m).all(axis=(1, 2)) & np.isfinite(right).all(axis=(1, 2))
+        if both.any():
+            absolute = np.linalg.norm(m[both] - right[both], axis=-1).mean()
+            rel = np.linalg.norm((m[both] - m[both, :1]) - (right[both] - right[both, :1]),
+                                 axis=-1).mean()  # fmt: skip
+            mirror = f"{rel:.1f} / {absolute:.1f} mm over {int(both.sum())} frames"
+    print(f"{name}: {T} frames, {width} px wide, {T / seconds:.1f} frames/s all-in; "
+          f"hands {sorted(half)}; identity switches {switches}; both on one half "
+          f"{same_half}; drawn where MediaPipe found no hand alone {phantom}; keypoint "
+          f"check: {'; '.join(checks)}; mirror disagreement wrist-relative / absolute "
+          f"{mirror}", flush=True)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--video", nargs="*", default=list(VIDEOS), choices=list(VIDEOS))
+    parser.add_argument("--scale", type=float, default=0.5)
+    parser.add_argument("--gap", type=int, default=64,
+                        help="grey columns between a frame and its mirror image")  # fmt: skip
+    args = parser.parse_args()
+    args.out.mkdir(parents=True, exist_ok=True)
+    for name in args.video:
+        study(name, args.out, args.scale, args.gap)
+
+
+if __name__ == "__main__":
+    main()
