@@ -13,7 +13,7 @@ import pytest
 from handvar.evaluation.realistic import motion_poses, realistic_rig
 from handvar.hand.anthropometry import HandShape
 from handvar.hand.kinematics import HandModel
-from handvar.tracking.hands import MISSED_FRAMES, HandsTracker, assign
+from handvar.tracking.hands import MISSED_FRAMES, NEW_HAND, HandsTracker, assign
 from handvar.tracking.keypoint_cost import keypoint_points
 from handvar.vision.keypoints import Detection
 
@@ -127,6 +127,25 @@ def test_a_hand_found_twice_is_one_hand():
         twin = Detection(found[0].points + np.r_[3.0, -2.0, 0.0], side="left", score=0.6)
         r = tracker.process(IMAGE, detections=[[*found, twin]])
         assert r.hands[1].no_hand
+
+
+def test_a_hand_found_twice_with_its_label_is_one_hand_and_a_far_one_is_new():
+    """A second detection labelled the tracked hand's side (MediaPipe's duplicate while
+    hands touch) starts no hand within `NEW_HAND` hand sizes of that hand's detection,
+    and does beyond it (a new hand whose first label lies)."""
+    T = 6
+    rig, truth = _truth(T, swap=False, leave=("left", 0, T))
+    p = truth["right"]
+    size = np.linalg.norm(p[0, 9] - p[0, 0])
+    for shift, born in ((1.0, False), (NEW_HAND + 0.5, True)):
+        tracker = HandsTracker(rig, detector=None)
+        for t in range(T):
+            hand = Detection(np.c_[p[t], np.ones(21)], side="right", score=0.9)
+            twin = Detection(np.c_[p[t] + (shift * size, 0.0), np.ones(21)], side="right",
+                             score=0.8)  # fmt: skip
+            r = tracker.process(IMAGE, detections=[[hand, twin] if t else [hand]])
+        assert r.hands[1].no_hand is not born
+        assert r.hands[0].side == "right"
 
 
 def test_assign_keeps_identities_by_place_and_leaves_far_detections_out():

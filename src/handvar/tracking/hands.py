@@ -17,8 +17,10 @@ detector's label:
    one vote among others: a hand that crosses the other keeps its identity when the
    detector's labels swap.
 3. **A new hand.**  A detection left over, not within `DUPLICATE` hand sizes of a
-   tracked hand's detection (MediaPipe sometimes finds one hand twice) nor within
-   `NEW_HAND` of a tracked hand given none (that hand's, off by a gross error), starts
+   tracked hand's detection (MediaPipe sometimes finds one hand twice), nor within
+   `NEW_HAND` of the detection of a tracked hand of the side it is labelled (found
+   twice, labelled alike), nor within `NEW_HAND` of a tracked hand given none (that
+   hand's, off by a gross error), starts
    the free hand (in the other cameras, the detection whose rays pass nearest the
    first camera's, within `RAY_GAP` mm).  Its side: the other side than the tracked
    hand's if there is one (two hands of one person), else the detector's label.  So a
@@ -416,6 +418,13 @@ class HandsTracker:
             taken = [g[0] for g in given.values() if g[0] is not None]
             if any(_distance(t.points[:, :2], d.points) < DUPLICATE for t in taken):
                 continue  # the same hand found twice
+            if d.side and any(
+                h.side == d.side
+                and given[h.id][0] is not None
+                and _distance(given[h.id][0].points[:, :2], d.points) < NEW_HAND
+                for h in self.hands
+            ):
+                continue  # found twice, labelled as the hand near it both times
             if any(
                 h.expected is not None
                 and given[h.id][0] is None
