@@ -15,7 +15,9 @@ the fit:
   count, `score_two_hands`);
 - 2D PCK@0.2 over the frames the hand is in view (a frame without a track on it counts
   as wrong);
-- lost: frames in view without a track within 0.5 hand sizes;
+- lost: frames in view without a track within 0.5 hand sizes (and, in the last line,
+  those where at least 11 of the hand's 21 points are visible: inside the image and
+  not hidden by the other hand);
 - the fit's wrist-relative and absolute 3D error (mm), and with MediaPipe its world
   landmarks' wrist-relative error beside it; with two cameras, the absolute error of
   each hand's detections triangulated point by point (given to it by the truth: the
@@ -172,6 +174,7 @@ def main() -> None:
         head += f"{'tri':>7}{'fit':>7}"
     print(head + f"{'fits/s':>8}")
     totals = {"det": [], "fit": [], "sw_det": 0, "sw_fit": 0, "lost_det": 0, "lost_fit": 0,
+              "seen_det": 0, "seen_fit": 0,
               "rel": [], "abs": [], "mp": [], "tri": [], "same": [], "fps": [],
               "view": 0}  # fmt: skip
     for scenario in args.scenario:
@@ -209,6 +212,8 @@ def main() -> None:
                 totals["abs"].append(fit.mpjpe[k])
                 totals["lost_det"] += int(raw.lost[k])
                 totals["lost_fit"] += int(fit.lost[k])
+                totals["seen_det"] += int(raw.lost_visible[k])
+                totals["seen_fit"] += int(fit.lost_visible[k])
                 totals["view"] += int(case.in_view[0, k].sum())
             totals["sw_det"] += raw.switches
             totals["sw_fit"] += fit.switches
@@ -216,7 +221,8 @@ def main() -> None:
     print(f"all: identity switches {totals['sw_det']} (detector's labels) / {totals['sw_fit']} "
           f"(fit); PCK {np.nanmean(totals['det']):.3f} / {np.nanmean(totals['fit']):.3f}; "
           f"lost {totals['lost_det']} / {totals['lost_fit']} of {totals['view']} hand-frames "
-          f"in view; fit 3D {np.nanmean(totals['rel']):.1f} mm wrist-relative, "
+          f"in view ({totals['seen_det']} / {totals['seen_fit']} with at least half the "
+          f"hand visible); fit 3D {np.nanmean(totals['rel']):.1f} mm wrist-relative, "
           f"{np.nanmean(totals['abs']):.1f} mm absolute"
           + (f" (MediaPipe's world landmarks {np.nanmean(totals['mp']):.1f} mm)"
              if totals["mp"] else "")

@@ -207,6 +207,21 @@ def test_tracks_swapped_halfway_switch_identity_four_times(cases):
     assert s.switches == 4 and s.lost.tolist() == [0, 5]
 
 
+def test_lost_while_visible_counts_the_frames_most_of_the_hand_is_seen(cases):
+    """Without any track every frame in view is lost; those with at least 11 of the 21
+    points visible are the ones counted as lost while visible (counted here from the
+    truth's flags)."""
+    c = cases["cross"]  # one hand mostly hidden behind the other for a while
+    T = c.n_frames
+    none = {0: {"points_2d": np.full((T, 21, 2), np.nan), "joints": None}}
+    s = score_two_hands(c, none)
+    assert s.lost.tolist() == c.in_view[0].sum(axis=1).tolist()
+    seen = c.in_view[0] & (c.visible[0].sum(axis=2) >= 11)
+    assert s.lost_visible.tolist() == seen.sum(axis=1).tolist()
+    assert (s.lost_visible < s.lost).any()  # the hidden frames are in view, not visible
+    assert score_two_hands(c, _true_tracks(c)).lost_visible.tolist() == [0, 0]
+
+
 def test_detections_as_tracks_take_the_label_as_identity(cases):
     c = cases["cross"]
     tracks = detections_as_tracks(c)

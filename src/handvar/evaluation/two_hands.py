@@ -95,6 +95,7 @@ __all__ = [
     "SCENARIOS",
     "SCENARIO_FPS",
     "SCENARIO_SECONDS",
+    "VISIBLE_POINTS",
     "SwapErrors",
     "TwoHandCase",
     "TwoHandScore",
@@ -111,6 +112,9 @@ SCENARIOS: tuple[str, ...] = ("apart", "cross", "clap", "occlude", "leave")
 SCENARIO_FPS = 25.0
 #: Length of each scenario, seconds.
 SCENARIO_SECONDS = 5.0
+#: Points of 21 visible (inside the image, not hidden by the other hand) for a frame to
+#: count as one where the hand is visible (`TwoHandScore.lost_visible`): more than half.
+VISIBLE_POINTS = 11
 #: The two hands, in the order of the truth's hand axis.
 SIDES: tuple[str, str] = ("left", "right")
 
@@ -730,6 +734,9 @@ class TwoHandScore:
         The same, wrist-relative.
     lost : (2,) int ndarray
         In-view frames without a track on the hand.
+    lost_visible : (2,) int ndarray
+        Of those, the frames where at least `VISIBLE_POINTS` of its 21 points are
+        visible (inside the image, not hidden by the other hand).
     frames_in_view : (2,) int ndarray
     """
 
@@ -741,6 +748,7 @@ class TwoHandScore:
     mpjpe: np.ndarray
     mpjpe_relative: np.ndarray
     lost: np.ndarray
+    lost_visible: np.ndarray
     frames_in_view: np.ndarray
 
     @property
@@ -844,10 +852,13 @@ def score_two_hands(case: TwoHandCase, tracks: dict, *, camera: int = 0,
 
     pck, abs_err, rel_err = np.full(2, np.nan), np.full(2, np.nan), np.full(2, np.nan)
     lost, n_view = np.zeros(2, np.int64), np.zeros(2, np.int64)
+    lost_visible = np.zeros(2, np.int64)
     for k in range(2):
         view = case.in_view[camera, k]
         n_view[k] = view.sum()
         lost[k] = (view & (match[k] < 0)).sum()
+        seen = case.visible[camera, k].sum(axis=1) >= VISIBLE_POINTS
+        lost_visible[k] = (view & seen & (match[k] < 0)).sum()
         if not view.any():
             continue
         est2 = np.full((T, 21, 2), np.nan)
@@ -863,7 +874,8 @@ def score_two_hands(case: TwoHandCase, tracks: dict, *, camera: int = 0,
             rel_err[k] = joint_errors(case.joints[k, scored], est3[scored]).mean()
     return TwoHandScore(ids=ids, match=match, track_switches=track_switches,
                         hand_switches=hand_switches, pck=pck, mpjpe=abs_err,
-                        mpjpe_relative=rel_err, lost=lost, frames_in_view=n_view)  # fmt: skip
+                        mpjpe_relative=rel_err, lost=lost, lost_visible=lost_visible,
+                        frames_in_view=n_view)  # fmt: skip
 
 
 def detections_as_tracks(case: TwoHandCase, *, camera: int = 0) -> dict:
