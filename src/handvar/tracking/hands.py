@@ -415,16 +415,13 @@ class HandsTracker:
     def _born(self, births, given, detections) -> None:
         """Start the free hands on the detections of the first camera left over."""
         for d in sorted(births, key=lambda d: -np.count_nonzero(d.points[:, 2] > 0)):
-            taken = [g[0] for g in given.values() if g[0] is not None]
-            if any(_distance(t.points[:, :2], d.points) < DUPLICATE for t in taken):
-                continue  # the same hand found twice
-            if d.side and any(
-                h.side == d.side
-                and given[h.id][0] is not None
-                and _distance(given[h.id][0].points[:, :2], d.points) < NEW_HAND
+            if any(
+                _distance(g.points[:, :2], d.points)
+                < (NEW_HAND if d.side and d.side == h.side else DUPLICATE)
                 for h in self.hands
+                if (g := given[h.id][0]) is not None
             ):
-                continue  # found twice, labelled as the hand near it both times
+                continue  # the same hand found twice (labelled as it: farther apart)
             if any(
                 h.expected is not None
                 and given[h.id][0] is None
