@@ -13,8 +13,10 @@ inside; F gives each half the focal length assumed for the video alone), and rea
 back with `handvar.pipeline.HandsTrack.load`.  Printed per video:
 
 - identity switches: per hand, the changes of the half its fitted points lie in (mean
-  x), over the frames it is drawn;
-- hands drawn on the wrong half: frames where both hands lie on one half, and frames
+  x), over the frames it is drawn; beside them the detector alone's, MediaPipe run on
+  the full-size composite with its handedness label taken as the identity;
+- hands drawn on the wrong half: frames where both hands (or both labels) lie on one
+  half, and frames
   where a hand is drawn though MediaPipe found no hand on the video alone (its points
   shipped beside the video, ``*-mediapipe.npz``; the dex video has none and is
   skipped for this);
@@ -51,12 +53,12 @@ VIDEOS = {
 }
 
 
-def mirrored_video(src: Path, dst: Path, gap: int = 0) -> tuple[int, int, float]:
+def mirrored_video(src: Path, dst: Path, gap: int = 0) -> int:
     """Write `src` beside its mirror image, `gap` grey columns between, to `dst` (MP4);
-    its frames, width and fps."""
+    its width."""
     cap = cv2.VideoCapture(str(src))
     fps = cap.get(cv2.CAP_PROP_FPS) or 30.0
-    writer, n, width = None, 0, 0
+    writer, width = None, 0
     while True:
         ok, frame = cap.read()
         if not ok:
@@ -68,10 +70,9 @@ def mirrored_video(src: Path, dst: Path, gap: int = 0) -> tuple[int, int, float]
             fourcc = cv2.VideoWriter_fourcc(*"mp4v")
             writer = cv2.VideoWriter(str(dst), fourcc, fps, (width, both.shape[0]))
         writer.write(both)
-        n += 1
     cap.release()
     writer.release()
-    return n, width, fps
+    return width
 
 
 def reference_presence(name: str, n: int) -> np.ndarray | None:
@@ -84,12 +85,51 @@ def reference_presence(name: str, n: int) -> np.ndarray | None:
     return seen[:n] if len(seen) >= n else None
 
 
+def label_halves(video: Path, width: int) -> dict:
+    """MediaPipe Hands on every frame of `video` (full size), each detection's label
+    taken as its identity, as a user of the detector alone would: per label, (T,) the
+    half its points lie on (0 left, 1 right, -1 without a detection of that label; of
+    two, the higher score's)."""
+    from handvar.vision.mediapipe import MediaPipeHands
+
+    rows = []
+    detect = MediaPipeHands()
+    cap = cv2.VideoCapture(str(video))
+    while True:
+        ok, frame = cap.read()
+        if not ok:
+            break
+        best: dict = {}
+        for d in detect(frame):
+            if d.side and d.score > best.get(d.side, (-1.0, 0))[0]:
+                best[d.side] = (d.score, int(np.nanmean(d.points[:, 0]) >= width / 2))
+        rows.append({side: h for side, (_, h) in best.items()})
+    cap.release()
+    detect.close()
+    return {side: np.array([r.get(side, -1) for r in rows]) for side in ("left", "right")}
+
+
+def identity_errors(half: dict) -> tuple[int, int]:
+    """Identity switches (per identity, the changes of its half over the frames it is
+    drawn, gaps bridged) and frames with both identities on one half, of `half`: per
+    identity, (T,) 0 / 1 / -1 (not drawn)."""
+    switches = 0
+    for h in half.values():
+        seen = h[h >= 0]
+        switches += int(np.count_nonzero(seen[1:] != seen[:-1]))
+    same_half = 0
+    if len(half) == 2:
+        a, b = half.values()
+        same_half = int(np.count_nonzero((a >= 0) & (a == b)))
+    return switches, same_half
+
+
 def study(name: str, out: Path, scale: float, gap: int) -> None:
     from handvar.pipeline import HandsTrack
     from handvar.vision.sources import SOURCE_SETTINGS
 
     video = out / f"{name}-mirrored.mp4"
-    _, width, _ = mirrored_video(DATA / VIDEOS[name], video, gap)
+    width = mirrored_video(DATA / VIDEOS[name], video, gap)
     target = out / name
     # each half seen by the camera assumed for the video alone (its focal length)
     alone = (width - gap) / 2
@@ -112,14 +152,8 @@ def study(name: str, out: Path, scale: float, gap: int) -> None:
             x = np.nanmean(track.projected[0, :, :, 0], axis=1)  # full-resolution pixels
         drawn[side] = np.isfinite(x) & ~track.quality.no_hand
         half[side] = np.where(drawn[side], (x >= width / 2).astype(int), -1)
-    switches = 0
-    for h in half.values():
-        seen = h[h >= 0]
-        switches += int(np.count_nonzero(seen[1:] != seen[:-1]))
-    same_half = 0
-    if len(half) == 2:
-        a, b = half.values()
-        same_half = int(np.count_nonzero((a >= 0) & (a == b)))
+    switches, same_half = identity_errors(half)
+    label_switches, label_same = identity_errors(label_halves(video, width))
     reference = reference_presence(name, T)
     phantom = "-"
     if reference is not None:
@@ -144,7 +178,8 @@ def study(name: str, out: Path, scale: float, gap: int) -> None:
                                  axis=-1).mean()  # fmt: skip
             mirror = f"{rel:.1f} / {absolute:.1f} mm over {int(both.sum())} frames"
     print(f"{name}: {T} frames, {width} px wide, {T / seconds:.1f} frames/s all-in; "
-          f"hands {sorted(half)}; identity switches {switches}; both on one half "
+          f"hands {sorted(half)}; identity switches: MediaPipe's labels {label_switches}, "
+          f"fit {switches}; frames with both on one half: labels {label_same}, fit "
           f"{same_half}; drawn where MediaPipe found no hand alone {phantom}; keypoint "
           f"check: {'; '.join(checks)}; mirror disagreement wrist-relative / absolute "
           f"{mirror}", flush=True)
