@@ -21,6 +21,7 @@ __all__ = [
     "r2_tilde",
     "r2_tilde_acceleration",
     "r2_tilde_joints",
+    "rotation_about_wrist",
     "similarity",
     "similarity_align",
 ]
@@ -215,17 +216,24 @@ def joint_errors(truth, estimate, *, alignment: str = "wrist") -> np.ndarray:
     """(T, J) 3D errors after aligning each frame's estimate to the truth.
 
     ``"none"``: as they are (the absolute error in the world frame); ``"wrist"``: both
-    taken relative to their wrist (point 0); ``"procrustes"``: the estimate moved by the
-    similarity (`similarity_align`) that best fits it to the truth.  NaN rows: frames
-    where the estimate has a missing point.
+    taken relative to their wrist (point 0); ``"rotation"``: relative to their wrist, the
+    estimate turned about it by the rotation that best fits it to the truth
+    (`rotation_about_wrist`: what is left once the hand's orientation is right);
+    ``"procrustes"``: the estimate moved by the similarity (`similarity_align`) that best
+    fits it to the truth.  NaN rows: frames where the estimate has a missing point.
     """
     if alignment == "none":
         return _frame_errors(truth, estimate, lambda e, z: e)
     if alignment == "wrist":
         return _frame_errors(truth, estimate, lambda e, z: e - e[_WRIST] + z[_WRIST])
+    if alignment == "rotation":
+        return _frame_errors(
+            truth, estimate,
+            lambda e, z: (e - e[_WRIST]) @ rotation_about_wrist(e, z).T + z[_WRIST],
+        )  # fmt: skip
     if alignment == "procrustes":
         return _frame_errors(truth, estimate, similarity_align)
-    raise ValueError(f"alignment: expected none, wrist or procrustes; got {alignment!r}")
+    raise ValueError(f"alignment: expected none, wrist, rotation or procrustes; got {alignment!r}")
 
 
 def mpjpe(truth, estimate) -> float:
@@ -275,19 +283,59 @@ def similarity(source, target) -> tuple[float, np.ndarray, np.ndarray]:
     >>> round(s, 6), round(float(np.degrees(np.arccos((np.trace(R) - 1) / 2))), 6)
     (2.0, 90.0)
     """
+    X, Y = _point_sets(source, target)
+    mx, my = X.mean(0), Y.mean(0)
+    A, B = X - mx, Y - my
+    R, trace = _kabsch(A, B)
+    var = (A**2).sum()
+    s = float(trace / var) if var > 0 else 1.0
+    return s, R, my - s * mx @ R.T
+
+
+def rotation_about_wrist(source, target) -> np.ndarray:
+    """The rotation R (no reflection) that best turns `source` about its wrist (point 0)
+    onto `target` taken about its own: least squares over the points (Kabsch), no scale.
+
+    Its angle is the error of the estimate's orientation, once its wrist is put on the
+    truth's.
+
+    Parameters
+    ----------
+    source, target : (J, 3) array_like
+
+    Returns
+    -------
+    (3, 3) ndarray
+        ``(source - source[0]) @ R.T`` is the turned source.
+
+    Examples
+    --------
+    >>> p = np.array([[0.0, 0, 0], [1, 0, 0], [0, 2, 0]])
+    >>> R = rotation_about_wrist(p, p[:, [1, 0, 2]] * [-1, 1, 1])  # 90° about z
+    >>> np.round(R, 6) + 0.0
+    array([[ 0., -1.,  0.],
+           [ 1.,  0.,  0.],
+           [ 0.,  0.,  1.]])
+    """
+    X, Y = _point_sets(source, target)
+    return _kabsch(X - X[_WRIST], Y - Y[_WRIST])[0]
+
+
+def _point_sets(source, target) -> tuple[np.ndarray, np.ndarray]:
     X = np.asarray(source, dtype=float)
     Y = np.asarray(target, dtype=float)
     if X.ndim != 2 or X.shape != Y.shape:
         raise ValueError(f"source: expected the shape of target {Y.shape}; got {X.shape}")
-    mx, my = X.mean(0), Y.mean(0)
-    A, B = X - mx, Y - my
-    U, S, Vt = np.linalg.svd(B.T @ A)  # cross-covariance Σ (y − ȳ)(x − x̄)ᵀ
+    return X, Y
+
+
+def _kabsch(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, float]:
+    """The rotation R minimising Σ |R a − b|² over the rows of A and B, and the trace
+    Σ σ_i d_i of the cross-covariance it reaches (Umeyama's scale numerator)."""
+    U, S, Vt = np.linalg.svd(B.T @ A)  # cross-covariance Σ b aᵀ
     D = np.ones(len(S))
     D[-1] = np.sign(np.linalg.det(U @ Vt)) or 1.0  # a rotation, not a reflection
-    R = (U * D) @ Vt
-    var = (A**2).sum()
-    s = float((S * D).sum() / var) if var > 0 else 1.0
-    return s, R, my - s * mx @ R.T
+    return (U * D) @ Vt, float((S * D).sum())
 
 
 def similarity_align(source, target) -> np.ndarray:

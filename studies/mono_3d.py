@@ -1,0 +1,166 @@
+"""What one camera tells of the hand's 3D: its size, and its orientation.
+
+Seen by one camera, a hand's 3D error relative to its wrist has three parts: its size,
+its orientation (how it is turned towards the camera), and its articulation.  On the
+realistic benchmark's renders (`studies/realistic.py --out DIR --detector inside`
+writes the cases and the one command's tracks, with MediaPipe's points and world
+landmarks in ``keypoints.npz``), this prints per mono case and overall:
+
+- **size**: the true wrist → middle-MCP length against MediaPipe's world landmarks'
+  (median over the frames), their ratio, and the correlation of the two over the cases
+  (all cases, mono and stereo: MediaPipe sees camera 0 alone);
+- **orientation**: the wrist-relative error (MPJPE) of MediaPipe's world landmarks and
+  of the fit, then the same once each frame's estimate is turned about its wrist onto
+  the truth (`joint_errors(alignment="rotation")`: size and articulation left), and the
+  median angle of that turn (the orientation error) and of its part about the optical
+  axis (a turn within the image, which the 2D points show); the last column is the median angle
+  between the fit's orientation and MediaPipe's.  With the 2D-only fits of
+  ``--detector mediapipe`` in the same DIR, their row too (the fit given MediaPipe's
+  2D points alone, no world landmarks).
+
+    PYTHONPATH=src python studies/mono_3d.py --cases DIR
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from handvar.evaluation.metrics import joint_errors, rotation_about_wrist
+from handvar.evaluation.realistic import read_case
+from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
+from handvar.vision.keypoints import read_keypoints
+from realistic import fit_points
+
+#: The estimates compared, by the name of their track in DIR/fits (None: the world
+#: landmarks the inside track kept).
+ESTIMATES = (
+    ("MediaPipe world", None),
+    ("fit, the one command", "inside"),
+    ("fit, MediaPipe 2D only", "mediapipe"),
+)
+
+
+def palm_length(points: np.ndarray) -> float:
+    """Median over frames of the wrist → middle-MCP distance of (T, 21, 3) points."""
+    return float(np.nanmedian(np.linalg.norm(points[:, MIDDLE_MCP] - points[:, WRIST], axis=1)))
+
+
+def angle(R: np.ndarray) -> float:
+    """The angle of rotation `R`, degrees."""
+    return float(np.degrees(np.arccos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0))))
+
+
+def roll(R: np.ndarray) -> float:
+    """The part of rotation `R` about camera 0's optical axis (z), degrees: |rotation
+    vector's z|, the turn within the image plane."""
+    from scipy.spatial.transform import Rotation
+
+    return float(abs(np.degrees(Rotation.from_matrix(R).as_rotvec()[2])))
+
+
+def orientation_row(truth: np.ndarray, estimate: np.ndarray) -> dict[str, np.ndarray]:
+    """Per scored frame (those with every point of the estimate): wrist-relative error,
+    the error once turned, the orientation error (degrees) and the rotation."""
+    seen = np.isfinite(estimate).all(axis=(1, 2))
+    truth, estimate = truth[seen], estimate[seen]
+    turns = [rotation_about_wrist(e, z) for e, z in zip(estimate, truth, strict=True)]
+    return {
+        "frames": seen,
+        "wrist": np.nanmean(joint_errors(truth, estimate, alignment="wrist"), axis=1),
+        "turned": np.nanmean(joint_errors(truth, estimate, alignment="rotation"), axis=1),
+        "angle": np.array([angle(R) for R in turns]),
+        "roll": np.array([roll(R) for R in turns]),
+        "turns": turns,
+    }
+
+
+def size_table(cases: Path) -> None:
+    true, seen = [], []
+    print(f"{'case':<28} {'hand mm':>7} {'true W-MMCP':>11} {'MediaPipe':>9} {'ratio':>6}")
+    for truth in sorted(cases.glob("*/truth.npz")):
+        name = truth.parent.name
+        files = sorted((cases / "fits" / f"{name}-inside-every1").glob("keypoints*.npz"))
+        if not files:
+            continue
+        with np.load(truth) as z:
+            t, length = palm_length(z["joints"]), float(z["hand_length"])
+        m = palm_length(read_keypoints(files[0]).world)
+        true.append(t)
+        seen.append(m)
+        print(f"{name:<28} {length:>7.0f} {t:>11.1f} {m:>9.1f} {m / t:>6.3f}")
+    true, seen = np.array(true), np.array(seen)
+    ratio = seen / true
+    print(f"ratio MediaPipe / true: median {np.median(ratio):.3f}, range "
+          f"{ratio.min():.3f}-{ratio.max():.3f}; correlation over the cases "
+          f"{np.corrcoef(true, seen)[0, 1]:.2f}\n")  # fmt: skip
+
+
+def estimates_of(cases: Path, name: str) -> dict[str, np.ndarray]:
+    """(T, 21, 3) points in camera 0's axes of each estimate there is for case `name`."""
+    case = read_case(cases / name)
+    side = "left" if "-left-" in name else "right"
+    R = case.rig.cameras[0].R
+    kept = read_keypoints(cases / "fits" / f"{name}-inside-every1" / "keypoints.npz")
+    out = {"truth": case.joints @ R.T}
+    for label, run in ESTIMATES:
+        if run is None:
+            out[label] = np.where(kept.present[..., None], kept.world, np.nan)
+            continue
+        fits = cases / "fits" / f"{name}-{run}-every1"
+        if (fits / "poses.csv").exists():
+            out[label] = fit_points(fits, side)[0] @ R.T
+    return out
+
+
+def orientation_table(cases: Path) -> None:
+    names = sorted(p.parent.name for p in cases.glob("*-mono-*/truth.npz")
+                   if (cases / "fits" / f"{p.parent.name}-inside-every1").exists())  # fmt: skip
+    header = (f"{'case':<26} {'estimate':<24} {'frames':>6} {'MPJPE':>6} {'turned':>6} "
+              f"{'orient.':>7} {'in-img':>6} {'vs MP':>6}")  # fmt: skip
+    print(header)
+    pooled: dict[str, dict[str, list]] = {}
+    for name in names:
+        points = estimates_of(cases, name)
+        rows = {k: orientation_row(points["truth"], v) for k, v in points.items() if k != "truth"}
+        mp = rows["MediaPipe world"]
+        for label, row in rows.items():
+            both = row["frames"] & mp["frames"]
+            mine = [R for R, f in zip(row["turns"], both[row["frames"]], strict=True) if f]
+            theirs = [R for R, f in zip(mp["turns"], both[mp["frames"]], strict=True) if f]
+            apart = [angle(a @ b.T) for a, b in zip(mine, theirs, strict=True)]
+            acc = pooled.setdefault(label, {"wrist": [], "turned": [], "angle": [], "roll": [],
+                                            "apart": []})  # fmt: skip
+            for key in ("wrist", "turned", "angle", "roll"):
+                acc[key].extend(row[key])
+            acc["apart"].extend(apart)
+            vs = "" if label == "MediaPipe world" else f"{np.median(apart):>6.1f}"
+            print(f"{name:<26} {label:<24} {len(row['wrist']):>6} {row['wrist'].mean():>6.1f} "
+                  f"{row['turned'].mean():>6.1f} {np.median(row['angle']):>7.1f} "
+                  f"{np.median(row['roll']):>6.1f} {vs}")  # fmt: skip
+    print()
+    for label, acc in pooled.items():
+        vs = "" if label == "MediaPipe world" else f"{np.median(acc['apart']):>6.1f}"
+        print(f"{'all mono':<26} {label:<24} {len(acc['wrist']):>6} {np.mean(acc['wrist']):>6.1f} "
+              f"{np.mean(acc['turned']):>6.1f} {np.median(acc['angle']):>7.1f} "
+              f"{np.median(acc['roll']):>6.1f} {vs}")  # fmt: skip
+    print(
+        "mm, degrees; MPJPE wrist-relative, turned: after each frame's best rotation about "
+        "the wrist; orient.: median angle of that rotation; in-img: median of its part about "
+        "the optical axis (a turn within the image); vs MP: median angle between the "
+        "estimate's orientation and MediaPipe's"
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--cases", required=True, type=Path)
+    args = parser.parse_args()
+    size_table(args.cases)
+    orientation_table(args.cases)
+
+
+if __name__ == "__main__":
+    main()
