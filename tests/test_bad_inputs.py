@@ -587,8 +587,8 @@ def interrupt_outcome(root: Path) -> list[str]:
     for name in ("clip_a", "clip_b", "clip_c"):
         folder = root / "interrupt" / name
         folder.mkdir(parents=True, exist_ok=True)
-        for t, frame in enumerate(frames):
-            cv2.imwrite(str(folder / f"{t:03d}.png"), frame)
+        for t in range(3 * len(frames)):  # long enough that Ctrl-C comes mid-batch
+            cv2.imwrite(str(folder / f"{t:03d}.png"), frames[t % len(frames)])
         recordings.append(str(folder))
     out = root / "interrupt" / "out"
     proc = subprocess.Popen(

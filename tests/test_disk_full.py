@@ -109,7 +109,10 @@ CASES = {  # command -> the path its one line must name (under the full folder)
 }
 
 
-@pytest.mark.parametrize("name", list(CASES))
+@pytest.mark.parametrize(
+    "name",
+    [pytest.param(n, marks=pytest.mark.slow) if n == "init" else n for n in CASES],  # its search
+)
 def test_a_full_disk_is_named_in_one_line(name, full, inputs):
     folder, run = full
     if name == "init" and not (inputs / "seq").exists():

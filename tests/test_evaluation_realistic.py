@@ -123,6 +123,7 @@ def test_a_persons_hand_moves_every_bone_and_knuckle_and_nothing_else():
     assert not np.allclose(one.bases, base.bases)
     np.testing.assert_array_equal(one.radii, base.radii)
     assert one.side == "left"
+
     def tip(shape):  # wrist → middle fingertip along the bones
         return shape.bases[2, 1] + shape.segments[2].sum()
 

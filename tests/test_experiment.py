@@ -271,6 +271,7 @@ def test_rerun_computes_nothing_and_other_config_is_refused(small_store, client)
         run_experiment(dataclasses.replace(SMALL, seed=1), path, client=client, progress=False)
 
 
+@pytest.mark.slow
 def test_same_seed_same_store(small_store, client, tmp_path):
     path, _ = small_store
     other = tmp_path / "again.zarr"
@@ -309,6 +310,7 @@ def test_restart_loses_no_finished_trial_and_rerun_completes(client, tmp_path):
     assert np.isfinite(ds["r2_joints"].values).all()
 
 
+@pytest.mark.slow
 def test_killed_worker_process_loses_nothing(client, tmp_path):
     path = tmp_path / "kill.zarr"
     cfg = SHORT
@@ -330,6 +332,7 @@ def test_killed_worker_process_loses_nothing(client, tmp_path):
     np.testing.assert_array_equal(open_store(path)["writes"].values, 1)
 
 
+@pytest.mark.slow
 def test_interrupted_run_leaves_a_readable_store(client, tmp_path):
     path = tmp_path / "stop.zarr"
 

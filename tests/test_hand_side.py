@@ -130,6 +130,7 @@ def test_track_takes_the_hand(tmp_path):
     assert errors["left"] < 5.0 < errors["right"], errors  # measured 0.41 and 56.2 mm
 
 
+@pytest.mark.slow
 def test_init_takes_the_hand(tmp_path):
     """``handvar init --hand left`` finds a left hand's first pose (stereo, synthetic)."""
     path, poses = left_sequence(tmp_path / "left", 1)

@@ -66,6 +66,7 @@ def test_silhouette_iou_hand_computed():
         silhouette_iou(a, b[:1])
 
 
+@pytest.mark.slow
 def test_initial_pose_stereo_recovers_an_off_grid_pose(hand):
     # Rotation 10–25° away from every grid point, the pinch shape, the paper's stereo rig.
     rig = Rig.default()
