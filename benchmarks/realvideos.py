@@ -34,7 +34,8 @@ the keypoint fit has its silhouette term at σ S (docs/keypoint-fit.md); the las
 column is the tracked hand's length (the shape fit keeps the given 185 mm with one
 camera).  The column
 before it compares the fit's 3D with the detector's own on those two clips (its world
-landmarks, in the camera's axes): the mean distance of the joints relative to the
+landmarks, turned from the ray through the fitted palm into the camera's axes,
+`handvar.vision.keypoints.world_in_camera`): the mean distance of the joints relative to the
 wrist, mm, and the median angle of the rotation between the two hands (least squares
 over the 21 points), degrees; the detector's 3D is an estimate too, not the truth.
 
@@ -120,16 +121,19 @@ def _against_world(name: str, tr, hand) -> tuple[float, float]:
     from handvar.data import EXAMPLES
     from handvar.evaluation.metrics import joint_errors
     from handvar.tracking.keypoint_cost import keypoint_points
+    from handvar.vision.keypoints import world_in_camera
 
     if f"{name}-mediapipe" not in EXAMPLES:
         return np.nan, np.nan
     with np.load(example_path(f"{name}-mediapipe")) as z:
         world = z["world_mm"][: tr.n_frames]
-    R = tr.rig.cameras[0].R
+    camera = tr.rig.cameras[0]
     fit = np.full_like(world, np.nan)
     for t, x in enumerate(tr.poses[: len(world)]):
         if np.isfinite(x).all():
-            fit[t] = keypoint_points(hand, x, "pad") @ R.T
+            points = keypoint_points(hand, x, "pad")
+            fit[t] = points @ camera.R.T
+            world[t] = world_in_camera(world[t], camera.project(points), camera)
     both = np.isfinite(fit).all(axis=(1, 2)) & np.isfinite(world).all(axis=(1, 2))
     distance = float(np.mean(joint_errors(world[both], fit[both], alignment="wrist")))
     angles = [_angle(f, w) for f, w in zip(fit[both], world[both], strict=True)]

@@ -9,14 +9,16 @@ landmarks in ``keypoints.npz``), this prints per mono case and overall:
 - **size**: the true wrist → middle-MCP length against MediaPipe's world landmarks'
   (median over the frames), their ratio, and the correlation of the two over the cases
   (all cases, mono and stereo: MediaPipe sees camera 0 alone);
-- **orientation**: the wrist-relative error (MPJPE) of MediaPipe's world landmarks and
-  of the fit, then the same once each frame's estimate is turned about its wrist onto
-  the truth (`joint_errors(alignment="rotation")`: size and articulation left), and the
-  median angle of that turn (the orientation error) and of its part about the optical
-  axis (a turn within the image, which the 2D points show); the last column is the median angle
-  between the fit's orientation and MediaPipe's.  With the 2D-only fits of
-  ``--detector mediapipe`` in the same DIR, their row too (the fit given MediaPipe's
-  2D points alone, no world landmarks).
+- **orientation**: the wrist-relative error (MPJPE) of MediaPipe's world landmarks (as
+  they are, and turned from the ray through their palm into the camera's axes, as the
+  fit takes them: `world_in_camera`) and of the fit, then the same once each frame's
+  estimate is turned about its wrist onto the truth (`joint_errors(alignment=
+  "rotation")`: size and articulation left), the median angle of that turn (the
+  orientation error) and of its part about the optical axis (a turn within the image,
+  which the 2D points show); the last column is the median angle between a
+  fit's orientation and MediaPipe's turned one.  With the 2D-only fits of ``--detector
+  mediapipe`` in the same DIR, their row too (the fit given MediaPipe's 2D points alone,
+  no world landmarks).
 
     PYTHONPATH=src python studies/mono_3d.py --cases DIR
 """
@@ -31,16 +33,20 @@ import numpy as np
 from handvar.evaluation.metrics import joint_errors, rotation_about_wrist
 from handvar.evaluation.realistic import read_case
 from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
-from handvar.vision.keypoints import read_keypoints
+from handvar.vision.keypoints import read_keypoints, world_in_camera
 from realistic import fit_points
 
 #: The estimates compared, by the name of their track in DIR/fits (None: the world
-#: landmarks the inside track kept).
+#: landmarks the inside track kept, as they are; "turned": the same turned from the ray
+#: through their palm into the camera's axes, `world_in_camera`).
 ESTIMATES = (
     ("MediaPipe world", None),
+    ("MediaPipe world, turned", "turned"),
     ("fit, the one command", "inside"),
     ("fit, MediaPipe 2D only", "mediapipe"),
 )
+#: The orientation the fits' are compared with: the world landmarks as the fit takes them.
+REFERENCE = "MediaPipe world, turned"
 
 
 def palm_length(points: np.ndarray) -> float:
@@ -109,6 +115,11 @@ def estimates_of(cases: Path, name: str) -> dict[str, np.ndarray]:
         if run is None:
             out[label] = np.where(kept.present[..., None], kept.world, np.nan)
             continue
+        if run == "turned":
+            cam = case.rig.cameras[0]
+            pairs = zip(out["MediaPipe world"], kept.xy, strict=True)
+            out[label] = np.stack([world_in_camera(w, p, cam) for w, p in pairs])
+            continue
         fits = cases / "fits" / f"{name}-{run}-every1"
         if (fits / "poses.csv").exists():
             out[label] = fit_points(fits, side)[0] @ R.T
@@ -125,7 +136,7 @@ def orientation_table(cases: Path) -> None:
     for name in names:
         points = estimates_of(cases, name)
         rows = {k: orientation_row(points["truth"], v) for k, v in points.items() if k != "truth"}
-        mp = rows["MediaPipe world"]
+        mp = rows[REFERENCE]
         for label, row in rows.items():
             both = row["frames"] & mp["frames"]
             mine = [R for R, f in zip(row["turns"], both[row["frames"]], strict=True) if f]
@@ -136,13 +147,13 @@ def orientation_table(cases: Path) -> None:
             for key in ("wrist", "turned", "angle", "roll"):
                 acc[key].extend(row[key])
             acc["apart"].extend(apart)
-            vs = "" if label == "MediaPipe world" else f"{np.median(apart):>6.1f}"
+            vs = "" if label.startswith("MediaPipe") else f"{np.median(apart):>6.1f}"
             print(f"{name:<26} {label:<24} {len(row['wrist']):>6} {row['wrist'].mean():>6.1f} "
                   f"{row['turned'].mean():>6.1f} {np.median(row['angle']):>7.1f} "
                   f"{np.median(row['roll']):>6.1f} {vs}")  # fmt: skip
     print()
     for label, acc in pooled.items():
-        vs = "" if label == "MediaPipe world" else f"{np.median(acc['apart']):>6.1f}"
+        vs = "" if label.startswith("MediaPipe") else f"{np.median(acc['apart']):>6.1f}"
         print(f"{'all mono':<26} {label:<24} {len(acc['wrist']):>6} {np.mean(acc['wrist']):>6.1f} "
               f"{np.mean(acc['turned']):>6.1f} {np.median(acc['angle']):>7.1f} "
               f"{np.median(acc['roll']):>6.1f} {vs}")  # fmt: skip
@@ -150,7 +161,7 @@ def orientation_table(cases: Path) -> None:
         "mm, degrees; MPJPE wrist-relative, turned: after each frame's best rotation about "
         "the wrist; orient.: median angle of that rotation; in-img: median of its part about "
         "the optical axis (a turn within the image); vs MP: median angle between the "
-        "estimate's orientation and MediaPipe's"
+        "fit's orientation and MediaPipe's turned one"
     )
 
 

@@ -278,3 +278,23 @@ def test_input_validation():
         Camera(600, 600, 320, 240, t=[0, 0, np.inf])
     with pytest.raises(ValueError, match="size"):
         Camera(600, 600, 320, 240, size=(640.5, 480))
+
+
+def test_ray_rotation_turns_the_optical_axis_onto_the_ray_without_a_twist():
+    """Against the ray from the intrinsic matrix's inverse, by hand: the optical axis goes
+    onto it, the rotation is proper, and its axis lies in the image plane (no twist about
+    the optical axis), for a camera turned in the world too."""
+    from scipy.spatial.transform import Rotation
+
+    cam = Camera.assumed((1280, 720), fov=70.0)
+    R = Rotation.from_euler("xyz", [10, -25, 5], degrees=True).as_matrix()
+    turned = Camera(cam.fx, cam.fy, cam.cx, cam.cy, R=R, size=cam.size)
+    for c in (cam, turned):
+        for pixel in ((0.0, 0.0), (640.0, 360.0), (1279.0, 200.0)):
+            Q = c.ray_rotation(pixel)
+            ray = np.linalg.solve(c.K, [*pixel, 1.0])
+            np.testing.assert_allclose(Q @ [0.0, 0.0, 1.0], ray / np.linalg.norm(ray), atol=1e-12)
+            np.testing.assert_allclose(Q @ Q.T, np.eye(3), atol=1e-12)
+            assert np.linalg.det(Q) > 0
+            axis = Rotation.from_matrix(Q).as_rotvec()
+            assert abs(axis[2]) < 1e-12

@@ -13,6 +13,7 @@ from handvar.cli import main
 from handvar.data import example_path
 from handvar.vision.keypoints import (
     KEYPOINT_NAMES,
+    PALM,
     Keypoints2D,
     as_frame_keypoints,
     read_keypoints,
@@ -306,3 +307,39 @@ def test_mediapipe_on_the_mirrored_video_sees_a_left_hand(tmp_path, video):
         )
         assert res.exit_code == 0, res.output
         assert read_keypoints(out).side() == side
+
+
+def test_mediapipes_world_landmarks_are_seen_along_the_ray_not_in_the_cameras_axes():
+    """The same hand at the centre and at the border of a wide image: MediaPipe gives
+    (nearly) the same world landmarks, though in the camera's axes the two hands are
+    turned by the angle between their rays, so they are the hand as a view along the ray
+    through it sees it (what the keypoint fit turns them by, `Camera.ray_rotation`)."""
+    import cv2
+
+    from handvar.camera import Camera
+    from handvar.evaluation.metrics import rotation_about_wrist
+    from handvar.vision.mediapipe import MediaPipeHands
+
+    cap = cv2.VideoCapture(str(DATA / "tfjs-asl-hand.mp4"))
+    frames = [cap.read()[1] for _ in range(12)]
+    cap.release()
+    h, w = frames[0].shape[:2]
+    width = 4 * w
+    camera = Camera.assumed((width, h), fov=90.0)
+    world, centres = {}, {}
+    for place, x0 in (("centre", (width - w) // 2), ("border", 0)):
+        detector, found = MediaPipeHands(), []
+        for frame in frames:
+            canvas = np.full((h, width, 3), 128, np.uint8)
+            canvas[:, x0 : x0 + w] = frame
+            found.append(detector(canvas)[0])
+        detector.close()
+        world[place] = [d.world for d in found[2:]]  # its tracking settled
+        centres[place] = np.mean([d.points[list(PALM), :2].mean(0) for d in found[2:]], axis=0)
+    apart = [np.degrees(np.arccos(np.clip((np.trace(rotation_about_wrist(a, b)) - 1) / 2, -1, 1)))
+             for a, b in zip(world["centre"], world["border"], strict=True)]  # fmt: skip
+    turn = camera.ray_rotation(centres["border"]).T @ camera.ray_rotation(centres["centre"])
+    between_rays = np.degrees(np.arccos(np.clip((np.trace(turn) - 1) / 2, -1, 1)))
+    assert between_rays > 30.0, between_rays
+    # measured 0.9° apart against 37° between the rays
+    assert np.median(apart) < between_rays / 4, (np.median(apart), between_rays)

@@ -61,6 +61,7 @@ from handvar.geometry.distortion import (
     distortion_coefficients,
     padded,
 )
+from handvar.geometry.rotations import shortest_rotation
 from handvar.validate import as_array, as_float, as_instance, readonly
 
 __all__ = ["IN_FRONT_DEPTH", "Camera", "PackedRig", "Rig", "check_in_front"]
@@ -292,6 +293,28 @@ class Camera:
         directions = d @ self.R  # Rᵀ d for each row
         origins = np.broadcast_to(self.center, directions.shape).copy()
         return origins, directions
+
+    def ray_rotation(self, pixel) -> np.ndarray:
+        """The rotation from a view along the ray through `pixel` to this camera's axes.
+
+        A detector that works on a crop around the hand (MediaPipe) gives its 3D as a
+        camera looking straight at the crop would see it: in axes whose z is the ray
+        through the crop.  This is the shortest rotation taking the optical axis
+        (0, 0, 1) onto that ray's direction, both in this camera's axes, so that
+        ``points @ R.T`` turns such 3D into this camera's axes.  Near the image's centre
+        it is nearly the identity; at the border of a wide image, tens of degrees.
+
+        Parameters
+        ----------
+        pixel : (2,) array_like
+            Pixel coordinates ``(u, v)``.
+
+        Returns
+        -------
+        (3, 3) ndarray
+        """
+        _, d = self.rays(np.asarray(pixel, dtype=float).reshape(1, 2))
+        return shortest_rotation((0.0, 0.0, 1.0), self.R @ d[0])
 
     def in_image(self, pixels) -> np.ndarray:
         """(N,) bool: pixel coordinates inside the image (pixel-centre convention)."""

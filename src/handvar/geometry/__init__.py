@@ -9,6 +9,7 @@ A leaf package (design §12): it imports nothing from handvar but `handvar.valid
   sampling, signed distance, normals, ray intersection).
 - :mod:`~handvar.geometry.projected`: cone-spheres in the image plane (outline circles,
   the closest point of a union of them and its derivatives).
+- :mod:`~handvar.geometry.rotations`: the shortest rotation between two directions.
 """
 
 from handvar.geometry.cone_spheres import (
@@ -25,6 +26,7 @@ from handvar.geometry.projected import (
     closest_point_cone_spheres_2d,
     outline_circles,
 )
+from handvar.geometry.rotations import shortest_rotation
 
 __all__ = [
     "ProjectedPrimitives",
@@ -39,4 +41,5 @@ __all__ = [
     "intersect_cone_spheres",
     "outline_circles",
     "sample_cone_spheres",
+    "shortest_rotation",
 ]

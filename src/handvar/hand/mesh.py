@@ -44,6 +44,7 @@ from importlib import resources
 import numpy as np
 from numba import njit
 
+from handvar.geometry.rotations import shortest_rotation
 from handvar.hand.anthropometry import HandShape, bone_index
 from handvar.params import N_PARAMS
 
@@ -132,16 +133,6 @@ def _hand_frame(joints: np.ndarray) -> np.ndarray:
     x -= (x @ y) * y
     x /= np.linalg.norm(x)
     return np.stack([x, y, np.cross(x, y)], axis=1)
-
-
-def _shortest_rotation(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Rotation Q with Q u = v for unit vectors, about u × v (Rodrigues)."""
-    w = np.cross(u, v)
-    c = float(u @ v)
-    if c < -1.0 + 1e-12:
-        raise ValueError("bone: expected mesh and model bones less than 180° apart")
-    K = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
-    return np.eye(3) + K + K @ K / (1.0 + c)
 
 
 class _PalmWarp:
@@ -248,7 +239,7 @@ class SkinnedMesh:
                 length = np.linalg.norm(tail - head)
                 u = (tail - head) / length
                 R0 = rest_rotations[b]
-                Q = _shortest_rotation(u, R0[:, 1])
+                Q = shortest_rotation(u, R0[:, 1])
                 F = Q.T @ R0  # the model's bone frame turned onto the mesh's bone
                 heavy = m[W[:, b] > 0.5]
                 radius = _bone_radius(heavy, head, tail) if len(heavy) else 1.0

@@ -19,9 +19,14 @@ within the joint limits, where
   group (`PriorScale`): the temporal prior (paper §3's predictor, here a residual
   rather than only the starting point); its weight follows how well the predictor
   predicted the last frames;
-- W(x) are the joints in the first camera's frame and w the detector's own 3D joints
-  (MediaPipe's world landmarks, metric), both relative to the wrist, σ_w their noise
-  (`FrameFitSettings.world_noise`): a weak cue, used only when the detector gives it;
+- W(x) are the joints and w the detector's own 3D joints (MediaPipe's world landmarks,
+  metric), both relative to the wrist, σ_w their noise (`FrameFitSettings.world_noise`):
+  a weak cue, used only when the detector gives it.  The detector infers w from a crop
+  around the hand, so w is the hand as a camera looking straight at the crop sees it:
+  it is turned into the first camera's axes, from the ray through the palm's keypoints
+  onto the optical axis (`handvar.vision.keypoints.world_in_camera`; on a hand at the
+  border of a wide image the two differ by tens of degrees), and W(x) is taken in the
+  first camera's axes;
 - A_a(x) are points on the skeleton's 20 bones (a quarter, half and three quarters
   along each, `AXIS_POINTS`), q_ja the silhouette pixel of camera j nearest to A_a's
   projection (the labelled distance transform of `handvar.tracking.costs.prepare_frame`,
@@ -59,6 +64,7 @@ from handvar.params import LOWER, N_PARAMS, UPPER, clamp
 from handvar.tracking.costs import FrameData
 from handvar.tracking.keypoint_cost import TIPS, frame_keypoints, hand_length, keypoint_points
 from handvar.validate import as_float, as_int, one_of
+from handvar.vision.keypoints import world_in_camera
 
 __all__ = [
     "AXIS_POINTS",
@@ -276,7 +282,11 @@ class _Problem:
 
     def __init__(self, hand, rig, kp, prior, sigma, world, settings, start, silhouettes=None):
         self.hand, self.rig, self.kp, self.s = hand, rig, kp, settings
-        self.prior, self.sigma, self.world = prior, sigma, world
+        self.prior, self.sigma = prior, sigma
+        self.world = None  # seen along the ray through the palm (module notes)
+        if world is not None:
+            seen = np.where(kp[0, :, 2:] > 0, kp[0, :, :2], np.nan)
+            self.world = world_in_camera(world, seen, rig.cameras[0])
         self.silhouettes = silhouettes if settings.silhouette > 0 else None
         self.sizes = np.array([hand_size_px(hand, start, cam) for cam in rig])
         self.present = [np.flatnonzero(k[:, 2] > 0) for k in kp]
@@ -457,8 +467,9 @@ def fit_frame(
     prior_scale : PriorScale, keyword-only, optional
         Its σ (`PriorScale()` by default).
     world : (21, 3) array_like, keyword-only, optional
-        The detector's 3D joints, mm, axes of the first camera (any origin); NaN rows
-        are left out.
+        The detector's 3D joints, mm, any origin, as the first camera would see them
+        looking straight along the ray through the palm (module notes); NaN rows are
+        left out.
     silhouettes : FrameData, keyword-only, optional
         The frame's silhouettes (`handvar.tracking.costs.prepare_frame`) for the
         silhouette term; used only when ``settings.silhouette`` > 0.

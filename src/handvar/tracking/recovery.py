@@ -1001,8 +1001,9 @@ def track_with_recovery(
         array (x, y in the masks' pixels, confidence) or None, or None for a frame
         without keypoints.
     world : sequence or callable, keyword-only, optional
-        ``world[i]``: the detector's 3D joints of frame i, (21, 3) mm in the first
-        camera's axes (any origin), or None: a weak cue of the fit.
+        ``world[i]``: the detector's 3D joints of frame i, (21, 3) mm (any origin, as
+        the first camera looking along the ray through the palm sees them:
+        `handvar.tracking.frame_fit`), or None: a weak cue of the fit.
     settings : RecoverySettings, keyword-only
     init_settings : InitSettings, keyword-only, optional
         Settings of the silhouette pose search.

@@ -11,7 +11,8 @@ user's own (RTMPose, HaMeR, a lab's model) plugs in as a plain callable
   integers), and the confidence of each point in [0, 1] (1 when not given), NaN for
   a point not found;
 - a dict with ``points`` as above and optionally ``confidence`` (21,), ``world``
-  (21, 3) mm in the camera's axes (any origin) and ``side`` ("right" or "left");
+  (21, 3) mm (any origin, as a view along the ray through the palm sees the hand, as
+  MediaPipe's world landmarks are) and ``side`` ("right" or "left");
 - a `Detection`, or a list of them (several hands).
 
 The 21 points are in the order of `handvar.vision.keypoints.HandLandmark`.

@@ -85,6 +85,7 @@ __all__ = [
     "read_keypoints",
     "scaled_pixels",
     "vote_side",
+    "world_in_camera",
     "world_in_mm",
     "write_keypoints",
 ]
@@ -134,7 +135,9 @@ class Detection:
         x, y (pixels of the frame, centres at integers) and confidence in [0, 1];
         NaN, NaN, 0 where a point was not found.
     world : (21, 3) ndarray or None
-        The detector's metric 3D of the points, mm, the camera's axes, any origin.
+        The detector's metric 3D of the points, mm, any origin, as a view along the ray
+        through the palm sees them (MediaPipe's world landmarks;
+        `handvar.camera.Camera.ray_rotation`).
     side : str
         "right", "left", or "" when the detector does not say.
     score : float
@@ -654,6 +657,46 @@ def _read_npz(path: Path) -> Keypoints2D:
     if kp.world is None:
         return kp
     return dataclasses.replace(kp, world=world_in_mm(kp.world, name))
+
+
+def world_in_camera(world, points, camera) -> np.ndarray:
+    """A detector's 3D points, seen along the ray through the palm, in `camera`'s axes.
+
+    A detector that infers 3D from a crop around the hand (MediaPipe's world landmarks)
+    gives the hand as a camera looking straight at the crop would see it: in axes whose
+    z is the ray through the hand, not the camera's optical axis (the same hand at the
+    centre and at the border of a wide image gets the same world landmarks).  They are
+    turned by `handvar.camera.Camera.ray_rotation` at the mean of the palm's points
+    (`PALM`); where none of them is found, returned as they are.
+
+    Parameters
+    ----------
+    world : (21, 3) array_like
+        mm, any origin.
+    points : (21, 2) or (21, 3) array_like
+        The same detection's pixels in `camera`'s image (a third column, the
+        confidence, is ignored); NaN where a point was not found.
+    camera : handvar.camera.Camera
+
+    Returns
+    -------
+    (21, 3) ndarray
+        In `camera`'s axes (not its position: the origin stays the detector's).
+
+    Examples
+    --------
+    >>> from handvar.camera import Camera
+    >>> cam = Camera.assumed((640, 480), fov=60.0)
+    >>> w, px = np.eye(21, 3), np.full((21, 2), [cam.cx, cam.cy])  # the palm on the axis
+    >>> bool(np.allclose(world_in_camera(w, px, cam), w))
+    True
+    """
+    world = np.asarray(world, dtype=float)
+    palm = np.asarray(points, dtype=float)[list(PALM), :2]
+    palm = palm[np.isfinite(palm).all(axis=1)]
+    if not len(palm):
+        return world.copy()
+    return world @ camera.ray_rotation(palm.mean(axis=0)).T
 
 
 def world_in_mm(world, name: str = "world") -> np.ndarray:

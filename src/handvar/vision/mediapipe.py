@@ -21,7 +21,8 @@ Choices
   video mirrored shows the other hand, and the side read from it is the other one.
 - ``hand="auto"``: the most confident hand of either side is kept, its side stored.
 - What the detector knows besides the points (``details=True``, the ``.npz`` keypoint
-  file): the world landmarks (metres × 1000: mm, hand-centred, axes of the image), each
+  file): the world landmarks (metres × 1000: mm, hand-centred, in the axes of a view along
+  the ray through the hand), each
   landmark's relative depth (its z, about the image width), the handedness; the legacy
   API reports no presence score, so presence is 1 where a hand was found, else 0.
 - The asked-for hand: of the hands found in a frame (up to two), the one most probably
