@@ -587,12 +587,16 @@ def interrupt_outcome(root: Path) -> list[str]:
     for name in ("clip_a", "clip_b", "clip_c"):
         folder = root / "interrupt" / name
         folder.mkdir(parents=True, exist_ok=True)
-        for t in range(3 * len(frames)):  # long enough that Ctrl-C comes mid-batch
-            cv2.imwrite(str(folder / f"{t:03d}.png"), frames[t % len(frames)])
+        for t, frame in enumerate(frames):
+            cv2.imwrite(str(folder / f"{t:03d}.png"), frame)
         recordings.append(str(folder))
     out = root / "interrupt" / "out"
+    # Ctrl-C as a terminal's foreground job gets it, even where this test runs as a
+    # background job (which starts with SIGINT ignored, and so would the child)
+    child = ("import signal; signal.signal(signal.SIGINT, signal.default_int_handler); "
+             "from handvar.cli import main; main()")  # fmt: skip
     proc = subprocess.Popen(
-        [sys.executable, "-c", "from handvar.cli import main; main()", "track", *recordings,
+        [sys.executable, "-c", child, "track", *recordings,
          "--no-video", "--workers", "1", "--out", str(out)],
         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True,
         env={**os.environ, "PYTHONPATH": str(Path(__file__).parents[1] / "src")},
