@@ -55,7 +55,7 @@ import time
 import numpy as np
 
 from handvar.data import example_path
-from handvar.evaluation.metrics import similarity
+from handvar.evaluation.metrics import rotation_angle, similarity
 from handvar.pipeline import track
 from handvar.tracking.recovery import RECOVERY_DEFAULTS, pck
 from handvar.vision.keypoints import Keypoints2D, read_keypoints
@@ -142,8 +142,7 @@ def _against_world(name: str, tr, hand) -> tuple[float, float]:
 
 def _angle(a: np.ndarray, b: np.ndarray) -> float:
     """Angle of the rotation of the similarity that best fits `a` to `b`, degrees."""
-    r = similarity(a, b)[1]
-    return float(np.degrees(np.arccos(np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0))))
+    return rotation_angle(similarity(a, b)[1])
 
 
 def main() -> None:

@@ -29,8 +29,9 @@ import argparse
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
-from handvar.evaluation.metrics import joint_errors, rotation_about_wrist
+from handvar.evaluation.metrics import joint_errors, rotation_about_wrist, rotation_angle
 from handvar.evaluation.realistic import read_case
 from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
 from handvar.vision.keypoints import read_keypoints, world_in_camera
@@ -54,16 +55,9 @@ def palm_length(points: np.ndarray) -> float:
     return float(np.nanmedian(np.linalg.norm(points[:, MIDDLE_MCP] - points[:, WRIST], axis=1)))
 
 
-def angle(R: np.ndarray) -> float:
-    """The angle of rotation `R`, degrees."""
-    return float(np.degrees(np.arccos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0))))
-
-
 def roll(R: np.ndarray) -> float:
     """The part of rotation `R` about camera 0's optical axis (z), degrees: |rotation
     vector's z|, the turn within the image plane."""
-    from scipy.spatial.transform import Rotation
-
     return float(abs(np.degrees(Rotation.from_matrix(R).as_rotvec()[2])))
 
 
@@ -77,7 +71,7 @@ def orientation_row(truth: np.ndarray, estimate: np.ndarray) -> dict[str, np.nda
         "frames": seen,
         "wrist": np.nanmean(joint_errors(truth, estimate, alignment="wrist"), axis=1),
         "turned": np.nanmean(joint_errors(truth, estimate, alignment="rotation"), axis=1),
-        "angle": np.array([angle(R) for R in turns]),
+        "angle": np.array([rotation_angle(R) for R in turns]),
         "roll": np.array([roll(R) for R in turns]),
         "turns": turns,
     }
@@ -141,7 +135,7 @@ def orientation_table(cases: Path) -> None:
             both = row["frames"] & mp["frames"]
             mine = [R for R, f in zip(row["turns"], both[row["frames"]], strict=True) if f]
             theirs = [R for R, f in zip(mp["turns"], both[mp["frames"]], strict=True) if f]
-            apart = [angle(a @ b.T) for a, b in zip(mine, theirs, strict=True)]
+            apart = [rotation_angle(a @ b.T) for a, b in zip(mine, theirs, strict=True)]
             acc = pooled.setdefault(label, {"wrist": [], "turned": [], "angle": [], "roll": [],
                                             "apart": []})  # fmt: skip
             for key in ("wrist", "turned", "angle", "roll"):

@@ -317,7 +317,7 @@ def test_mediapipes_world_landmarks_are_seen_along_the_ray_not_in_the_cameras_ax
     import cv2
 
     from handvar.camera import Camera
-    from handvar.evaluation.metrics import rotation_about_wrist
+    from handvar.evaluation.metrics import rotation_about_wrist, rotation_angle
     from handvar.vision.mediapipe import MediaPipeHands
 
     cap = cv2.VideoCapture(str(DATA / "tfjs-asl-hand.mp4"))
@@ -336,10 +336,10 @@ def test_mediapipes_world_landmarks_are_seen_along_the_ray_not_in_the_cameras_ax
         detector.close()
         world[place] = [d.world for d in found[2:]]  # its tracking settled
         centres[place] = np.mean([d.points[list(PALM), :2].mean(0) for d in found[2:]], axis=0)
-    apart = [np.degrees(np.arccos(np.clip((np.trace(rotation_about_wrist(a, b)) - 1) / 2, -1, 1)))
+    apart = [rotation_angle(rotation_about_wrist(a, b))
              for a, b in zip(world["centre"], world["border"], strict=True)]  # fmt: skip
     turn = camera.ray_rotation(centres["border"]).T @ camera.ray_rotation(centres["centre"])
-    between_rays = np.degrees(np.arccos(np.clip((np.trace(turn) - 1) / 2, -1, 1)))
+    between_rays = rotation_angle(turn)
     assert between_rays > 30.0, between_rays
     # measured 0.9° apart against 37° between the rays
     assert np.median(apart) < between_rays / 4, (np.median(apart), between_rays)

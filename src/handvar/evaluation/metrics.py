@@ -22,6 +22,7 @@ __all__ = [
     "r2_tilde_acceleration",
     "r2_tilde_joints",
     "rotation_about_wrist",
+    "rotation_angle",
     "similarity",
     "similarity_align",
 ]
@@ -319,6 +320,18 @@ def rotation_about_wrist(source, target) -> np.ndarray:
     """
     X, Y = _point_sets(source, target)
     return _kabsch(X - X[_WRIST], Y - Y[_WRIST])[0]
+
+
+def rotation_angle(R) -> float:
+    """The angle of rotation `R` (3, 3), degrees.
+
+    Examples
+    --------
+    >>> round(rotation_angle([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]), 6)
+    90.0
+    """
+    cos = (np.trace(np.asarray(R, dtype=float)) - 1.0) / 2.0
+    return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
 
 
 def _point_sets(source, target) -> tuple[np.ndarray, np.ndarray]:

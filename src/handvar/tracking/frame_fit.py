@@ -283,10 +283,13 @@ class _Problem:
     def __init__(self, hand, rig, kp, prior, sigma, world, settings, start, silhouettes=None):
         self.hand, self.rig, self.kp, self.s = hand, rig, kp, settings
         self.prior, self.sigma = prior, sigma
-        self.world = None  # seen along the ray through the palm (module notes)
+        self.world = None  # relative to its wrist, in the first camera's axes
         if world is not None:
             seen = np.where(kp[0, :, 2:] > 0, kp[0, :, :2], np.nan)
-            self.world = world_in_camera(world, seen, rig.cameras[0])
+            w = world_in_camera(world, seen, rig.cameras[0])  # module notes
+            self.world_ok = np.isfinite(w).all(axis=1)
+            self.world_ok[WRIST] = False
+            self.world = w - w[WRIST]
         self.silhouettes = silhouettes if settings.silhouette > 0 else None
         self.sizes = np.array([hand_size_px(hand, start, cam) for cam in rig])
         self.present = [np.flatnonzero(k[:, 2] > 0) for k in kp]
@@ -325,10 +328,8 @@ class _Problem:
                 jac.append(np.diag(1.0 / self.sigma))
         if self.world is not None:
             W = (G - G[WRIST]) @ self.R0.T
-            ok = np.isfinite(self.world).all(axis=1)
-            ok[WRIST] = False
-            w = self.world - self.world[WRIST]
-            rows.append(((W[ok] - w[ok]) / s.world_noise).ravel())
+            ok = self.world_ok
+            rows.append(((W[ok] - self.world[ok]) / s.world_noise).ravel())
             if jacobian:
                 JW = np.einsum("ab,nbp->nap", self.R0, JG - JG[WRIST][None])
                 jac.append((JW[ok] / s.world_noise).reshape(-1, N_PARAMS))
