@@ -45,7 +45,8 @@ detector's ``.npz`` instead, its world landmarks as the fit's weak 3D cue.
 calib.yml --out DIR``: the detector inside, nothing else given) and prints beside it
 what a user has without the fit: the detector's points and 3D, its points triangulated
 (two cameras), its every 5th frame held or interpolated, and every 3D estimate's jitter
-(acceleration error).
+(acceleration error) and lag (the frames it trails the truth by,
+`handvar.evaluation.metrics.lag`).
 
 Run: ``PYTHONPATH=src .venv/bin/python studies/realistic.py`` (about 5–10 minutes on
 two cores); ``--quick`` for a one-minute subset; ``--out DIR`` keeps the generated cases
@@ -69,8 +70,10 @@ import cv2
 import numpy as np
 
 from handvar.evaluation.metrics import (
+    acceleration_error,
     auc_pck_3d,
     joint_errors,
+    lag,
     mean_point_error,
     pck_2d,
 )
@@ -323,10 +326,12 @@ def scores(
     est_2d = points_2d.reshape(-1, 21, 2)
     row = {"pck": pck_2d(truth_2d, est_2d), "px": mean_point_error(truth_2d, est_2d)[0]}
     if points_3d is None:
-        row.update(mpjpe=np.nan, pa=np.nan, auc=np.nan, abs=np.nan, accel=np.nan)
+        row.update(mpjpe=np.nan, pa=np.nan, auc=np.nan, abs=np.nan, accel=np.nan, lag=np.nan)
     else:
         truth = case.joints if truth_axes is None else case.joints @ np.asarray(truth_axes).T
         row["accel"] = acceleration_error(truth, points_3d)
+        row["lag"] = lag(truth, points_3d)
+        row["motion"] = (truth, points_3d)  # the overall lag pools the cases
         seen = np.isfinite(points_3d).all(axis=(1, 2))
         truth, points_3d = truth[seen], points_3d[seen]
         wrist = joint_errors(truth, points_3d, alignment="wrist")
@@ -342,16 +347,6 @@ def scores(
     row["track_ms"] = 1000.0 / rate
     row["frames"] = case.n_frames
     return row
-
-
-def acceleration_error(truth: np.ndarray, estimate: np.ndarray) -> float:
-    """Jitter: the mean |Δ²X − Δ²X_true| (mm per frame²) of the wrist-relative joints,
-    over the frames whose neighbours both have an estimate (T, 21, 3 each)."""
-    rel_t = truth - truth[:, :1]
-    rel_e = estimate - estimate[:, :1]
-    accel = lambda a: a[2:] - 2.0 * a[1:-1] + a[:-2]  # noqa: E731
-    d = np.linalg.norm(accel(rel_e) - accel(rel_t), axis=2)
-    return float(np.nanmean(d)) if np.isfinite(d).any() else np.nan
 
 
 def triangulated(case, xy: np.ndarray) -> np.ndarray:
@@ -392,7 +387,8 @@ RUNS = ("keypoints", "triangulated", "held every 5", "interpolated every 5", "fi
         "fit every 5")  # fmt: skip
 COLUMNS = (("pck", "PCK@0.2", "{:.3f}"), ("px", "2D px", "{:.1f}"), ("mpjpe", "MPJPE", "{:.1f}"),
            ("pa", "PA-MPJPE", "{:.1f}"), ("auc", "AUC 20-50", "{:.3f}"),
-           ("abs", "abs 3D", "{:.1f}"), ("accel", "accel", "{:.2f}"), ("lost", "lost", "{:.0f}"),
+           ("abs", "abs 3D", "{:.1f}"), ("accel", "accel", "{:.2f}"),
+           ("lag", "lag", "{:.1f}"), ("lost", "lost", "{:.0f}"),
            ("fail", "check fails", "{:.0f}"), ("rej", "rejected", "{:.0f}"),
            ("track_ms", "ms/frame", "{:.1f}"), ("ms", "with start-up", "{:.0f}"))  # fmt: skip
 
@@ -437,6 +433,10 @@ def overall(rows, label: str, keep) -> list[tuple[str, str, dict]]:
             v = np.array([r.get(key, np.nan) for r in sel], dtype=float)
             if key in ("lost", "fail", "rej"):
                 agg[key] = float(v.sum()) if np.isfinite(v).all() else np.nan
+            elif key == "lag":  # one shift for all the cases' frames
+                motion = [r["motion"] for r in sel if "motion" in r]
+                truths, estimates = [m[0] for m in motion], [m[1] for m in motion]
+                agg[key] = lag(truths, estimates) if motion else np.nan
             else:
                 ok = np.isfinite(v)
                 agg[key] = float(np.average(v[ok], weights=w[ok])) if ok.any() else np.nan

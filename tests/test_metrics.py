@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from handvar.evaluation import mean_joint_error, r2_tilde, r2_tilde_acceleration, r2_tilde_joints
-from handvar.evaluation.metrics import joint_errors, rotation_about_wrist
+from handvar.evaluation.metrics import acceleration_error, joint_errors, lag, rotation_about_wrist
 
 
 def test_r2_tilde_joints_by_hand():
@@ -81,3 +81,49 @@ def test_the_orientation_error_is_the_rotation_scipy_finds(seed):
     np.testing.assert_allclose(turned[0], 0.0, atol=1e-9)
     at_wrist = joint_errors(truth, estimate, alignment="wrist")
     assert (turned[1] ** 2).sum() < (at_wrist[1] ** 2).sum()
+
+
+def _moving_hand(T: int = 120, seed: int = 0) -> np.ndarray:
+    """(T, 21, 3) mm: every joint on its own slow sinusoid about the wrist (periods of
+    40–80 frames, as fingers counting at 30 frames/s), the wrist itself moving too."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(T, dtype=float)[:, None, None]
+    period = rng.uniform(40.0, 80.0, (1, 21, 3))
+    phase = rng.uniform(0.0, 2 * np.pi, (1, 21, 3))
+    return rng.normal(0.0, 40.0, (1, 21, 3)) + 20.0 * np.sin(2 * np.pi * t / period + phase)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_lag_finds_a_delay_and_an_exponential_averages_group_delay(seed):
+    """A copy of the motion two frames late trails by 2.0; an exponential average of
+    weight α = 0.5, by its group delay (1 − α)/α = 1 frame on slow motion; the truth with
+    noise alone (and moved as a whole) does not trail."""
+    rng = np.random.default_rng(seed)
+    truth = _moving_hand(seed=seed)
+    late = np.concatenate([np.full((2, 21, 3), np.nan), truth[:-2]])
+    assert lag(truth, late) == pytest.approx(2.0, abs=0.051)
+    averaged = truth.copy()
+    for t in range(1, len(truth)):
+        averaged[t] = 0.5 * truth[t] + 0.5 * averaged[t - 1]
+    assert lag(truth[20:], averaged[20:]) == pytest.approx(1.0, abs=0.15)
+    noisy = truth + rng.normal(0.0, 3.0, truth.shape) + 100.0
+    assert abs(lag(truth, noisy)) <= 0.2
+    other = _moving_hand(seed=seed + 10)
+    late_other = np.concatenate([np.full((2, 21, 3), np.nan), other[:-2]])
+    assert lag([truth, other], [late, late_other]) == pytest.approx(2.0, abs=0.051)
+
+
+def test_jitter_is_the_second_difference_of_the_error_about_the_wrist():
+    """Noise of σ on the joints (not the wrist) gives a second difference of variance
+    6σ² per coordinate, so a norm of mean σ √6 · 1.596 (the mean of a χ with 3 degrees of
+    freedom) on 20 of the 21 points, the wrist's 0 the 21st; a hand moved as a whole,
+    none."""
+    rng = np.random.default_rng(0)
+    truth = _moving_hand(T=400)
+    noise = rng.normal(0.0, 2.0, truth.shape)
+    noise[:, 0] = 0.0
+    assert acceleration_error(truth, truth + noise) == pytest.approx(
+        2.0 * 6**0.5 * 1.596 * 20 / 21, rel=0.05
+    )
+    drift = np.arange(len(truth), dtype=float)[:, None, None] * np.array([1.0, -2.0, 0.5])
+    assert acceleration_error(truth, truth + drift) == pytest.approx(0.0, abs=1e-9)

@@ -11,8 +11,10 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = [
+    "acceleration_error",
     "auc_pck_3d",
     "joint_errors",
+    "lag",
     "mean_joint_error",
     "mean_point_error",
     "mpjpe",
@@ -385,3 +387,53 @@ def auc_pck_3d(errors, low: float = 20.0, high: float = 50.0, steps: int = 31) -
     tau = np.linspace(low, high, steps)
     curve = (e[None, :] <= tau[:, None]).mean(1)
     return float(np.trapezoid(curve, tau) / (high - low))
+
+
+def acceleration_error(truth, estimate) -> float:
+    """Jitter: the mean |Δ²X − Δ²X_true| of the wrist-relative joints (mm per frame² with
+    (T, J, 3) mm), over the frames whose two neighbours both have an estimate.
+
+    Examples
+    --------
+    >>> z = np.zeros((3, 2, 3)); e = z.copy(); e[1, 1, 0] = 1.0  # one point off by 1
+    >>> acceleration_error(z, e)   # Δ²: −2 at that point, 0 at the wrist
+    1.0
+    """
+    Z, E = _points(truth, estimate, 3)
+    second = lambda a: a[2:] - 2.0 * a[1:-1] + a[:-2]  # noqa: E731
+    d = np.linalg.norm(second(_wrist_relative(E)) - second(_wrist_relative(Z)), axis=-1)
+    return float(np.nanmean(d)) if np.isfinite(d).any() else float("nan")
+
+
+def lag(truth, estimate, *, most: float = 5.0, step: float = 0.1) -> float:
+    """Frames by which an estimate's motion trails the truth's: the shift s that
+    minimises the mean squared difference between the estimate's wrist-relative joint
+    velocities (first differences) at frame t and the truth's at t − s (linearly
+    interpolated between frames), searched from −`most` to `most` in steps of `step`,
+    over the same frames for every shift (those `most` frames or more from either end
+    whose neighbours the estimate has).  Velocities, so that a constant error (a hand
+    turned a little wrong throughout) does not count.  `truth` and `estimate` may be
+    lists of (T_k, J, 3) recordings: one shift for all, over all their frames.
+
+    A filter that smooths by averaging the past trails by about its group delay (an
+    exponential average of weight α, by (1 − α)/α frames on slow motion); an estimate
+    with noise alone does not trail (s ≈ 0).  Positive: behind the truth.
+    """
+    pairs = list(zip(truth, estimate, strict=True)) if isinstance(truth, list) else [
+        (truth, estimate)]  # fmt: skip
+    margin = int(np.ceil(most))
+    shifts = np.arange(-most, most + 0.5 * step, step)
+    total, count = np.zeros(len(shifts)), 0
+    for z, e in pairs:
+        Z, E = _points(z, e, 3)
+        Z, E = np.diff(_wrist_relative(Z), axis=0), np.diff(_wrist_relative(E), axis=0)
+        T = len(Z)
+        frames = np.arange(margin, T - margin)  # the same frames for every shift
+        frames = frames[np.isfinite(E[frames]).all(axis=(1, 2))]
+        for k, s in enumerate(shifts):
+            u = frames - s  # the truth's time seen at each frame
+            i = np.minimum(np.floor(u).astype(int), T - 2)
+            w = (u - i)[:, None, None]
+            total[k] += ((E[frames] - (1.0 - w) * Z[i] - w * Z[i + 1]) ** 2).sum()
+        count += frames.size
+    return float(shifts[np.argmin(total)]) if count >= 2 else float("nan")
