@@ -51,7 +51,8 @@ what a user has without the fit: the detector's points and 3D, its points triang
 Run: ``PYTHONPATH=src .venv/bin/python studies/realistic.py`` (about 5–10 minutes on
 two cores); ``--quick`` for a one-minute subset; ``--out DIR`` keeps the generated cases
 (and the fits) in DIR; ``--cases`` to run only the cases whose name contains a string;
-``--silhouette-term S`` tracks with the keypoint fit's silhouette term at σ S.
+``--silhouette-term S`` tracks with the keypoint fit's silhouette term at σ S;
+``--predictor P`` with ``handvar track``'s predictor P.
 """
 
 from __future__ import annotations
@@ -220,16 +221,19 @@ def run_fit(
     return time.perf_counter() - start, out
 
 
-def run_inside(case_dir: Path, spec: Spec, every: int, out: Path) -> tuple[float, Path, dict]:
+def run_inside(
+    case_dir: Path, spec: Spec, every: int, out: Path, extra: tuple[str, ...] = ()
+) -> tuple[float, Path, dict]:
     """The one command a user types first: ``handvar track CAMS --calib calib.yml --out
     OUT --no-video [--keypoint-every K]`` (no keypoints, first pose, side or hand length
-    given: the detector inside finds them); wall time (s), out dir, and the detector's own
-    estimate as `mediapipe_keypoints` gives it, from what the track kept of it."""
+    given: the detector inside finds them; `extra`: more options); wall time (s), out
+    dir, and the detector's own estimate as `mediapipe_keypoints` gives it, from what the
+    track kept of it."""
     cams = [str(case_dir / f"cam{j}") for j in range(spec.cameras)]
     out.parent.mkdir(parents=True, exist_ok=True)
     env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
     cmd = [*HANDVAR, "track", ",".join(cams), "--calib", str(case_dir / "calib.yml"),
-           "--keypoint-every", str(every), "--out", str(out), "--no-video"]  # fmt: skip
+           "--keypoint-every", str(every), "--out", str(out), "--no-video", *extra]  # fmt: skip
     start = time.perf_counter()
     done = subprocess.run(cmd, capture_output=True, text=True, env=env)
     if done.returncode != 0:
@@ -463,15 +467,17 @@ def baseline_rows(case, detector: dict, label: str) -> list:
     return rows
 
 
-def inside_rows(case, case_dir: Path, spec: Spec, base: Path, label: str) -> list:
-    """The rows of the one command (``--detector inside``): the detector's own points and
-    3D as the track kept them, and the fit, with the detector on every frame and on every
-    5th."""
+def inside_rows(
+    case, case_dir: Path, spec: Spec, base: Path, label: str, extra: tuple[str, ...] = ()
+) -> list:
+    """The rows of the one command (``--detector inside``; `extra`: more options): the
+    detector's own points and 3D as the track kept them, and the fit, with the detector
+    on every frame and on every 5th."""
     rows = []
     for every in (1, 5):
-        out = base / "fits" / f"{spec.name}-inside-every{every}"
+        out = base / "fits" / "-".join([spec.name, "inside", *extra[1::2], f"every{every}"])
         try:
-            seconds, out, detector = run_inside(case_dir, spec, every, out)
+            seconds, out, detector = run_inside(case_dir, spec, every, out, extra)
             if every == 1:
                 rows += baseline_rows(case, detector, label)
             pts, lost = fit_points(out, spec.side)
@@ -510,8 +516,14 @@ def main() -> None:
         help="σ of the keypoint fit's silhouette term, hand sizes (handvar track's option); "
         "0: off, the default",
     )  # fmt: skip
+    parser.add_argument(
+        "--predictor", default="",
+        help="handvar track's motion predictor (default: its own default)",
+    )  # fmt: skip
     args = parser.parse_args()
     extra = ("--silhouette-term", str(args.silhouette_term)) if args.silhouette_term else ()
+    if args.predictor:
+        extra += ("--predictor", args.predictor)
 
     todo = [s for s in specs(args.quick) if args.cases in s.name]
     with tempfile.TemporaryDirectory() as tmp:
@@ -528,7 +540,7 @@ def main() -> None:
                      f"{case.n_frames} fr)")  # fmt: skip
             given = None  # the simulated detector's keypoints files
             if args.detector == "inside":
-                rows += inside_rows(case, case_dir, spec, base, label)
+                rows += inside_rows(case, case_dir, spec, base, label, extra)
                 continue
             if args.detector == "mediapipe":
                 given, detector = mediapipe_keypoints(case_dir, spec, args.mediapipe_python,
@@ -543,7 +555,8 @@ def main() -> None:
             if not args.no_fit:
                 for every in (1, 5):
                     world = "-world" if args.world else ""
-                    out = base / "fits" / f"{spec.name}-{args.detector}{world}-every{every}"
+                    name = "-".join([spec.name, args.detector + world, *extra[1::2]])
+                    out = base / "fits" / f"{name}-every{every}"
                     try:
                         seconds, out = run_fit(case_dir, spec, every, out, given, extra)
                         pts, lost = fit_points(out, spec.side)
