@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from handvar.predictors.var import second_differences
+
 __all__ = [
     "acceleration_error",
     "auc_pck_3d",
@@ -76,10 +78,7 @@ def r2_tilde_acceleration(truth, with_model, without_model) -> np.ndarray:
     if len(X) < 3:
         raise ValueError(f"truth: expected at least 3 frames; got {len(X)}")
 
-    def acc(a):
-        return a[2:] - 2.0 * a[1:-1] + a[:-2]  # eq. 3
-
-    y, yv, y0 = acc(X), acc(V), acc(Z)
+    y, yv, y0 = second_differences(X), second_differences(V), second_differences(Z)
     return _ratio_score(((y - yv) ** 2).sum(0), ((y - y0) ** 2).sum(0))
 
 
@@ -400,8 +399,9 @@ def acceleration_error(truth, estimate) -> float:
     1.0
     """
     Z, E = _points(truth, estimate, 3)
-    second = lambda a: a[2:] - 2.0 * a[1:-1] + a[:-2]  # noqa: E731
-    d = np.linalg.norm(second(_wrist_relative(E)) - second(_wrist_relative(Z)), axis=-1)
+    d = np.linalg.norm(
+        second_differences(_wrist_relative(E)) - second_differences(_wrist_relative(Z)), axis=-1
+    )
     return float(np.nanmean(d)) if np.isfinite(d).any() else float("nan")
 
 
