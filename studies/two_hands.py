@@ -2,6 +2,7 @@
 
 Usage: PYTHONPATH=src python studies/two_hands.py [--seeds N] [--cameras 1|2]
        [--detector simulated|mediapipe] [--every K] [--scenario NAME ...] [--size W H]
+       [--missed-carry N]
 
 For every scenario of `handvar.evaluation.two_hands.SCENARIOS` and seed, renders the
 case (640×360 by default) and tracks it with `handvar.tracking.hands.HandsTracker`, the
@@ -18,13 +19,17 @@ the fit:
 - lost: frames in view without a track within 0.5 hand sizes (and, in the last line,
   those where at least 11 of the hand's 21 points are visible: inside the image and
   not hidden by the other hand);
+- in the last line, the frames a hand is drawn on no true hand (`drawn_off`: a
+  detection's or a track's frames matched to neither hand);
 - the fit's wrist-relative and absolute 3D error (mm), and with MediaPipe its world
   landmarks' wrist-relative error beside it; with two cameras, the absolute error of
   each hand's detections triangulated point by point (given to it by the truth: the
   baseline at its best) and the fit's on the same frames;
 - the tracker's rate (fits and assignment, frames/s).
 
-With ``--every K`` the detector runs on every K-th frame only; the fit carries each
+``--missed-carry N`` sets the frames a hand the detector misses is followed by optical
+flow (`handvar.tracking.hands.MISSED_CARRY`, to compare values).  With ``--every K``
+the detector runs on every K-th frame only; the fit carries each
 hand's detection by optical flow over the frames between, and the detections' baseline
 is interpolated linearly between the detector's frames.
 """
@@ -163,7 +168,14 @@ def main() -> None:
     parser.add_argument("--every", type=int, default=1,
                         help="the detector on every K-th frame (the detections' baseline: "
                              "interpolated between them)")  # fmt: skip
+    parser.add_argument("--missed-carry", type=int, default=None,
+                        help="frames a missed hand is followed by optical flow "
+                             "(handvar.tracking.hands.MISSED_CARRY)")  # fmt: skip
     args = parser.parse_args()
+    if args.missed_carry is not None:
+        import handvar.tracking.hands
+
+        handvar.tracking.hands.MISSED_CARRY = args.missed_carry
     print(f"{args.detector} detector on every {args.every} frame(s), {args.cameras} camera(s), "
           f"{args.size[0]}x{args.size[1]}, seeds 0..{args.seeds - 1}")  # fmt: skip
     head = (f"{'case':<18}{'hand':<6}{'switches det/fit':>17}{'PCK det':>9}{'PCK fit':>9}"
@@ -174,7 +186,7 @@ def main() -> None:
         head += f"{'tri':>7}{'fit':>7}"
     print(head + f"{'fits/s':>8}")
     totals = {"det": [], "fit": [], "sw_det": 0, "sw_fit": 0, "lost_det": 0, "lost_fit": 0,
-              "seen_det": 0, "seen_fit": 0,
+              "seen_det": 0, "seen_fit": 0, "off_det": 0, "off_fit": 0,
               "rel": [], "abs": [], "mp": [], "tri": [], "same": [], "fps": [],
               "view": 0}  # fmt: skip
     for scenario in args.scenario:
@@ -215,6 +227,8 @@ def main() -> None:
                 totals["seen_det"] += int(raw.lost_visible[k])
                 totals["seen_fit"] += int(fit.lost_visible[k])
                 totals["view"] += int(case.in_view[0, k].sum())
+            totals["off_det"] += raw.drawn_off
+            totals["off_fit"] += fit.drawn_off
             totals["sw_det"] += raw.switches
             totals["sw_fit"] += fit.switches
             totals["fps"].append(fps)
@@ -222,7 +236,8 @@ def main() -> None:
           f"(fit); PCK {np.nanmean(totals['det']):.3f} / {np.nanmean(totals['fit']):.3f}; "
           f"lost {totals['lost_det']} / {totals['lost_fit']} of {totals['view']} hand-frames "
           f"in view ({totals['seen_det']} / {totals['seen_fit']} with at least half the "
-          f"hand visible); fit 3D {np.nanmean(totals['rel']):.1f} mm wrist-relative, "
+          f"hand visible); drawn on no hand {totals['off_det']} / {totals['off_fit']}; "
+          f"fit 3D {np.nanmean(totals['rel']):.1f} mm wrist-relative, "
           f"{np.nanmean(totals['abs']):.1f} mm absolute"
           + (f" (MediaPipe's world landmarks {np.nanmean(totals['mp']):.1f} mm)"
              if totals["mp"] else "")

@@ -222,6 +222,21 @@ def test_lost_while_visible_counts_the_frames_most_of_the_hand_is_seen(cases):
     assert score_two_hands(c, _true_tracks(c)).lost_visible.tolist() == [0, 0]
 
 
+def test_a_hand_drawn_where_there_is_none_counts_as_drawn_off(cases):
+    """A third track on the truth's frames shifted by 2 hand sizes is on no hand: each
+    of its frames counts; the true tracks count none."""
+    c = cases["apart"]
+    true = _true_tracks(c)
+    assert score_two_hands(c, true).drawn_off == 0
+    p = c.truth_2d[0, 0]
+    size = np.linalg.norm(p[:, 9] - p[:, 0], axis=1)[:, None, None]
+    ghost = p + 2.0 * size * np.array([0.0, 1.0])
+    ghost[: c.n_frames // 2] = np.nan  # drawn on the second half only
+    s = score_two_hands(c, {**true, "ghost": {"points_2d": ghost, "joints": None}})
+    assert s.drawn_off == c.n_frames - c.n_frames // 2
+    assert s.lost.tolist() == [0, 0]
+
+
 def test_detections_as_tracks_take_the_label_as_identity(cases):
     c = cases["cross"]
     tracks = detections_as_tracks(c)

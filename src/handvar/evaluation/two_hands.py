@@ -738,6 +738,9 @@ class TwoHandScore:
         Of those, the frames where at least `VISIBLE_POINTS` of its 21 points are
         visible (inside the image, not hidden by the other hand).
     frames_in_view : (2,) int ndarray
+    drawn_off : int
+        Track-frames drawn on no true hand: a track present (a finite point) on a frame
+        where it is matched to neither (a hand drawn where there is none).
     """
 
     ids: tuple
@@ -750,6 +753,7 @@ class TwoHandScore:
     lost: np.ndarray
     lost_visible: np.ndarray
     frames_in_view: np.ndarray
+    drawn_off: int = 0
 
     @property
     def switches(self) -> int:
@@ -820,8 +824,10 @@ def score_two_hands(case: TwoHandCase, tracks: dict, *, camera: int = 0,
     truth = case.truth_2d[camera]  # (2, T, 21, 2)
     size = np.stack([hand_size_px(case.rig[camera], case.joints[k]) for k in range(2)])
     match = np.full((2, T), -1, dtype=np.int64)
+    drawn = 0  # track-frames present
     for t in range(T):
         present = [i for i, p in enumerate(points) if np.isfinite(p[t]).any()]
+        drawn += len(present)
         if not present:
             continue
         cost = np.empty((len(present), 2))
@@ -875,7 +881,8 @@ def score_two_hands(case: TwoHandCase, tracks: dict, *, camera: int = 0,
     return TwoHandScore(ids=ids, match=match, track_switches=track_switches,
                         hand_switches=hand_switches, pck=pck, mpjpe=abs_err,
                         mpjpe_relative=rel_err, lost=lost, lost_visible=lost_visible,
-                        frames_in_view=n_view)  # fmt: skip
+                        frames_in_view=n_view,
+                        drawn_off=drawn - int(np.count_nonzero(match >= 0)))  # fmt: skip
 
 
 def detections_as_tracks(case: TwoHandCase, *, camera: int = 0) -> dict:

@@ -33,12 +33,17 @@ detector's label:
 5. **One hand hiding the other.**  Per camera, the keypoints of a hand that fall
    inside the other hand's expected outline (the convex hull of its points, widened
    by 0.15 of its size) while the other is nearer the camera by `FRONT` mm or more
-   get their confidence times `HIDDEN_WEIGHT`.  A hand fitted until a frame ago and
-   given no detection is carried by its motion prediction (``hidden``, its quality
-   ``empty``): for up to `HIDDEN_FRAMES` frames while `BEHIND_SHARE` of its expected
-   points or more lie inside the other hand's outline (behind it, or touching it),
-   for up to `MISSED_FRAMES` in the open (a detector's miss); after that it is a
-   frame without that hand.
+   get their confidence times `HIDDEN_WEIGHT`.
+6. **A hand the detector misses.**  Its last detection's points are followed by
+   optical flow (`handvar.vision.carry.KeypointCarrier`, the points the flow loses
+   dropped) for up to `MISSED_CARRY` frames, and the hand is fitted to them (rule 5
+   applied to them too).  Once no point is followed, a hand fitted until a frame ago
+   is carried by its motion prediction (``hidden``, its quality ``empty``): for up to
+   `HIDDEN_FRAMES` frames while `BEHIND_SHARE` of its expected points or more lie
+   inside the other hand's outline (behind it, or touching it), for up to
+   `MISSED_FRAMES` in the open; after that it is a frame without that hand.  With a
+   detector on every K-th frame (``keypoint_every``) the flow carries each detection
+   up to the detector's next frame instead, as for one hand.
 
 A frame's `HandsResult` holds one `FrameResult` per hand, under its id (0, 1: the order
 in which the hands were first seen) with its side.  With ``hands=1`` it tracks the
@@ -75,6 +80,7 @@ __all__ = [
     "HIDDEN_FRAMES",
     "HIDDEN_WEIGHT",
     "LABEL_COST",
+    "MISSED_CARRY",
     "MISSED_FRAMES",
     "NEW_HAND",
     "RAY_GAP",
@@ -110,8 +116,11 @@ HIDDEN_WEIGHT = 0.2
 HIDDEN_FRAMES = 15
 #: Share of a hand's expected points inside the nearer hand's outline that makes it hidden.
 BEHIND_SHARE = 0.2
-#: Frames a hand given no detection in the open is carried (a detector's miss).
+#: Frames a hand given no detection in the open is carried by its prediction once the
+#: optical flow follows none of its points (a detector's miss).
 MISSED_FRAMES = 2
+#: Frames a hand the detector misses is followed by optical flow from its last detection.
+MISSED_CARRY = 10
 #: mm: a new hand's detection in another camera is the one whose rays pass nearest those
 #: of the first camera's (median over the points), within this.
 RAY_GAP = 20.0
@@ -264,7 +273,7 @@ class _Hand:
     missing: int = 0  # frames since it was last fitted
     hidden: int = 0  # frames it has been carried hidden
     votes: list = dataclasses.field(default_factory=list)  # signed label scores, while new
-    carriers: list | None = None  # per camera, with a slower detector
+    carriers: list | None = None  # per camera: its detections carried by optical flow
 
     @property
     def expected(self):
@@ -375,8 +384,10 @@ class HandsTracker:
         results = []
         for h in self.hands:
             kps, world = given.get(h.id, ([None] * n, None))
-            if self.every > 1:
-                kps = self._carry(h, images, kps)
+            detected = any(k is not None for k in kps)
+            kps = self._carry(h, images, kps)
+            if not detected and any(k is not None for k in kps):
+                kps = self._down_weighted(h, kps)
             results.append(self._fit(h, images, kps, world))
         for h, r in zip(self.hands, results, strict=True):
             if not r.no_hand and not r.hidden:
@@ -457,13 +468,18 @@ class HandsTracker:
             given[hand.id][j] = min(near, key=lambda e: gaps[rest.index(e)]) if near else None
 
     def _carry(self, h: _Hand, images, kps: list) -> list:
-        """A detector slower than the frames: on the frames it skips, each hand's last
-        detection carried forward by optical flow up to its next frame
-        (`handvar.vision.carry.KeypointCarrier`, as one hand's tracker does)."""
-        from handvar.vision.carry import KeypointCarrier, until_next_detection
+        """Per camera, the hand's last detection carried forward by optical flow
+        (`handvar.vision.carry.KeypointCarrier`) where it has none: through a
+        detector's miss for `MISSED_CARRY` frames, the points the flow loses dropped
+        (rule 6); with a slower detector, up to its next frame (as one hand's tracker)."""
+        from handvar.vision.carry import CARRY_SETTINGS, KeypointCarrier, until_next_detection
 
         if h.carriers is None:
-            settings = until_next_detection(self.every)
+            settings = (
+                until_next_detection(self.every)
+                if self.every > 1
+                else dataclasses.replace(CARRY_SETTINGS, max_frames=MISSED_CARRY, hold=0.0)
+            )
             h.carriers = [KeypointCarrier(settings) for _ in images]
         return [c.step(image, k) for c, image, k in zip(h.carriers, images, kps, strict=True)]
 
