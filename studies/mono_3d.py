@@ -1,4 +1,4 @@
-"""What one camera tells of the hand's 3D: its size, and its orientation.
+"""What one camera tells of the hand's 3D: its size, its depth, and its orientation.
 
 Seen by one camera, a hand's 3D error relative to its wrist has three parts: its size,
 its orientation (how it is turned towards the camera), and its articulation.  On the
@@ -9,6 +9,10 @@ landmarks in ``keypoints.npz``), this prints per mono case and overall:
 - **size**: the true wrist → middle-MCP length against MediaPipe's world landmarks'
   (median over the frames), their ratio, and the correlation of the two over the cases
   (all cases, mono and stereo: MediaPipe sees camera 0 alone);
+- **depth**: per mono case the fit's depth against the truth's, beside the fitted
+  hand's size and the size of MediaPipe's 2D palm, each over the true one's (a fit
+  matching points p times the true spread with a hand s times the true size lies at
+  s / p times the true depth);
 - **orientation**: the wrist-relative error (MPJPE) of MediaPipe's world landmarks (as
   they are, and turned from the ray through their palm into the camera's axes, as the
   fit takes them: `world_in_camera`) and of the fit, then the same once each frame's
@@ -34,6 +38,7 @@ from scipy.spatial.transform import Rotation
 from handvar.evaluation.metrics import joint_errors, rotation_about_wrist, rotation_angle
 from handvar.evaluation.realistic import read_case
 from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
+from handvar.pipeline import Track
 from handvar.vision.keypoints import read_keypoints, world_in_camera
 from realistic import fit_points
 
@@ -96,6 +101,57 @@ def size_table(cases: Path) -> None:
     print(f"ratio MediaPipe / true: median {np.median(ratio):.3f}, range "
           f"{ratio.min():.3f}-{ratio.max():.3f}; correlation over the cases "
           f"{np.corrcoef(true, seen)[0, 1]:.2f}\n")  # fmt: skip
+
+
+def depth_table(cases: Path) -> None:
+    """Where the fit's absolute error comes from with one camera: its depth, against the
+    hand's size and the size of the detector's 2D points.  A fit whose 2D points match
+    points p times the true ones' spread, with a hand s times the true size, lies at
+    s / p times the true depth."""
+    from handvar.tracking.keypoint_cost import hand_length
+
+    print(f"{'case':<26} {'depth':>6} {'fit/true':>8} {'size':>6} {'2D':>6} {'size/2D':>7} "
+          f"{'abs':>6} {'depth bias':>10}")  # fmt: skip
+    rows = []
+    for truth in sorted(cases.glob("*-mono-*/truth.npz")):
+        name = truth.parent.name
+        fits = cases / "fits" / f"{name}-inside-every1"
+        if not (fits / "poses.csv").exists():
+            continue
+        case = read_case(cases / name)
+        side = "left" if "-left-" in name else "right"
+        try:
+            points = fit_points(fits, side)[0]
+        except RuntimeError:  # the wrong hand tracked (studies/realistic.py)
+            continue
+        cam = case.rig.cameras[0]
+        seen = np.isfinite(points).all(axis=(1, 2))
+        mid = [WRIST, MIDDLE_MCP]
+        z_true = cam.camera_from_world(case.joints[seen][:, mid].mean(axis=1))[:, 2]
+        z_fit = cam.camera_from_world(points[seen][:, mid].mean(axis=1))[:, 2]
+        size = hand_length(Track.load(fits).hand) / palm_length(case.joints)
+        xy = read_keypoints(fits / "keypoints.npz").xy
+        true_2d = case.truth_2d[0]
+        with np.errstate(invalid="ignore"):
+            ratio_2d = np.nanmedian(
+                np.linalg.norm(xy[:, MIDDLE_MCP] - xy[:, WRIST], axis=-1)
+                / np.linalg.norm(true_2d[:, MIDDLE_MCP] - true_2d[:, WRIST], axis=-1)
+            )
+        depth = float(np.median(z_fit / z_true))
+        error = np.linalg.norm(points[seen] - case.joints[seen], axis=-1).mean()
+        rows.append((depth, size / ratio_2d, float(np.mean(z_fit - z_true))))
+        print(f"{name:<26} {z_true.mean():>6.0f} {depth:>8.3f} {size:>6.3f} {ratio_2d:>6.3f} "
+              f"{size / ratio_2d:>7.3f} {error:>6.1f} {rows[-1][2]:>10.1f}")  # fmt: skip
+    depth, predicted, bias = np.array(rows).T
+    print(f"{'all mono':<26} {'':>6} {np.median(depth):>8.3f} {'':>6} {'':>6} "
+          f"{np.median(predicted):>7.3f} {'':>6} {bias.mean():>10.1f}")  # fmt: skip
+    print(
+        "mm; depth: the true palm centre's (wrist, middle MCP) from camera 0; fit/true: "
+        "median ratio of the fit's to it; size: the fitted hand's wrist → middle-MCP "
+        "length over the true one; 2D: median ratio of the detector's wrist → middle-MCP "
+        "distance in the image to the true one's; abs: the fit's absolute error; depth "
+        "bias: mean fit − true depth\n"
+    )
 
 
 def estimates_of(cases: Path, name: str) -> dict[str, np.ndarray]:
@@ -164,6 +220,7 @@ def main() -> None:
     parser.add_argument("--cases", required=True, type=Path)
     args = parser.parse_args()
     size_table(args.cases)
+    depth_table(args.cases)
     orientation_table(args.cases)
 
 
