@@ -384,11 +384,10 @@ class HandsTracker:
         results = []
         for h in self.hands:
             kps, world = given.get(h.id, ([None] * n, None))
-            detected = any(k is not None for k in kps)
-            kps = self._carry(h, images, kps)
-            if not detected and any(k is not None for k in kps):
-                kps = self._down_weighted(h, kps)
-            results.append(self._fit(h, images, kps, world))
+            carried = self._carry(h, images, kps)
+            followed = [c if k is None else None for c, k in zip(carried, kps, strict=True)]
+            self._down_weighted(h, followed)  # rule 5 on them too, in place
+            results.append(self._fit(h, images, carried, world))
         for h, r in zip(self.hands, results, strict=True):
             if not r.no_hand and not r.hidden:
                 h.before, h.last, h.missing = h.last, r, 0
