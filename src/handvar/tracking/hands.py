@@ -66,6 +66,7 @@ import dataclasses
 import time
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from handvar.hand.anthropometry import other_side
@@ -381,10 +382,11 @@ class HandsTracker:
             for h in self.hands:
                 h.tracker.rig = self.rig
         given = self._given(detections) if ran else {}
+        greys = [cv2.cvtColor(np.ascontiguousarray(i), cv2.COLOR_BGR2GRAY) for i in images]
         results = []
         for h in self.hands:
             kps, world = given.get(h.id, ([None] * n, None))
-            carried = self._carry(h, images, kps)
+            carried = self._carry(h, greys, kps)
             followed = [c if k is None else None for c, k in zip(carried, kps, strict=True)]
             self._down_weighted(h, followed)  # rule 5 on them too, in place
             results.append(self._fit(h, images, carried, world))
@@ -466,7 +468,7 @@ class HandsTracker:
             near = [e for e, g in zip(rest, gaps, strict=True) if g <= RAY_GAP]
             given[hand.id][j] = min(near, key=lambda e: gaps[rest.index(e)]) if near else None
 
-    def _carry(self, h: _Hand, images, kps: list) -> list:
+    def _carry(self, h: _Hand, greys, kps: list) -> list:
         """Per camera, the hand's last detection carried forward by optical flow
         (`handvar.vision.carry.KeypointCarrier`) where it has none: through a
         detector's miss for `MISSED_CARRY` frames, the points the flow loses dropped
@@ -479,8 +481,8 @@ class HandsTracker:
                 if self.every > 1
                 else dataclasses.replace(CARRY_SETTINGS, max_frames=MISSED_CARRY, hold=0.0)
             )
-            h.carriers = [KeypointCarrier(settings) for _ in images]
-        return [c.step(image, k) for c, image, k in zip(h.carriers, images, kps, strict=True)]
+            h.carriers = [KeypointCarrier(settings) for _ in greys]
+        return [c.step(grey, k) for c, grey, k in zip(h.carriers, greys, kps, strict=True)]
 
     def _vote(self, h: _Hand, d) -> None:
         """Rule 4: a new hand's side turned by overwhelming labels (module notes)."""
