@@ -2,7 +2,7 @@
 
 Usage: PYTHONPATH=src python studies/two_hands.py [--seeds N] [--cameras 1|2]
        [--detector simulated|mediapipe] [--every K] [--scenario NAME ...] [--size W H]
-       [--missed-carry N]
+       [--missed-carry N] [--side-run N]
 
 For every scenario of `handvar.evaluation.two_hands.SCENARIOS` and seed, renders the
 case (640×360 by default) and tracks it with `handvar.tracking.hands.HandsTracker`, the
@@ -20,18 +20,23 @@ the fit:
   those where at least 11 of the hand's 21 points are visible: inside the image and
   not hidden by the other hand);
 - in the last line, the frames a hand is drawn on no true hand (`drawn_off`: a
-  detection's or a track's frames matched to neither hand);
+  detection's or a track's frames matched to neither hand), and those a hand is
+  drawn on a true hand of the other side than it says (the detector's label, the
+  track's side);
 - the fit's wrist-relative and absolute 3D error (mm), and with MediaPipe its world
   landmarks' wrist-relative error beside it; with two cameras, the absolute error of
   each hand's detections triangulated point by point (given to it by the truth: the
   baseline at its best) and the fit's on the same frames;
 - the tracker's rate (fits and assignment, frames/s).
 
-``--missed-carry N`` sets the frames a hand the detector misses is followed by optical
-flow (`handvar.tracking.hands.MISSED_CARRY`, to compare values).  With ``--every K``
-the detector runs on every K-th frame only; the fit carries each
-hand's detection by optical flow over the frames between, and the detections' baseline
-is interpolated linearly between the detector's frames.
+``--side-run N`` sets the run of sure labels for the other side that turns a hand's
+side (`handvar.tracking.hands.SIDE_RUN`); the last line gives the runs seen, on tracks
+whose side is right and on those whose side is wrong.  ``--missed-carry N`` sets the
+frames a hand the detector misses is followed by optical flow
+(`handvar.tracking.hands.MISSED_CARRY`, to compare values).  With ``--every K`` the
+detector runs on every K-th frame only; the fit carries each hand's detection by
+optical flow over the frames between, and the detections' baseline is interpolated
+linearly between the detector's frames.
 """
 
 from __future__ import annotations
@@ -74,6 +79,51 @@ def fitted_tracks(case, detections, every: int = 1):
     tracks = {h.id: {"points_2d": points[h.id], "joints": joints[h.id]}
               for h in tracker.hands if h.tracker.hand is not None}  # fmt: skip
     return tracks, T / seconds, results
+
+
+def wrong_sides(case, score, sides: dict) -> int:
+    """Frames a track is on a true hand of the other side than it says (`sides`: track
+    id → (T,) its side per frame, or one side)."""
+    wrong = 0
+    for k, true_side in enumerate(case.sides):
+        for t in np.flatnonzero(score.match[k] >= 0):
+            side = sides[score.ids[score.match[k, t]]]
+            wrong += (side if isinstance(side, str) else side[t]) != true_side
+    return int(wrong)
+
+
+def label_runs(case, score, tracks: dict, results) -> dict:
+    """The runs of labels sure of the other side (`handvar.tracking.hands.SIDE_SURE`)
+    on a track, split by whether the track's side is its true hand's: ``{True: [...],
+    False: [...]}`` run lengths.  A track's label each frame: that of the detection of
+    camera 0 nearest its points (mean distance under 0.3 of its wrist → middle-MCP
+    length); frames without one leave the run as it is."""
+    from handvar.tracking.hands import SIDE_SURE
+
+    runs = {True: [], False: []}
+    for key, track in tracks.items():
+        run, right = 0, True
+        for t, r in enumerate(results):
+            p = track["points_2d"][t]
+            true = np.flatnonzero(score.match[:, t] == score.ids.index(key))
+            if not np.isfinite(p).all() or not len(true):
+                continue
+            dist = [np.mean(np.linalg.norm(d.points[:, :2] - p, axis=1))
+                    for d in case.detections[0][t]]  # fmt: skip
+            if not dist or min(dist) > 0.3 * np.linalg.norm(p[9] - p[0]):
+                continue
+            d = case.detections[0][t][int(np.argmin(dist))]
+            if not d.side:
+                continue
+            side = r.hands[key].side
+            if d.side != side and d.score >= SIDE_SURE:
+                run, right = run + 1, side == case.sides[true[0]]
+            elif run:
+                runs[right].append(run)
+                run = 0
+        if run:
+            runs[right].append(run)
+    return runs
 
 
 def interpolated(tracks: dict, every: int) -> dict:
@@ -168,10 +218,17 @@ def main() -> None:
     parser.add_argument("--every", type=int, default=1,
                         help="the detector on every K-th frame (the detections' baseline: "
                              "interpolated between them)")  # fmt: skip
+    parser.add_argument("--side-run", type=int, default=None,
+                        help="sure labels in a row that turn a hand's side "
+                             "(handvar.tracking.hands.SIDE_RUN)")  # fmt: skip
     parser.add_argument("--missed-carry", type=int, default=None,
                         help="frames a missed hand is followed by optical flow "
                              "(handvar.tracking.hands.MISSED_CARRY)")  # fmt: skip
     args = parser.parse_args()
+    if args.side_run is not None:
+        import handvar.tracking.hands
+
+        handvar.tracking.hands.SIDE_RUN = args.side_run
     if args.missed_carry is not None:
         import handvar.tracking.hands
 
@@ -187,6 +244,7 @@ def main() -> None:
     print(head + f"{'fits/s':>8}")
     totals = {"det": [], "fit": [], "sw_det": 0, "sw_fit": 0, "lost_det": 0, "lost_fit": 0,
               "seen_det": 0, "seen_fit": 0, "off_det": 0, "off_fit": 0,
+              "side_det": 0, "side_fit": 0, "runs": {True: [], False: []},
               "rel": [], "abs": [], "mp": [], "tri": [], "same": [], "fps": [],
               "view": 0}  # fmt: skip
     for scenario in args.scenario:
@@ -200,8 +258,14 @@ def main() -> None:
             if args.every > 1:
                 raw_tracks = interpolated(raw_tracks, args.every)
             raw = score_two_hands(case, raw_tracks)
-            tracks, fps, _ = fitted_tracks(case, detections, args.every)
+            tracks, fps, results = fitted_tracks(case, detections, args.every)
             fit = score_two_hands(case, tracks)
+            totals["side_det"] += wrong_sides(case, raw, {side: side for side in raw_tracks})
+            for right, found in label_runs(case, fit, tracks, results).items():
+                totals["runs"][right] += found
+            totals["side_fit"] += wrong_sides(case, fit, {
+                key: [r.hands[key].side for r in results] for key in tracks
+            })  # fmt: skip
             mp = world_error(case, detections) if args.detector == "mediapipe" else None
             for k, side in enumerate(case.sides):
                 if not case.in_view[0, k].any():
@@ -236,7 +300,11 @@ def main() -> None:
           f"(fit); PCK {np.nanmean(totals['det']):.3f} / {np.nanmean(totals['fit']):.3f}; "
           f"lost {totals['lost_det']} / {totals['lost_fit']} of {totals['view']} hand-frames "
           f"in view ({totals['seen_det']} / {totals['seen_fit']} with at least half the "
-          f"hand visible); drawn on no hand {totals['off_det']} / {totals['off_fit']}; "
+          f"hand visible); drawn on no hand {totals['off_det']} / {totals['off_fit']}; on a "
+          f"hand of the other side {totals['side_det']} / {totals['side_fit']} (labels "
+          f"sure of the other side in a row on a track: at most "
+          f"{max(totals['runs'][True], default=0)} where its side is right, "
+          f"{sorted(totals['runs'][False])} where wrong); "
           f"fit 3D {np.nanmean(totals['rel']):.1f} mm wrist-relative, "
           f"{np.nanmean(totals['abs']):.1f} mm absolute"
           + (f" (MediaPipe's world landmarks {np.nanmean(totals['mp']):.1f} mm)"

@@ -13,7 +13,15 @@ import pytest
 from handvar.evaluation.realistic import motion_poses, realistic_rig
 from handvar.hand.anthropometry import HandShape
 from handvar.hand.kinematics import HandModel
-from handvar.tracking.hands import MISSED_CARRY, MISSED_FRAMES, NEW_HAND, HandsTracker, assign
+from handvar.tracking.hands import (
+    MISSED_CARRY,
+    MISSED_FRAMES,
+    NEW_HAND,
+    SIDE_FRAMES,
+    SIDE_RUN,
+    HandsTracker,
+    assign,
+)
 from handvar.tracking.keypoint_cost import keypoint_points
 from handvar.vision.keypoints import Detection
 
@@ -148,6 +156,65 @@ def test_a_hand_found_twice_with_its_label_is_one_hand_and_a_far_one_is_new():
         assert r.hands[0].side == "right"
 
 
+def _labelled(truth, t, labels):
+    """Both hands' true points, left first, labelled `labels` (left's, right's)."""
+    return [Detection(np.c_[truth[s][t], np.ones(21)], side=label, score=0.9)
+            for s, label in zip(SIDES, labels, strict=True)]  # fmt: skip
+
+
+def _sides(results, truth):
+    """Per frame, the side each true hand (left, right) is tracked as."""
+    out = []
+    for r in results:
+        by_hand = {}
+        for h in r.hands:
+            if not h.no_hand:
+                d = [
+                    np.linalg.norm(h.projected[0] - truth[s][r.index], axis=1).mean() for s in SIDES
+                ]
+                by_hand[SIDES[int(np.argmin(d))]] = h.side
+        out.append((by_hand.get("left"), by_hand.get("right")))
+    return out
+
+
+def test_two_hands_found_on_one_frame_with_one_label_get_opposite_sides_then_the_true_ones():
+    """Both hands labelled left on the first frame: one of them is made a right hand
+    there (two hands of one person), and the labels of the frames after (true, each
+    ≥ `SIDE_SURE`) turn a wrong pair within `SIDE_RUN` frames, long before a new hand's
+    `SIDE_FRAMES` vote."""
+    T = SIDE_RUN + 4
+    assert T < SIDE_FRAMES
+    rig, truth = _truth(T, swap=False)
+    for first in (("left", "left"), ("right", "right")):
+        tracker = HandsTracker(rig, detector=None)
+        results = [tracker.process(IMAGE, detections=[_labelled(truth, t, first if t == 0
+                                                                 else SIDES)])
+                   for t in range(T)]  # fmt: skip
+        sides = _sides(results, truth)
+        assert all(set(s) == {"left", "right"} for s in sides), sides  # always opposite
+        assert sides[-1] == SIDES
+
+
+def test_a_side_turns_on_a_run_of_sure_labels_against_it_and_not_on_a_shorter_one():
+    """Sides decided by true labels; then both hands labelled the other side for a run
+    of frames: a run shorter than `SIDE_RUN` (as a detector's label flips are) leaves
+    the sides, a run of `SIDE_RUN` turns both, the two staying opposite."""
+    settle = 5
+    for run, turned in ((SIDE_RUN - 1, False), (SIDE_RUN, True)):
+        T = settle + run + 3
+        rig, truth = _truth(T, swap=False)
+        tracker = HandsTracker(rig, detector=None)
+        results = []
+        for t in range(T):
+            lying = settle <= t < settle + run
+            labels = SIDES[::-1] if lying else SIDES
+            results.append(tracker.process(IMAGE, detections=[_labelled(truth, t, labels)]))
+        sides = [s for s in _sides(results, truth) if None not in s]
+        assert sides[0] == SIDES
+        assert all(set(s) == {"left", "right"} for s in sides)
+        assert (sides[-1] == SIDES[::-1]) is turned
+
+
 def test_assign_keeps_identities_by_place_and_leaves_far_detections_out():
     a = np.zeros((21, 2))
     a[9] = (0.0, 40.0)
@@ -194,6 +261,46 @@ def test_track_hands_keeps_each_true_hand_under_one_id_through_a_crossing(tmp_pa
     }
     for k, t in back.tracks.items():
         np.testing.assert_array_equal(t.poses, result.tracks[k].poses)
+
+
+def test_track_hands_in_real_time_drops_frames_and_keeps_identities(tmp_path):
+    """A recording played at its own rate (``realtime=True``) with a detector slower
+    than its frames: frames are dropped, each hand's track holds every frame of the
+    recording (its last pose on a dropped one) with the latency of the others, and the
+    identities hold against the truth."""
+    import time
+
+    import cv2
+
+    import handvar
+    from handvar.evaluation.two_hands import score_two_hands, two_hand_case
+
+    case = two_hand_case("cross", seed=0, frames=(20, 60), size=(320, 180))
+    written = case.write(tmp_path / "case")
+    images = [cv2.imread(str(p)).astype(np.int16) for p in sorted(written["frames"][0].iterdir())]
+
+    def detector(image):  # the benchmark's detections of the frame shown, 2 frame times late
+        time.sleep(2.0 / case.fps)
+        t = int(np.argmin([np.abs(image - i).mean() for i in images]))
+        return case.detections[0][t]
+
+    result = handvar.track(str(written["frames"][0]), calib=written["calib"], hands=2,
+                           realtime=True, detector=detector)  # fmt: skip
+    T = case.n_frames
+    assert result.n_frames == T and len(result.tracks) == 2
+    for track in result.tracks.values():
+        dropped = track.dropped
+        assert dropped.shape == (T,) and 0 < dropped.sum() < T
+        assert np.all(np.isnan(track.latency[dropped]))
+        assert np.all(track.latency[~dropped] > 0)
+        first = np.flatnonzero(~dropped)[0]
+        for t in np.flatnonzero(dropped[first:]) + first:  # the last pose held
+            np.testing.assert_array_equal(track.poses[t], track.poses[t - 1])
+    tracks = {k: {"points_2d": t.projected[0], "joints": None} for k, t in result.tracks.items()}
+    assert score_two_hands(case, tracks).switches == 0
+    back = handvar.HandsTrack.load(result.save(tmp_path / "out", video=False)["hands"].parent)
+    for k, t in back.tracks.items():
+        np.testing.assert_array_equal(t.dropped, result.tracks[k].dropped)
 
 
 @pytest.mark.parametrize(

@@ -599,7 +599,8 @@ def track(
     realtime : bool
         A recording only, with recovery: play it at its own frame rate and track the
         newest frame each time the tracker is free, skipping the others (module notes
-        on the online form); the track then has ``dropped`` and ``latency``.
+        on the online form); the track (each hand's with ``hands=2``) then has
+        ``dropped`` and ``latency``.
     detector : {"auto", "mediapipe", "none"} or callable
         The keypoint detector run inside the pipeline on a recording or a camera given
         without `keypoints` (`handvar.vision.detector`): "auto" is MediaPipe Hands when
@@ -635,7 +636,6 @@ def track(
             "recover": recover,
             "recovery": recovery,
             "on_frame": on_frame,
-            "realtime": realtime or None,
             "allow_short": allow_short or None,
         }
         given = [k for k, v in alone.items() if v is not None]
@@ -645,7 +645,7 @@ def track(
         return track_hands(source, calib=calib, fov=fov, scale=scale, hand_length=hand_length,
                            model=model, predictor=predictor, seed=seed, frames=frames,
                            progress=progress, detector=detector,
-                           keypoint_every=keypoint_every)  # fmt: skip
+                           keypoint_every=keypoint_every, realtime=realtime)  # fmt: skip
     options = TrackOptions.checked(
         keypoints=keypoints, calib=calib, fov=fov, scale=scale, hand=hand,
         hand_length=hand_length, model=model, predictor=predictor, init=init,
@@ -1801,7 +1801,8 @@ class HandsTrack:
     name : str
     fps : float or None
     seconds : (T,) ndarray
-        Wall time of each frame (assignment and fits), seconds.
+        Wall time of each frame (assignment and fits), seconds; 0 on a frame dropped
+        (tracked in real time: each hand's ``dropped``).
     source : VideoSource or None
         The recording, for the overlay.
     """
@@ -1938,6 +1939,7 @@ def track_hands(
     detector="auto",
     mirrored: bool = False,
     keypoint_every: int = 1,
+    realtime: bool = False,
 ) -> HandsTrack:
     """Track both hands through a recording (module notes).
 
@@ -1960,6 +1962,10 @@ def track_hands(
     keypoint_every : int
         Run the detector on every K-th frame only; each hand's last detection is carried
         forward by optical flow over the frames between (`HandsTracker`).
+    realtime : bool
+        A recording played at its own frame rate, the newest frame taken each time the
+        tracker is free (`paced_frames`), as from a camera: each hand's track then has
+        ``dropped`` (holding its last pose there) and ``latency``, as one hand's has.
 
     Returns
     -------
@@ -1971,12 +1977,20 @@ def track_hands(
 
     hands = as_int(hands, "hands", minimum=1, maximum=2)
     every = as_int(keypoint_every, "keypoint_every", minimum=1)
+    realtime = as_instance(realtime, bool, "realtime")
     scale = as_float(scale, "scale", minimum=0.0, exclusive_minimum=True)
     frames = None if frames is None else as_int(frames, "frames", minimum=1)
     if model == "mesh":
         raise ValueError("model: expected spheres with two hands (the skinned mesh is a "
                          "right hand); got mesh")  # fmt: skip
+    dropped: list[int] = []  # realtime: the recording's frames skipped
+    origin: list[float] = []  # realtime: the clock's reading at the first frame's capture
     if isinstance(source, CameraSource):  # its frames as delivered (open_camera's scale)
+        if realtime:
+            raise ValueError(
+                "realtime: expected a recording (a video file or an image "
+                "folder); got a live camera, tracked as it comes anyway"
+            )
         if calib is not None or fov is not None or scale != 1.0:
             raise ValueError("calib, fov, scale: expected none with a live camera (open_camera "
                              "takes the calibration, field of view and scale)")  # fmt: skip
@@ -1991,8 +2005,14 @@ def track_hands(
         full = opened.rig if scale == 1.0 else open_source(paths, calib, fov=fov).rig
         sizes = [r.size for r in opened.readers]
         total = opened.n_frames if frames is None else min(frames, opened.n_frames)
-        feed = ((i, 0.0, images, originals if i % every == 0 else None)
-                for i, images, originals in opened.frames(stop=frames, originals=True))  # fmt: skip
+        read = opened.frames(stop=frames, originals=True)
+        played = ((i, (images, originals)) for i, images, originals in read)
+        if realtime:
+            played = paced_frames(played, opened.fps, dropped, origin=origin)
+        else:
+            played = ((i, 0.0, pair) for i, pair in played)
+        feed = ((i, t, images, originals if i % every == 0 else None)
+                for i, t, (images, originals) in played)  # fmt: skip
     detectors = make_detectors("mediapipe" if detector == "auto" else detector,
                                len(opened.rig), mirrored=mirrored)  # fmt: skip
     if detectors is None:
@@ -2000,44 +2020,69 @@ def track_hands(
     tracker = HandsTracker(opened.rig, hands=hands, detector=None, predictor=predictor,
                            hand_length=hand_length, model=model, seed=seed,
                            keypoint_every=every)  # fmt: skip
-    items = detect_ahead(feed, detectors)
-    if progress:
+    live = isinstance(source, CameraSource)
+    items = detect_ahead(feed, detectors, depth=1 if realtime or live else 4)
+    if progress and not realtime:
         from tqdm import tqdm
 
         items = tqdm(items, total=total, desc="tracking", unit="frame", leave=False)
-    seconds = []
-    for _, _, images, found in items:
+    seconds, rows, latency = [], [], []
+    clock0 = None
+    for index, captured, images, found in items:
         given = None if found is None else [
             [_scaled(d, scale, size) for d in ds] for ds, size in zip(found, sizes, strict=True)
         ]  # fmt: skip
         t0 = time.perf_counter()
+        if clock0 is None:  # the zero of the capture times
+            clock0 = origin[0] if origin else t0 - captured
         tracker.process(images, detections=given)
         seconds.append(time.perf_counter() - t0)
-    live = isinstance(source, CameraSource)
+        rows.append(index)
+        latency.append(time.perf_counter() - clock0 - captured)
     name = opened.names[0] if opened.names else "recording"
     if all(h.tracker.recovery is None for h in tracker.hands):
         raise ValueError(f"{name}: expected a hand; the detector found none in its "
                          f"{len(seconds)} frames")  # fmt: skip
+    if live:
+        dropped = list(source.dropped)
+    n_played = max([rows[-1], *dropped]) + 1
+    timing = {}
+    if realtime or live:  # one frame at a time, as it comes
+        skipped = np.ones(n_played, dtype=bool)
+        skipped[rows] = False
+        lag = np.full(n_played, np.nan)
+        lag[rows] = latency
+        timing = {"dropped": skipped, "latency": lag}
     tracks = {}
     for h in tracker.hands:
         if h.tracker.recovery is None:  # never seen
             continue
         r = h.tracker.recovered(keypoints=True)
+        result, quality = r.track, r.quality
+        if realtime or live:
+            result, quality = _with_dropped(r, np.asarray(rows), n_played)
         tracks[h.id] = Track(
-            poses=r.track.poses, joints=r.track.joints,
-            projected=project_joints(full, r.track.joints), quality=r.quality, rig=full,
+            poses=result.poses, joints=result.joints,
+            projected=project_joints(full, result.joints), quality=quality, rig=full,
             shape=r.shape, name=name, predictor=predictor, seed=seed, fps=opened.fps,
-            result=r.track,
+            result=result, **timing,
             options={"source": [str(p) for p in paths] or name,
                      "kind": "camera" if live else "recording", "hands": hands,
                      "scale": scale, "hand_length": hand_length, "model": model,
                      "hand": h.side, "keypoints": True, "recover": True,
-                     "keypoint_every": every,
+                     "keypoint_every": every, "realtime": realtime or live,
                      "detector": "mediapipe" if detector == "auto" else "user"},
         )  # fmt: skip
     # a camera's frames cannot be read again: no overlay over them
-    return HandsTrack(tracks, name, opened.fps, np.asarray(seconds),
+    return HandsTrack(tracks, name, opened.fps, _with_rows(seconds, rows, n_played),
                       source=None if live else opened)  # fmt: skip
+
+
+def _with_rows(values: list, rows: list, n: int) -> np.ndarray:
+    """(n,) `values` at their `rows`, 0 on the frames between (dropped)."""
+    out = np.zeros(n)
+    out[rows] = values
+    return out
 
 
 def _scaled(d, scale: float, size):

@@ -70,8 +70,8 @@ def _check_predictor(ctx, param, value: str) -> str:
                    "and reused by a rerun into OUT.")  # fmt: skip
 @click.option("--hands", type=click.IntRange(min=1, max=2), default=1, show_default=True,
               help="Hands tracked: 2 tracks both, each under an identity kept by tracking "
-                   "(OUT/left/, OUT/right/, OUT/hands.json; a recording or --camera, with "
-                   "the detector inside).")  # fmt: skip
+                   "(OUT/left/, OUT/right/, OUT/hands.json; a recording, also --realtime, "
+                   "or --camera, with the detector inside).")  # fmt: skip
 @click.option("--model", type=click.Choice(("spheres", "mesh")), default="spheres",
               show_default=True, help="Surface of the tracked hand model.")  # fmt: skip
 @click.option("--keypoints", "keypoint_files", multiple=True, type=click.Path(dir_okay=False),
@@ -170,7 +170,8 @@ def track_command(
     _check_sources(seq, camera, realtime, show, scheduler, workers)
     if hands == 2:
         _track_hands(seq, out, video, keypoint_files=keypoint_files, camera=camera,
-                     realtime=realtime, side=side, init=init, keypoint_every=keypoint_every,
+                     realtime=realtime, show=show, side=side, init=init,
+                     keypoint_every=keypoint_every,
                      carry=carry, predictor=predictor, seed=seed, frames=n_frames,
                      hand_length=hand_length, model=model, detector=detector, calib=calib,
                      fov=fov, scale=scale)  # fmt: skip
@@ -206,13 +207,13 @@ def track_command(
     _print_summary(result, written, out, predictor, seed)
 
 
-def _track_hands(seq, out, video: bool, *, keypoint_files, camera, realtime, side, init,
+def _track_hands(seq, out, video: bool, *, keypoint_files, camera, realtime, show, side, init,
                  keypoint_every, carry, detector, **options) -> None:  # fmt: skip
     """--hands 2: both hands of one recording (`handvar.pipeline.track_hands`)."""
     from handvar.cli.common import STARTED
     from handvar.pipeline import track
 
-    alone = {"--keypoints": bool(keypoint_files), "--realtime": realtime,
+    alone = {"--keypoints": bool(keypoint_files), "--show": show,
              "--hand": side is not None, "--init": init is not None,
              "--carry": carry is not None, "SEQ": len(seq) > 1}  # fmt: skip
     given = [name for name, on in alone.items() if on]
@@ -226,13 +227,17 @@ def _track_hands(seq, out, video: bool, *, keypoint_files, camera, realtime, sid
         source = _open_camera(camera, options.pop("calib"), options.pop("fov"),
                               options.pop("scale"))  # fmt: skip
     with _option_names(seq[0] if seq else "--camera"), _stop_on_interrupt(source):
-        result = track(source, hands=2, progress=camera is None, detector=detector,
-                       keypoint_every=keypoint_every, **options)  # fmt: skip
+        result = track(source, hands=2, progress=camera is None and not realtime,
+                       detector=detector, keypoint_every=keypoint_every,
+                       realtime=realtime and camera is None, **options)  # fmt: skip
     written = result.save(out, video=video)
     fps = result.n_frames / max(time.perf_counter() - STARTED, 1e-9)
     video_note = " (with overlay.mp4)" if "video" in written else ""
     click.echo(f"{result.name}: {result.n_frames} frames, both hands, {fps:.1f} frames/s "
                f"all-in -> {out}{video_note}")  # fmt: skip
+    timed = next((t for t in result.tracks.values() if t.latency is not None), None)
+    if timed is not None:
+        click.echo(timed.realtime_summary())
     for k, t in sorted(result.tracks.items()):
         q = t.quality
         seen = int((~q.no_hand).sum())

@@ -22,14 +22,20 @@ detector's label:
    twice, labelled alike), nor within `NEW_HAND` of a tracked hand given none (that
    hand's, off by a gross error), starts
    the free hand (in the other cameras, the detection whose rays pass nearest the
-   first camera's, within `RAY_GAP` mm).  Its side: the other side than the tracked
-   hand's if there is one (two hands of one person), else the detector's label.  So a
-   hand that leaves and comes back is re-acquired with its side.
+   first camera's, within `RAY_GAP` mm).  Its side: the other side than that of the
+   hand tracked or found on this frame if there is one (two hands of one person), else
+   the detector's label.  So a hand that leaves and comes back is re-acquired with its
+   side.
 4. **The side of a hand** never changes within a track, except on overwhelming
    evidence: after `SIDE_FRAMES` labelled detections given to a new hand, a weighted
-   share `SIDE_SWAP` or more of them for the other side turns it (and the other hand's
-   with it, the two staying opposite); the model is built again on the new side at
-   the next frame.
+   share `SIDE_SWAP` or more of them for the other side; or, at any time, `SIDE_RUN`
+   labelled detections in a row each for the other side with a score of `SIDE_SURE`
+   or more.  Either turns it and the other hand's with it (the two staying opposite,
+   their sides then decided); the model is built again on the new side at the next
+   frame.  On the two-hand benchmark with the run rule off, MediaPipe's labels sure
+   of the other side came at most 8 in a row on a hand whose side was right, and up
+   to 30 on one whose side was wrong (``studies/two_hands.py --detector mediapipe
+   --side-run 1000``).
 5. **One hand hiding the other.**  Per camera, the keypoints of a hand that fall
    inside the other hand's expected outline (the convex hull of its points, widened
    by 0.15 of its size) while the other is nearer the camera by `FRONT` mm or more
@@ -86,6 +92,8 @@ __all__ = [
     "NEW_HAND",
     "RAY_GAP",
     "SIDE_FRAMES",
+    "SIDE_RUN",
+    "SIDE_SURE",
     "SIDE_SWAP",
     "HandsResult",
     "HandsTracker",
@@ -109,6 +117,11 @@ NEW_HAND = 2.0
 SIDE_FRAMES = 30
 #: Weighted share of labels for the other side that turns a new hand's side.
 SIDE_SWAP = 0.8
+#: Score of a label for the other side that counts towards `SIDE_RUN`.
+SIDE_SURE = 0.8
+#: Labelled detections in a row, each for the other side with a score of `SIDE_SURE` or
+#: more, that turn a hand's side at any time.
+SIDE_RUN = 10
 #: mm nearer the camera that the other hand must be to hide a hand's points.
 FRONT = 30.0
 #: Confidence factor of a keypoint inside the outline of the hand in front.
@@ -274,6 +287,7 @@ class _Hand:
     missing: int = 0  # frames since it was last fitted
     hidden: int = 0  # frames it has been carried hidden
     votes: list = dataclasses.field(default_factory=list)  # signed label scores, while new
+    against: int = 0  # labelled detections in a row sure of the other side
     carriers: list | None = None  # per camera: its detections carried by optical flow
 
     @property
@@ -347,8 +361,9 @@ class HandsTracker:
             The BGR colour frame of every camera.
         detections : list of list of Detection, keyword-only, optional
             Per camera the hands found in this frame (pixels of the frames given),
-            instead of the tracker's detector; not needed on a frame the detector skips
-            (``keypoint_every``).
+            instead of the tracker's detector; with ``keypoint_every`` > 1, None on a
+            frame the detector skipped (given ones are used on any frame: a real-time
+            run may drop the detector's frames).
 
         Returns
         -------
@@ -359,15 +374,15 @@ class HandsTracker:
         t0 = time.perf_counter()
         n = 1 if self.rig is None else len(self.rig)
         images = _images(frames, n)
-        ran = self.frame_count % self.every == 0  # the detector's frame
+        if detections is None and self.detectors and self.frame_count % self.every == 0:
+            detections = [d(image) for d, image in zip(self.detectors, images, strict=True)]
+        ran = detections is not None  # the detector's frame
         if not ran:
-            detections = [[] for _ in images]
-        elif detections is None:
-            if not self.detectors:
+            if self.every == 1:
                 raise ValueError(
                     "detections: expected the hands found per camera with detector none; got None"
                 )
-            detections = [d(image) for d, image in zip(self.detectors, images, strict=True)]
+            detections = [[] for _ in images]
         if len(detections) != n:
             raise ValueError(
                 f"detections: expected one list per camera ({n}); got {len(detections)}"
@@ -444,7 +459,9 @@ class HandsTracker:
             free = [h for h in self.hands if h.expected is None and given[h.id][0] is None]
             if not free:
                 return
-            others = [h.side for h in self.hands if h.side and h.expected is not None]
+            placed = [h for h in self.hands  # tracked, or found on this frame
+                      if h.expected is not None or given[h.id][0] is not None]  # fmt: skip
+            others = [h.side for h in placed if h.side]
             side = other_side(others[0]) if others else (d.side or "right")
             hand = next((h for h in free if h.side == side), free[0])
             if hand.side != side:
@@ -485,8 +502,15 @@ class HandsTracker:
         return [c.step(grey, k) for c, grey, k in zip(h.carriers, greys, kps, strict=True)]
 
     def _vote(self, h: _Hand, d) -> None:
-        """Rule 4: a new hand's side turned by overwhelming labels (module notes)."""
-        if h.votes is None or d is None or not d.side:
+        """Rule 4: a hand's side turned by overwhelming labels (module notes)."""
+        if d is None or not d.side:
+            return
+        sure_against = d.side != h.side and d.score >= SIDE_SURE
+        h.against = h.against + 1 if sure_against else 0
+        if h.against >= SIDE_RUN:
+            self._turn_sides()
+            return
+        if h.votes is None:
             return
         h.votes.append(d.score if d.side == h.side else -d.score)
         if len(h.votes) < SIDE_FRAMES:
@@ -494,9 +518,14 @@ class HandsTracker:
         against = -sum(v for v in h.votes if v < 0) / sum(abs(v) for v in h.votes)
         h.votes = None  # decided
         if against >= SIDE_SWAP:
-            for other in self.hands:
-                if other.side:
-                    self._set_side(other, other_side(other.side))
+            self._turn_sides()
+
+    def _turn_sides(self) -> None:
+        """Both hands' sides turned, the two staying opposite; the sides decided."""
+        for other in self.hands:
+            other.against, other.votes = 0, None
+            if other.side:
+                self._set_side(other, other_side(other.side))
 
     def _set_side(self, h: _Hand, side: str) -> None:
         """The hand's side set; its model is built again on it at its next frame with
