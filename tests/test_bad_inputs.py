@@ -357,7 +357,7 @@ CASES = [
     _c("track-hands-three", "track {r}/skin.avi --hands 3 --out {r}/t1", "--hands"),
     _c("track-hands-keypoints",
        "track {r}/skin.avi --hands 2 --keypoints {r}/kp_skin4.npy --out {r}/t1",
-       "--keypoints: expected none with --hands 2"),
+       "kp_skin4.npy: expected a .json detections file with every hand found"),
     _c("track-hands-carry", "track {r}/skin.avi --hands 2 --carry forward --out {r}/t1",
        "--carry: expected none with --hands 2"),
     _c("track-hands-detector-none", "track {r}/skin.avi --hands 2 --detector none --out {r}/t1",

@@ -303,6 +303,46 @@ def test_track_hands_in_real_time_drops_frames_and_keeps_identities(tmp_path):
         np.testing.assert_array_equal(t.dropped, result.tracks[k].dropped)
 
 
+def test_track_hands_from_a_detections_file_as_with_the_detector_inside(tmp_path):
+    """The benchmark's detections written to a .json detections file and given as
+    ``keypoints`` give the same tracks as the same detections from a detector; by the
+    command, a file of the wrong length or one hand's keypoints are refused."""
+    from click.testing import CliRunner
+
+    import handvar
+    from handvar.cli import main
+    from handvar.evaluation.two_hands import two_hand_case
+    from handvar.vision.keypoints import write_detections
+
+    case = two_hand_case("clap", seed=1, frames=(30, 50), size=(320, 180))
+    written = case.write(tmp_path / "case")
+    frames, calib, found = written["frames"][0], written["calib"], written["detections"][0]
+    given = iter(case.detections[0])
+    inside = handvar.track(str(frames), calib=calib, hands=2, detector=lambda image: next(given))
+    from_file = handvar.track(str(frames), calib=calib, hands=2, keypoints=found)
+    assert sorted(from_file.tracks) == sorted(inside.tracks) and len(inside.tracks) == 2
+    for k, t in from_file.tracks.items():
+        np.testing.assert_array_equal(t.poses, inside.tracks[k].poses)
+        assert t.options["detector"] == "file"
+
+    def run(*extra):
+        return CliRunner().invoke(main, ["track", str(frames), "--calib", str(calib), "--hands",
+                                         "2", "--no-video", *extra])  # fmt: skip
+
+    res = run("--keypoints", str(found), "--out", str(tmp_path / "o"))
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "o" / "hands.json").is_file()
+    short = tmp_path / "short.json"
+    write_detections(short, case.detections[0][:-1])
+    for bad, says in (
+        (short, "expected the hands found in each of the recording's 20 frames"),
+        (tmp_path / "case" / "truth.npz", "expected a .json detections file"),
+    ):
+        res = run("--keypoints", str(bad), "--out", str(tmp_path / "bad"))
+        assert res.exit_code == 2 and says in res.output, res.output
+        assert not (tmp_path / "bad").exists()
+
+
 @pytest.mark.parametrize(
     ("extra", "named"),
     [(["--carry", "forward"], "--carry"), (["--hand", "left"], "--hand"),

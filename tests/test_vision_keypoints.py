@@ -343,3 +343,70 @@ def test_mediapipes_world_landmarks_are_seen_along_the_ray_not_in_the_cameras_ax
     assert between_rays > 30.0, between_rays
     # measured 0.9° apart against 37° between the rays
     assert np.median(apart) < between_rays / 4, (np.median(apart), between_rays)
+
+
+# --- every hand found (.json, two hands) ------------------------------------------------------
+
+
+def test_detections_file_round_trip_with_world_and_missing_points(tmp_path):
+    from handvar.vision.keypoints import Detection, read_detections, write_detections
+
+    rng = np.random.default_rng(3)
+    a = np.c_[rng.uniform(0, 640, (21, 2)), rng.uniform(0.1, 1.0, 21)]
+    a[5] = (np.nan, np.nan, 0.0)
+    world = rng.normal(0, 40, (21, 3))
+    frames = [[Detection(a, world=world, side="left", score=0.7),
+               Detection(a + np.r_[10.0, 0.0, 0.0], side="", score=1.0)], [], [
+               Detection(a, side="right", score=0.55)]]  # fmt: skip
+    write_detections(tmp_path / "hands.json", frames)
+    back = read_detections(tmp_path / "hands.json")
+    assert [len(f) for f in back] == [2, 0, 1]
+    for got, want in zip([d for f in back for d in f], [d for f in frames for d in f], strict=True):
+        np.testing.assert_array_equal(got.points, want.points)  # NaN where missing
+        assert (got.world is None) == (want.world is None)
+        if want.world is not None:
+            np.testing.assert_array_equal(got.world, want.world)
+        assert (got.side, got.score) == (want.side, want.score)
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [("{}", "a list with one entry per frame; got dict"),
+     ("[[1]]", "frame 0, hand 0: expected an object with 'points'"),
+     ('[[], [{"points": [[1, 2]]}]]', r"frame 1, hand 0: expected 'points' as 21"),
+     ('[[{"points": ' + str([[1, 2, 1]] * 21) + ', "side": "both"}]]', "'side' right, left"),
+     ('[[{"points": ' + str([[1, 2, 1]] * 21) + ', "score": 2}]]', r"'score' a number in \[0, 1\]"),
+     ("[[", "expected JSON; got an error at line 1")],
+)  # fmt: skip
+def test_a_bad_detections_file_names_the_file_the_frame_and_the_hand(tmp_path, text, match):
+    from handvar.vision.keypoints import read_detections
+
+    path = tmp_path / "hands.json"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(ValueError, match=match) as info:
+        read_detections(path)
+    assert str(info.value).startswith(str(path))
+
+
+def test_keypoints_command_keeps_every_hand_for_two_hands(tmp_path):
+    """``handvar keypoints --hands 2``: the detections of MediaPipe asked for two hands,
+    one list per frame, the example video's one right hand in each."""
+    from handvar.vision.detector import mediapipe_available
+    from handvar.vision.keypoints import read_detections
+
+    if not mediapipe_available():
+        pytest.skip("MediaPipe (the optional extra) is not installed")
+    out = tmp_path / "hands.json"
+    res = CliRunner().invoke(main, ["keypoints", str(VIDEO), "--hands", "2", "--frames", "8",
+                                    "--out", str(out)])  # fmt: skip
+    assert res.exit_code == 0, res.output
+    found = read_detections(out)
+    assert len(found) == 8 and all(len(f) >= 1 for f in found)
+    shipped = read_keypoints(SHIPPED)
+    for t, f in enumerate(found):  # the right hand, where the one-hand file has it
+        right = [d for d in f if d.side == "right"]
+        assert right and np.abs(right[0].points[:, :2] - shipped.xy[t]).max() < 2.5
+        assert right[0].world is not None
+    wrong = CliRunner().invoke(main, ["keypoints", str(VIDEO), "--hands", "2", "--out",
+                                      str(tmp_path / "k.npz")])  # fmt: skip
+    assert wrong.exit_code == 2 and "--out: expected a .json file with --hands 2" in wrong.output

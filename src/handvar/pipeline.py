@@ -543,7 +543,8 @@ def track(
     keypoints : path-like, (T, 21, 2|3) array_like, Keypoints2D, or a list of them, optional
         2D keypoints of the 21 points (`handvar.vision.keypoints`), pixels of the
         full-resolution frames: a file (.npy or .csv), an array or a `Keypoints2D`; a
-        list gives one per camera, in order.
+        list gives one per camera, in order.  With ``hands=2``, every hand found: one
+        ``.json`` detections file per camera (`track_hands`).
     calib : path-like or Rig, optional
         Recordings only: the calibration (`handvar.camera.Rig.load`); one video
         without it gets an assumed camera.
@@ -628,7 +629,6 @@ def track(
     """
     if as_int(hands, "hands", minimum=1, maximum=2) == 2:
         alone = {
-            "keypoints": keypoints,
             "hand": hand,
             "init": init,
             "carry": carry,
@@ -645,7 +645,8 @@ def track(
         return track_hands(source, calib=calib, fov=fov, scale=scale, hand_length=hand_length,
                            model=model, predictor=predictor, seed=seed, frames=frames,
                            progress=progress, detector=detector,
-                           keypoint_every=keypoint_every, realtime=realtime)  # fmt: skip
+                           keypoint_every=keypoint_every, realtime=realtime,
+                           keypoints=keypoints)  # fmt: skip
     options = TrackOptions.checked(
         keypoints=keypoints, calib=calib, fov=fov, scale=scale, hand=hand,
         hand_length=hand_length, model=model, predictor=predictor, init=init,
@@ -1940,6 +1941,7 @@ def track_hands(
     mirrored: bool = False,
     keypoint_every: int = 1,
     realtime: bool = False,
+    keypoints=None,
 ) -> HandsTrack:
     """Track both hands through a recording (module notes).
 
@@ -1966,6 +1968,11 @@ def track_hands(
         A recording played at its own frame rate, the newest frame taken each time the
         tracker is free (`paced_frames`), as from a camera: each hand's track then has
         ``dropped`` (holding its last pose there) and ``latency``, as one hand's has.
+    keypoints : path-like or list of them, optional
+        Every hand found per frame, instead of the detector: one ``.json`` detections
+        file per camera (`handvar.vision.keypoints.read_detections`; ``handvar
+        keypoints --hands 2`` writes one), over the recording's frames, in the pixels of
+        its full-resolution frames.
 
     Returns
     -------
@@ -2013,15 +2020,20 @@ def track_hands(
             played = ((i, 0.0, pair) for i, pair in played)
         feed = ((i, t, images, originals if i % every == 0 else None)
                 for i, t, (images, originals) in played)  # fmt: skip
-    detectors = make_detectors("mediapipe" if detector == "auto" else detector,
-                               len(opened.rig), mirrored=mirrored)  # fmt: skip
-    if detectors is None:
-        raise ValueError("detector: expected a keypoint detector with hands=2; got none")
     tracker = HandsTracker(opened.rig, hands=hands, detector=None, predictor=predictor,
                            hand_length=hand_length, model=model, seed=seed,
                            keypoint_every=every)  # fmt: skip
     live = isinstance(source, CameraSource)
-    items = detect_ahead(feed, detectors, depth=1 if realtime or live else 4)
+    if keypoints is not None:  # the hands found, read from files
+        read = _detection_files(keypoints, opened, live)
+        items = ((i, t, images, None if o is None else [f[i] for f in read])
+                 for i, t, images, o in feed)  # fmt: skip
+    else:
+        detectors = make_detectors("mediapipe" if detector == "auto" else detector,
+                                   len(opened.rig), mirrored=mirrored)  # fmt: skip
+        if detectors is None:
+            raise ValueError("detector: expected a keypoint detector with hands=2; got none")
+        items = detect_ahead(feed, detectors, depth=1 if realtime or live else 4)
     if progress and not realtime:
         from tqdm import tqdm
 
@@ -2071,11 +2083,45 @@ def track_hands(
                      "scale": scale, "hand_length": hand_length, "model": model,
                      "hand": h.side, "keypoints": True, "recover": True,
                      "keypoint_every": every, "realtime": realtime or live,
-                     "detector": "mediapipe" if detector == "auto" else "user"},
+                     "detector": _detector_name(detector, keypoints)},
         )  # fmt: skip
     # a camera's frames cannot be read again: no overlay over them
     return HandsTrack(tracks, name, opened.fps, _with_rows(seconds, rows, n_played),
                       source=None if live else opened)  # fmt: skip
+
+
+def _detection_files(keypoints, opened, live: bool) -> list[list]:
+    """Per camera of `opened`, the hands found per frame, read from `keypoints` (one
+    ``.json`` detections file per camera, over the recording's frames)."""
+    from handvar.vision.keypoints import read_detections
+
+    if live:
+        raise ValueError("keypoints: expected none with a live camera (the detector runs "
+                         "on its frames); got a file")  # fmt: skip
+    files = [keypoints] if isinstance(keypoints, str | os.PathLike) else list(keypoints)
+    if len(files) != len(opened.rig):
+        raise ValueError(f"keypoints: expected one detections file per camera "
+                         f"({len(opened.rig)}); got {len(files)}")  # fmt: skip
+    found = []
+    for path in files:
+        suffix = Path(path).suffix.lower()
+        if suffix != ".json":
+            raise ValueError(f"{path}: expected a .json detections file with every hand found "
+                             f"(handvar keypoints --hands 2 writes one); got {suffix!r}, "
+                             f"one hand's keypoints")  # fmt: skip
+        frames = read_detections(path)
+        if len(frames) != opened.n_frames:
+            raise ValueError(f"{path}: expected the hands found in each of the recording's "
+                             f"{opened.n_frames} frames; got {len(frames)} frames")  # fmt: skip
+        found.append(frames)
+    return found
+
+
+def _detector_name(detector, keypoints) -> str:
+    """The detections' origin, as a track's options record it."""
+    if keypoints is not None:
+        return "file"
+    return "mediapipe" if detector == "auto" else "user"
 
 
 def _with_rows(values: list, rows: list, n: int) -> np.ndarray:

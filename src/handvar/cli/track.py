@@ -75,8 +75,9 @@ def _check_predictor(ctx, param, value: str) -> str:
 @click.option("--model", type=click.Choice(("spheres", "mesh")), default="spheres",
               show_default=True, help="Surface of the tracked hand model.")  # fmt: skip
 @click.option("--keypoints", "keypoint_files", multiple=True, type=click.Path(dir_okay=False),
-              help="2D keypoints (.npy or .csv, see `handvar keypoints`), one file per "
-              "camera in order, pixels of the full-resolution frames.")  # fmt: skip
+              help="2D keypoints (.npz, .npy or .csv, see `handvar keypoints`), one file "
+              "per camera in order, pixels of the full-resolution frames; with --hands 2 "
+              "every hand found, a .json (handvar keypoints --hands 2).")  # fmt: skip
 @click.option("--keypoint-every", type=click.IntRange(min=1), default=1, show_default=True,
               help="Run the detector (or use the keypoints) on every K-th frame only.")  # fmt: skip
 @click.option("--carry", type=click.Choice(("forward", "both", "none")), default=None,
@@ -213,14 +214,13 @@ def _track_hands(seq, out, video: bool, *, keypoint_files, camera, realtime, sho
     from handvar.cli.common import STARTED
     from handvar.pipeline import track
 
-    alone = {"--keypoints": bool(keypoint_files), "--show": show,
-             "--hand": side is not None, "--init": init is not None,
+    alone = {"--show": show, "--hand": side is not None, "--init": init is not None,
              "--carry": carry is not None, "SEQ": len(seq) > 1}  # fmt: skip
     given = [name for name, on in alone.items() if on]
     if given:
         raise ValueError(f"{', '.join(given)}: expected none with --hands 2 (one recording "
                          f"or --camera, the detector inside); got {', '.join(given)}")  # fmt: skip
-    if detector == "none":
+    if detector == "none" and not keypoint_files:
         raise ValueError("--detector: expected auto or mediapipe with --hands 2; got none")
     source = seq[0] if seq else None
     if camera is not None:
@@ -229,7 +229,8 @@ def _track_hands(seq, out, video: bool, *, keypoint_files, camera, realtime, sho
     with _option_names(seq[0] if seq else "--camera"), _stop_on_interrupt(source):
         result = track(source, hands=2, progress=camera is None and not realtime,
                        detector=detector, keypoint_every=keypoint_every,
-                       realtime=realtime and camera is None, **options)  # fmt: skip
+                       realtime=realtime and camera is None,
+                       keypoints=list(keypoint_files) or None, **options)  # fmt: skip
     written = result.save(out, video=video)
     fps = result.n_frames / max(time.perf_counter() - STARTED, 1e-9)
     video_note = " (with overlay.mp4)" if "video" in written else ""

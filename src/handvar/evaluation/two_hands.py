@@ -61,7 +61,6 @@ True
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 import os
 from pathlib import Path
@@ -90,6 +89,7 @@ from handvar.evaluation.realistic import (
     realistic_rig,
 )
 from handvar.validate import as_float, as_int, one_of
+from handvar.vision.keypoints import read_detections, write_detections
 
 __all__ = [
     "SCENARIOS",
@@ -100,7 +100,6 @@ __all__ = [
     "TwoHandCase",
     "TwoHandScore",
     "detections_as_tracks",
-    "read_detections",
     "read_two_hand_case",
     "score_two_hands",
     "two_hand_case",
@@ -429,8 +428,8 @@ class TwoHandCase:
         """Write the recording as a user would have it, and its truth.
 
         ``cam{j}/`` image folders of JPEG frames (``00000.jpg``, …), ``detections{j}.json``
-        (a list per frame of the detections, each ``{"points": 21 × [x, y, confidence]``
-        with null for NaN, ``"side"``, ``"score"}``), ``calib.yml`` (`Rig.save`) and
+        (the detections per frame, `handvar.vision.keypoints.write_detections`: what
+        ``handvar track --hands 2 --keypoints`` reads), ``calib.yml`` (`Rig.save`) and
         ``truth.npz`` (every other attribute).  Returns the paths: ``"frames"``,
         ``"detections"`` (lists, one per camera), ``"calib"``, ``"truth"``.
         """
@@ -439,9 +438,8 @@ class TwoHandCase:
         frames, found = [], []
         for j in range(len(self.rig)):
             folder = _write_frames(out / f"cam{j}", self.frames[j])
-            rows = [[_detection_json(d) for d in frame] for frame in self.detections[j]]
             path = out / f"detections{j}.json"
-            path.write_text(json.dumps(rows), encoding="utf-8")
+            write_detections(path, self.detections[j])
             frames.append(folder)
             found.append(path)
         self.rig.save(out / "calib.yml")
@@ -456,22 +454,6 @@ class TwoHandCase:
         )  # fmt: skip
         return {"frames": frames, "detections": found, "calib": out / "calib.yml",
                 "truth": out / "truth.npz"}  # fmt: skip
-
-
-def _detection_json(d) -> dict:
-    points = [[None if not math.isfinite(v) else float(v) for v in row] for row in d.points]
-    return {"points": points, "side": d.side, "score": float(d.score)}
-
-
-def read_detections(path: str | os.PathLike) -> list:
-    """The detections of one camera written by `TwoHandCase.write`: a list per frame."""
-    from handvar.vision.keypoints import Detection
-
-    rows = json.loads(Path(path).read_text(encoding="utf-8"))
-    return [[Detection(points=np.array([[np.nan if v is None else v for v in p]
-                                        for p in d["points"]], dtype=float),
-                       side=d["side"], score=float(d["score"])) for d in frame]
-            for frame in rows]  # fmt: skip
 
 
 def read_two_hand_case(directory: str | os.PathLike, *, frames: bool = False) -> TwoHandCase:

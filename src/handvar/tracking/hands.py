@@ -34,8 +34,8 @@ detector's label:
    their sides then decided); the model is built again on the new side at the next
    frame.  On the two-hand benchmark with the run rule off, MediaPipe's labels sure
    of the other side came at most 8 in a row on a hand whose side was right, and up
-   to 30 on one whose side was wrong (``studies/two_hands.py --detector mediapipe
-   --side-run 1000``).
+   to 30 on one whose side was wrong (``studies/two_hands.py --detector mediapipe``,
+   its side-run option at 1000).
 5. **One hand hiding the other.**  Per camera, the keypoints of a hand that fall
    inside the other hand's expected outline (the convex hull of its points, widened
    by 0.15 of its size) while the other is nearer the camera by `FRONT` mm or more

@@ -37,6 +37,11 @@ Files
   as before.  World points in metres (MediaPipe's own unit) are recognised by the hand's
   size (`world_in_mm`): read in mm with a `KeypointUnitWarning`; a size that is a hand's
   in neither unit is refused.
+- ``.json``, every hand found (two hands, `read_detections`): a list with one entry
+  per frame, each a list of the hands found there (any order, empty for none), each
+  ``{"points": 21 × [x, y, confidence] (null where missing), "side": "right", "left"
+  or "", "score": the probability that the side is right}`` and optionally
+  ``"world": 21 × [x, y, z]``, mm, as the ``.npz``'s.  `write_detections` writes it.
 
 Examples
 --------
@@ -82,11 +87,13 @@ __all__ = [
     "check_output_suffix",
     "choose",
     "hand_side",
+    "read_detections",
     "read_keypoints",
     "scaled_pixels",
     "vote_side",
     "world_in_camera",
     "world_in_mm",
+    "write_detections",
     "write_keypoints",
 ]
 
@@ -624,6 +631,9 @@ def read_keypoints(path: str | os.PathLike) -> Keypoints2D:
             raise ValueError(f"{name}: expected a text CSV file; got binary data") from None
     elif suffix == ".npz":
         return _read_npz(path)
+    elif suffix == ".json":
+        raise ValueError(f"{name}: expected one hand's keypoints (.npy, .csv or .npz); got a "
+                         f".json, every hand found, which --hands 2 reads")  # fmt: skip
     else:
         raise ValueError(f"{name}: expected a .npy, .csv or .npz keypoint file; got {suffix!r}")
     return Keypoints2D.from_array(array, name=name)
@@ -815,3 +825,115 @@ def write_keypoints(path: str | os.PathLike, keypoints: Keypoints2D | np.ndarray
     else:
         check_output_suffix(path)
     write_atomic(path, write)
+
+
+def write_detections(path: str | os.PathLike, frames: Iterable[Iterable[Detection]]) -> None:
+    """Write every hand found, frame by frame, as a ``.json`` detections file (module
+    notes), atomically (`handvar.atomic.write_atomic`).
+
+    Parameters
+    ----------
+    path : path-like
+        Ending in ``.json``.
+    frames : iterable of iterable of Detection
+        Per frame the hands found.
+    """
+    import json
+
+    path = Path(path)
+    if path.suffix.lower() != ".json":
+        raise ValueError(f"{path}: expected a .json detections file; got {path.suffix!r}")
+
+    def numbers(rows) -> list:
+        return [[float(v) if math.isfinite(v) else None for v in row] for row in rows]
+
+    rows = []
+    for found in frames:
+        hands = []
+        for d in found:
+            hand = {"points": numbers(d.points), "side": d.side, "score": float(d.score)}
+            if d.world is not None:
+                hand["world"] = numbers(d.world)
+            hands.append(hand)
+        rows.append(hands)
+    text = json.dumps(rows, separators=(",", ":"))
+
+    def write(tmp: str) -> None:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(text)
+
+    write_atomic(path, write)
+
+
+def read_detections(path: str | os.PathLike) -> list[list[Detection]]:
+    """Read a ``.json`` detections file (module notes): per frame, the hands found.
+
+    Raises
+    ------
+    ValueError
+        If the file is missing, not JSON, or any entry is not as the module notes say;
+        the message names the file, and the frame and hand at fault.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> hand = Detection(np.c_[np.arange(42.0).reshape(21, 2), np.ones(21)], side="left",
+    ...                  score=0.9)
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     write_detections(f"{d}/hands.json", [[hand], []])
+    ...     back = read_detections(f"{d}/hands.json")
+    >>> [len(f) for f in back], back[0][0].side, bool(np.array_equal(back[0][0].points,
+    ...                                                              hand.points))
+    ([1, 0], 'left', True)
+    """
+    import json
+
+    path = Path(path)
+    name = str(path)
+    if not path.is_file():
+        raise ValueError(f"{name}: expected a detections file (.json); got no such file")
+    try:
+        rows = json.loads(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError:
+        raise ValueError(f"{name}: expected a JSON text file; got binary data") from None
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{name}: expected JSON; got an error at line {exc.lineno}, "
+                         f"column {exc.colno}: {exc.msg}") from None  # fmt: skip
+    if not isinstance(rows, list):
+        raise ValueError(f"{name}: expected a list with one entry per frame; got "
+                         f"{type(rows).__name__}")  # fmt: skip
+    out = []
+    for t, found in enumerate(rows):
+        if not isinstance(found, list):
+            raise ValueError(f"{name}: frame {t}: expected a list of the hands found; got "
+                             f"{type(found).__name__}")  # fmt: skip
+        out.append([_detection(hand, f"{name}: frame {t}, hand {k}")
+                    for k, hand in enumerate(found)])  # fmt: skip
+    return out
+
+
+def _detection(hand, where: str) -> Detection:
+    """One hand of a detections file (`read_detections`)."""
+    if not isinstance(hand, dict) or "points" not in hand:
+        raise ValueError(f"{where}: expected an object with 'points'; got {hand!r:.60}")
+
+    def array(key: str, shape: tuple) -> np.ndarray:
+        try:
+            a = np.array([[np.nan if v is None else v for v in row] for row in hand[key]],
+                         dtype=float)  # fmt: skip
+        except (TypeError, ValueError):
+            a = np.empty(0)
+        if a.shape != shape:
+            raise ValueError(f"{where}: expected {key!r} as {shape[0]} × [{shape[1]} numbers "
+                             f"or null]; got {hand[key]!s:.60}")  # fmt: skip
+        return a
+
+    points = array("points", (N_KEYPOINTS, 3))
+    world = array("world", (N_KEYPOINTS, 3)) if hand.get("world") is not None else None
+    side = hand.get("side", "")
+    score = hand.get("score", 1.0)
+    if side not in ("right", "left", ""):
+        raise ValueError(f"{where}: expected 'side' right, left or empty; got {side!r}")
+    if isinstance(score, bool) or not isinstance(score, int | float) or not 0 <= score <= 1:
+        raise ValueError(f"{where}: expected 'score' a number in [0, 1]; got {score!r}")
+    return Detection(points, world=world, side=side, score=float(score))

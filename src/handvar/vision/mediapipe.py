@@ -52,6 +52,7 @@ __all__ = [
     "MissingExtraError",
     "detect_keypoints",
     "detect_video",
+    "detect_video_hands",
     "handedness_side",
 ]
 
@@ -315,6 +316,33 @@ def detect_keypoints(
         kp.xy, kp.confidence, kp.name, world=np.stack(world), depth=np.stack(depth),
         presence=kp.present.any(axis=1).astype(float), handedness=np.array(sides),
     )  # fmt: skip
+
+
+def detect_video_hands(
+    path: str | os.PathLike,
+    *,
+    mirrored: bool = False,
+    frames: int | None = None,
+    progress: Callable[[Iterable], Iterable] | None = None,
+) -> list[list]:
+    """Every hand MediaPipe Hands finds (asked for two) in each frame of a video file or
+    a folder of images: per frame a list of `handvar.vision.keypoints.Detection` (points
+    in pixels of the full-resolution frames, world landmarks in mm, side and score), for
+    two hands (`handvar.vision.keypoints.write_detections`)."""
+    _hands_module()  # fail before reading anything
+    if frames is not None and (isinstance(frames, bool) or int(frames) < 1):
+        raise ValueError(f"frames: expected an integer >= 1; got {frames!r}")
+    it: Iterable[np.ndarray] = _read_frames(Path(path), frames)
+    if progress is not None:
+        it = progress(it)
+    detect = MediaPipeHands(mirrored=mirrored)
+    try:
+        found = [detect(image) for image in it]
+    finally:
+        detect.close()
+    if not found:
+        raise ValueError("frames: expected at least one frame; got none")
+    return found
 
 
 def _read_frames(path: Path, stop: int | None) -> Iterator[np.ndarray]:
