@@ -329,12 +329,7 @@ def detect_video_hands(
     a folder of images: per frame a list of `handvar.vision.keypoints.Detection` (points
     in pixels of the full-resolution frames, world landmarks in mm, side and score), for
     two hands (`handvar.vision.keypoints.write_detections`)."""
-    _hands_module()  # fail before reading anything
-    if frames is not None and (isinstance(frames, bool) or int(frames) < 1):
-        raise ValueError(f"frames: expected an integer >= 1; got {frames!r}")
-    it: Iterable[np.ndarray] = _read_frames(Path(path), frames)
-    if progress is not None:
-        it = progress(it)
+    it = _video_frames(path, frames, progress)
     detect = MediaPipeHands(mirrored=mirrored)
     try:
         found = [detect(image) for image in it]
@@ -343,6 +338,15 @@ def detect_video_hands(
     if not found:
         raise ValueError("frames: expected at least one frame; got none")
     return found
+
+
+def _video_frames(path, frames: int | None, progress) -> Iterable[np.ndarray]:
+    """The frames of a video file or image folder for the detector, checked first."""
+    _hands_module()  # fail before reading anything
+    if frames is not None and (isinstance(frames, bool) or int(frames) < 1):
+        raise ValueError(f"frames: expected an integer >= 1; got {frames!r}")
+    it: Iterable[np.ndarray] = _read_frames(Path(path), frames)
+    return it if progress is None else progress(it)
 
 
 def _read_frames(path: Path, stop: int | None) -> Iterator[np.ndarray]:
@@ -397,10 +401,4 @@ def detect_video(
     (T, 21, 3) float64 ndarray or Keypoints2D
         As `detect_keypoints`, in the pixels of the full-resolution frames.
     """
-    _hands_module()  # fail before reading anything
-    if frames is not None and (isinstance(frames, bool) or int(frames) < 1):
-        raise ValueError(f"frames: expected an integer >= 1; got {frames!r}")
-    it: Iterable[np.ndarray] = _read_frames(Path(path), frames)
-    if progress is not None:
-        it = progress(it)
-    return detect_keypoints(it, hand=hand, **kwargs)
+    return detect_keypoints(_video_frames(path, frames, progress), hand=hand, **kwargs)
