@@ -2025,8 +2025,8 @@ def track_hands(
                            keypoint_every=every)  # fmt: skip
     live = isinstance(source, CameraSource)
     if keypoints is not None:  # the hands found, read from files
-        read = _detection_files(keypoints, opened, live)
-        items = ((i, t, images, None if o is None else [f[i] for f in read])
+        hands_found = _detection_files(keypoints, opened, live)
+        items = ((i, t, images, None if o is None else [f[i] for f in hands_found])
                  for i, t, images, o in feed)  # fmt: skip
     else:
         detectors = make_detectors("mediapipe" if detector == "auto" else detector,
@@ -2053,8 +2053,9 @@ def track_hands(
         latency.append(time.perf_counter() - clock0 - captured)
     name = opened.names[0] if opened.names else "recording"
     if all(h.tracker.recovery is None for h in tracker.hands):
-        raise ValueError(f"{name}: expected a hand; the detector found none in its "
-                         f"{len(seconds)} frames")  # fmt: skip
+        where = "the detector found" if keypoints is None else "the keypoint file has"
+        raise ValueError(f"{name}: expected a hand; {where} none in its {len(seconds)} "
+                         f"frames")  # fmt: skip
     if live:
         dropped = list(source.dropped)
     n_played = max([rows[-1], *dropped]) + 1
