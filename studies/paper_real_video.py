@@ -168,8 +168,9 @@ def table(results: dict) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--videos", action="store_true", help="add the two clips")
-    parser.add_argument("--video", action="append", choices=VIDEOS,
-                        help="this video only (repeatable)")
+    parser.add_argument(
+        "--video", action="append", choices=VIDEOS, help="this video only (repeatable)"
+    )
     parser.add_argument("--predictors", default=",".join(PREDICTORS))
     parser.add_argument("--frames", type=int, default=None)
     parser.add_argument("--seed", type=int, default=0)

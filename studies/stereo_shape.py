@@ -127,8 +127,12 @@ def main() -> None:
     parser.add_argument("--proportions", type=float, default=0.08)
     parser.add_argument("--repeat", type=int, default=15)
     parser.add_argument("--noise", type=float, default=1.5, help="pixels per coordinate")
-    parser.add_argument("--labels", choices=("truth", "detector"), default="truth",
-                        help="where the keypoints mark the joints (function marked)")
+    parser.add_argument(
+        "--labels",
+        choices=("truth", "detector"),
+        default="truth",
+        help="where the keypoints mark the joints (function marked)",
+    )
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args()
     base = args.out or Path(tempfile.mkdtemp(prefix="stereo-shape-"))
@@ -156,8 +160,10 @@ def main() -> None:
     worst = max(r[0] / r[1] for r in rows)
     print(f"{'mean':28s} {'':12s} {'':6s} {f:10.1f} {t:6.1f} {f / t:6.2f} "
           f"{'':10s} {'':6s} {'':6s} {m:8.1f}")  # fmt: skip
-    print(f"the fit over triangulation: {f / t:.2f} on average, {worst:.2f} at worst; "
-          f"one camera (the given 185 mm hand): {m:.1f} mm")
+    print(
+        f"the fit over triangulation: {f / t:.2f} on average, {worst:.2f} at worst; "
+        f"one camera (the given 185 mm hand): {m:.1f} mm"
+    )
 
 
 if __name__ == "__main__":

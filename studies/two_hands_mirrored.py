@@ -177,12 +177,15 @@ def study(name: str, out: Path, scale: float, gap: int) -> None:
             rel = np.linalg.norm((m[both] - m[both, :1]) - (right[both] - right[both, :1]),
                                  axis=-1).mean()  # fmt: skip
             mirror = f"{rel:.1f} / {absolute:.1f} mm over {int(both.sum())} frames"
-    print(f"{name}: {T} frames, {width} px wide, {T / seconds:.1f} frames/s all-in; "
-          f"hands {sorted(half)}; identity switches: MediaPipe's labels {label_switches}, "
-          f"fit {switches}; frames with both on one half: labels {label_same}, fit "
-          f"{same_half}; drawn where MediaPipe found no hand alone {phantom}; keypoint "
-          f"check: {'; '.join(checks)}; mirror disagreement wrist-relative / absolute "
-          f"{mirror}", flush=True)
+    print(
+        f"{name}: {T} frames, {width} px wide, {T / seconds:.1f} frames/s all-in; "
+        f"hands {sorted(half)}; identity switches: MediaPipe's labels {label_switches}, "
+        f"fit {switches}; frames with both on one half: labels {label_same}, fit "
+        f"{same_half}; drawn where MediaPipe found no hand alone {phantom}; keypoint "
+        f"check: {'; '.join(checks)}; mirror disagreement wrist-relative / absolute "
+        f"{mirror}",
+        flush=True,
+    )
 
 
 def main() -> None:
