@@ -323,7 +323,7 @@ def test_track_hands_from_a_detections_file_as_with_the_detector_inside(tmp_path
     assert sorted(from_file.tracks) == sorted(inside.tracks) and len(inside.tracks) == 2
     for k, t in from_file.tracks.items():
         np.testing.assert_array_equal(t.poses, inside.tracks[k].poses)
-        assert t.options["detector"] == "file"
+        assert t.options["detector"] == "none"  # none ran
 
     def run(*extra):
         return CliRunner().invoke(main, ["track", str(frames), "--calib", str(calib), "--hands",

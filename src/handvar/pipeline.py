@@ -2024,6 +2024,7 @@ def track_hands(
                            hand_length=hand_length, model=model, seed=seed,
                            keypoint_every=every)  # fmt: skip
     live = isinstance(source, CameraSource)
+    detectors = None
     if keypoints is not None:  # the hands found, read from files
         hands_found = _detection_files(keypoints, opened, live)
         items = ((i, t, images, None if o is None else [f[i] for f in hands_found])
@@ -2084,7 +2085,7 @@ def track_hands(
                      "scale": scale, "hand_length": hand_length, "model": model,
                      "hand": h.side, "keypoints": True, "recover": True,
                      "keypoint_every": every, "realtime": realtime or live,
-                     "detector": _detector_name(detector, keypoints)},
+                     "detector": _detector_name(detector, detectors)},
         )  # fmt: skip
     # a camera's frames cannot be read again: no overlay over them
     return HandsTrack(tracks, name, opened.fps, _with_rows(seconds, rows, n_played),
@@ -2116,13 +2117,6 @@ def _detection_files(keypoints, opened, live: bool) -> list[list]:
                              f"{opened.n_frames} frames; got {len(frames)} frames")  # fmt: skip
         found.append(frames)
     return found
-
-
-def _detector_name(detector, keypoints) -> str:
-    """The detections' origin, as a track's options record it."""
-    if keypoints is not None:
-        return "file"
-    return "mediapipe" if detector == "auto" else "user"
 
 
 def _with_rows(values: list, rows: list, n: int) -> np.ndarray:
