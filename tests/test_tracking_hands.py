@@ -332,6 +332,8 @@ def test_track_hands_from_a_detections_file_as_with_the_detector_inside(tmp_path
     res = run("--keypoints", str(found), "--out", str(tmp_path / "o"))
     assert res.exit_code == 0, res.output
     assert (tmp_path / "o" / "hands.json").is_file()
+    res = run("--keypoints", str(found), "--realtime", "--out", str(tmp_path / "rt"))
+    assert res.exit_code == 0 and "realtime: 20 frames" in res.output, res.output
     short = tmp_path / "short.json"
     write_detections(short, case.detections[0][:-1])
     for bad, says in (
