@@ -612,9 +612,10 @@ def track(
         ``detected``.
     hands : {1, 2}
         2: both hands, each under an identity kept by tracking (`track_hands`, which
-        returns a `HandsTrack`); a recording with the detector inside, without the
-        options of one hand (``keypoints``, ``init``, ``hand``, ``keypoint_every``,
-        ``carry``, ``realtime``, ...).
+        returns a `HandsTrack`): a recording or a camera, the detector inside or
+        ``keypoints`` (every hand found, a ``.json`` per camera), ``keypoint_every``
+        and ``realtime`` as for one hand; without one hand's own options (``init``,
+        ``hand``, ``carry``, ``recover``, ...).
 
     Returns
     -------
