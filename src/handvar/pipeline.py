@@ -1980,8 +1980,6 @@ def track_hands(
     HandsTrack
     """
     from handvar.tracking.hands import HandsTracker
-    from handvar.vision.detector import detect_ahead, make_detectors
-    from handvar.vision.sources import CameraSource, open_source
 
     hands = as_int(hands, "hands", minimum=1, maximum=2)
     every = as_int(keypoint_every, "keypoint_every", minimum=1)
@@ -1991,64 +1989,26 @@ def track_hands(
     if model == "mesh":
         raise ValueError("model: expected spheres with two hands (the skinned mesh is a "
                          "right hand); got mesh")  # fmt: skip
-    dropped: list[int] = []  # realtime: the recording's frames skipped
-    origin: list[float] = []  # realtime: the clock's reading at the first frame's capture
-    if isinstance(source, CameraSource):  # its frames as delivered (open_camera's scale)
-        if realtime:
-            raise ValueError(
-                "realtime: expected a recording (a video file or an image "
-                "folder); got a live camera, tracked as it comes anyway"
-            )
-        if calib is not None or fov is not None or scale != 1.0:
-            raise ValueError("calib, fov, scale: expected none with a live camera (open_camera "
-                             "takes the calibration, field of view and scale)")  # fmt: skip
-        opened, full, paths, scale, total = source, source.rig, [], 1.0, frames
-        sizes = [source.image_size]
-        feed = ((i, t, images, images if i % every == 0 else None)
-                for i, t, images in source.stream(stop=frames))  # fmt: skip
-    else:
-        paths = str(source).split(",") if isinstance(source, str) else source
-        paths = list(paths) if isinstance(paths, list | tuple) else [paths]
-        opened = open_source(paths, calib, fov=fov, scale=scale)
-        full = opened.rig if scale == 1.0 else open_source(paths, calib, fov=fov).rig
-        sizes = [r.size for r in opened.readers]
-        total = opened.n_frames if frames is None else min(frames, opened.n_frames)
-        read = opened.frames(stop=frames, originals=True)
-        played = ((i, (images, originals)) for i, images, originals in read)
-        if realtime:
-            played = paced_frames(played, opened.fps, dropped, origin=origin)
-        else:
-            played = ((i, 0.0, pair) for i, pair in played)
-        feed = ((i, t, images, originals if i % every == 0 else None)
-                for i, t, (images, originals) in played)  # fmt: skip
+    played = _HandsFeed(source, calib, fov, scale, frames, every, realtime)
+    opened, live = played.opened, played.live
     tracker = HandsTracker(opened.rig, hands=hands, detector=None, predictor=predictor,
                            hand_length=hand_length, model=model, seed=seed,
                            keypoint_every=every)  # fmt: skip
-    live = isinstance(source, CameraSource)
-    detectors = None
-    if keypoints is not None:  # the hands found, read from files
-        hands_found = _detection_files(keypoints, opened, live)
-        items = ((i, t, images, None if o is None else [f[i] for f in hands_found])
-                 for i, t, images, o in feed)  # fmt: skip
-    else:
-        detectors = make_detectors("mediapipe" if detector == "auto" else detector,
-                                   len(opened.rig), mirrored=mirrored)  # fmt: skip
-        if detectors is None:
-            raise ValueError("detector: expected a keypoint detector with hands=2; got none")
-        items = detect_ahead(feed, detectors, depth=1 if realtime or live else 4)
+    items, detectors = _hands_found(played, keypoints, detector, mirrored, realtime)
     if progress and not realtime:
         from tqdm import tqdm
 
-        items = tqdm(items, total=total, desc="tracking", unit="frame", leave=False)
+        items = tqdm(items, total=played.total, desc="tracking", unit="frame", leave=False)
     seconds, rows, latency = [], [], []
     clock0 = None
     for index, captured, images, found in items:
         given = None if found is None else [
-            [_scaled(d, scale, size) for d in ds] for ds, size in zip(found, sizes, strict=True)
+            [_scaled(d, played.scale, size) for d in ds]
+            for ds, size in zip(found, played.sizes, strict=True)
         ]  # fmt: skip
         t0 = time.perf_counter()
         if clock0 is None:  # the zero of the capture times
-            clock0 = origin[0] if origin else t0 - captured
+            clock0 = played.origin[0] if played.origin else t0 - captured
         tracker.process(images, detections=given)
         seconds.append(time.perf_counter() - t0)
         rows.append(index)
@@ -2058,32 +2018,28 @@ def track_hands(
         where = "the detector found" if keypoints is None else "the keypoint file has"
         raise ValueError(f"{name}: expected a hand; {where} none in its {len(seconds)} "
                          f"frames")  # fmt: skip
-    if live:
-        dropped = list(source.dropped)
+    dropped = list(source.dropped) if live else played.dropped
     n_played = max([rows[-1], *dropped]) + 1
     timing = {}
     if realtime or live:  # one frame at a time, as it comes
-        skipped = np.ones(n_played, dtype=bool)
-        skipped[rows] = False
-        lag = np.full(n_played, np.nan)
-        lag[rows] = latency
-        timing = {"dropped": skipped, "latency": lag}
+        lag = _with_rows(latency, rows, n_played, fill=np.nan)
+        timing = {"dropped": np.isnan(lag), "latency": lag}
     tracks = {}
     for h in tracker.hands:
         if h.tracker.recovery is None:  # never seen
             continue
         r = h.tracker.recovered(keypoints=True)
         result, quality = r.track, r.quality
-        if realtime or live:
+        if timing:
             result, quality = _with_dropped(r, np.asarray(rows), n_played)
         tracks[h.id] = Track(
             poses=result.poses, joints=result.joints,
-            projected=project_joints(full, result.joints), quality=quality, rig=full,
-            shape=r.shape, name=name, predictor=predictor, seed=seed, fps=opened.fps,
-            result=result, **timing,
-            options={"source": [str(p) for p in paths] or name,
+            projected=project_joints(played.full, result.joints), quality=quality,
+            rig=played.full, shape=r.shape, name=name, predictor=predictor, seed=seed,
+            fps=opened.fps, result=result, **timing,
+            options={"source": [str(p) for p in played.paths] or name,
                      "kind": "camera" if live else "recording", "hands": hands,
-                     "scale": scale, "hand_length": hand_length, "model": model,
+                     "scale": played.scale, "hand_length": hand_length, "model": model,
                      "hand": h.side, "keypoints": True, "recover": True,
                      "keypoint_every": every, "realtime": realtime or live,
                      "detector": _detector_name(detector, detectors)},
@@ -2091,6 +2047,71 @@ def track_hands(
     # a camera's frames cannot be read again: no overlay over them
     return HandsTrack(tracks, name, opened.fps, _with_rows(seconds, rows, n_played),
                       source=None if live else opened)  # fmt: skip
+
+
+class _HandsFeed:
+    """The frames `track_hands` plays: ``(index, capture seconds, images, originals on
+    the detector's frames else None)`` of a recording (paced with ``realtime``, its
+    skipped frames in `dropped`) or of a live camera (its own scale)."""
+
+    def __init__(self, source, calib, fov, scale, frames, every: int, realtime: bool) -> None:
+        from handvar.vision.sources import CameraSource, open_source
+
+        self.dropped: list[int] = []  # realtime: the recording's frames skipped
+        self.origin: list[float] = []  # realtime: the clock's reading at the first capture
+        self.live = isinstance(source, CameraSource)
+        if self.live:  # its frames as delivered
+            if realtime:
+                raise ValueError("realtime: expected a recording (a video file or an "
+                                 "image folder); got a live camera, tracked as it comes "
+                                 "anyway")  # fmt: skip
+            if calib is not None or fov is not None or scale != 1.0:
+                raise ValueError("calib, fov, scale: expected none with a live camera "
+                                 "(open_camera takes the calibration, field of view and "
+                                 "scale)")  # fmt: skip
+            self.opened, self.full, self.paths, self.scale = source, source.rig, [], 1.0
+            self.total, self.sizes = frames, [source.image_size]
+            self._feed = ((i, t, images, images if i % every == 0 else None)
+                          for i, t, images in source.stream(stop=frames))  # fmt: skip
+            return
+        paths = str(source).split(",") if isinstance(source, str) else source
+        self.paths = list(paths) if isinstance(paths, list | tuple) else [paths]
+        self.opened = open_source(self.paths, calib, fov=fov, scale=scale)
+        self.full = (self.opened.rig if scale == 1.0
+                     else open_source(self.paths, calib, fov=fov).rig)  # fmt: skip
+        self.scale, self.sizes = scale, [r.size for r in self.opened.readers]
+        n = self.opened.n_frames
+        self.total = n if frames is None else min(frames, n)
+        read = self.opened.frames(stop=frames, originals=True)
+        played = ((i, (images, originals)) for i, images, originals in read)
+        if realtime:
+            played = paced_frames(played, self.opened.fps, self.dropped, origin=self.origin)
+        else:
+            played = ((i, 0.0, pair) for i, pair in played)
+        self._feed = ((i, t, images, originals if i % every == 0 else None)
+                      for i, t, (images, originals) in played)  # fmt: skip
+
+    def __iter__(self):
+        return self._feed
+
+
+def _hands_found(played: _HandsFeed, keypoints, detector, mirrored: bool, realtime: bool):
+    """``(index, seconds, images, found)`` of every frame played, `found` per camera the
+    hands read from `keypoints` or found by the detector (None on a frame it skips);
+    and the detectors (None with `keypoints`)."""
+    from handvar.vision.detector import detect_ahead, make_detectors
+
+    if keypoints is not None:  # the hands found, read from files
+        found = _detection_files(keypoints, played.opened, played.live)
+        items = ((i, t, images, None if o is None else [f[i] for f in found])
+                 for i, t, images, o in played)  # fmt: skip
+        return items, None
+    detectors = make_detectors("mediapipe" if detector == "auto" else detector,
+                               len(played.opened.rig), mirrored=mirrored)  # fmt: skip
+    if detectors is None:
+        raise ValueError("detector: expected a keypoint detector with hands=2; got none")
+    depth = 1 if realtime or played.live else 4  # one frame at a time, as it comes
+    return detect_ahead(iter(played), detectors, depth=depth), detectors
 
 
 def _detection_files(keypoints, opened, live: bool) -> list[list]:
@@ -2120,9 +2141,9 @@ def _detection_files(keypoints, opened, live: bool) -> list[list]:
     return found
 
 
-def _with_rows(values: list, rows: list, n: int) -> np.ndarray:
-    """(n,) `values` at their `rows`, 0 on the frames between (dropped)."""
-    out = np.zeros(n)
+def _with_rows(values: list, rows: list, n: int, fill: float = 0.0) -> np.ndarray:
+    """(n,) `values` at their `rows`, `fill` on the frames between (dropped)."""
+    out = np.full(n, fill)
     out[rows] = values
     return out
 
