@@ -219,7 +219,7 @@ def _track_hands(seq, out, video: bool, *, keypoint_files, camera, realtime, sho
     given = [name for name, on in alone.items() if on]
     if given:
         raise ValueError(f"{', '.join(given)}: expected none with --hands 2 (one recording "
-                         f"or --camera, the detector inside); got {', '.join(given)}")  # fmt: skip
+                         f"or --camera; one hand's options); got {', '.join(given)}")  # fmt: skip
     if detector == "none" and not keypoint_files:
         raise ValueError("--detector: expected auto or mediapipe with --hands 2; got none")
     source = seq[0] if seq else None
