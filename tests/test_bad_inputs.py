@@ -151,6 +151,7 @@ def make_inputs(root: Path) -> Path:
     _write_region(root / "nanned.zarr", nan_err, 3, 0)
     _keypoint_inputs(root, seq)
     _track_inputs(root, seq)
+    _hands_inputs(root)
     (root / "report_out").mkdir()
     (root / "report_out" / "report.md").write_bytes(KNOWN)
     (root / "track_out").mkdir()
@@ -209,6 +210,37 @@ def _track_inputs(root: Path, seq) -> None:
         else:
             stored["meta"] = np.array("{not json")
         np.savez_compressed(root / name / "track.npz", **stored)
+
+
+def _hands_inputs(root: Path) -> None:
+    """Detections files of skin.avi's 4 frames (`handvar keypoints --hands 2`'s layout)
+    with one wrong value each, and a directory of both hands (the track of
+    `_track_inputs` as the right hand) and damaged copies of it."""
+    import copy
+    import json
+    import shutil
+
+    rng = np.random.default_rng(2)
+    hand = {"points": [[*xy, 1.0] for xy in rng.uniform(10, 40, (21, 2)).tolist()],
+            "side": "right", "score": 0.9}  # fmt: skip
+    for name, change in {
+        "hands_conf": lambda h: h["points"][3].__setitem__(2, 5.0),
+        "hands_negconf": lambda h: h["points"][3].__setitem__(2, -0.5),
+        "hands_inf": lambda h: h["points"][3].__setitem__(0, float("inf")),
+        "hands_text": lambda h: h["points"][3].__setitem__(0, "12"),
+        "hands_world0": lambda h: h.__setitem__("world", [[0.0, 0.0, 0.0]] * 21),
+    }.items():
+        bad = copy.deepcopy(hand)
+        change(bad)
+        (root / f"{name}.json").write_text(json.dumps([[hand], [hand], [bad], []]))
+    norm = {**hand, "points": [[x / 64, y / 48, c] for x, y, c in hand["points"]]}
+    (root / "hands_norm.json").write_text(json.dumps([[norm]] * 3 + [[]]))  # not pixels
+    index = {"name": "seq", "fps": 25.0,
+             "hands": [{"id": 0, "side": "right", "directory": "right"}]}  # fmt: skip
+    shutil.copytree(root / "track_good", root / "hands_good" / "right")
+    (root / "hands_good" / "hands.json").write_text(json.dumps(index))
+    shutil.copytree(root / "hands_good", root / "hands_noindex")
+    (root / "hands_noindex" / "hands.json").unlink()
 
 
 # --- the cases ----------------------------------------------------------------------------
@@ -364,6 +396,35 @@ CASES = [
        "--detector: expected auto or mediapipe with --hands 2"),
     _c("track-hands-skin-video", "track {r}/skin.avi --hands 2 --out {r}/track_out",
        "skin.avi: expected a hand; the detector found none in its 4 frames", subprocess=True),
+    _c("track-hands-keypoint-tips",
+       "track {r}/skin.avi --hands 2 --keypoint-tips end --out {r}/t1",
+       "--keypoint-tips: expected none with --hands 2"),
+    _c("track-hands-silhouette-term",
+       "track {r}/skin.avi --hands 2 --silhouette-term 1 --out {r}/t1",
+       "--silhouette-term: expected none with --hands 2"),
+    _c("track-hands-no-recover", "track {r}/skin.avi --hands 2 --no-recover --out {r}/t1",
+       "--no-recover: expected none with --hands 2"),
+    # detections files (.json) that are not what `handvar keypoints --hands 2` writes
+    _c("track-hands-confidence",
+       "track {r}/skin.avi --hands 2 --keypoints {r}/hands_conf.json --out {r}/track_out",
+       "hands_conf.json: frame 2, hand 0: expected confidences in [0, 1] (each point's "
+       "third number); got 5.0 at point 3"),
+    _c("track-hands-negative-confidence",
+       "track {r}/skin.avi --hands 2 --keypoints {r}/hands_negconf.json --out {r}/track_out",
+       "hands_negconf.json: frame 2, hand 0: expected confidences in [0, 1]"),
+    _c("track-hands-infinity",
+       "track {r}/skin.avi --hands 2 --keypoints {r}/hands_inf.json --out {r}/track_out",
+       "hands_inf.json: frame 2, hand 0: expected 'points' finite numbers or null; got "
+       "infinity at point 3"),
+    _c("track-hands-text-number",
+       "track {r}/skin.avi --hands 2 --keypoints {r}/hands_text.json --out {r}/track_out",
+       "hands_text.json: frame 2, hand 0: expected 'points' as 21 × [3 numbers or null]"),
+    _c("track-hands-world-zero",
+       "track {r}/skin.avi --hands 2 --keypoints {r}/hands_world0.json --out {r}/track_out",
+       "hands_world0.json: expected world points in mm"),
+    _c("track-hands-normalised",
+       "track {r}/skin.avi --hands 2 --keypoints {r}/hands_norm.json --out {r}/track_out",
+       "hands_norm.json: expected pixels of the 64x48 frames"),
     # keypoint files that are not what `handvar keypoints` writes
     _c("init-keypoints-truncated-npz",
        "init {r}/seq --keypoints {r}/kp_half.npz --keypoints {r}/kp_half.npz "
@@ -413,6 +474,19 @@ CASES = [
     _c("export-garbled-meta", "export {r}/track_meta --format bvh",
        "track_meta/track.npz: not a readable track (meta: expected a JSON object"),
     _c("export-not-a-track", "export {r}/adir --format bvh", "adir"),
+    _c("export-openpose-other-dir", "export {r}/track_good --format openpose --out {r}/adir",
+       "--out: expected a new folder, an empty one or an earlier OpenPose export (only "
+       "*_keypoints.json files); {r}/adir holds keep.txt"),
+    _c("export-openpose-hand-folder",
+       "export {r}/hands_good --format openpose --out {r}/hands_good/right",
+       "{r}/hands_good/right holds"),
+    _c("export-json-over-hands-index",
+       "export {r}/hands_good --format json --out {r}/hands_good/hands.json",
+       "--out: expected a file other than the track's own"),
+    _c("export-hands-without-index", "export {r}/hands_noindex --format bvh",
+       "TRACK_DIR: expected a directory of both hands with hands.json"),
+    _c("view-hands-without-index", "view {r}/hands_noindex --no-frames",
+       "TRACK_DIR: expected a directory of both hands with hands.json"),
     # experiment
     _c("experiment-set-unknown", "experiment --out {r}/e.zarr --set nothing=1", "--set"),
     _c("experiment-set-trials-zero", "experiment --out {r}/e.zarr --set trials=0", "trials"),
@@ -794,6 +868,46 @@ def test_track_load_names_directory_and_a_garbled_meta(inputs):
     with pytest.raises(ValueError, match=far):
         Track.load(inputs / "track_far")
     assert Track.load(inputs / "track_good").n_frames == 2
+
+
+def test_allow_short_is_taken_with_two_hands(inputs):
+    """--allow-short with --hands 2: the frames read are tracked, after its warning (not
+    the refusal that asks for --allow-short)."""
+    case = _c("", "track {r}/short.avi --hands 2 --allow-short --out {r}/track_out", "")
+    outcome = run_case(dataclasses.replace(case, subprocess=True), inputs)
+    assert outcome.status == 2 and len(outcome.lines) == 2, outcome.lines
+    assert outcome.lines[0].endswith("(a truncated or damaged video); using the 5 read")
+    assert outcome.lines[1] == ("handvar: error: short.avi: expected a hand; the detector "
+                                "found none in its 5 frames")  # fmt: skip
+
+
+def test_hands_track_load_names_directory(inputs):
+    from handvar.pipeline import HandsTrack
+
+    with pytest.raises(TypeError, match=r"^directory: expected a path \(str or path-like\)"):
+        HandsTrack.load(42)
+    for folder in (inputs / "hands_noindex", inputs / "hands_good" / "hands.json"):
+        with pytest.raises(ValueError, match=r"^directory: expected a directory of both hands "
+                           r"with hands\.json"):  # fmt: skip
+            HandsTrack.load(folder)
+    assert HandsTrack.load(inputs / "hands_good").n_frames == 2
+
+
+def test_a_track_replaces_an_earlier_one_of_the_other_kind_in_its_folder(inputs, tmp_path):
+    """One hand's track written where both hands' were loses their index (else `handvar
+    export` and `handvar view` read the earlier hands), and both hands' written where one
+    hand's was lose its files; the rest of the folder stays."""
+    import shutil
+
+    from handvar.pipeline import HandsTrack, Track
+
+    folder = tmp_path / "out"
+    shutil.copytree(inputs / "hands_good", folder)
+    (folder / "mine.txt").write_bytes(KNOWN)
+    Track.load(inputs / "track_good").save(folder, video=False, overlays=False)
+    assert not (folder / "hands.json").exists() and (folder / "mine.txt").read_bytes() == KNOWN
+    HandsTrack.load(inputs / "hands_good").save(folder, video=False)
+    assert sorted(p.name for p in folder.iterdir()) == ["hands.json", "mine.txt", "right"]
 
 
 def test_unwritable_folder_is_refused_before_rendering(tmp_path, monkeypatch):

@@ -613,9 +613,9 @@ def track(
     hands : {1, 2}
         2: both hands, each under an identity kept by tracking (`track_hands`, which
         returns a `HandsTrack`): a recording or a camera, the detector inside or
-        ``keypoints`` (every hand found, a ``.json`` per camera), ``keypoint_every``
-        and ``realtime`` as for one hand; without one hand's own options (``init``,
-        ``hand``, ``carry``, ``recover``, ...).
+        ``keypoints`` (every hand found, a ``.json`` per camera), ``keypoint_every``,
+        ``realtime`` and ``allow_short`` as for one hand; without one hand's own
+        options (``init``, ``hand``, ``carry``, ``recover``, ...).
 
     Returns
     -------
@@ -637,7 +637,6 @@ def track(
             "recover": recover,
             "recovery": recovery,
             "on_frame": on_frame,
-            "allow_short": allow_short or None,
         }
         given = [k for k, v in alone.items() if v is not None]
         if given:
@@ -647,7 +646,7 @@ def track(
                            model=model, predictor=predictor, seed=seed, frames=frames,
                            progress=progress, detector=detector,
                            keypoint_every=keypoint_every, realtime=realtime,
-                           keypoints=keypoints)  # fmt: skip
+                           keypoints=keypoints, allow_short=allow_short)  # fmt: skip
     options = TrackOptions.checked(
         keypoints=keypoints, calib=calib, fov=fov, scale=scale, hand=hand,
         hand_length=hand_length, model=model, predictor=predictor, init=init,
@@ -1826,7 +1825,11 @@ class HandsTrack:
     def save(self, directory: str | os.PathLike, *, video: bool = True) -> dict[str, Path]:
         """Write each hand's track into ``directory/<side>/`` (as one hand's ``--out``,
         without its own overlay), ``hands.json`` (id, side, folder of each) and, with
-        `video`, ``overlay.mp4``: both hands over the frames, each side in its colour."""
+        `video`, ``overlay.mp4``: both hands over the frames, each side in its colour.
+        The files of an earlier track of one hand in `directory` go."""
+        from handvar.atomic import OutputSet
+        from handvar.tracking.outputs import TRACK_FILES
+
         out = Path(directory)
         out.mkdir(parents=True, exist_ok=True)
         written: dict[str, Path] = {}
@@ -1837,8 +1840,11 @@ class HandsTrack:
             written[side] = out / side
             listing.append({"id": k, "side": side, "directory": side})
         index = out / HANDS_INDEX
-        index.write_text(json.dumps({"name": self.name, "fps": self.fps, "hands": listing},
-                                    indent=2) + "\n")  # fmt: skip
+        text = json.dumps({"name": self.name, "fps": self.fps, "hands": listing}, indent=2)
+        with OutputSet() as outputs:
+            outputs.add(index, lambda tmp: Path(tmp).write_text(text + "\n"))
+            for name in set(TRACK_FILES) - {HANDS_INDEX}:  # an earlier track of one hand
+                outputs.remove(out / name)
         written["hands"] = index
         if video and self.source is not None and self.tracks:
             written["video"] = self._overlay(out / "overlay.mp4")
@@ -1852,11 +1858,18 @@ class HandsTrack:
 
         Raises
         ------
+        TypeError
+            If `directory` is not a path.
         ValueError
-            Naming the index: one that is broken, names a folder that is not there or
-            a hand of another side, two hands of one side, hands over different frames.
+            Naming the index: one that is missing or broken, names a folder that is not
+            there or a hand of another side, two hands of one side, hands over different
+            frames.
         """
+        as_instance(directory, (str, os.PathLike), "directory", what="a path (str or path-like)")
         index = Path(directory) / HANDS_INDEX
+        if not index.is_file():
+            raise ValueError(f"directory: expected a directory of both hands with {HANDS_INDEX} "
+                             f"(handvar track --hands 2 --out); got {directory}")  # fmt: skip
         expect = f"{index}: expected {{'name', 'fps', 'hands': [{{'id', 'side', 'directory'}}]}}"
         try:
             doc = json.loads(index.read_text(encoding="utf-8"))
@@ -1872,7 +1885,7 @@ class HandsTrack:
             ok = isinstance(entry, dict) and isinstance(entry.get("id"), int)
             ok = ok and entry.get("side") in SIDES and isinstance(entry.get("directory"), str)
             if not ok:
-                raise ValueError(f"{expect}; got hand {i}: {entry!r}")
+                raise ValueError(f"{expect}; got hand {i}: {entry!r:.80}")
             folder = Path(directory) / entry["directory"]
             if not folder.is_dir() or Path(entry["directory"]).is_absolute():
                 raise ValueError(f"{index}: expected the folder of each hand inside the "
@@ -1943,6 +1956,7 @@ def track_hands(
     keypoint_every: int = 1,
     realtime: bool = False,
     keypoints=None,
+    allow_short: bool = False,
 ) -> HandsTrack:
     """Track both hands through a recording (module notes).
 
@@ -1974,6 +1988,8 @@ def track_hands(
         file per camera (`handvar.vision.keypoints.read_detections`; ``handvar
         keypoints --hands 2`` writes one), over the recording's frames, in the pixels of
         its full-resolution frames.
+    allow_short : bool
+        As `handvar.track`: a video that stops decoding early is used to where it stops.
 
     Returns
     -------
@@ -1989,12 +2005,12 @@ def track_hands(
     if model == "mesh":
         raise ValueError("model: expected spheres with two hands (the skinned mesh is a "
                          "right hand); got mesh")  # fmt: skip
-    played = _HandsFeed(source, calib, fov, scale, frames, every, realtime)
+    played = _HandsFeed(source, calib, fov, scale, frames, every, realtime, allow_short)
     opened, live = played.opened, played.live
     tracker = HandsTracker(opened.rig, hands=hands, detector=None, predictor=predictor,
                            hand_length=hand_length, model=model, seed=seed,
                            keypoint_every=every)  # fmt: skip
-    items, detectors = _hands_found(played, keypoints, detector, mirrored, realtime)
+    items, detectors, outside = _hands_found(played, keypoints, detector, mirrored, realtime)
     if progress and not realtime:
         from tqdm import tqdm
 
@@ -2042,7 +2058,8 @@ def track_hands(
                      "scale": played.scale, "hand_length": hand_length, "model": model,
                      "hand": h.side, "keypoints": True, "recover": True,
                      "keypoint_every": every, "realtime": realtime or live,
-                     "detector": _detector_name(detector, detectors)},
+                     "detector": _detector_name(detector, detectors),
+                     "outside_keypoints": outside},
         )  # fmt: skip
     # a camera's frames cannot be read again: no overlay over them
     return HandsTrack(tracks, name, opened.fps, _with_rows(seconds, rows, n_played),
@@ -2054,7 +2071,8 @@ class _HandsFeed:
     the detector's frames else None)`` of a recording (paced with ``realtime``, its
     skipped frames in `dropped`) or of a live camera (its own scale)."""
 
-    def __init__(self, source, calib, fov, scale, frames, every: int, realtime: bool) -> None:
+    def __init__(self, source, calib, fov, scale, frames, every: int, realtime: bool,
+                 allow_short: bool = False) -> None:  # fmt: skip
         from handvar.vision.sources import CameraSource, open_source
 
         self.dropped: list[int] = []  # realtime: the recording's frames skipped
@@ -2076,9 +2094,11 @@ class _HandsFeed:
             return
         paths = str(source).split(",") if isinstance(source, str) else source
         self.paths = list(paths) if isinstance(paths, list | tuple) else [paths]
-        self.opened = open_source(self.paths, calib, fov=fov, scale=scale)
+        self.opened = open_source(self.paths, calib, fov=fov, scale=scale,
+                                  allow_short=allow_short)  # fmt: skip
         self.full = (self.opened.rig if scale == 1.0
-                     else open_source(self.paths, calib, fov=fov).rig)  # fmt: skip
+                     else open_source(self.paths, calib, fov=fov,
+                                      allow_short=allow_short).rig)  # fmt: skip
         self.scale, self.sizes = scale, [r.size for r in self.opened.readers]
         n = self.opened.n_frames
         self.total = n if frames is None else min(frames, n)
@@ -2098,36 +2118,39 @@ class _HandsFeed:
 def _hands_found(played: _HandsFeed, keypoints, detector, mirrored: bool, realtime: bool):
     """``(index, seconds, images, found)`` of every frame played, `found` per camera the
     hands read from `keypoints` or found by the detector (None on a frame it skips);
-    and the detectors (None with `keypoints`)."""
+    the detectors (None with `keypoints`); the points of `keypoints` dropped as outside
+    the frames (`check_detections`)."""
     from handvar.vision.detector import detect_ahead, make_detectors
 
     if keypoints is not None:  # the hands found, read from files
-        found = _detection_files(keypoints, played.opened, played.live)
+        found, outside = _detection_files(keypoints, played)
         items = ((i, t, images, None if o is None else [f[i] for f in found])
                  for i, t, images, o in played)  # fmt: skip
-        return items, None
+        return items, None, outside
     detectors = make_detectors("mediapipe" if detector == "auto" else detector,
                                len(played.opened.rig), mirrored=mirrored)  # fmt: skip
     if detectors is None:
         raise ValueError("detector: expected a keypoint detector with hands=2; got none")
     depth = 1 if realtime or played.live else 4  # one frame at a time, as it comes
-    return detect_ahead(iter(played), detectors, depth=depth), detectors
+    return detect_ahead(iter(played), detectors, depth=depth), detectors, 0
 
 
-def _detection_files(keypoints, opened, live: bool) -> list[list]:
-    """Per camera of `opened`, the hands found per frame, read from `keypoints` (one
-    ``.json`` detections file per camera, over the recording's frames)."""
-    from handvar.vision.keypoints import read_detections
+def _detection_files(keypoints, played: _HandsFeed) -> tuple[list[list], int]:
+    """Per camera of the recording `played`, the hands found per frame, read from
+    `keypoints` (one ``.json`` detections file per camera, over the recording's frames),
+    and the points dropped as outside the frames (`check_detections`)."""
+    from handvar.vision.keypoints import check_detections, read_detections
 
-    if live:
+    opened = played.opened
+    if played.live:
         raise ValueError("keypoints: expected none with a live camera (the detector runs "
                          "on its frames); got a file")  # fmt: skip
     files = [keypoints] if isinstance(keypoints, str | os.PathLike) else list(keypoints)
     if len(files) != len(opened.rig):
         raise ValueError(f"keypoints: expected one detections file per camera "
                          f"({len(opened.rig)}); got {len(files)}")  # fmt: skip
-    found = []
-    for path in files:
+    found, outside = [], 0
+    for path, camera in zip(files, played.full.cameras, strict=True):
         suffix = Path(path).suffix.lower()
         if suffix != ".json":
             raise ValueError(f"{path}: expected a .json detections file with every hand found "
@@ -2137,8 +2160,10 @@ def _detection_files(keypoints, opened, live: bool) -> list[list]:
         if len(frames) != opened.n_frames:
             raise ValueError(f"{path}: expected the hands found in each of the recording's "
                              f"{opened.n_frames} frames; got {len(frames)} frames")  # fmt: skip
+        frames, dropped = check_detections(frames, camera.size, str(path))
         found.append(frames)
-    return found
+        outside += dropped
+    return found, outside
 
 
 def _with_rows(values: list, rows: list, n: int, fill: float = 0.0) -> np.ndarray:

@@ -35,10 +35,14 @@ def _load(track_dir, calib):
 
 
 def _is_hands(track_dir) -> bool:
-    """Whether TRACK_DIR holds both hands (their index) rather than one."""
-    from handvar.pipeline import HANDS_INDEX
+    """Whether TRACK_DIR holds both hands (their index, or without one hand's track.npz
+    a folder of a hand) rather than one."""
+    from handvar.pipeline import HANDS_INDEX, SIDE_RGB
 
-    return (Path(track_dir) / HANDS_INDEX).is_file()
+    folder = Path(track_dir)
+    if (folder / HANDS_INDEX).is_file():
+        return True
+    return not (folder / "track.npz").exists() and any((folder / s).is_dir() for s in SIDE_RGB)
 
 
 def _load_hands(track_dir, calib):
@@ -51,7 +55,13 @@ def _load_hands(track_dir, calib):
         from handvar.camera import Rig
 
         rig = Rig.load(calib)
-    hands = HandsTrack.load(track_dir, rig=rig)
+    try:
+        hands = HandsTrack.load(track_dir, rig=rig)
+    except ValueError as exc:
+        message = str(exc)
+        if message.startswith("directory: "):
+            message = "TRACK_DIR: " + message.removeprefix("directory: ")
+        raise ValueError(message) from None
     return hands.name, sorted(hands.tracks.items())
 
 
@@ -141,8 +151,13 @@ def export_command(track_dir, fmt, out, corrective, units, up, calib):
     out = str(Path(track_dir) / FORMATS[fmt]) if out is None else out
     if fmt == "openpose":
         check_output_dir(out, "--out", parents=False)
+        _check_openpose_out(out)
     else:
         check_output_file(out, "--out", suffixes=_SUFFIXES[fmt])
+    index = Path(track_dir) / "hands.json"
+    if Path(out).resolve() == index.resolve():
+        raise ValueError(f"--out: expected a file other than the track's own; got {out}, "
+                         f"the index of its hands")  # fmt: skip
     if _is_hands(track_dir):
         return _export_hands(track_dir, fmt, out, corrective, units, up, calib)
     track = _load(track_dir, calib)
@@ -175,6 +190,20 @@ def export_command(track_dir, fmt, out, corrective, units, up, calib):
 
         write_glb(out, track.poses, track.shape, fps=track.fps, corrective=corrective)
     click.echo(f"{track.name}: {_frames(track)}, {track.shape.side} hand -> {out}")
+
+
+def _check_openpose_out(out) -> None:
+    """--out of --format openpose is replaced whole: a new folder, an empty one or an
+    earlier OpenPose export (only ``*_keypoints.json`` files, in folders per camera)."""
+    folder = Path(out)
+    if not folder.is_dir():
+        return
+    other = next((p for p in folder.rglob("*") if not p.name.endswith("_keypoints.json")
+                  and not (p.is_dir() and p.parent == folder)), None)  # fmt: skip
+    if other is not None:
+        raise ValueError(f"--out: expected a new folder, an empty one or an earlier OpenPose "
+                         f"export (only *_keypoints.json files); {out} holds "
+                         f"{other.relative_to(folder)}")  # fmt: skip
 
 
 def _export_hands(track_dir, fmt, out, corrective, units, up, calib) -> None:

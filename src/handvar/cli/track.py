@@ -170,12 +170,15 @@ def track_command(
     allow_short = click.get_current_context().meta.get("handvar.allow_short", False)
     _check_sources(seq, camera, realtime, show, scheduler, workers)
     if hands == 2:
+        one_hands = {"--keypoint-tips": keypoint_tips is not None,
+                     "--silhouette-term": silhouette_term > 0,
+                     "--recover" if recover else "--no-recover": recover is not None}  # fmt: skip
         _track_hands(seq, out, video, keypoint_files=keypoint_files, camera=camera,
                      realtime=realtime, show=show, side=side, init=init,
-                     keypoint_every=keypoint_every,
+                     keypoint_every=keypoint_every, one_hands=one_hands,
                      carry=carry, predictor=predictor, seed=seed, frames=n_frames,
                      hand_length=hand_length, model=model, detector=detector, calib=calib,
-                     fov=fov, scale=scale)  # fmt: skip
+                     fov=fov, scale=scale, allow_short=allow_short)  # fmt: skip
         return
     if len(seq) > 1:
         _track_batch(
@@ -209,13 +212,14 @@ def track_command(
 
 
 def _track_hands(seq, out, video: bool, *, keypoint_files, camera, realtime, show, side, init,
-                 keypoint_every, carry, detector, **options) -> None:  # fmt: skip
-    """--hands 2: both hands of one recording (`handvar.pipeline.track_hands`)."""
+                 keypoint_every, carry, detector, one_hands, **options) -> None:  # fmt: skip
+    """--hands 2: both hands of one recording (`handvar.pipeline.track_hands`);
+    `one_hands`: more of one hand's options, by whether each was given."""
     from handvar.cli.common import STARTED
     from handvar.pipeline import track
 
     alone = {"--show": show, "--hand": side is not None, "--init": init is not None,
-             "--carry": carry is not None, "SEQ": len(seq) > 1}  # fmt: skip
+             "--carry": carry is not None, **one_hands, "SEQ": len(seq) > 1}  # fmt: skip
     given = [name for name, on in alone.items() if on]
     if given:
         raise ValueError(f"{', '.join(given)}: expected none with --hands 2 (one recording "
@@ -232,6 +236,11 @@ def _track_hands(seq, out, video: bool, *, keypoint_files, camera, realtime, sho
                        realtime=realtime and camera is None,
                        keypoints=list(keypoint_files) or None, **options)  # fmt: skip
     written = result.save(out, video=video)
+    outside = max((t.options.get("outside_keypoints", 0) for t in result.tracks.values()),
+                  default=0)  # fmt: skip
+    if outside:
+        click.echo(f"handvar: note: {outside} keypoints more than half a frame outside the "
+                   f"frames were left out", err=True)  # fmt: skip
     fps = result.n_frames / max(time.perf_counter() - STARTED, 1e-9)
     video_note = " (with overlay.mp4)" if "video" in written else ""
     click.echo(f"{result.name}: {result.n_frames} frames, both hands, {fps:.1f} frames/s "

@@ -23,7 +23,8 @@ beside its destination, and all are renamed into place only once every one of th
 written (`handvar.atomic.OutputSet`); a failure leaves the folder as it was. The
 track owns its folder: the files of an earlier track there that this one does not
 write (`TRACK_FILES`: quality.csv of a run with recovery, overlay.mp4 of one with
-video) are removed in the same commit; other files are left alone. The folder is locked
+video, hands.json of a run of both hands) are removed in the same commit; other files
+are left alone. The folder is locked
 while it is written (`handvar.atomic.lock_directory`): a second run into it at the
 same time stops with "another run is writing OUT". The overlays are
 drawn over the sequence's masks or, for a real recording, over its colour frames
@@ -63,10 +64,12 @@ _STRIP_SHRINK = 2  # overlay.png tiles are 1/_STRIP_SHRINK of the camera's size
 
 #: The columns of quality.csv after the frame index (`TrackQuality`'s fields).
 #: Every file and folder `write_track_outputs` may write: a new track removes those of
-#: an earlier one that it does not write itself (a run without video or recovery).
+#: an earlier one that it does not write itself (a run without video or recovery); and
+#: the index of an earlier run of both hands (`handvar.pipeline.HANDS_INDEX`), which
+#: `handvar export` and `handvar view` would read instead of the new track.
 TRACK_FILES = (
     "poses.csv", "joints.csv", "track.npz", "cameras.yml", "overlay.png", "quality.csv",
-    "overlay.mp4", "overlay_frames",
+    "overlay.mp4", "overlay_frames", "hands.json",
 )  # fmt: skip
 _QUALITY = (
     "iou", "keypoint_error", "cost", "lost", "reinit", "empty", "keypoints", "no_hand",

@@ -83,6 +83,7 @@ __all__ = [
     "KeypointUnitWarning",
     "Keypoints2D",
     "as_frame_keypoints",
+    "check_detections",
     "check_keypoints",
     "check_output_suffix",
     "choose",
@@ -484,22 +485,61 @@ def check_keypoints(keypoints, n_frames: int, sizes, hand: str):
             raise ValueError(
                 f"{k.name}: expected at least one frame with a detected point; got none"
             )
-        xy = k.xy[present]
-        if max(w, h) > 16 and xy.min() >= -0.5 and xy.max() <= 1.5:
-            raise ValueError(
-                f"{k.name}: expected pixels of the {w}x{h} frames; got coordinates all "
-                f"within [{xy.min():.2f}, {xy.max():.2f}] (normalised coordinates?)"
-            )
-        margin = 0.5 * np.array([w, h])
-        outside = present & (
-            (k.xy < -margin - 0.5).any(axis=2)
-            | (k.xy > np.array([w, h]) - 0.5 + margin).any(axis=2)
-        )
+        outside = _outside_frame(k.xy, present, (w, h), k.name)
         if outside.any():
             dropped += int(outside.sum())
             k = k._with(k.xy, np.where(outside, 0.0, k.confidence))
         out.append(k)
     return out, hand_side(out, hand), dropped
+
+
+def _outside_frame(xy, present, size, name: str) -> np.ndarray:
+    """Which points `xy` (..., 2) lie more than half a frame of `size` (w, h) beyond
+    its border (not the hand's: `check_keypoints`); coordinates all within [−0.5, 1.5]
+    of the `present` points on a frame larger than 16 pixels are refused as normalised."""
+    w, h = size
+    seen = xy[present]
+    if seen.size and max(w, h) > 16 and seen.min() >= -0.5 and seen.max() <= 1.5:
+        raise ValueError(
+            f"{name}: expected pixels of the {w}x{h} frames; got coordinates all "
+            f"within [{seen.min():.2f}, {seen.max():.2f}] (normalised coordinates?)"
+        )
+    margin = 0.5 * np.array([w, h])
+    return present & (
+        (xy < -margin - 0.5).any(axis=-1) | (xy > np.array([w, h]) - 0.5 + margin).any(axis=-1)
+    )
+
+
+def check_detections(frames: list[list[Detection]], size, name: str):
+    """Check one camera's hands found (`read_detections`) against its frames, as
+    `check_keypoints` checks one hand's: normalised coordinates are an error, points
+    more than half a frame beyond the border are dropped (missing) and counted.
+
+    Parameters
+    ----------
+    frames : list of list of Detection
+        Per frame the hands found, pixels of the full-resolution frames.
+    size : (int, int)
+        The full-resolution frame size (width, height).
+    name : str
+        Named in the message (the file).
+
+    Returns
+    -------
+    frames : list of list of Detection
+    dropped : int
+        Points dropped as outside the frames.
+    """
+    hands = [d for found in frames for d in found]
+    if not hands:
+        return frames, 0
+    points = np.stack([d.points for d in hands])
+    outside = _outside_frame(points[..., :2], points[..., 2] > 0, size, name)
+    if not outside.any():
+        return frames, 0
+    points[outside] = (np.nan, np.nan, 0.0)
+    kept = iter(dataclasses.replace(d, points=p) for d, p in zip(hands, points, strict=True))
+    return [[next(kept) for _ in found] for found in frames], int(outside.sum())
 
 
 def hand_side(keypoints, hand: str) -> str:
@@ -909,7 +949,30 @@ def read_detections(path: str | os.PathLike) -> list[list[Detection]]:
                              f"{type(found).__name__}")  # fmt: skip
         out.append([_detection(hand, f"{name}: frame {t}, hand {k}")
                     for k, hand in enumerate(found)])  # fmt: skip
-    return out
+    return _world_in_mm(out, name)
+
+
+def _world_in_mm(frames: list[list[Detection]], name: str) -> list[list[Detection]]:
+    """`frames` with their world points in mm, as a ``.npz``'s are read (`world_in_mm`
+    over every hand of the file that has them)."""
+    given = [(t, k) for t, found in enumerate(frames) for k, d in enumerate(found)
+             if d.world is not None]  # fmt: skip
+    if not given:
+        return frames
+    mm = world_in_mm(np.stack([frames[t][k].world for t, k in given]), name)
+    for (t, k), world in zip(given, mm, strict=True):
+        frames[t][k] = dataclasses.replace(frames[t][k], world=world)
+    return frames
+
+
+def _is_json_table(rows, shape: tuple[int, int]) -> bool:
+    """Whether `rows` read from JSON is `shape` lists of numbers or null (no strings,
+    booleans or lists among them)."""
+    if not isinstance(rows, list) or len(rows) != shape[0]:
+        return False
+    return all(isinstance(row, list) and len(row) == shape[1] and all(
+        v is None or (isinstance(v, int | float) and not isinstance(v, bool)) for v in row)
+        for row in rows)  # fmt: skip
 
 
 def _detection(hand, where: str) -> Detection:
@@ -918,17 +981,23 @@ def _detection(hand, where: str) -> Detection:
         raise ValueError(f"{where}: expected an object with 'points'; got {hand!r:.60}")
 
     def array(key: str, shape: tuple) -> np.ndarray:
-        try:
-            a = np.array([[np.nan if v is None else v for v in row] for row in hand[key]],
-                         dtype=float)  # fmt: skip
-        except (TypeError, ValueError):
-            a = np.empty(0)
-        if a.shape != shape:
+        rows = hand[key]
+        if not _is_json_table(rows, shape):
             raise ValueError(f"{where}: expected {key!r} as {shape[0]} × [{shape[1]} numbers "
-                             f"or null]; got {hand[key]!s:.60}")  # fmt: skip
+                             f"or null]; got {rows!s:.60}")  # fmt: skip
+        a = np.array([[np.nan if v is None else v for v in row] for row in rows], dtype=float)
+        if np.isinf(a).any():
+            k = np.argwhere(np.isinf(a))[0][0]
+            raise ValueError(f"{where}: expected {key!r} finite numbers or null; got "
+                             f"infinity at point {k}")  # fmt: skip
         return a
 
     points = array("points", (N_KEYPOINTS, 3))
+    c = points[:, 2]
+    bad = np.flatnonzero(~np.isnan(c) & ((c < 0) | (c > 1)))
+    if bad.size:
+        raise ValueError(f"{where}: expected confidences in [0, 1] (each point's third "
+                         f"number); got {float(c[bad[0]])!r} at point {bad[0]}")  # fmt: skip
     world = array("world", (N_KEYPOINTS, 3)) if hand.get("world") is not None else None
     side = hand.get("side", "")
     score = hand.get("score", 1.0)
