@@ -14,6 +14,7 @@ from handvar.evaluation.realistic import motion_poses, realistic_rig
 from handvar.hand.anthropometry import HandShape
 from handvar.hand.kinematics import HandModel
 from handvar.tracking.hands import (
+    BEHIND_CARRY,
     MISSED_CARRY,
     MISSED_FRAMES,
     NEW_HAND,
@@ -402,16 +403,17 @@ def test_a_slower_detector_carries_each_hand_to_the_frames_it_skips():
     assert {tuple({s for s, _ in matched[k]}) for k in (0, 1)} == {("left",), ("right",)}
 
 
-def test_a_hand_the_detector_misses_is_followed_by_optical_flow():
+@pytest.mark.parametrize(("T", "missed"), [(20, range(8, 14)), (40, range(8, 33))])
+def test_a_hand_the_detector_misses_is_followed_by_optical_flow(T, missed):
     """Textured frames sliding 3 px right and 1 down a frame, the hands' true points with
-    them; the detector misses the left hand on 6 frames (fewer than `MISSED_CARRY`).
-    There it is fitted to its last detection followed by the flow, within 0.15 hand
-    sizes of its true points, where its prediction alone was carried only
-    `MISSED_FRAMES` frames."""
+    them; the detector misses the left hand on 6 frames, or on 25 (more than
+    `BEHIND_CARRY`, the hands apart: in the open), fewer than `MISSED_CARRY`.  There it
+    is fitted to its last detection followed by the flow, within 0.15 hand sizes of its
+    true points, where its prediction alone was carried only `MISSED_FRAMES` frames
+    (and, before a hand in the open was followed longer, the flow only 10)."""
     import cv2
 
-    T, missed = 20, range(8, 14)
-    assert len(missed) < MISSED_CARRY
+    assert len(missed) < MISSED_CARRY and (len(missed) < 10 or len(missed) > BEHIND_CARRY)
     rig, first = _truth(1, swap=False)
     rng = np.random.default_rng(0)
     texture = cv2.GaussianBlur(rng.integers(0, 256, (360, 640), dtype=np.uint8), (0, 0), 2.0)

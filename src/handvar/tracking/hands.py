@@ -13,7 +13,9 @@ detector's label:
    over their common points of |p_h − p_d| / s_h, plus `LABEL_COST` · (2 score − 1)
    when the detector labels d with the other side; the assignment of least total cost
    (`scipy.optimize.linear_sum_assignment`) keeps the pairs under `GATE` hand sizes
-   (wider by `GATE_GROWTH` for each frame since the hand was last fitted).  The label is
+   (wider by `GATE_GROWTH` for each frame since the hand was last fitted, or for each
+   of the detector's frames since it was last given a detection if more: a hand
+   followed by optical flow is less sure of its place than a detected one).  The label is
    one vote among others: a hand that crosses the other keeps its identity when the
    detector's labels swap.
 3. **A new hand.**  A detection left over, not within `DUPLICATE` hand sizes of a
@@ -43,13 +45,16 @@ detector's label:
 6. **A hand the detector misses.**  Its last detection's points are followed by
    optical flow (`handvar.vision.carry.KeypointCarrier`, the points the flow loses
    dropped) for up to `MISSED_CARRY` frames, and the hand is fitted to them (rule 5
-   applied to them too).  Once no point is followed, a hand fitted until a frame ago
-   is carried by its motion prediction (``hidden``, its quality ``empty``): for up to
-   `HIDDEN_FRAMES` frames while `BEHIND_SHARE` of its expected points or more lie
-   inside the other hand's outline (behind it, or touching it), for up to
-   `MISSED_FRAMES` in the open; after that it is a frame without that hand.  With a
-   detector on every K-th frame (``keypoint_every``) the flow carries each detection
-   up to the detector's next frame instead, as for one hand.
+   applied to them too); after `BEHIND_CARRY` frames, only while no hand in front of
+   it (rule 5's) overlaps it by `BEHIND_SHARE` of its expected points: in the open
+   the flow sees the hand it follows, behind another it follows the front one.  Once
+   no point is followed, a hand fitted until a frame ago is carried by its motion
+   prediction (``hidden``, its quality ``empty``): for up to `HIDDEN_FRAMES` frames
+   while `BEHIND_SHARE` of its expected points or more lie inside the other hand's
+   outline (behind it, or touching it), for up to `MISSED_FRAMES` in the open; after
+   that it is a frame without that hand.  With a detector on every K-th frame
+   (``keypoint_every``) the flow carries each detection up to the detector's next
+   frame instead, as for one hand.
 
 A frame's `HandsResult` holds one `FrameResult` per hand, under its id (0, 1: the order
 in which the hands were first seen) with its side.  With ``hands=1`` it tracks the
@@ -79,6 +84,7 @@ from handvar.hand.anthropometry import other_side
 from handvar.validate import as_int
 
 __all__ = [
+    "BEHIND_CARRY",
     "BEHIND_SHARE",
     "DUPLICATE",
     "FRONT",
@@ -134,7 +140,9 @@ BEHIND_SHARE = 0.2
 #: optical flow follows none of its points (a detector's miss).
 MISSED_FRAMES = 2
 #: Frames a hand the detector misses is followed by optical flow from its last detection.
-MISSED_CARRY = 10
+MISSED_CARRY = 60
+#: Of those, the frames it is followed while a hand in front of it overlaps it.
+BEHIND_CARRY = 10
 #: mm: a new hand's detection in another camera is the one whose rays pass nearest those
 #: of the first camera's (median over the points), within this.
 RAY_GAP = 20.0
@@ -289,6 +297,7 @@ class _Hand:
     votes: list = dataclasses.field(default_factory=list)  # signed label scores, while new
     against: int = 0  # labelled detections in a row sure of the other side
     carriers: list | None = None  # per camera: its detections carried by optical flow
+    undetected: int = 0  # the detector's frames since it was last given a detection
 
     @property
     def expected(self):
@@ -401,7 +410,12 @@ class HandsTracker:
         results = []
         for h in self.hands:
             kps, world = given.get(h.id, ([None] * n, None))
+            if ran:
+                h.undetected = 0 if any(k is not None for k in kps) else h.undetected + 1
             carried = self._carry(h, greys, kps)
+            for j, carrier in enumerate(h.carriers):  # the flow would follow the hand in front
+                if kps[j] is None and carrier.age > BEHIND_CARRY and self._behind(h, j):
+                    carried[j] = None
             followed = [c if k is None else None for c, k in zip(carried, kps, strict=True)]
             self._down_weighted(h, followed)  # rule 5 on them too, in place
             results.append(self._fit(h, images, carried, world))
@@ -423,7 +437,7 @@ class HandsTracker:
         births: list = []
         for j, found in enumerate(detections):
             expected = [h.places(j) for h in self.hands]
-            gates = [GATE + GATE_GROWTH * h.missing for h in self.hands]
+            gates = [GATE + GATE_GROWTH * max(h.missing, h.undetected) for h in self.hands]
             pairs = assign(expected, [h.side for h in self.hands], found, gates)
             for hand, k in pairs.items():
                 given[self.hands[hand].id][j] = found[k]
@@ -540,10 +554,7 @@ class HandsTracker:
             if other is h or other.expected is None or h.last is None:
                 continue
             for j, k in enumerate(kps):
-                if k is None:
-                    continue
-                camera = self.rig.cameras[j]
-                if other.depth(camera) > h.depth(camera) - FRONT:
+                if k is None or not _in_front(other, h, self.rig.cameras[j]):
                     continue
                 e = other.expected[j]
                 inside = _inside(_outline(e), k[:, :2], 0.15 * _size(e))
@@ -562,6 +573,20 @@ class HandsTracker:
                 h.hidden = 0
             r = tracker.process(images, keypoints=kps, world=world)
         return dataclasses.replace(r, id=h.id, side=h.side)
+
+    def _behind(self, h: _Hand, j: int) -> bool:
+        """Rule 6: in camera j, a hand in front of `h` (rule 5) overlaps it by
+        `BEHIND_SHARE` of its expected points (or `h` is expected nowhere)."""
+        if h.expected is None or h.last is None:
+            return True
+        camera = self.rig.cameras[j]
+        for other in self.hands:
+            if other is h or other.expected is None or not _in_front(other, h, camera):
+                continue
+            e = other.expected[j]
+            if _inside(_outline(e), h.expected[j], 0.15 * _size(e)).mean() >= BEHIND_SHARE:
+                return True
+        return False
 
     def _hidden(self, h: _Hand) -> bool:
         """A hand fitted until a frame ago, carried since, given no detection: carried on
@@ -594,6 +619,11 @@ class HandsTracker:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def _in_front(other: _Hand, h: _Hand, camera) -> bool:
+    """`other`'s last joints nearer `camera` than `h`'s by `FRONT` mm or more (rule 5)."""
+    return other.depth(camera) <= h.depth(camera) - FRONT
 
 
 def _ray_gap(camera_a, points_a: np.ndarray, camera_b, points_b: np.ndarray) -> float:

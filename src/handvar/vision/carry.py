@@ -158,6 +158,11 @@ class KeypointCarrier:
         self._followed = np.zeros(N_KEYPOINTS, dtype=bool)  # else held
         self._age = 0  # frames since the last detection
 
+    @property
+    def age(self) -> int:
+        """Frames since its last detection (0 on a detected frame)."""
+        return self._age
+
     def step(self, image, keypoints=None) -> np.ndarray | None:
         """This frame's keypoints: detected, else carried from the previous frame.
 
