@@ -725,7 +725,9 @@ class Recovery:
         if len(cameras) < 2 or not np.any(_rejected_share(fit, present) > 0.5):
             return fit
         d = keypoint_distances(kps, self.rig, self.hand, prediction, settings=self.fit_settings)
-        j = cameras[int(np.argmax([np.nanmedian(d[c]) for c in cameras]))]
+        # a camera none of whose keypoints can be compared with the prediction goes first
+        far = [np.nanmedian(d[c]) if np.isfinite(d[c]).any() else np.inf for c in cameras]
+        j = cameras[int(np.argmax(far))]
         kept = [None if i == j else k for i, k in enumerate(kps)]
         again = self._fit(kept, prediction, world)
         if self._with_prior():
