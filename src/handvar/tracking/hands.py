@@ -260,23 +260,16 @@ def assign(expected: list, sides: list, found: list, gates: list) -> dict[int, i
     return {rows[r]: int(k) for r, k in zip(i, j, strict=True) if cost[r, k] <= gates[rows[r]]}
 
 
-def _outline(points: np.ndarray) -> np.ndarray | None:
-    """The convex hull (float32 contour) of a hand's finite points, or None."""
-    import cv2
-
-    p = points[np.isfinite(points).all(axis=1)]
-    if len(p) < 3:
-        return None
-    return cv2.convexHull(p.astype(np.float32))
-
-
-def _inside(outline, points: np.ndarray, margin: float) -> np.ndarray:
-    """Which of `points` (21, 2) lie within `margin` pixels of `outline` or inside it."""
+def _inside(hand: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Which of `points` (21, 2) lie inside the outline of `hand` (21, 2): the convex
+    hull of its finite points, widened by 0.15 of its size (rule 5)."""
     import cv2
 
     out = np.zeros(len(points), dtype=bool)
-    if outline is None:
+    p = hand[np.isfinite(hand).all(axis=1)]
+    if len(p) < 3:
         return out
+    outline, margin = cv2.convexHull(p.astype(np.float32)), 0.15 * _size(hand)
     for i, (x, y) in enumerate(points):
         if np.isfinite(x) and np.isfinite(y):
             out[i] = cv2.pointPolygonTest(outline, (float(x), float(y)), True) >= -margin
@@ -556,8 +549,7 @@ class HandsTracker:
             for j, k in enumerate(kps):
                 if k is None or not _in_front(other, h, self.rig.cameras[j]):
                     continue
-                e = other.expected[j]
-                inside = _inside(_outline(e), k[:, :2], 0.15 * _size(e))
+                inside = _inside(other.expected[j], k[:, :2])
                 k[inside, 2] *= HIDDEN_WEIGHT
         return kps
 
@@ -583,8 +575,7 @@ class HandsTracker:
         for other in self.hands:
             if other is h or other.expected is None or not _in_front(other, h, camera):
                 continue
-            e = other.expected[j]
-            if _inside(_outline(e), h.expected[j], 0.15 * _size(e)).mean() >= BEHIND_SHARE:
+            if _inside(other.expected[j], h.expected[j]).mean() >= BEHIND_SHARE:
                 return True
         return False
 
@@ -601,8 +592,7 @@ class HandsTracker:
         for other in self.hands:  # in front of it, or touching it (no depth asked)
             if other is h or other.last is None or other.missing:
                 continue
-            e = other.expected[0]
-            if _inside(_outline(e), h.expected[0], 0.15 * _size(e)).mean() >= BEHIND_SHARE:
+            if _inside(other.expected[0], h.expected[0]).mean() >= BEHIND_SHARE:
                 return True
         return False
 
