@@ -2,7 +2,7 @@
 
 Usage: PYTHONPATH=src python studies/two_hands.py [--seeds N] [--cameras 1|2]
        [--detector simulated|mediapipe] [--every K] [--scenario NAME ...] [--size W H]
-       [--missed-carry N] [--side-run N]
+       [--missed-carry N] [--side-run N] [--cache DIR]
 
 For every scenario of `handvar.evaluation.two_hands.SCENARIOS` and seed, renders the
 case (640×360 by default) and tracks it with `handvar.tracking.hands.HandsTracker`, the
@@ -36,7 +36,9 @@ frames a hand the detector misses is followed by optical flow
 (`handvar.tracking.hands.MISSED_CARRY`, to compare values).  With ``--every K`` the
 detector runs on every K-th frame only; the fit carries each hand's detection by
 optical flow over the frames between, and the detections' baseline is interpolated
-linearly between the detector's frames.
+linearly between the detector's frames.  ``--cache DIR`` keeps MediaPipe's detections
+per case in DIR and reads them back on the next run (the renders are the same for the
+same scenario, seed and size).
 """
 
 from __future__ import annotations
@@ -144,17 +146,28 @@ def interpolated(tracks: dict, every: int) -> dict:
     return out
 
 
-def mediapipe_detections(case):
-    """MediaPipe Hands on every rendered frame, per camera; and its world landmarks'
-    wrist-relative 3D per true hand (matched by 2D place), for the baseline."""
+def mediapipe_detections(case, cache=None):
+    """MediaPipe Hands on every rendered frame, per camera (read from, or written to,
+    ``cache/<case>-<size>-cam<j>.json`` when a cache folder is given)."""
+    from pathlib import Path
+
+    from handvar.vision.keypoints import read_detections, write_detections
     from handvar.vision.mediapipe import MediaPipeHands
 
     out = []
     for j in range(len(case.rig)):
+        height, width = case.frames.shape[2:4]
+        path = Path(cache or ".") / f"{case.name}-{width}x{height}-cam{j}.json"
+        if cache is not None and path.exists():
+            out.append(read_detections(path))
+            continue
         detect = MediaPipeHands()
         out.append([detect(cv2.cvtColor(case.frames[j, t], cv2.COLOR_RGB2BGR))
                     for t in range(case.n_frames)])  # fmt: skip
         detect.close()
+        if cache is not None:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            write_detections(path, out[-1])
     return out
 
 
@@ -224,6 +237,9 @@ def main() -> None:
     parser.add_argument("--missed-carry", type=int, default=None,
                         help="frames a missed hand is followed by optical flow "
                              "(handvar.tracking.hands.MISSED_CARRY)")  # fmt: skip
+    parser.add_argument(
+        "--cache", default=None, help="a folder keeping MediaPipe's detections per case, for reruns"
+    )
     args = parser.parse_args()
     if args.side_run is not None:
         import handvar.tracking.hands
@@ -252,7 +268,7 @@ def main() -> None:
             case = two_hand_case(scenario, cameras=args.cameras, seed=seed, size=tuple(args.size))
             detections = case.detections
             if args.detector == "mediapipe":
-                detections = mediapipe_detections(case)
+                detections = mediapipe_detections(case, args.cache)
                 case = dataclasses.replace(case, detections=detections)
             raw_tracks = detections_as_tracks(case)
             if args.every > 1:

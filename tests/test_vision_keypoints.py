@@ -410,3 +410,81 @@ def test_keypoints_command_keeps_every_hand_for_two_hands(tmp_path):
     wrong = CliRunner().invoke(main, ["keypoints", str(VIDEO), "--hands", "2", "--out",
                                       str(tmp_path / "k.npz")])  # fmt: skip
     assert wrong.exit_code == 2 and "--out: expected a .json file with --hands 2" in wrong.output
+
+
+def _short_video(tmp_path, frames: int = 12):
+    """The first `frames` frames of the example video at a quarter of its size, as an MJPG
+    .avi cut to half its bytes (its container still states all of them)."""
+    import cv2
+
+    cap = cv2.VideoCapture(str(VIDEO))
+    path = tmp_path / "short.avi"
+    writer = None
+    for _ in range(frames):
+        ok, image = cap.read()
+        assert ok
+        image = cv2.resize(image, (image.shape[1] // 4, image.shape[0] // 4))
+        if writer is None:
+            size = (image.shape[1], image.shape[0])
+            writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 30, size)
+        writer.write(image)
+    writer.release()
+    cap.release()
+    whole = path.read_bytes()
+    path.write_bytes(whole[: len(whole) // 2])
+    return path
+
+
+@pytest.mark.filterwarnings("default")  # the CLI prints its warnings
+def test_a_truncated_video_gives_keypoints_that_track_takes_with_allow_short(tmp_path):
+    """`handvar keypoints` reads a video as tracking reads it: a truncated one is refused
+    naming --allow-short, and with it the frames decoded are detected; `handvar track
+    --allow-short` then takes that file (fewer frames than the container states)."""
+    pytest.importorskip("mediapipe")
+    video, out = _short_video(tmp_path), tmp_path / "k.npz"
+    refused = CliRunner().invoke(main, ["keypoints", str(video), "--out", str(out)])
+    assert refused.exit_code == 2 and "--allow-short" in refused.output, refused.output
+    assert not out.exists()
+    res = CliRunner().invoke(main, ["keypoints", str(video), "--out", str(out), "--allow-short"])
+    assert res.exit_code == 0, res.output
+    read = read_keypoints(out).n_frames
+    assert 0 < read < 12
+    res = CliRunner().invoke(main, ["track", str(video), "--keypoints", str(out), "--allow-short",
+                                    "--out", str(tmp_path / "t"), "--no-video"])  # fmt: skip
+    assert res.exit_code == 0, res.output
+    assert f"keypoints of {read} frames, the video's container states 12" in res.output
+    from handvar.pipeline import HandsTrack, Track
+
+    assert Track.load(tmp_path / "t").n_frames == read
+    # both hands: the .json of every hand found, the same way
+    found = tmp_path / "k.json"
+    res = CliRunner().invoke(main, ["keypoints", str(video), "--hands", "2", "--out", str(found),
+                                    "--allow-short"])  # fmt: skip
+    assert res.exit_code == 0, res.output
+    res = CliRunner().invoke(main, ["track", str(video), "--hands", "2", "--keypoints", str(found),
+                                    "--allow-short", "--out", str(tmp_path / "h"),
+                                    "--no-video"])  # fmt: skip
+    assert res.exit_code == 0, res.output
+    assert f"the hands found in {read} frames, the video's container states 12" in res.output
+    assert HandsTrack.load(tmp_path / "h").n_frames == read
+
+
+def test_keypoints_of_an_image_folder_follow_the_frames_in_tracking_order(tmp_path):
+    """Images named 1, 2, 10 are frames 0, 1, 2 (natural order, as tracking reads them),
+    not 1, 10, 2: the keypoints of the folder are those of the video's frames."""
+    import cv2
+
+    pytest.importorskip("mediapipe")
+    from handvar.vision.mediapipe import detect_video
+
+    cap = cv2.VideoCapture(str(VIDEO))
+    folder = tmp_path / "frames"
+    folder.mkdir()
+    for name in ("1", "2", "10"):
+        ok, image = cap.read()
+        assert ok
+        cv2.imwrite(str(folder / f"{name}.png"), image)
+    cap.release()
+    from_folder = detect_video(folder, hand="right")
+    from_video = detect_video(VIDEO, hand="right", frames=3)
+    np.testing.assert_allclose(from_folder, from_video, atol=1e-6)

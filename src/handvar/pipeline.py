@@ -53,6 +53,7 @@ import itertools
 import json
 import os
 import time
+import warnings
 import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -963,8 +964,9 @@ def _open_recording(spec, options: TrackOptions, decided: TrackDefaults, detecte
     if detected is not None:
         from handvar.vision.keypoints import check_keypoints
 
+        short = [_may_be_short(opened, j) for j in range(opened.n_cameras)]
         detected, hand, outside = check_keypoints(
-            detected, opened.n_frames, [r.size for r in opened.readers], hand
+            detected, opened.n_frames, [r.size for r in opened.readers], hand, short
         )
         if len(detected) != opened.n_cameras:
             raise ValueError(
@@ -2157,6 +2159,11 @@ def _detection_files(keypoints, played: _HandsFeed) -> tuple[list[list], int]:
                              f"(handvar keypoints --hands 2 writes one); got {suffix!r}, "
                              f"one hand's keypoints")  # fmt: skip
         frames = read_detections(path)
+        if 0 < len(frames) < opened.n_frames and _may_be_short(opened, len(found)):
+            warnings.warn(f"{path}: the hands found in {len(frames)} frames, the video's "
+                          f"container states {opened.n_frames}; frames after {len(frames)} "
+                          f"taken without a hand (--allow-short)", stacklevel=2)  # fmt: skip
+            frames = frames + [[] for _ in range(opened.n_frames - len(frames))]
         if len(frames) != opened.n_frames:
             raise ValueError(f"{path}: expected the hands found in each of the recording's "
                              f"{opened.n_frames} frames; got {len(frames)} frames")  # fmt: skip
@@ -2164,6 +2171,13 @@ def _detection_files(keypoints, played: _HandsFeed) -> tuple[list[list], int]:
         found.append(frames)
         outside += dropped
     return found, outside
+
+
+def _may_be_short(opened, j: int) -> bool:
+    """Whether camera `j` of `opened` is a video opened with ``allow_short`` (its
+    decoding may stop before its container's frame count)."""
+    reader = opened.readers[j]
+    return reader.allow_short and reader.kind == "video"
 
 
 def _with_rows(values: list, rows: list, n: int, fill: float = 0.0) -> np.ndarray:

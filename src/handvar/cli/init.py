@@ -211,13 +211,15 @@ def _frame_keypoints(files, opened, frame, scale, side):
         return None, hand_side([], side)
     if isinstance(opened, Sequence):
         sizes, per, scale = [c.size for c in opened.rig.cameras], "camera of the sequence", 1.0
+        short = None
     else:
         sizes, per = [reader.size for reader in opened.readers], "source"
+        short = [reader.allow_short and reader.kind == "video" for reader in opened.readers]
     if len(files) != len(sizes):
         raise ValueError(
             f"--keypoints: expected one file per {per} ({len(sizes)}); got {len(files)}"
         )
     read, side, _ = check_keypoints([read_keypoints(p) for p in files], opened.n_frames,
-                                    sizes, side)  # fmt: skip
+                                    sizes, side, short)  # fmt: skip
     return [kp.scaled(scale).frame(frame) if scale != 1.0 else kp.frame(frame)
             for kp in read], side  # fmt: skip

@@ -23,8 +23,12 @@ from handvar.cli.common import _one_line_errors
               help="The video is mirrored (a selfie camera).")  # fmt: skip
 @click.option("--frames", "n_frames", type=click.IntRange(min=1), default=None,
               help="Only the first K frames.")  # fmt: skip
+@click.option("--allow-short", is_flag=True,
+              help="A video that stops decoding before the frame count of its container "
+                   "(truncated or damaged) is read to where it stops, with a warning "
+                   "[default: refused].")  # fmt: skip
 @_one_line_errors
-def keypoints_command(video, out, hands, hand, mirrored, n_frames) -> None:
+def keypoints_command(video, out, hands, hand, mirrored, n_frames, allow_short) -> None:
     """Detect the 21 hand keypoints in every frame of VIDEO with MediaPipe Hands.
 
     VIDEO is a video file or a folder of images. OUT holds, per frame, x and y in
@@ -48,7 +52,7 @@ def keypoints_command(video, out, hands, hand, mirrored, n_frames) -> None:
         if source is click.core.ParameterSource.COMMANDLINE:
             raise ValueError(f"--hand: expected none with --hands 2 (every hand found is "
                              f"kept, with its side); got {hand}")  # fmt: skip
-        return _both_hands(video, out, mirrored, n_frames)
+        return _both_hands(video, out, mirrored, n_frames, allow_short)
     if out.lower().endswith(".json"):
         raise ValueError(f"--out: expected .npz, .npy or .csv for one hand (.json with "
                          f"--hands 2); got {out}")  # fmt: skip
@@ -58,7 +62,7 @@ def keypoints_command(video, out, hands, hand, mirrored, n_frames) -> None:
     try:
         kp = detect_video(
             video, hand=hand, mirrored=mirrored, frames=n_frames, progress=progress,
-            details=True,
+            allow_short=allow_short, details=True,
         )  # fmt: skip
     except MissingExtraError as exc:
         raise ValueError(str(exc)) from None
@@ -82,7 +86,7 @@ def _progress(n_frames):
     return progress
 
 
-def _both_hands(video, out: str, mirrored: bool, n_frames) -> None:
+def _both_hands(video, out: str, mirrored: bool, n_frames, allow_short: bool) -> None:
     """--hands 2: every hand MediaPipe finds (asked for two), per frame, to a .json."""
     from collections import Counter
 
@@ -99,7 +103,8 @@ def _both_hands(video, out: str, mirrored: bool, n_frames) -> None:
     check_output_file(out, "--out", suffixes=(".json",))
     try:
         found = detect_video_hands(video, mirrored=mirrored, frames=n_frames,
-                                   progress=_progress(n_frames))  # fmt: skip
+                                   progress=_progress(n_frames),
+                                   allow_short=allow_short)  # fmt: skip
     except MissingExtraError as exc:
         raise ValueError(str(exc)) from None
     write_detections(out, found)

@@ -284,6 +284,18 @@ class Keypoints2D:
             extras[name] = v
         return Keypoints2D(xy, confidence, self.name, **extras)
 
+    def _padded(self, n_frames: int) -> Keypoints2D:
+        """These keypoints followed by frames without a hand, `n_frames` in all."""
+        extra = n_frames - self.n_frames
+
+        def pad(v, blank):
+            return np.concatenate([v, np.full((extra, *v.shape[1:]), blank, dtype=v.dtype)])
+
+        extras = {name: None if v is None else pad(v, "" if name == "handedness" else np.nan)
+                  for name in ("world", "depth", "presence", "handedness")
+                  for v in [getattr(self, name)]}  # fmt: skip
+        return Keypoints2D(pad(self.xy, np.nan), pad(self.confidence, 0.0), self.name, **extras)
+
     def side(self) -> str | None:
         """The side of the hand by its frames' handedness: "right" or "left", the one
         of most frames with a detection (weighted by the presence when given); None
@@ -436,11 +448,13 @@ def as_frame_keypoints(value, name: str = "keypoints") -> np.ndarray:
     return Keypoints2D.from_array(a[None], name=name).frame(0)
 
 
-def check_keypoints(keypoints, n_frames: int, sizes, hand: str):
+def check_keypoints(keypoints, n_frames: int, sizes, hand: str, short=None):
     """Check a recording's keypoints before tracking; return them cleaned and the side.
 
     - Each camera's keypoints must have the recording's `n_frames` frames and at least
-      one frame with a detected point.
+      one frame with a detected point.  Where `short` allows it (a video opened with
+      ``allow_short``, whose decoding may stop before its container's count), fewer
+      frames are taken, the rest as frames without a hand, with a warning.
     - Coordinates all within [−0.5, 1.5] on a frame larger than 16 pixels are normalised
       coordinates, not pixels: an error.
     - Points more than half a frame beyond its border are not the hand's: they are
@@ -457,6 +471,8 @@ def check_keypoints(keypoints, n_frames: int, sizes, hand: str):
     sizes : sequence of (int, int)
         Per camera the full-resolution frame size (width, height).
     hand : {"right", "left", "auto"}
+    short : sequence of bool, optional
+        Per camera, whether fewer frames than `n_frames` are taken.
 
     Returns
     -------
@@ -471,10 +487,18 @@ def check_keypoints(keypoints, n_frames: int, sizes, hand: str):
         Naming the keypoints (the file) or ``hand``, what was expected and what came.
     """
     out, dropped = [], 0
-    for k, (w, h) in zip(keypoints, sizes, strict=True):
+    short = [False] * len(sizes) if short is None else list(short)
+    for k, (w, h), may_be_short in zip(keypoints, sizes, short, strict=True):
         if k is None:
             out.append(None)
             continue
+        if may_be_short and 0 < k.n_frames < n_frames:
+            warnings.warn(
+                f"{k.name}: keypoints of {k.n_frames} frames, the video's container states "
+                f"{n_frames}; frames after {k.n_frames} taken without a hand (--allow-short)",
+                stacklevel=2,
+            )
+            k = k._padded(n_frames)
         if k.n_frames != n_frames:
             raise ValueError(
                 f"{k.name}: expected keypoints of {n_frames} frames (the recording's); "

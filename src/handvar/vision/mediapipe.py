@@ -40,8 +40,7 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
-from collections.abc import Callable, Iterable, Iterator
-from pathlib import Path
+from collections.abc import Callable, Iterable
 
 import cv2
 import numpy as np
@@ -58,7 +57,6 @@ __all__ = [
 
 #: The MediaPipe release the adapter was written and checked against.
 MEDIAPIPE_VERSION = "0.10.21"
-_IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
 
 
 class MissingExtraError(ImportError):
@@ -324,12 +322,14 @@ def detect_video_hands(
     mirrored: bool = False,
     frames: int | None = None,
     progress: Callable[[Iterable], Iterable] | None = None,
+    allow_short: bool = False,
 ) -> list[list]:
     """Every hand MediaPipe Hands finds (asked for two) in each frame of a video file or
-    a folder of images: per frame a list of `handvar.vision.keypoints.Detection` (points
-    in pixels of the full-resolution frames, world landmarks in mm, side and score), for
-    two hands (`handvar.vision.keypoints.write_detections`)."""
-    it = _video_frames(path, frames, progress)
+    a folder of images (read as `detect_video` reads them): per frame a list of
+    `handvar.vision.keypoints.Detection` (points in pixels of the full-resolution
+    frames, world landmarks in mm, side and score), for two hands
+    (`handvar.vision.keypoints.write_detections`)."""
+    it = _video_frames(path, frames, progress, allow_short)
     detect = MediaPipeHands(mirrored=mirrored)
     try:
         found = [detect(image) for image in it]
@@ -340,39 +340,17 @@ def detect_video_hands(
     return found
 
 
-def _video_frames(path, frames: int | None, progress) -> Iterable[np.ndarray]:
-    """The frames of a video file or image folder for the detector, checked first."""
+def _video_frames(path, frames: int | None, progress, allow_short: bool) -> Iterable[np.ndarray]:
+    """The frames of a video file or image folder for the detector, read as tracking
+    reads them (`handvar.vision.frames.open_frames`: the same order, the same checks)."""
+    from handvar.vision.frames import open_frames
+
     _hands_module()  # fail before reading anything
     if frames is not None and (isinstance(frames, bool) or int(frames) < 1):
         raise ValueError(f"frames: expected an integer >= 1; got {frames!r}")
-    it: Iterable[np.ndarray] = _read_frames(Path(path), frames)
+    reader = open_frames(path, allow_short=allow_short)
+    it: Iterable[np.ndarray] = (image for _, image in reader.frames(stop=frames))
     return it if progress is None else progress(it)
-
-
-def _read_frames(path: Path, stop: int | None) -> Iterator[np.ndarray]:
-    if path.is_dir():
-        files = sorted(p for p in path.iterdir() if p.suffix.lower() in _IMAGE_SUFFIXES)
-        if not files:
-            raise ValueError(f"{path}: expected a video file or a folder of images; got none")
-        for p in files[:stop]:
-            image = cv2.imread(str(p), cv2.IMREAD_COLOR)
-            if image is None:
-                raise ValueError(f"{p}: expected a readable image; got an unreadable file")
-            yield image
-        return
-    cap = cv2.VideoCapture(str(path))
-    try:
-        if not path.is_file() or not cap.isOpened():
-            raise ValueError(f"{path}: expected a readable video file or image folder")
-        index = 0
-        while stop is None or index < stop:
-            ok, image = cap.read()
-            if not ok:
-                return
-            yield image
-            index += 1
-    finally:
-        cap.release()
 
 
 def detect_video(
@@ -381,9 +359,11 @@ def detect_video(
     hand: str = "right",
     frames: int | None = None,
     progress: Callable[[Iterable], Iterable] | None = None,
+    allow_short: bool = False,
     **kwargs,
 ) -> np.ndarray:
-    """`detect_keypoints` on a video file or a folder of images (sorted by name).
+    """`detect_keypoints` on a video file or a folder of images, read as tracking reads
+    them (`handvar.vision.frames.open_frames`: images in natural order of their names).
 
     Parameters
     ----------
@@ -393,6 +373,9 @@ def detect_video(
         Only the first `frames` frames.
     progress : callable, optional, keyword-only
         Wraps the frame iterator (e.g. ``tqdm``).
+    allow_short : bool, keyword-only
+        A video that stops decoding before its container's frame count gives the frames
+        read, with a `handvar.vision.frames.ShortVideoWarning` (default: `ValueError`).
     **kwargs
         Passed to `detect_keypoints`.
 
@@ -401,4 +384,5 @@ def detect_video(
     (T, 21, 3) float64 ndarray or Keypoints2D
         As `detect_keypoints`, in the pixels of the full-resolution frames.
     """
-    return detect_keypoints(_video_frames(path, frames, progress), hand=hand, **kwargs)
+    it = _video_frames(path, frames, progress, allow_short)
+    return detect_keypoints(it, hand=hand, **kwargs)
