@@ -402,11 +402,20 @@ class _Worker:
 def _serve(requests, replies, options: list[dict]) -> None:
     """The detector's process: MediaPipe Hands on each frame sent, the hands found sent
     back, until None comes."""
+    import os
     import pickle
+    import sys
     from multiprocessing import resource_tracker, shared_memory
 
     from handvar.vision.mediapipe import MediaPipeHands, hands_module_alone
 
+    # MediaPipe's C++ logging writes to file descriptor 2 at any frame (a warning at
+    # the first hand found): that goes to the null device, Python's errors still show
+    sys.stderr.flush()
+    sys.stderr = os.fdopen(os.dup(2), "w", buffering=1)
+    null = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(null, 2)
+    os.close(null)
     hands = hands_module_alone()  # this process runs the detector only
     detectors = [MediaPipeHands(**o) for o in options]
     for d in detectors:
