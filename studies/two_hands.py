@@ -20,7 +20,8 @@ the fit:
   those where at least 11 of the hand's 21 points are visible: inside the image and
   not hidden by the other hand);
 - in the last line, the frames a hand is drawn on no true hand (`drawn_off`: a
-  detection's or a track's frames matched to neither hand), and those a hand is
+  detection's or a track's frames matched to neither hand; of the fit's, those it
+  was carried hidden behind the other hand), and those a hand is
   drawn on a true hand of the other side than it says (the detector's label, the
   track's side);
 - the fit's wrist-relative and absolute 3D error (mm), and with MediaPipe its world
@@ -126,6 +127,17 @@ def label_runs(case, score, tracks: dict, results) -> dict:
         if run:
             runs[right].append(run)
     return runs
+
+
+def drawn_off_hidden(score, results) -> int:
+    """Of the frames a track is drawn on no true hand (`score.drawn_off`), those where
+    it was carried hidden behind the other hand (its `FrameResult.hidden`)."""
+    count = 0
+    for t, r in enumerate(results):
+        for key in score.ids:
+            matched = (score.match[:, t] == score.ids.index(key)).any()
+            count += bool(r.hands[key].hidden and not r.hands[key].no_hand and not matched)
+    return count
 
 
 def interpolated(tracks: dict, every: int) -> dict:
@@ -259,7 +271,7 @@ def main() -> None:
         head += f"{'tri':>7}{'fit':>7}"
     print(head + f"{'fits/s':>8}")
     totals = {"det": [], "fit": [], "sw_det": 0, "sw_fit": 0, "lost_det": 0, "lost_fit": 0,
-              "seen_det": 0, "seen_fit": 0, "off_det": 0, "off_fit": 0,
+              "seen_det": 0, "seen_fit": 0, "off_det": 0, "off_fit": 0, "off_hidden": 0,
               "side_det": 0, "side_fit": 0, "runs": {True: [], False: []},
               "rel": [], "abs": [], "mp": [], "tri": [], "same": [], "fps": [],
               "view": 0}  # fmt: skip
@@ -309,6 +321,7 @@ def main() -> None:
                 totals["view"] += int(case.in_view[0, k].sum())
             totals["off_det"] += raw.drawn_off
             totals["off_fit"] += fit.drawn_off
+            totals["off_hidden"] += drawn_off_hidden(fit, results)
             totals["sw_det"] += raw.switches
             totals["sw_fit"] += fit.switches
             totals["fps"].append(fps)
@@ -316,7 +329,8 @@ def main() -> None:
           f"(fit); PCK {np.nanmean(totals['det']):.3f} / {np.nanmean(totals['fit']):.3f}; "
           f"lost {totals['lost_det']} / {totals['lost_fit']} of {totals['view']} hand-frames "
           f"in view ({totals['seen_det']} / {totals['seen_fit']} with at least half the "
-          f"hand visible); drawn on no hand {totals['off_det']} / {totals['off_fit']}; on a "
+          f"hand visible); drawn on no hand {totals['off_det']} / {totals['off_fit']} "
+          f"({totals['off_hidden']} of them carried hidden); on a "
           f"hand of the other side {totals['side_det']} / {totals['side_fit']} (labels "
           f"sure of the other side in a row on a track: at most "
           f"{max(totals['runs'][True], default=0)} where its side is right, "

@@ -1,13 +1,15 @@
 """Both hands on real pixels: each real video beside its mirror image, by the one command.
 
 Usage: PYTHONPATH=src python studies/two_hands_mirrored.py --out DIR [--video NAME ...]
-       [--scale S] [--gap PX]
+       [--scale S] [--gap PX] [--pasted]
 
 No real recording of two hands with ground truth ships with handvar.  This study makes
 one whose identities are known without labelling: each real one-hand video of
 ``examples/data`` is put beside its own mirror image (frame | ``--gap`` grey columns |
 flipped frame), so the real hand is on one half and a hand of the other side, the same motion
-mirrored, on the other; they never cross the middle.  It is tracked as a user would,
+mirrored, on the other; they never cross the middle.  Each half is the frame as the
+wider camera would film the scene turned towards it (`mirrored_video`: warped by the
+rotation's homography), or with ``--pasted`` the frame as it is.  It is tracked as a user would,
 ``handvar track VIDEO --hands 2 --scale S --fov F --out DIR --no-video`` (MediaPipe
 inside; F gives each half the focal length assumed for the video alone), and read
 back with `handvar.pipeline.HandsTrack.load`.  Printed per video:
@@ -22,7 +24,8 @@ back with `handvar.pipeline.HandsTrack.load`.  Printed per video:
   skipped for this);
 - each hand's keypoint check (`handvar.tracking.recovery.TrackQuality.check`: on
   every frame with a detection the joints within 0.2 hand sizes of 98 % of the
-  keypoints kept) and the frames it fails on;
+  keypoints kept), the frames it fails on, the farthest keypoint and the one most
+  often beyond 0.2 hand sizes;
 - mirror agreement: the composite is its own mirror image about its middle column and
   the assumed camera's principal point lies on it, so the scene is symmetric about the
   camera's x = 0 plane; the right hand's joints against the left hand's with x negated
@@ -53,26 +56,62 @@ VIDEOS = {
 }
 
 
-def mirrored_video(src: Path, dst: Path, gap: int = 0) -> int:
+def mirrored_video(src: Path, dst: Path, gap: int = 0, pasted: bool = False) -> int:
     """Write `src` beside its mirror image, `gap` grey columns between, to `dst` (MP4);
-    its width."""
+    its width.
+
+    By default each half is what the composite's camera (the video's assumed focal
+    length, `handvar.vision.sources.SOURCE_SETTINGS`) sees of the scene when the video's
+    own camera is turned by the angle of that half's centre: the frame warped by the
+    rotation's homography K R K⁻¹, as a wider camera would film the same hand off its
+    axis.  With `pasted` the frames are placed side by side as they are, which no
+    pinhole camera films: an off-axis hand is stretched by up to 1 / cos² of its angle.
+    """
+    from handvar.vision.sources import SOURCE_SETTINGS
+
     cap = cv2.VideoCapture(str(src))
     fps = cap.get(cv2.CAP_PROP_FPS) or 30.0
-    writer, width = None, 0
+    writer, width, warp = None, 0, None
     while True:
         ok, frame = cap.read()
         if not ok:
             break
-        middle = np.full((frame.shape[0], gap, 3), 128, np.uint8)
-        both = np.hstack([frame, middle, cv2.flip(frame, 1)])
+        h, w = frame.shape[:2]
+        width = 2 * w + gap
+        if pasted:
+            middle = np.full((h, gap, 3), 128, np.uint8)
+            both = np.hstack([frame, middle, cv2.flip(frame, 1)])
+        else:
+            if warp is None:
+                f = (w / 2) / np.tan(np.radians(SOURCE_SETTINGS.fov) / 2)
+                warp = turned_homography(f, (w, h), width)
+            left = cv2.warpPerspective(frame, warp, (width, h), flags=cv2.INTER_LINEAR,
+                                       borderValue=(128, 128, 128))  # fmt: skip
+            both = np.where(np.arange(width)[None, :, None] < w, left, 128).astype(np.uint8)
+            both[:, w + gap :] = cv2.flip(both, 1)[:, w + gap :]
         if writer is None:
-            width = both.shape[1]
             fourcc = cv2.VideoWriter_fourcc(*"mp4v")
             writer = cv2.VideoWriter(str(dst), fourcc, fps, (width, both.shape[0]))
         writer.write(both)
     cap.release()
     writer.release()
     return width
+
+
+def turned_homography(f: float, size: tuple[int, int], width: int) -> np.ndarray:
+    """(3, 3) the homography K_wide R K⁻¹ from a frame of `size` (w, h) to the left half
+    of a frame `width` wide, both of focal length `f` (pixels) with the principal point
+    at their centre: the camera turned about its centre by the angle at which the wide
+    frame sees its left half's centre (the frame's centre lands there)."""
+    w, h = size
+    angle = np.arctan((width / 2 - w / 2) / f)
+    c, s = np.cos(angle), np.sin(angle)
+    turn = np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]])
+
+    def k(cx: float) -> np.ndarray:
+        return np.array([[f, 0.0, cx], [0.0, f, (h - 1) / 2], [0.0, 0.0, 1.0]])
+
+    return k((width - 1) / 2) @ turn @ np.linalg.inv(k((w - 1) / 2))
 
 
 def reference_presence(name: str, n: int) -> np.ndarray | None:
@@ -124,12 +163,13 @@ def identity_errors(half: dict) -> tuple[int, int]:
     return switches, same_half
 
 
-def study(name: str, out: Path, scale: float, gap: int) -> None:
+def study(name: str, out: Path, scale: float, gap: int, pasted: bool = False) -> None:
     from handvar.pipeline import HandsTrack
+    from handvar.vision.keypoints import KEYPOINT_NAMES
     from handvar.vision.sources import SOURCE_SETTINGS
 
     video = out / f"{name}-mirrored.mp4"
-    width = mirrored_video(DATA / VIDEOS[name], video, gap)
+    width = mirrored_video(DATA / VIDEOS[name], video, gap, pasted)
     target = out / name
     # each half seen by the camera assumed for the video alone (its focal length)
     alone = (width - gap) / 2
@@ -148,8 +188,10 @@ def study(name: str, out: Path, scale: float, gap: int) -> None:
     half, drawn = {}, {}
     for track in hands.tracks.values():
         side = track.shape.side
-        with np.errstate(invalid="ignore"):
-            x = np.nanmean(track.projected[0, :, :, 0], axis=1)  # full-resolution pixels
+        u = track.projected[0, :, :, 0]  # full-resolution pixels
+        seen = np.isfinite(u).any(axis=1)
+        x = np.full(len(u), np.nan)
+        x[seen] = np.nanmean(u[seen], axis=1)
         drawn[side] = np.isfinite(x) & ~track.quality.no_hand
         half[side] = np.where(drawn[side], (x >= width / 2).astype(int), -1)
     switches, same_half = identity_errors(half)
@@ -163,9 +205,13 @@ def study(name: str, out: Path, scale: float, gap: int) -> None:
         frames = track.quality.keypoints  # every frame with keypoints: all detected here
         ok, worst, _ = track.quality.check(frames=frames)
         failing = track.quality.failing(frames=frames)
+        d = track.quality.distances[frames]  # (n, n_cams, 21) hand sizes
+        far = (np.nan_to_num(d, nan=0.0) > 0.2).sum(axis=(0, 1))
+        most = f"; most often off: {KEYPOINT_NAMES[int(far.argmax())]}" if far.any() else ""
         checks.append(f"{side} {'holds' if ok else 'FAILS'} (fails on {failing} of "
                       f"{int(frames.sum())} frames with a detection; worst "
-                      f"{100 * worst:.1f} %)")  # fmt: skip
+                      f"{100 * worst:.1f} %; farthest keypoint {np.nanmax(d):.2f} hand "
+                      f"sizes{most})")  # fmt: skip
     mirror = "-"
     if len(hands.tracks) == 2:
         left, right = hands.side("left").joints, hands.side("right").joints
@@ -195,10 +241,13 @@ def main() -> None:
     parser.add_argument("--scale", type=float, default=0.5)
     parser.add_argument("--gap", type=int, default=64,
                         help="grey columns between a frame and its mirror image")  # fmt: skip
+    parser.add_argument("--pasted", action="store_true",
+                        help="the frames side by side as they are, not as the wider camera "
+                             "turned would film them")  # fmt: skip
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     for name in args.video:
-        study(name, args.out, args.scale, args.gap)
+        study(name, args.out, args.scale, args.gap, args.pasted)
 
 
 if __name__ == "__main__":
