@@ -45,6 +45,7 @@ their calibration files. The distortion's formula lives in `handvar.geometry.dis
 
 from __future__ import annotations
 
+import functools
 import os
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
@@ -182,9 +183,9 @@ class Camera:
         """(3,) unit optical axis (camera +z) in world coordinates."""
         return self.R[2].copy()
 
-    @property
+    @functools.cached_property
     def has_distortion(self) -> bool:
-        """True when any distortion coefficient is non-zero."""
+        """True when any distortion coefficient is non-zero (`dist` is read-only)."""
         return bool(np.any(self.dist))
 
     # -- geometry --

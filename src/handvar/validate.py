@@ -158,18 +158,24 @@ def as_array(
     ...
     ValueError: points: expected an array of shape (N, 3); got shape (1, 2)
     """
-    want = what if shape is None else f"{what} of shape {fmt_shape(shape)}"
-    if isinstance(value, str | bytes):
-        raise TypeError(f"{name}: expected {want}; got {value!r}")
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name}: expected {want}; got {_short(value)}") from None
+
+    def want() -> str:  # built only for a message: this check runs in the fits' loops
+        return what if shape is None else f"{what} of shape {fmt_shape(shape)}"
+
+    if type(value) is np.ndarray and value.dtype == np.float64:
+        arr = value  # what np.asarray would return
+    else:
+        if isinstance(value, str | bytes):
+            raise TypeError(f"{name}: expected {want()}; got {value!r}")
+        try:
+            arr = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            raise TypeError(f"{name}: expected {want()}; got {_short(value)}") from None
     if shape is not None and (
         arr.ndim != len(shape)
         or any(s is not None and a != s for a, s in zip(arr.shape, shape, strict=True))
     ):
-        raise ValueError(f"{name}: expected {want}; got shape {arr.shape}")
+        raise ValueError(f"{name}: expected {want()}; got shape {arr.shape}")
     if finite and not np.all(np.isfinite(arr)):
         raise ValueError(f"{name}: expected finite values; got NaN or infinity")
     return arr
