@@ -148,6 +148,6 @@ def check_pose(x, name: str = "x") -> np.ndarray:
     arr = np.asarray(x, dtype=float)
     if arr.shape != (N_PARAMS,):
         raise ValueError(f"{name}: expected a pose of shape (26,); got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
+    if not np.isfinite(arr).all():
         raise ValueError(f"{name}: expected finite values; got NaN or infinity")
     return arr

@@ -176,7 +176,7 @@ def as_array(
         or any(s is not None and a != s for a, s in zip(arr.shape, shape, strict=True))
     ):
         raise ValueError(f"{name}: expected {want()}; got shape {arr.shape}")
-    if finite and not np.all(np.isfinite(arr)):
+    if finite and not np.isfinite(arr).all():
         raise ValueError(f"{name}: expected finite values; got NaN or infinity")
     return arr
 

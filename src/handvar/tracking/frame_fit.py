@@ -283,6 +283,8 @@ class _Problem:
     def __init__(self, hand, rig, kp, prior, sigma, world, settings, start, silhouettes=None):
         self.hand, self.rig, self.kp, self.s = hand, rig, kp, settings
         self.prior, self.sigma = prior, sigma
+        if prior is not None:
+            self._prior_jacobian = np.diag(1.0 / sigma)
         self.world = None  # relative to its wrist, in the first camera's axes
         if world is not None:
             seen = np.where(kp[0, :, 2:] > 0, kp[0, :, :2], np.nan)
@@ -325,7 +327,7 @@ class _Problem:
         if self.prior is not None:
             rows.append((x - self.prior) / self.sigma)
             if jacobian:
-                jac.append(np.diag(1.0 / self.sigma))
+                jac.append(self._prior_jacobian)
         if self.world is not None:
             W = (G - G[WRIST]) @ self.R0.T
             ok = self.world_ok
