@@ -964,7 +964,7 @@ def _open_recording(spec, options: TrackOptions, decided: TrackDefaults, detecte
     if detected is not None:
         from handvar.vision.keypoints import check_keypoints
 
-        short = [_may_be_short(opened, j) for j in range(opened.n_cameras)]
+        short = [reader.may_end_early for reader in opened.readers]
         detected, hand, outside = check_keypoints(
             detected, opened.n_frames, [r.size for r in opened.readers], hand, short
         )
@@ -2159,7 +2159,7 @@ def _detection_files(keypoints, played: _HandsFeed) -> tuple[list[list], int]:
                              f"(handvar keypoints --hands 2 writes one); got {suffix!r}, "
                              f"one hand's keypoints")  # fmt: skip
         frames = read_detections(path)
-        if 0 < len(frames) < opened.n_frames and _may_be_short(opened, len(found)):
+        if 0 < len(frames) < opened.n_frames and opened.readers[len(found)].may_end_early:
             warnings.warn(f"{path}: the hands found in {len(frames)} frames, the video's "
                           f"container states {opened.n_frames}; frames after {len(frames)} "
                           f"taken without a hand (--allow-short)", stacklevel=2)  # fmt: skip
@@ -2171,13 +2171,6 @@ def _detection_files(keypoints, played: _HandsFeed) -> tuple[list[list], int]:
         found.append(frames)
         outside += dropped
     return found, outside
-
-
-def _may_be_short(opened, j: int) -> bool:
-    """Whether camera `j` of `opened` is a video opened with ``allow_short`` (its
-    decoding may stop before its container's frame count)."""
-    reader = opened.readers[j]
-    return reader.allow_short and reader.kind == "video"
 
 
 def _with_rows(values: list, rows: list, n: int, fill: float = 0.0) -> np.ndarray:

@@ -214,7 +214,7 @@ def _frame_keypoints(files, opened, frame, scale, side):
         short = None
     else:
         sizes, per = [reader.size for reader in opened.readers], "source"
-        short = [reader.allow_short and reader.kind == "video" for reader in opened.readers]
+        short = [reader.may_end_early for reader in opened.readers]
     if len(files) != len(sizes):
         raise ValueError(
             f"--keypoints: expected one file per {per} ({len(sizes)}); got {len(files)}"

@@ -88,6 +88,11 @@ class FrameReader:
         """The file or folder name, used in messages."""
         return self.path.name
 
+    @property
+    def may_end_early(self) -> bool:
+        """A video opened with `allow_short`: its frames may end before `n_frames`."""
+        return self.allow_short and self.kind == "video"
+
     def frames(self, start: int = 0, stop: int | None = None) -> Iterator[tuple[int, np.ndarray]]:
         """Frames ``start, start + 1, …`` up to `stop` (exclusive) or the end.
 
