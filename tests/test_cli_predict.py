@@ -18,6 +18,7 @@ from handvar.predictors import NoMotion, one_step_predictions
 from handvar.predictors.catalogue import CATALOGUE
 
 
+@pytest.mark.slow  # 13 s, the whole recording; the tests below run on parts of real ones
 def test_predict_table_on_the_real_recording(tmp_path):
     out = tmp_path / "table.csv"
     result = CliRunner().invoke(

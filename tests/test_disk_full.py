@@ -131,6 +131,7 @@ def test_a_full_disk_is_named_in_one_line(name, full, inputs):
     assert (folder / "old.txt").read_bytes() == b"old\n"
 
 
+@pytest.mark.slow  # 11 s; track and predict on a full disk stay in the default run
 def test_experiment_its_resume_and_report_on_a_full_disk(full, tmp_path):
     from handvar.evaluation.config import ExperimentConfig
     from handvar.evaluation.store import create_store, damaged_trials, write_scores, write_trial
