@@ -167,17 +167,17 @@ def mediapipe_detections(case, cache=None):
     from handvar.vision.mediapipe import MediaPipeHands
 
     out = []
+    height, width = case.frames.shape[2:4]
     for j in range(len(case.rig)):
-        height, width = case.frames.shape[2:4]
-        path = Path(cache or ".") / f"{case.name}-{width}x{height}-cam{j}.json"
-        if cache is not None and path.exists():
+        path = None if cache is None else Path(cache) / f"{case.name}-{width}x{height}-cam{j}.json"
+        if path is not None and path.exists():
             out.append(read_detections(path))
             continue
         detect = MediaPipeHands()
         out.append([detect(cv2.cvtColor(case.frames[j, t], cv2.COLOR_RGB2BGR))
                     for t in range(case.n_frames)])  # fmt: skip
         detect.close()
-        if cache is not None:
+        if path is not None:
             path.parent.mkdir(parents=True, exist_ok=True)
             write_detections(path, out[-1])
     return out

@@ -67,7 +67,6 @@ def mirrored_video(src: Path, dst: Path, gap: int = 0, pasted: bool = False) -> 
     axis.  With `pasted` the frames are placed side by side as they are, which no
     pinhole camera films: an off-axis hand is stretched by up to 1 / cos² of its angle.
     """
-    from handvar.vision.sources import SOURCE_SETTINGS
 
     cap = cv2.VideoCapture(str(src))
     fps = cap.get(cv2.CAP_PROP_FPS) or 30.0
@@ -83,8 +82,7 @@ def mirrored_video(src: Path, dst: Path, gap: int = 0, pasted: bool = False) -> 
             both = np.hstack([frame, middle, cv2.flip(frame, 1)])
         else:
             if warp is None:
-                f = (w / 2) / np.tan(np.radians(SOURCE_SETTINGS.fov) / 2)
-                warp = turned_homography(f, (w, h), width)
+                warp = turned_homography((w, h), width)
             left = cv2.warpPerspective(frame, warp, (width, h), flags=cv2.INTER_LINEAR,
                                        borderValue=(128, 128, 128))  # fmt: skip
             both = np.where(np.arange(width)[None, :, None] < w, left, 128).astype(np.uint8)
@@ -98,20 +96,29 @@ def mirrored_video(src: Path, dst: Path, gap: int = 0, pasted: bool = False) -> 
     return width
 
 
-def turned_homography(f: float, size: tuple[int, int], width: int) -> np.ndarray:
+def wide_fov(w: int, width: int) -> float:
+    """Horizontal field of view (degrees) of a frame `width` wide whose focal length is
+    the one assumed for a frame `w` wide (`SOURCE_SETTINGS.fov`)."""
+    from handvar.vision.sources import SOURCE_SETTINGS
+
+    return float(2 * np.degrees(np.arctan(width / w * np.tan(np.radians(SOURCE_SETTINGS.fov) / 2))))
+
+
+def turned_homography(size: tuple[int, int], width: int) -> np.ndarray:
     """(3, 3) the homography K_wide R K⁻¹ from a frame of `size` (w, h) to the left half
-    of a frame `width` wide, both of focal length `f` (pixels) with the principal point
-    at their centre: the camera turned about its centre by the angle at which the wide
-    frame sees its left half's centre (the frame's centre lands there)."""
+    of a frame `width` wide, both cameras as handvar assumes them (`Camera.assumed`, one
+    focal length): the camera turned about its centre by the angle at which the wide
+    one sees its left half's centre (the frame's centre lands there)."""
+    from handvar.camera import Camera
+    from handvar.vision.sources import SOURCE_SETTINGS
+
     w, h = size
-    angle = np.arctan((width / 2 - w / 2) / f)
+    alone = Camera.assumed((w, h), fov=SOURCE_SETTINGS.fov)
+    wide = Camera.assumed((width, h), fov=wide_fov(w, width))
+    angle = np.arctan((wide.cx - alone.cx) / wide.fx)
     c, s = np.cos(angle), np.sin(angle)
     turn = np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]])
-
-    def k(cx: float) -> np.ndarray:
-        return np.array([[f, 0.0, cx], [0.0, f, (h - 1) / 2], [0.0, 0.0, 1.0]])
-
-    return k((width - 1) / 2) @ turn @ np.linalg.inv(k((w - 1) / 2))
+    return wide.K @ turn @ np.linalg.inv(alone.K)
 
 
 def reference_presence(name: str, n: int) -> np.ndarray | None:
@@ -165,15 +172,14 @@ def identity_errors(half: dict) -> tuple[int, int]:
 
 def study(name: str, out: Path, scale: float, gap: int, pasted: bool = False) -> None:
     from handvar.pipeline import HandsTrack
+    from handvar.tracking.frame_fit import CHECK_THRESHOLD
     from handvar.vision.keypoints import KEYPOINT_NAMES
-    from handvar.vision.sources import SOURCE_SETTINGS
 
     video = out / f"{name}-mirrored.mp4"
     width = mirrored_video(DATA / VIDEOS[name], video, gap, pasted)
     target = out / name
     # each half seen by the camera assumed for the video alone (its focal length)
-    alone = (width - gap) / 2
-    fov = 2 * np.degrees(np.arctan(width / alone * np.tan(np.radians(SOURCE_SETTINGS.fov) / 2)))
+    fov = wide_fov((width - gap) // 2, width)
     command = [sys.executable, "-m", "handvar", "track", str(video), "--hands", "2",
                "--scale", str(scale), "--fov", f"{fov:.4f}", "--out", str(target),
                "--no-video"]  # fmt: skip
@@ -206,7 +212,7 @@ def study(name: str, out: Path, scale: float, gap: int, pasted: bool = False) ->
         ok, worst, _ = track.quality.check(frames=frames)
         failing = track.quality.failing(frames=frames)
         d = track.quality.distances[frames]  # (n, n_cams, 21) hand sizes
-        far = (np.nan_to_num(d, nan=0.0) > 0.2).sum(axis=(0, 1))
+        far = (np.nan_to_num(d, nan=0.0) > CHECK_THRESHOLD).sum(axis=(0, 1))
         most = f"; most often off: {KEYPOINT_NAMES[int(far.argmax())]}" if far.any() else ""
         checks.append(f"{side} {'holds' if ok else 'FAILS'} (fails on {failing} of "
                       f"{int(frames.sum())} frames with a detection; worst "
