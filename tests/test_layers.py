@@ -42,7 +42,7 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "handvar"
 
 # design §12, from the bottom.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("validate", "data"),
+    ("validate", "data", "lazy"),
     ("atomic", "geometry"),
     ("camera", "params"),
     ("hand",),

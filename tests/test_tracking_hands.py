@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from handvar.evaluation.realistic import motion_poses, realistic_rig
 from handvar.hand.anthropometry import HandShape
@@ -22,6 +24,7 @@ from handvar.tracking.hands import (
     SIDE_RUN,
     HandsTracker,
     assign,
+    least_cost_pairs,
 )
 from handvar.tracking.keypoint_cost import keypoint_points
 from handvar.vision.keypoints import Detection
@@ -223,6 +226,22 @@ def test_assign_keeps_identities_by_place_and_leaves_far_detections_out():
     near = Detection(np.c_[a + 2.0, np.ones(21)], side="left", score=0.99)
     assert assign([a], ["right"], [far, near], [1.0]) == {0: 1}
     assert assign([a], ["right"], [far], [1.0]) == {}
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(1, 2), st.integers(1, 5), st.integers(0, 2**32 - 1))
+def test_least_cost_pairs_is_scipys_linear_sum_assignment(n, m, seed):
+    from scipy.optimize import linear_sum_assignment
+
+    rng = np.random.default_rng(seed)
+    cost = rng.exponential(1.0, (n, m))
+    cost[rng.random((n, m)) < 0.2] = 1e6  # out of reach, as `assign` gives them
+    for c in (cost, cost.T):
+        rows, columns = linear_sum_assignment(c)
+        pairs = least_cost_pairs(c)
+        assert len(pairs) == min(c.shape)  # one to one, the smaller side all paired
+        assert len({r for r, _ in pairs}) == len({k for _, k in pairs}) == len(pairs)
+        assert sum(c[r, k] for r, k in pairs) == pytest.approx(c[rows, columns].sum())
 
 
 def test_wrong_input_names_the_argument():

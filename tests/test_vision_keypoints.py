@@ -184,6 +184,17 @@ def test_mediapipe_is_not_imported_by_the_package():
     assert out.stdout.strip() == "False"
 
 
+def test_the_detectors_process_loads_neither_scipy_nor_numba():
+    # what `python -m handvar.vision.detector` imports before MediaPipe: each of the two
+    # detector processes of a run starts that much sooner (the package's names are lazy)
+    code = (
+        "import sys, handvar.vision.detector, handvar.vision.mediapipe; "
+        "print(sorted(m for m in ('scipy', 'numba', 'handvar.vision.skin') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+
+
 def test_keypoints_command_without_the_extra(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "mediapipe", None)  # as if not installed
     res = CliRunner().invoke(main, ["keypoints", str(VIDEO), "--out", str(tmp_path / "k.npy")])

@@ -23,34 +23,23 @@ optimisers)::
 
 from __future__ import annotations
 
-import importlib
 from typing import TYPE_CHECKING
+
+from handvar.lazy import attach
 
 __version__ = "0.1.0"
 
-#: public name -> the module that defines it
-_LAZY = {
-    "track": "handvar.pipeline",
-    "Track": "handvar.pipeline",
-    "HandsTrack": "handvar.pipeline",
-    "HandsTracker": "handvar.tracking.hands",
-    "HandsResult": "handvar.tracking.hands",
-    "HandTracker": "handvar.tracking.hand_tracker",
-    "FrameResult": "handvar.tracking.hand_tracker",
-    "HandModel": "handvar.hand.kinematics",
-    "HandShape": "handvar.hand.anthropometry",
-    "HandLandmark": "handvar.hand.anthropometry",
-    "make_predictor": "handvar.predictors.catalogue",
-    "Predictor": "handvar.predictors",
-    "NoMotion": "handvar.predictors",
-    "Decelerating": "handvar.predictors",
-    "VAR": "handvar.predictors",
-    "RVAR": "handvar.predictors",
-    "OfflineVAR": "handvar.predictors",
-    "KalmanCV": "handvar.predictors",
-    "OneEuro": "handvar.predictors",
-    "AdaptiveBank": "handvar.predictors",
-}
+# imported on first use
+__getattr__, __dir__ = attach(__name__, {
+    "handvar.pipeline": ["track", "Track", "HandsTrack"],
+    "handvar.tracking.hands": ["HandsTracker", "HandsResult"],
+    "handvar.tracking.hand_tracker": ["HandTracker", "FrameResult"],
+    "handvar.hand.kinematics": ["HandModel"],
+    "handvar.hand.anthropometry": ["HandShape", "HandLandmark"],
+    "handvar.predictors.catalogue": ["make_predictor"],
+    "handvar.predictors": ["Predictor", "NoMotion", "Decelerating", "VAR", "RVAR",
+                           "OfflineVAR", "KalmanCV", "OneEuro", "AdaptiveBank"],
+})  # fmt: skip
 
 __all__ = [
     "RVAR",
@@ -94,17 +83,3 @@ if TYPE_CHECKING:  # what static checkers and editors see
     from handvar.predictors.catalogue import make_predictor
     from handvar.tracking.hand_tracker import FrameResult, HandTracker
     from handvar.tracking.hands import HandsResult, HandsTracker
-
-
-def __getattr__(name: str):
-    """Import the module of a public name on first use (PEP 562)."""
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'handvar' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value  # later look-ups skip this function
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *__all__})

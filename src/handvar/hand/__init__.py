@@ -14,31 +14,48 @@
   and :mod:`~handvar.hand.raster`, the scan conversion of its triangles.
 """
 
-from handvar.geometry.projected import ProjectedPrimitives
-from handvar.hand.anthropometry import (
-    BONES,
-    JOINTS,
-    MIDDLE_MCP,
-    WRIST,
-    HandProportions,
-    HandShape,
-)
-from handvar.hand.kinematics import POSE_NAMES, HandModel, named_pose
-from handvar.hand.surface import Primitives, SurfaceSamples
-from handvar.params import (
-    DIGITS,
-    GROUPS,
-    LOWER,
-    N_PARAMS,
-    NAMES,
-    UNITS,
-    UPPER,
-    check_pose,
-    clamp,
-    hand_blocks,
-    index,
-    within_limits,
-)
+from typing import TYPE_CHECKING
+
+from handvar.lazy import attach
+
+# imported on first use: `handvar.hand.anthropometry` alone (a keypoint file's reader
+# needs its names) loads neither numba nor the surface's geometry
+__getattr__, __dir__ = attach(__name__, {
+    "handvar.geometry.projected": ["ProjectedPrimitives"],
+    "handvar.hand.anthropometry": ["BONES", "JOINTS", "MIDDLE_MCP", "WRIST",
+                                   "HandProportions", "HandShape"],
+    "handvar.hand.kinematics": ["POSE_NAMES", "HandModel", "named_pose"],
+    "handvar.hand.surface": ["Primitives", "SurfaceSamples"],
+    "handvar.params": ["DIGITS", "GROUPS", "LOWER", "N_PARAMS", "NAMES", "UNITS", "UPPER",
+                       "check_pose", "clamp", "hand_blocks", "index", "within_limits"],
+})  # fmt: skip
+
+if TYPE_CHECKING:  # what static checkers and editors see
+    from handvar.geometry.projected import ProjectedPrimitives
+    from handvar.hand.anthropometry import (
+        BONES,
+        JOINTS,
+        MIDDLE_MCP,
+        WRIST,
+        HandProportions,
+        HandShape,
+    )
+    from handvar.hand.kinematics import POSE_NAMES, HandModel, named_pose
+    from handvar.hand.surface import Primitives, SurfaceSamples
+    from handvar.params import (
+        DIGITS,
+        GROUPS,
+        LOWER,
+        N_PARAMS,
+        NAMES,
+        UNITS,
+        UPPER,
+        check_pose,
+        clamp,
+        hand_blocks,
+        index,
+        within_limits,
+    )
 
 __all__ = [
     "BONES",

@@ -7,31 +7,52 @@ camera's video file or image folder, and `sources` puts the cameras of a recordi
 together with their rig.
 """
 
-from handvar.vision.silhouette import (
-    CLEANUP_SETTINGS,
-    CleanupSettings,
-    EmptySilhouetteError,
-    NotAHandError,
-    clean_mask,
-    nearest_silhouette_pixel,
-    silhouettes_from_frames,
-    silhouettes_from_videos,
-)
-from handvar.vision.skin import (
-    SKIN_SETTINGS,
-    GaussianMixture,
-    HistogramSkinModel,
-    SkinModel,
-    SkinSettings,
-    jones_rehg_mixtures,
-)
-from handvar.vision.wrist import (
-    WRIST_CUT_SETTINGS,
-    WristCut,
-    WristCutSettings,
-    cut_wrist,
-    find_wrist,
-)
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from handvar.lazy import attach
+
+# imported on first use: importing one module of the package (the detector's process
+# imports `handvar.vision.mediapipe` alone) loads neither SciPy's image tools nor the
+# skin model's tables
+__getattr__, __dir__ = attach(__name__, {
+    "handvar.vision.silhouette": ["CLEANUP_SETTINGS", "CleanupSettings",
+                                  "EmptySilhouetteError", "NotAHandError", "clean_mask",
+                                  "nearest_silhouette_pixel", "silhouettes_from_frames",
+                                  "silhouettes_from_videos"],
+    "handvar.vision.skin": ["SKIN_SETTINGS", "GaussianMixture", "HistogramSkinModel",
+                            "SkinModel", "SkinSettings", "jones_rehg_mixtures"],
+    "handvar.vision.wrist": ["WRIST_CUT_SETTINGS", "WristCut", "WristCutSettings",
+                             "cut_wrist", "find_wrist"],
+})  # fmt: skip
+
+if TYPE_CHECKING:  # what static checkers and editors see
+    from handvar.vision.silhouette import (
+        CLEANUP_SETTINGS,
+        CleanupSettings,
+        EmptySilhouetteError,
+        NotAHandError,
+        clean_mask,
+        nearest_silhouette_pixel,
+        silhouettes_from_frames,
+        silhouettes_from_videos,
+    )
+    from handvar.vision.skin import (
+        SKIN_SETTINGS,
+        GaussianMixture,
+        HistogramSkinModel,
+        SkinModel,
+        SkinSettings,
+        jones_rehg_mixtures,
+    )
+    from handvar.vision.wrist import (
+        WRIST_CUT_SETTINGS,
+        WristCut,
+        WristCutSettings,
+        cut_wrist,
+        find_wrist,
+    )
 
 __all__ = [
     "CLEANUP_SETTINGS",

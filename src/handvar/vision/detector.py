@@ -306,13 +306,13 @@ def _detect_in_process(
     import collections
 
     workers = [_Worker(options) for _ in range(processes)]
-    for worker in workers:  # MediaPipe loaded and warmed up before the first frame is read
-        worker.received()
     slots = _Slots(depth * processes)
     pending: collections.deque = collections.deque()  # (index, seconds, images, slot, k)
     frames = iter(feed)
     more, sent = True, 0
     try:
+        for worker in workers:  # MediaPipe loaded and warmed up before the first frame is read
+            worker.received()
         while True:
             while more and slots.free:  # keep the detectors `depth` frames ahead each
                 item = next(frames, None)
@@ -335,6 +335,8 @@ def _detect_in_process(
                 slots.free.append(slot)
             yield index, seconds, images, found
     finally:
+        for worker in workers:  # all told to end, then each waited for
+            worker.stop()
         for worker in workers:
             worker.close()
         slots.close()
@@ -383,12 +385,17 @@ class _Worker:
             raise ValueError(message)
         return [[Detection(p, w, side=s, score=c) for p, w, s, c in hands] for hands in message]
 
-    def close(self) -> None:
+    def stop(self) -> None:
+        """Tell the process to end (it ends at the frame it is on)."""
         try:
             self.send(None)
             self.process.stdin.close()
         except (OSError, ValueError):
             pass
+
+    def close(self) -> None:
+        """End the process (`stop`, if not told already) and wait for it."""
+        self.stop()
         import subprocess
 
         try:

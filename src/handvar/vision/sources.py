@@ -49,7 +49,6 @@ import numpy as np
 from handvar.camera import Camera, Rig
 from handvar.validate import as_float, as_instance
 from handvar.vision.frames import IMAGE_SUFFIXES, FrameReader, check_frame_range, open_frames
-from handvar.vision.silhouette import silhouettes_from_frames
 
 __all__ = [
     "IMAGE_SUFFIXES",
@@ -151,7 +150,7 @@ def frame_silhouettes(
     -------
     (n_cams, H, W) bool ndarray
     """
-    from handvar.vision.silhouette import EmptySilhouetteError
+    from handvar.vision.silhouette import EmptySilhouetteError, silhouettes_from_frames
 
     masks = []
     for j, image in enumerate(images):
