@@ -277,6 +277,39 @@ def test_the_silhouette_rows_gradient_matches_finite_differences():
     np.testing.assert_allclose(J.T @ r, numeric, rtol=1e-4, atol=1e-6 * np.abs(numeric).max())
 
 
+def test_the_keypoint_rows_are_the_projections_error_and_their_jacobian_its_derivative():
+    from handvar.camera import Camera
+    from handvar.tracking.frame_fit import FRAME_FIT_DEFAULTS, _clean, _Problem
+
+    hand, x = HandModel(), named_pose("point")
+    rig = Rig.default()  # the second camera with lens distortion, rational model too
+    cam = rig.cameras[1].to_dict() | {"dist": [0.1, -0.05, 0.002, -0.001, 0.01, 0.02, 0.0, 0.01]}
+    rig = Rig([rig.cameras[0], Camera.from_dict(cam)], rig.names)
+    moved = x.copy()
+    moved[:3] += (1.0, -1.0, 2.0)
+    moved[[14, 17]] += (3.0, -2.0)
+    kp = _clean(keypoints(hand, rig, x), len(rig), 0.05)
+    kp[0, 5, 2] = 0.0  # a keypoint not found: no row
+    kp[1, :, 2] = 0.6  # a less sure camera
+    problem = _Problem(hand, rig, kp, None, None, None, FRAME_FIT_DEFAULTS, x)
+    r, J = problem.rows(moved)
+    # the rows by the camera's own projection (within Huber's quadratic part, β = 1)
+    s = FRAME_FIT_DEFAULTS
+    G = hand.joints(moved)
+    expected = []
+    for j, cam in enumerate(rig):
+        ok = kp[j, :, 2] > 0
+        e = (cam.project(G[ok]) - kp[j, ok, :2]) / problem.sizes[j]
+        assert (np.linalg.norm(e, axis=1) <= s.huber).all()
+        expected.append((np.sqrt(kp[j, ok, 2])[:, None] * e / s.noise).ravel())
+    np.testing.assert_allclose(r, np.concatenate(expected), rtol=1e-9, atol=1e-9)
+    h = 1e-5
+    numeric = np.column_stack([(problem.rows(moved + h * e, jacobian=False)[0]
+                                - problem.rows(moved - h * e, jacobian=False)[0]) / (2 * h)
+                               for e in np.eye(len(x))])  # fmt: skip
+    np.testing.assert_allclose(J, numeric, rtol=1e-4, atol=1e-6 * np.abs(numeric).max())
+
+
 def test_skin_beyond_the_hand_does_not_move_the_fit_and_a_silhouette_elsewhere_is_ignored():
     from handvar.render import silhouettes
     from handvar.tracking.costs import prepare_frame
