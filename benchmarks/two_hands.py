@@ -5,7 +5,9 @@ Renders the two-hand benchmark's scenarios (`handvar.evaluation.two_hands`, seed
 — MediaPipe inside the pipeline, asked for two hands — as a separate process, timed
 from its start to its exit (Python's start-up, the imports, decoding, detection, both
 fits and the files written).  Prints per scenario the frames, the wall time, the
-frames/s all-in and the command's own summary line.
+frames/s all-in and the command's own summary line; first, the same command on the
+first 5 frames of the first scenario, three times: what a run costs besides its frames
+(start-up, the detector's processes, the first fits, exit).
 
     python benchmarks/two_hands.py [--scenario cross clap ...]
 """
@@ -22,12 +24,24 @@ from pathlib import Path
 import cv2
 
 
-def _video(case, path: Path) -> None:
+def _video(case, path: Path, frames: int | None = None) -> None:
     h, w = case.frames.shape[2:4]
     writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), case.fps, (w, h))
-    for rgb in case.frames[0]:
+    for rgb in case.frames[0, :frames]:
         writer.write(cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
     writer.release()
+
+
+def _run(handvar: Path, video: Path, out: Path) -> tuple[float, str]:
+    """The command on `video`: its wall time from start to exit, and its summary line."""
+    command = [str(handvar), "track", str(video), "--hands", "2", "--out", str(out),
+               "--no-video"]  # fmt: skip
+    start = time.perf_counter()
+    res = subprocess.run(command, capture_output=True, text=True, check=False)
+    seconds = time.perf_counter() - start
+    if res.returncode != 0:
+        raise SystemExit(f"{' '.join(command)} failed: {res.stderr.strip()[-500:]}")
+    return seconds, next(x for x in res.stdout.splitlines() if "frames/s all-in" in x).strip()
 
 
 def main() -> None:
@@ -39,22 +53,20 @@ def main() -> None:
     handvar = Path(sys.executable).with_name("handvar")
     total_frames, total_seconds = 0, 0.0
     with tempfile.TemporaryDirectory() as tmp:
+        short = Path(tmp) / "short.mp4"
+        _video(two_hand_case(args.scenario[0], seed=0), short, frames=5)
+        fixed = [_run(handvar, short, Path(tmp) / "short")[0] for _ in range(3)]
+        print(f"the command on 5 frames ({args.scenario[0]}): "
+              f"{', '.join(f'{s:.2f}' for s in fixed)} s", flush=True)  # fmt: skip
         for scenario in args.scenario:
             case = two_hand_case(scenario, seed=0)
             video = Path(tmp) / f"{scenario}.mp4"
             _video(case, video)
-            command = [str(handvar), "track", str(video), "--hands", "2", "--out",
-                       str(Path(tmp) / scenario), "--no-video"]  # fmt: skip
-            start = time.perf_counter()
-            res = subprocess.run(command, capture_output=True, text=True, check=False)
-            seconds = time.perf_counter() - start
-            if res.returncode != 0:
-                raise SystemExit(f"{' '.join(command)} failed: {res.stderr.strip()[-500:]}")
-            line = next(x for x in res.stdout.splitlines() if "frames/s all-in" in x)
+            seconds, line = _run(handvar, video, Path(tmp) / scenario)
             n = case.n_frames
             total_frames, total_seconds = total_frames + n, total_seconds + seconds
             print(f"{scenario:<8} {n} frames 640x360: {seconds:5.1f} s, {n / seconds:5.1f} "
-                  f"frames/s all-in  [{line.strip()}]", flush=True)  # fmt: skip
+                  f"frames/s all-in  [{line}]", flush=True)  # fmt: skip
     print(
         f"all: {total_frames} frames in {total_seconds:.1f} s, "
         f"{total_frames / total_seconds:.1f} frames/s all-in (process start to exit)"
