@@ -18,9 +18,12 @@ def attach(package: str, modules: dict[str, Iterable[str]]) -> tuple[Callable, C
 
     Examples
     --------
-    >>> getattr_, dir_ = attach("handvar.params", {"math": ["tau"]})
-    >>> round(getattr_("tau"), 3), "tau" in dir_()
-    (6.283, True)
+    >>> import types
+    >>> sys.modules["package"] = types.ModuleType("package")
+    >>> getattr_, dir_ = attach("package", {"math": ["tau"]})
+    >>> round(getattr_("tau"), 3), "tau" in dir_(), sys.modules["package"].tau == getattr_("tau")
+    (6.283, True, True)
+    >>> del sys.modules["package"]
     """
     where = {name: module for module, names in modules.items() for name in names}
 
