@@ -16,14 +16,12 @@ from __future__ import annotations
 
 import argparse
 import re
-import subprocess
-import sys
 import tempfile
-import time
 from pathlib import Path
 
 import cv2
 
+from _command import timed_track
 from handvar.data import example_path
 
 VIDEOS = {"example": "video", "fingerspelling": "fingerspelling", "counting": "counting"}
@@ -44,16 +42,7 @@ def _folder(video: Path, folder: Path, suffix: str) -> int:
 
 
 def _run(source: Path, out: Path) -> tuple[float, str]:
-    handvar = Path(sys.executable).with_name("handvar")
-    command = [str(handvar), "track", str(source), "--scale", "0.5", "--out", str(out),
-               "--no-video"]  # fmt: skip
-    start = time.perf_counter()
-    res = subprocess.run(command, capture_output=True, text=True, check=False)
-    seconds = time.perf_counter() - start
-    if res.returncode != 0:
-        raise SystemExit(f"{' '.join(command)} failed: {res.stderr.strip()[-500:]}")
-    line = next(x for x in res.stdout.splitlines() if "frames/s all-in" in x)
-    return seconds, line
+    return timed_track(source, "--scale", "0.5", "--out", out)
 
 
 def main() -> None:

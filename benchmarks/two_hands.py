@@ -15,13 +15,12 @@ first 5 frames of the first scenario, three times: what a run costs besides its 
 from __future__ import annotations
 
 import argparse
-import subprocess
-import sys
 import tempfile
-import time
 from pathlib import Path
 
 import cv2
+
+from _command import timed_track
 
 
 def _video(case, path: Path, frames: int | None = None) -> None:
@@ -32,37 +31,26 @@ def _video(case, path: Path, frames: int | None = None) -> None:
     writer.release()
 
 
-def _run(handvar: Path, video: Path, out: Path) -> tuple[float, str]:
-    """The command on `video`: its wall time from start to exit, and its summary line."""
-    command = [str(handvar), "track", str(video), "--hands", "2", "--out", str(out),
-               "--no-video"]  # fmt: skip
-    start = time.perf_counter()
-    res = subprocess.run(command, capture_output=True, text=True, check=False)
-    seconds = time.perf_counter() - start
-    if res.returncode != 0:
-        raise SystemExit(f"{' '.join(command)} failed: {res.stderr.strip()[-500:]}")
-    return seconds, next(x for x in res.stdout.splitlines() if "frames/s all-in" in x).strip()
-
-
 def main() -> None:
     from handvar.evaluation.two_hands import SCENARIOS, two_hand_case
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--scenario", nargs="*", default=list(SCENARIOS))
     args = parser.parse_args()
-    handvar = Path(sys.executable).with_name("handvar")
     total_frames, total_seconds = 0, 0.0
     with tempfile.TemporaryDirectory() as tmp:
         short = Path(tmp) / "short.mp4"
         _video(two_hand_case(args.scenario[0], seed=0), short, frames=5)
-        fixed = [_run(handvar, short, Path(tmp) / "short")[0] for _ in range(3)]
+        fixed = [
+            timed_track(short, "--hands", "2", "--out", Path(tmp) / "short")[0] for _ in range(3)
+        ]
         print(f"the command on 5 frames ({args.scenario[0]}): "
               f"{', '.join(f'{s:.2f}' for s in fixed)} s", flush=True)  # fmt: skip
         for scenario in args.scenario:
             case = two_hand_case(scenario, seed=0)
             video = Path(tmp) / f"{scenario}.mp4"
             _video(case, video)
-            seconds, line = _run(handvar, video, Path(tmp) / scenario)
+            seconds, line = timed_track(video, "--hands", "2", "--out", Path(tmp) / scenario)
             n = case.n_frames
             total_frames, total_seconds = total_frames + n, total_seconds + seconds
             print(f"{scenario:<8} {n} frames 640x360: {seconds:5.1f} s, {n / seconds:5.1f} "

@@ -175,22 +175,20 @@ def test_frame_keypoints_check():
         as_frame_keypoints(np.zeros((20, 2)), "cam0")
 
 
-def test_mediapipe_is_not_imported_by_the_package():
-    code = (
-        "import sys, handvar, handvar.vision, handvar.vision.keypoints, handvar.cli; "
-        "print(any(m.startswith(('mediapipe', 'handvar.vision.mediapipe')) for m in sys.modules))"
-    )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "False"
-
-
-def test_the_detectors_process_loads_neither_scipy_nor_numba():
-    # what `python -m handvar.vision.detector` imports before MediaPipe: each of the two
-    # detector processes of a run starts that much sooner (the package's names are lazy)
-    code = (
-        "import sys, handvar.vision.detector, handvar.vision.mediapipe; "
-        "print(sorted(m for m in ('scipy', 'numba', 'handvar.vision.skin') if m in sys.modules))"
-    )
+@pytest.mark.parametrize(
+    ("imported", "absent"),
+    [
+        # the package and its commands leave MediaPipe, an optional extra, unloaded
+        ("handvar, handvar.vision, handvar.vision.keypoints, handvar.cli",
+         ("mediapipe", "handvar.vision.mediapipe")),
+        # a detector's process (`python -m handvar.vision.detector`) loads neither SciPy
+        # nor numba before MediaPipe, so each of a run's two starts that much sooner
+        ("handvar.vision.detector, handvar.vision.mediapipe",
+         ("scipy", "numba", "handvar.vision.skin")),
+    ],
+)  # fmt: skip
+def test_importing_leaves_the_heavy_modules_out(imported, absent):
+    code = f"import sys, {imported}; print(sorted(m for m in {absent!r} if m in sys.modules))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
 
