@@ -44,7 +44,7 @@ test-slow: $(STAMP)
 # Every timing benchmark of benchmarks/ (the accuracy studies are in studies/, each run
 # on its own: studies/README.md).
 bench: $(STAMP)
-	for b in benchmarks/*.py; do echo "== $$b"; $(BIN)/python $$b || exit 1; done
+	for b in benchmarks/[!_]*.py; do echo "== $$b"; $(BIN)/python $$b || exit 1; done
 
 clean:
 	rm -rf $(VENV) build src/*.egg-info demo

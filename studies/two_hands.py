@@ -2,7 +2,7 @@
 
 Usage: PYTHONPATH=src python studies/two_hands.py [--seeds N] [--cameras 1|2]
        [--detector simulated|mediapipe] [--every K] [--scenario NAME ...] [--size W H]
-       [--missed-carry N] [--side-run N] [--cache DIR]
+       [--missed-carry N] [--side-run N] [--cache DIR] [--landmarks full|lite]
 
 For every scenario of `handvar.evaluation.two_hands.SCENARIOS` and seed, renders the
 case (640×360 by default) and tracks it with `handvar.tracking.hands.HandsTracker`, the
@@ -37,7 +37,8 @@ frames a hand the detector misses is followed by optical flow
 (`handvar.tracking.hands.MISSED_CARRY`, to compare values).  With ``--every K`` the
 detector runs on every K-th frame only; the fit carries each hand's detection by
 optical flow over the frames between, and the detections' baseline is interpolated
-linearly between the detector's frames.  ``--cache DIR`` keeps MediaPipe's detections
+linearly between the detector's frames.  ``--landmarks lite`` runs MediaPipe with its lite landmark
+model (faster; `benchmarks/detector_options.py`).  ``--cache DIR`` keeps MediaPipe's detections
 per case in DIR and reads them back on the next run (the renders are the same for the
 same scenario, seed and size).
 """
@@ -158,9 +159,10 @@ def interpolated(tracks: dict, every: int) -> dict:
     return out
 
 
-def mediapipe_detections(case, cache=None):
+def mediapipe_detections(case, cache=None, model: int = 1):
     """MediaPipe Hands on every rendered frame, per camera (read from, or written to,
-    ``cache/<case>-<size>-cam<j>.json`` when a cache folder is given)."""
+    ``cache/<case>-<size>-cam<j>.json`` when a cache folder is given); `model` its
+    landmark model (1 full, 0 lite)."""
     from pathlib import Path
 
     from handvar.vision.keypoints import read_detections, write_detections
@@ -169,11 +171,12 @@ def mediapipe_detections(case, cache=None):
     out = []
     height, width = case.frames.shape[2:4]
     for j in range(len(case.rig)):
-        path = None if cache is None else Path(cache) / f"{case.name}-{width}x{height}-cam{j}.json"
+        name = f"{case.name}-{width}x{height}-cam{j}{'' if model else '-lite'}.json"
+        path = None if cache is None else Path(cache) / name
         if path is not None and path.exists():
             out.append(read_detections(path))
             continue
-        detect = MediaPipeHands()
+        detect = MediaPipeHands(model_complexity=model)
         out.append([detect(cv2.cvtColor(case.frames[j, t], cv2.COLOR_RGB2BGR))
                     for t in range(case.n_frames)])  # fmt: skip
         detect.close()
@@ -249,6 +252,8 @@ def main() -> None:
     parser.add_argument("--missed-carry", type=int, default=None,
                         help="frames a missed hand is followed by optical flow "
                              "(handvar.tracking.hands.MISSED_CARRY)")  # fmt: skip
+    parser.add_argument("--landmarks", default="full", choices=("full", "lite"),
+                        help="MediaPipe's landmark model (the pipeline's: full)")  # fmt: skip
     parser.add_argument(
         "--cache", default=None, help="a folder keeping MediaPipe's detections per case, for reruns"
     )
@@ -280,7 +285,7 @@ def main() -> None:
             case = two_hand_case(scenario, cameras=args.cameras, seed=seed, size=tuple(args.size))
             detections = case.detections
             if args.detector == "mediapipe":
-                detections = mediapipe_detections(case, args.cache)
+                detections = mediapipe_detections(case, args.cache, int(args.landmarks == "full"))
                 case = dataclasses.replace(case, detections=detections)
             raw_tracks = detections_as_tracks(case)
             if args.every > 1:
