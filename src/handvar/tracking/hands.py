@@ -264,7 +264,8 @@ def least_cost_pairs(cost: np.ndarray) -> list[tuple[int, int]]:
 
     There are two hands at most, so there are at most ``m (m − 1)`` assignments for `m`
     detections; this gives what `scipy.optimize.linear_sum_assignment` gives (the tests
-    compare them) without importing SciPy's optimisers, 0.6 s of a run's start-up.
+    compare them) without importing SciPy's optimisers, a large part of a run's
+    start-up (`benchmarks/two_hands.py` times the command on 5 frames).
 
     Examples
     --------
