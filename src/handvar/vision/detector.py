@@ -386,7 +386,9 @@ class _Worker:
         return [[Detection(p, w, side=s, score=c) for p, w, s, c in hands] for hands in message]
 
     def stop(self) -> None:
-        """Tell the process to end (it ends at the frame it is on)."""
+        """Tell the process to end (it ends at the frame it is on); once is enough."""
+        if self.process.stdin.closed:
+            return
         try:
             self.send(None)
             self.process.stdin.close()
