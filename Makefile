@@ -30,16 +30,18 @@ demo: $(STAMP)
 	$(BIN)/handvar view demo/video --out demo/video/view.html
 	@echo "3D viewer of the example video's track: demo/video/view.html"
 
+# The tests run on every core, one test file to a process (pytest-xdist): a file's
+# module fixtures are built once.
 test: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks studies
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n auto --dist loadfile
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks studies examples
 	$(BIN)/ruff format --check src tests benchmarks studies examples
 
 test-slow: $(STAMP)
-	$(BIN)/python -m pytest -m slow
+	$(BIN)/python -m pytest -n auto --dist loadfile -m slow
 
 # Every timing benchmark of benchmarks/ (the accuracy studies are in studies/, each run
 # on its own: studies/README.md).
