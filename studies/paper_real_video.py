@@ -11,7 +11,12 @@ RVAR as printed (eq. 26–28), the edge RVAR and the steering adaptive bank.  Wi
 ``--videos`` the two clips ``fingerspelling`` and ``counting`` are added.
 
 The reference is MediaPipe's keypoints shipped beside each video (``*-keypoints.npy``);
-they are not the truth, and they are not given to the tracker.  Printed per predictor:
+they are not the truth, and they are not given to the tracker.  With ``--realistic DIR``
+the same runs are scored against the truth instead: the 16 cases of the realistic
+benchmark (``studies/realistic.py``: the skinned hand over real and generated
+backgrounds, the palm flip among its motions; generated into DIR unless there), each
+tracked on its frames alone from its true first pose with a model of its true length,
+so that the predictor is what differs.  Printed per predictor:
 
 - lost: frames the recovery flagged lost (``quality.lost``);
 - reinit: frames re-initialised by a pose search (``quality.reinit``);
@@ -21,12 +26,26 @@ they are not the truth, and they are not given to the tracker.  Printed per pred
 - off: those frames whose mean joint distance exceeds 0.5 hand sizes (the fit is off
   the hand), and their longest run;
 - ms/frame: the tracking stage per frame (fit, quality checks, searches), not the
-  silhouettes.
+  silhouettes;
+- on the realistic cases also the wrist-relative and absolute 3D errors (mm, as
+  ``studies/realistic.py`` scores them), the frames whose wrist-relative mean joint
+  error exceeds `LOSS_MM` (the paper experiment's lost hand), and paper §6's two tests
+  on the flip cases (`handvar.evaluation.claims`), with the wrist-relative error: RVAR's
+  worst frame under `LOSS_MM` where the decelerating predictor's is not, and RVAR's mean
+  error below the decelerating predictor's; and per case how well the silhouette the
+  tracker is given matches the hand's true one (IoU).
+
+``--strip DIR`` draws, per video (and for the realistic case whose predictors are off
+the hand most), the hardest stretch: six frames of the window of 12 where the
+predictors are off the hand most often, one row per predictor (the model's joints and
+bones over the frame about the reference points, those white), to
+``DIR/paper-real-video-NAME.jpg``.
 
 Run: ``PYTHONPATH=src .venv/bin/python studies/paper_real_video.py`` (about 5 minutes;
 ``--videos`` adds the clips, ``--video NAME`` runs one; ``--predictors rvar,decel`` for
 some only; ``--frames N``
-for the first N frames; ``--seed S``).
+for the first N frames; ``--seed S``; ``--realistic DIR [--cases S]`` the rendered cases,
+about 2 minutes per case and predictor where the searches run on most frames).
 """
 
 from __future__ import annotations
@@ -38,12 +57,17 @@ import tempfile
 import time
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 import handvar
 from handvar.data import example_path
-from handvar.evaluation.metrics import pck_2d
+from handvar.evaluation.claims import LOSS_MM
+from handvar.evaluation.metrics import joint_errors, pck_2d
 from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
+from handvar.render import draw_overlay
+from handvar.render.overlay import side_by_side
+from handvar.tracking.keypoint_cost import keypoint_points
 from handvar.vision.keypoints import read_keypoints
 
 PREDICTORS = (
@@ -58,6 +82,9 @@ PREDICTORS = (
 VIDEOS = ("video", "fingerspelling", "counting")
 SCALE = 0.5
 OFF = 0.5  # hand sizes: a frame whose mean joint distance exceeds this is off the hand
+STRETCH = 12  # frames: the window of the overlay strip
+STRIP_FRAMES = 6
+STRIP_WIDTH = 200  # px: one tile of the strip, a square about the reference points
 
 
 def first_pose(video: Path, seed: int) -> np.ndarray | None:
@@ -122,15 +149,16 @@ def score(track, keypoints) -> dict:
         "median_d": float(np.nanmedian(d)),
         "iou": float(np.mean(q.iou[~q.empty])),
         "ms": 1e3 * track.stage_seconds["tracking"] / n,
+        "off_flags": off,
     }
 
 
-def run(name: str, predictors, frames: int | None, seed: int) -> dict:
+def run(name: str, predictors, frames: int | None, seed: int, strip: Path | None) -> dict:
     """Track video `name` with each predictor from one first pose; their figures."""
     video = example_path(name)
     keypoints = read_keypoints(example_path(f"{name}-keypoints"))
     x0 = first_pose(video, seed)
-    rows = {}
+    rows, tracks = {}, {}
     for p in predictors:
         t0 = time.perf_counter()
         track = handvar.track(
@@ -138,14 +166,246 @@ def run(name: str, predictors, frames: int | None, seed: int) -> dict:
         )
         rows[p] = score(track, keypoints)
         rows[p]["wall"] = time.perf_counter() - t0
-        r = rows[p]
-        print(
-            f"  {p:15s} lost {r['lost']:3d}  reinit {r['reinit']:3d}  PCK {r['pck']:.3f}  "
-            f"off {r['off']:3d} (longest {r['off_run']} from {r['off_start']})  "
-            f"{r['ms']:.1f} ms/frame  ({r['wall']:.0f} s)",
-            flush=True,
-        )
+        tracks[p] = track
+        _print_row(p, rows[p])
+    if strip is not None:
+        write_strip(strip / f"paper-real-video-{name}.jpg", tracks, rows,
+                    _video_frames(video), keypoints.xy)  # fmt: skip
     return rows
+
+
+def _print_row(p: str, r: dict) -> None:
+    extra = "" if "mpjpe" not in r else (
+        f"  3D {r['mpjpe']:.1f} mm (abs {r['abs']:.1f}; worst frame {r['worst']:.1f}; "
+        f"> {LOSS_MM:g} mm on {r['over']})"
+    )  # fmt: skip
+    print(
+        f"  {p:15s} lost {r['lost']:3d}  reinit {r['reinit']:3d}  PCK {r['pck']:.3f}  "
+        f"off {r['off']:3d} (longest {r['off_run']} from {r['off_start']})  "
+        f"{r['ms']:.1f} ms/frame  ({r['wall']:.0f} s){extra}",
+        flush=True,
+    )
+
+
+def _video_frames(video: Path):
+    """frames(indices) -> {index: RGB full-resolution frame} of a video."""
+
+    def frames(indices):
+        cap = cv2.VideoCapture(str(video))
+        out = {}
+        for t in sorted(indices):
+            cap.set(cv2.CAP_PROP_POS_FRAMES, t)
+            ok, bgr = cap.read()
+            if ok:
+                out[t] = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+        cap.release()
+        return out
+
+    return frames
+
+
+def _folder_frames(folder: Path):
+    """frames(indices) -> {index: RGB frame} of an image folder (sorted names)."""
+    files = sorted(folder.iterdir())
+
+    def frames(indices):
+        return {t: cv2.cvtColor(cv2.imread(str(files[t])), cv2.COLOR_BGR2RGB) for t in indices}
+
+    return frames
+
+
+def hardest_stretch(rows: dict, n_frames: int) -> list[int]:
+    """`STRIP_FRAMES` frames spread over the window of `STRETCH` frames where the
+    predictors are off the hand most often (summed over predictors; the first such)."""
+    off = np.sum([r["off_flags"][:n_frames] for r in rows.values()], axis=0)
+    width = min(STRETCH, n_frames)
+    counts = np.convolve(off, np.ones(width), mode="valid")
+    start = int(np.argmax(counts))
+    picks = np.linspace(start, start + width - 1, min(STRIP_FRAMES, width)).round()
+    return np.unique(picks).astype(int).tolist()
+
+
+def write_strip(path: Path, tracks: dict, rows: dict, frames, reference: np.ndarray) -> None:
+    """The overlay strip of the hardest stretch (module notes): one row per predictor,
+    the model of its track over camera 0's frame, the `reference` points (T, 21, 2)
+    white."""
+    n = min(t.n_frames for t in tracks.values())
+    picks = hardest_stretch(rows, n)
+    images = frames(picks)
+    lines = []
+    for p, track in tracks.items():
+        camera = track.rig.cameras[0]
+        tiles = []
+        for t in picks:
+            image = draw_overlay(images[t], camera, track.joints[t])
+            for u, v in reference[t]:
+                if np.isfinite(u) and np.isfinite(v):
+                    cv2.circle(image, (round(u), round(v)), 3, (255, 255, 255), -1)
+            y0, y1, x0, x1 = _crop(reference[t], image.shape)
+            tile = image[y0:y1, x0:x1]
+            tiles.append(cv2.resize(tile, (STRIP_WIDTH, STRIP_WIDTH), interpolation=cv2.INTER_AREA))
+        lines.append(side_by_side(tiles, [f"{p} {t}" for t in picks]))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    strip = cv2.cvtColor(np.concatenate(lines, axis=0), cv2.COLOR_RGB2BGR)
+    cv2.imwrite(str(path), strip, [cv2.IMWRITE_JPEG_QUALITY, 85])
+    print(f"  overlay strip of frames {picks[0]}-{picks[-1]}: {path}")
+
+
+def _crop(points: np.ndarray, shape) -> tuple[int, int, int, int]:
+    """A square about the reference `points` (21, 2), twice their extent (at least 120
+    px), inside an image of `shape`: rows y0:y1, columns x0:x1 (the image's middle when
+    there are no points)."""
+    h, w = shape[:2]
+    ok = np.isfinite(points).all(axis=1)
+    centre = points[ok].mean(axis=0) if ok.any() else np.array([w / 2, h / 2])
+    extent = np.ptp(points[ok], axis=0).max() if ok.sum() > 1 else 0.0
+    side = int(min(max(2.0 * extent, 120.0), h, w))
+    x0 = int(np.clip(round(centre[0] - side / 2), 0, w - side))
+    y0 = int(np.clip(round(centre[1] - side / 2), 0, h - side))
+    return y0, y0 + side, x0, x0 + side
+
+
+def run_realistic(directory: Path, predictors, seed: int, cases: str,
+                  strip: Path | None) -> dict:  # fmt: skip
+    """Track each realistic case (module notes) with each predictor; figures per case."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import realistic  # studies/realistic.py: the benchmark's cases
+
+    results, runs = {}, {}
+    for spec in realistic.specs(quick=False):
+        if cases not in spec.name:
+            continue
+        case_dir = directory / spec.name
+        case = realistic.generate(spec, case_dir)
+        cams = [str(case_dir / f"cam{j}") for j in range(spec.cameras)]
+        print(f"{spec.name}: {case.n_frames} frames", flush=True)
+        rows, tracks = {}, {}
+        for p in predictors:
+            t0 = time.perf_counter()
+            track = handvar.track(
+                cams, calib=case_dir / "calib.yml", hand=spec.side, detector="none",
+                hand_length=case.hand_length, init=case.poses[0], predictor=p, seed=seed,
+            )  # fmt: skip
+            rows[p] = score_truth(track, case)
+            rows[p]["wall"] = time.perf_counter() - t0
+            tracks[p] = track
+            _print_row(p, rows[p])
+        skin = skin_agreement(case_dir / "cam0", case.masks[0])
+        print(f"  the skin silhouette against the true one: IoU median {np.median(skin):.2f}, "
+              f"below 0.5 on {np.sum(skin < 0.5)} of {len(skin)} frames", flush=True)  # fmt: skip
+        for r in rows.values():
+            r["skin_iou"] = float(np.median(skin))
+        results[spec.name] = rows
+        runs[spec.name] = (tracks, rows, _folder_frames(case_dir / "cam0"), case.truth_2d[0])
+    if strip is not None and runs:
+        name = max(runs, key=lambda k: sum(r["off"] for r in runs[k][1].values()))
+        write_strip(strip / f"paper-real-video-{name}.jpg", *runs[name])
+    return results
+
+
+def skin_agreement(folder: Path, truth: np.ndarray) -> np.ndarray:
+    """(T,) IoU of the silhouette the tracker is given (`silhouettes_from_frames` at its
+    defaults: the published skin model, the clean-up, the forearm cut at the wrist) with
+    the true silhouette of the hand, per frame of an image folder (0 where none)."""
+    from handvar.vision.silhouette import EmptySilhouetteError, silhouettes_from_frames
+
+    out = np.zeros(len(truth))
+    for t, name in enumerate(sorted(folder.iterdir())[: len(truth)]):
+        try:
+            mask = silhouettes_from_frames([cv2.imread(str(name))], wrist=True)[0]
+        except EmptySilhouetteError:
+            continue
+        out[t] = (mask & truth[t]).sum() / max((mask | truth[t]).sum(), 1)
+    return out
+
+
+def score_truth(track, case) -> dict:
+    """The track's figures against a realistic case's truth: its scored points (the
+    detector's, fingertips at the pads: ``studies/realistic.py``) through the tracked
+    model, in camera 0 (2D) and in the world (3D)."""
+    n = case.n_frames
+    hand = track.hand
+    points = np.stack([keypoint_points(hand, x, "pad") if np.isfinite(x).all()
+                       else np.full((21, 3), np.nan) for x in track.poses[:n]])  # fmt: skip
+    truth_2d = case.truth_2d[0]
+    estimate = np.full((n, 21, 2), np.nan)
+    ok = np.isfinite(points).all(axis=(1, 2))
+    estimate[ok] = track.rig.cameras[0].project(points[ok].reshape(-1, 3)).reshape(-1, 21, 2)
+    d = distances(truth_2d, estimate)
+    off = ~(d <= OFF)
+    run, start = longest_run(off)
+    relative = joint_errors(case.joints, points, alignment="wrist").mean(axis=1)
+    absolute = joint_errors(case.joints, points, alignment="none").mean(axis=1)
+    q = track.quality
+    return {
+        "frames": n,
+        "scored": n,
+        "lost": int(q.lost.sum()),
+        "reinit": int(q.reinit.sum()),
+        "pck": pck_2d(truth_2d, estimate, 0.2),
+        "off": int(off.sum()),
+        "off_run": run,
+        "off_start": start,
+        "off_frames": np.flatnonzero(off),
+        "median_d": float(np.nanmedian(d)),
+        "iou": float(np.mean(q.iou[~q.empty])),
+        "ms": 1e3 * track.stage_seconds["tracking"] / n,
+        "off_flags": off,
+        "mpjpe": float(np.nanmean(relative)),
+        "abs": float(np.nanmean(absolute)),
+        "worst": float(np.nanmax(relative)),
+        "over": int(np.sum(~(relative <= LOSS_MM))),
+    }
+
+
+def realistic_summary(results: dict) -> str:
+    """Per predictor over the realistic cases, mono and stereo: mean PCK, 3D errors,
+    the frames off the hand and over `LOSS_MM`, lost, re-initialised, ms/frame."""
+    lines = [
+        "| rig | predictor | PCK@0.2 | MPJPE | abs 3D | frames > 0.5 hand sizes | "
+        f"frames > {LOSS_MM:g} mm | lost | re-initialised | ms/frame |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    predictors = next(iter(results.values())).keys()
+    for rig in ("mono", "stereo"):
+        cases = [rows for name, rows in results.items() if f"-{rig}-" in name]
+        if not cases:
+            continue
+        for p in predictors:
+            rs = [rows[p] for rows in cases]
+            lines.append(
+                f"| {rig} | {p} | {np.mean([r['pck'] for r in rs]):.3f} | "
+                f"{np.mean([r['mpjpe'] for r in rs]):.1f} | "
+                f"{np.mean([r['abs'] for r in rs]):.1f} | "
+                f"{sum(r['off'] for r in rs)} | {sum(r['over'] for r in rs)} | "
+                f"{sum(r['lost'] for r in rs)} | {sum(r['reinit'] for r in rs)} | "
+                f"{np.mean([r['ms'] for r in rs]):.1f} |"
+            )
+    return "\n".join(lines)
+
+
+def flip_verdicts(results: dict) -> list[str]:
+    """Paper §6's two tests (`handvar.evaluation.claims`) on each realistic flip case,
+    with the wrist-relative error: RVAR as printed against decelerating, then each of
+    our variants in RVAR's place."""
+    out = []
+    for name, rows in results.items():
+        if not name.startswith("flip-") or "decelerating" not in rows:
+            continue
+        d = rows["decelerating"]
+        for p in ("rvar", "rvar_edge", "adaptive"):
+            if p not in rows:
+                continue
+            r = rows[p]
+            strong = r["worst"] < LOSS_MM <= d["worst"]
+            weak = r["mpjpe"] < d["mpjpe"]
+            out.append(
+                f"{name}: {p} worst frame {r['worst']:.1f} mm, decelerating {d['worst']:.1f} "
+                f"mm: fig. 8 form {'holds' if strong else 'does not hold'}; mean "
+                f"{r['mpjpe']:.1f} against {d['mpjpe']:.1f} mm: weaker form "
+                f"{'holds' if weak else 'does not hold'}"
+            )
+    return out
 
 
 def table(results: dict) -> str:
@@ -174,13 +434,27 @@ def main() -> None:
     parser.add_argument("--predictors", default=",".join(PREDICTORS))
     parser.add_argument("--frames", type=int, default=None)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--realistic", type=Path, default=None, metavar="DIR",
+                        help="the realistic cases in DIR instead, against the truth")  # fmt: skip
+    parser.add_argument("--cases", default="", help="with --realistic: cases containing this")
+    parser.add_argument("--strip", type=Path, default=None, metavar="DIR",
+                        help="write the overlay strip of the hardest stretch into DIR")  # fmt: skip
     args = parser.parse_args()
     predictors = [p.strip() for p in args.predictors.split(",") if p.strip()]
+    if args.realistic is not None:
+        results = run_realistic(args.realistic, predictors, args.seed, args.cases, args.strip)
+        print()
+        print(table(results))
+        print()
+        print(realistic_summary(results))
+        print()
+        print("\n".join(flip_verdicts(results)))
+        return
     results = {}
     names = args.video or (VIDEOS if args.videos else VIDEOS[:1])
     for name in names:
         print(f"{name}: {example_path(name).name}", flush=True)
-        results[name] = run(name, predictors, args.frames, args.seed)
+        results[name] = run(name, predictors, args.frames, args.seed, args.strip)
     print()
     print(table(results))
     for name, rows in results.items():

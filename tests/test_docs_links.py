@@ -97,7 +97,7 @@ def test_every_figure_is_shown_once():
     )
     twice = sorted(str(p.relative_to(ROOT)) for p, n in shown.items() if n > 1)
     assert twice == []
-    figures = {p.resolve() for p in DOCS.rglob("*.png")}
+    figures = {p.resolve() for ext in ("png", "jpg") for p in DOCS.rglob(f"*.{ext}")}
     unshown = sorted(str(p.relative_to(ROOT)) for p in figures - set(shown))
     assert unshown == []
 
