@@ -67,8 +67,8 @@ from handvar.evaluation.metrics import joint_errors, pck_2d
 from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
 from handvar.render import draw_overlay
 from handvar.render.overlay import side_by_side
-from handvar.tracking.keypoint_cost import keypoint_points
 from handvar.vision.keypoints import read_keypoints
+from realistic import generate, scored_points, specs
 
 PREDICTORS = (
     "none",
@@ -128,10 +128,15 @@ def longest_run(flags: np.ndarray) -> tuple[int, int]:
 def score(track, keypoints) -> dict:
     """The track's figures against the detector's keypoints (full-resolution pixels)."""
     n = track.n_frames
-    kp = keypoints.xy[:n]
     scored = keypoints.present[:n].all(axis=1)  # frames where MediaPipe has all 21
-    estimate = track.projected[0][:n]
-    d = distances(kp[scored], estimate[scored])
+    return figures(track, keypoints.xy[:n], track.projected[0][:n], scored)
+
+
+def figures(track, reference: np.ndarray, estimate: np.ndarray, scored: np.ndarray) -> dict:
+    """The track's figures (module notes) from its `estimate` of camera 0's points
+    against the `reference` ones, (T, 21, 2) pixels, over the `scored` (T,) frames."""
+    n = len(scored)
+    d = distances(reference[scored], estimate[scored])
     off = np.zeros(n, dtype=bool)
     off[np.flatnonzero(scored)] = ~(d <= OFF)  # NaN (no pose) counts as off
     run, start = longest_run(off)
@@ -141,15 +146,15 @@ def score(track, keypoints) -> dict:
         "scored": int(scored.sum()),
         "lost": int(q.lost.sum()),
         "reinit": int(q.reinit.sum()),
-        "pck": pck_2d(kp[scored], estimate[scored], 0.2),
+        "pck": pck_2d(reference[scored], estimate[scored], 0.2),
         "off": int(off.sum()),
         "off_run": run,
         "off_start": start,
         "off_frames": np.flatnonzero(off),
+        "off_flags": off,
         "median_d": float(np.nanmedian(d)),
         "iou": float(np.mean(q.iou[~q.empty])),
         "ms": 1e3 * track.stage_seconds["tracking"] / n,
-        "off_flags": off,
     }
 
 
@@ -268,15 +273,12 @@ def _crop(points: np.ndarray, shape) -> tuple[int, int, int, int]:
 def run_realistic(directory: Path, predictors, seed: int, cases: str,
                   strip: Path | None) -> dict:  # fmt: skip
     """Track each realistic case (module notes) with each predictor; figures per case."""
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    import realistic  # studies/realistic.py: the benchmark's cases
-
-    results, runs = {}, {}
-    for spec in realistic.specs(quick=False):
+    results, hardest = {}, None
+    for spec in specs(quick=False):
         if cases not in spec.name:
             continue
         case_dir = directory / spec.name
-        case = realistic.generate(spec, case_dir)
+        case = generate(spec, case_dir)
         cams = [str(case_dir / f"cam{j}") for j in range(spec.cameras)]
         print(f"{spec.name}: {case.n_frames} frames", flush=True)
         rows, tracks = {}, {}
@@ -293,13 +295,14 @@ def run_realistic(directory: Path, predictors, seed: int, cases: str,
         skin = skin_agreement(case_dir / "cam0", case.masks[0])
         print(f"  the skin silhouette against the true one: IoU median {np.median(skin):.2f}, "
               f"below 0.5 on {np.sum(skin < 0.5)} of {len(skin)} frames", flush=True)  # fmt: skip
-        for r in rows.values():
-            r["skin_iou"] = float(np.median(skin))
         results[spec.name] = rows
-        runs[spec.name] = (tracks, rows, _folder_frames(case_dir / "cam0"), case.truth_2d[0])
-    if strip is not None and runs:
-        name = max(runs, key=lambda k: sum(r["off"] for r in runs[k][1].values()))
-        write_strip(strip / f"paper-real-video-{name}.jpg", *runs[name])
+        off = sum(r["off"] for r in rows.values())
+        if strip is not None and (hardest is None or off > hardest[0]):  # only its tracks kept
+            frames = _folder_frames(case_dir / "cam0")
+            hardest = (off, spec.name, (tracks, rows, frames, case.truth_2d[0]))
+    if hardest is not None:
+        _, name, drawn = hardest
+        write_strip(strip / f"paper-real-video-{name}.jpg", *drawn)
     return results
 
 
@@ -324,38 +327,20 @@ def score_truth(track, case) -> dict:
     detector's, fingertips at the pads: ``studies/realistic.py``) through the tracked
     model, in camera 0 (2D) and in the world (3D)."""
     n = case.n_frames
-    hand = track.hand
-    points = np.stack([keypoint_points(hand, x, "pad") if np.isfinite(x).all()
-                       else np.full((21, 3), np.nan) for x in track.poses[:n]])  # fmt: skip
-    truth_2d = case.truth_2d[0]
+    points = scored_points(track.hand, track.poses[:n])
     estimate = np.full((n, 21, 2), np.nan)
     ok = np.isfinite(points).all(axis=(1, 2))
     estimate[ok] = track.rig.cameras[0].project(points[ok].reshape(-1, 3)).reshape(-1, 21, 2)
-    d = distances(truth_2d, estimate)
-    off = ~(d <= OFF)
-    run, start = longest_run(off)
     relative = joint_errors(case.joints, points, alignment="wrist").mean(axis=1)
     absolute = joint_errors(case.joints, points, alignment="none").mean(axis=1)
-    q = track.quality
-    return {
-        "frames": n,
-        "scored": n,
-        "lost": int(q.lost.sum()),
-        "reinit": int(q.reinit.sum()),
-        "pck": pck_2d(truth_2d, estimate, 0.2),
-        "off": int(off.sum()),
-        "off_run": run,
-        "off_start": start,
-        "off_frames": np.flatnonzero(off),
-        "median_d": float(np.nanmedian(d)),
-        "iou": float(np.mean(q.iou[~q.empty])),
-        "ms": 1e3 * track.stage_seconds["tracking"] / n,
-        "off_flags": off,
-        "mpjpe": float(np.nanmean(relative)),
-        "abs": float(np.nanmean(absolute)),
-        "worst": float(np.nanmax(relative)),
-        "over": int(np.sum(~(relative <= LOSS_MM))),
-    }
+    row = figures(track, case.truth_2d[0], estimate, np.ones(n, dtype=bool))
+    row.update(
+        mpjpe=float(np.nanmean(relative)),
+        abs=float(np.nanmean(absolute)),
+        worst=float(np.nanmax(relative)),
+        over=int(np.sum(~(relative <= LOSS_MM))),
+    )
+    return row
 
 
 def realistic_summary(results: dict) -> str:

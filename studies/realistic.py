@@ -298,10 +298,15 @@ def fit_points(out: Path, side: str) -> tuple[np.ndarray, np.ndarray | None]:
     hand = track.hand  # the shape the track fitted (shape_fit), not the given one
     if hand.shape.side != side:
         raise RuntimeError(f"{out}: tracked a {hand.shape.side} hand; expected {side}")
-    points = np.stack([keypoint_points(hand, x, "pad") if np.isfinite(x).all()
-                       else np.full((21, 3), np.nan) for x in track.poses])  # fmt: skip
     lost = None if track.quality is None else np.asarray(track.quality.lost, dtype=bool)
-    return points, lost
+    return scored_points(hand, track.poses), lost
+
+
+def scored_points(hand, poses) -> np.ndarray:
+    """(T, 21, 3) mm: the scored points of each pose (the detector's, fingertips at the
+    pads) through `hand`; NaN where a pose is missing."""
+    return np.stack([keypoint_points(hand, x, "pad") if np.isfinite(x).all()
+                     else np.full((21, 3), np.nan) for x in poses])  # fmt: skip
 
 
 def check(out: Path, every: int, gross: np.ndarray | None = None) -> dict[str, float]:
