@@ -151,7 +151,6 @@ def figures(track, reference: np.ndarray, estimate: np.ndarray, scored: np.ndarr
         "off": int(off.sum()),
         "off_run": run,
         "off_start": start,
-        "off_frames": np.flatnonzero(off),
         "off_flags": off,
         "median_d": float(np.nanmedian(d)),
         "iou": float(np.mean(q.iou[~q.empty])),
@@ -471,7 +470,7 @@ def main() -> None:
     for name, rows in results.items():
         for p, r in rows.items():
             if r["off"]:
-                print(f"{name} {p}: off-hand frames {r['off_frames'].tolist()}")
+                print(f"{name} {p}: off-hand frames {np.flatnonzero(r['off_flags']).tolist()}")
 
 
 if __name__ == "__main__":
