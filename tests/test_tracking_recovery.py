@@ -472,3 +472,28 @@ def test_track_without_recovery_still_uses_the_keypoints(tmp_path):
     assert "fit quality" not in res.output
     with np.load(out / "track.npz") as npz:
         assert np.isfinite(npz["keypoint_error"]).all()  # measured: the tracker had them
+
+
+def test_a_silhouette_track_keeps_the_skin_where_the_hand_goes_not_the_largest(tmp_path):
+    # A hand painted in skin colour from the model's own silhouettes, moving right, and a
+    # larger skin-coloured panel beside it (a wall, a fridge): the tracker, started on
+    # the hand, must stay on it; kept by area, the silhouette would be the panel.
+    from handvar.vision.sources import assumed_camera
+
+    rig, hand = Rig([assumed_camera((320, 240))]), HandModel()
+    poses = []
+    for t in range(6):
+        x = named_pose("open")
+        x[:3] = (3.0 * t, 60.0, 450.0)
+        image = np.full((240, 320, 3), (60, 120, 40), np.uint8)  # BGR, not skin
+        image[20:230, 5:110] = (120, 150, 200)  # the panel: skin colour
+        drawn = silhouettes(hand, x, rig)[0]
+        image[drawn] = (120, 150, 200)
+        cv2.imwrite(str(tmp_path / f"{t:03d}.png"), image)
+        poses.append(x)
+    assert 210 * 105 > 2 * drawn.sum()  # the panel is the larger
+    track = handvar.track(tmp_path, detector="none", hand="right", init=poses[0],
+                          hand_length=hand.shape.length, progress=False)  # fmt: skip
+    truth = np.array([hand.joints(x) for x in poses])
+    error = np.linalg.norm(track.joints - truth, axis=-1).mean(axis=1)
+    assert error.max() < 10.0, error

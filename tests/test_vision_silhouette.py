@@ -84,6 +84,27 @@ def test_clean_mask_min_area_and_holes():
     assert not out[:10, 12:18].any()
 
 
+def test_clean_mask_near_keeps_the_component_where_the_hand_is_expected():
+    m = np.zeros((100, 120), bool)
+    m[5:95, 5:55] = True  # a skin-coloured wall, the largest
+    m[30:60, 70:100] = True  # the hand
+    expected = np.zeros_like(m)
+    expected[35:65, 75:110] = True  # the model's predicted silhouette, a little off
+    labels, _ = ndimage.label(m, structure=np.ones((3, 3)))
+    out = clean_mask(m, open_radius=0, close_radius=0, near=expected)
+    assert np.array_equal(out, labels == labels[45, 85])
+    # nothing overlapping where the hand is expected: the largest, as without `near`
+    far = np.zeros_like(m)
+    far[97:, 110:] = True
+    assert np.array_equal(clean_mask(m, near=far), clean_mask(m))
+    # two kept: the overlapping one first, then the largest of the rest
+    m[70:80, 60:70] = True
+    two = clean_mask(m, open_radius=0, close_radius=0, keep=2, near=expected)
+    assert two[45, 85] and two[50, 30] and not two[75, 65]
+    with pytest.raises(ValueError, match=r"near: expected the mask's shape \(100, 120\)"):
+        clean_mask(m, near=np.zeros((10, 10)))
+
+
 def test_clean_mask_empty_and_bad_input():
     assert not clean_mask(np.zeros((10, 10), bool)).any()
     with pytest.raises(ValueError, match=r"mask: expected a 2-D \(H, W\) mask"):

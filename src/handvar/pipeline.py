@@ -1350,17 +1350,18 @@ def paced_frames(
 
 
 class _Once:
-    """A frame's silhouettes, computed on the first call (a keypoint frame may not ask)."""
+    """A frame's silhouettes, computed on the first call (a keypoint frame may not ask;
+    a silhouette frame gives where the hand is expected, `Recovery.frame`)."""
 
-    def __init__(self, compute: Callable[[], np.ndarray]) -> None:
-        self._compute: Callable[[], np.ndarray] | None = compute
+    def __init__(self, compute: Callable[..., np.ndarray]) -> None:
+        self._compute: Callable[..., np.ndarray] | None = compute
         self._value: np.ndarray | None = None
 
-    def __call__(self) -> np.ndarray:
+    def __call__(self, near=None) -> np.ndarray:
         if self._value is None:
             if self._compute is None:
                 raise RuntimeError("the frame's silhouettes were released before computed")
-            self._value = self._compute()
+            self._value = self._compute(near)
         return self._value
 
     def release(self) -> np.ndarray | None:
@@ -1567,17 +1568,18 @@ class _Stream:
             if self.t0 is None:  # the zero of the capture times
                 self.t0 = self.origin[0] if self.origin else self.clock() - seconds
 
-            def silhouettes(images=images, index=index):
+            def silhouettes(near=None, images=images, index=index):
                 clock = self.clock()
                 masks = frame_silhouettes(
                     images, self.model, index=index, names=self.source.names, wrist=wrist,
-                    allow_empty=True,
+                    allow_empty=True, near=near,
                 )  # fmt: skip
                 self.seconds["silhouettes"] += self.clock() - clock
                 return masks
 
-            # With keypoints a frame's silhouettes are computed only if the fit asks.
-            masks = silhouettes() if not self.keyed else _Once(silhouettes)
+            # computed when the fit asks: with keypoints perhaps never; without them
+            # knowing where the hand is expected
+            masks = _Once(silhouettes)
             if images is not None and self.shape is None:
                 self.shape = (len(images), *images[0].shape[:2])
             present = kps is not None and any(k is not None for k in kps)

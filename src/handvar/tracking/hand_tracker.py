@@ -9,7 +9,8 @@ a hand.  Inside, a frame takes one of two lanes:
   keypoint-first fit from the motion prediction, with the recovery's rules
   (`handvar.tracking.recovery.Recovery.keypoint_frame`);
 - **silhouettes** (no detector): the paper's silhouette tracker from the prediction
-  (`Recovery.silhouette_frame`), on the frame's skin-colour silhouettes.
+  (`Recovery.silhouette_frame`), on the frame's skin-colour silhouettes (the skin
+  component where the prediction puts the hand, not the largest).
 
 A frame on which the detector ran and found no hand is a frame without a hand: NaN
 pose and joints, ``no_hand`` true, the predictor left as it was.  The first pose comes
@@ -220,16 +221,16 @@ class HandTracker:
             if self.detectors is not None and not _present(kps):  # no hand seen yet
                 return self._kept(_Frame.without_hand(), 0.0, None)
             self._start()
-        return self.fit(lambda: self._silhouettes(images), kps, world, absent=ran)
+        return self.fit(lambda near=None: self._silhouettes(images, near), kps, world,
+                        absent=ran)  # fmt: skip
 
     def fit(self, masks, keypoints, world=None, *, absent: bool = False) -> FrameResult:
-        """Fit the next frame from its silhouettes (or a callable giving them) and its
-        keypoints per camera (None: none); `absent`: the detector looked and found no
-        hand (a frame without keypoints is then one without a hand)."""
+        """Fit the next frame from its silhouettes (or a callable ``near=None -> masks``
+        giving them, `handvar.tracking.recovery.Recovery.frame`) and its keypoints per
+        camera (None: none); `absent`: the detector looked and found no hand (a frame
+        without keypoints is then one without a hand)."""
         keyed = self.detectors is not None
         kps = keypoints if _present(keypoints) else None
-        if not keyed and callable(masks):
-            masks = masks()
         f, s = self.recovery.step(masks, kps, world, with_keypoints=keyed, absent=absent)
         quality = _frame_quality(f.result, f.empty or f.no_hand)
         return self._kept(f, s, kps, quality)
@@ -364,7 +365,7 @@ class HandTracker:
         kps = kps or [None] * len(images)
         return [c.step(im, k) for c, im, k in zip(self._carriers, images, kps, strict=True)]
 
-    def _silhouettes(self, images):
+    def _silhouettes(self, images, near=None):
         from handvar.vision.skin import SkinModel
         from handvar.vision.sources import frame_silhouettes
 
@@ -372,7 +373,7 @@ class HandTracker:
             self._skin = SkinModel()
         return frame_silhouettes(images, self._skin, index=self.frame_count,
                                  names=self.rig.names, wrist=self.detectors is None,
-                                 allow_empty=True)  # fmt: skip
+                                 allow_empty=True, near=near)  # fmt: skip
 
 
 def _images(frames, n: int) -> list[np.ndarray]:

@@ -18,7 +18,10 @@ why each exists, are in docs/keypoint-fit.md:
    overlap the model at the predicted pose (`RecoverySettings.no_hand_iou`) is flagged
    *no hand* and not fitted; the next frame with keypoints re-acquires the hand.
 4. Any other frame is fitted by the paper's silhouette tracker (`Tracker.step`) from
-   the prediction.  In a track without keypoints a lost fit is refined, then searched
+   the prediction.  In a track without keypoints the frame's silhouettes, computed
+   when asked, keep the skin component where the model at the prediction lies, not
+   the largest (`handvar.vision.silhouette.clean_mask`'s ``near``); a lost fit is
+   refined, then searched
    again from the silhouettes (`handvar.tracking.init.initial_pose`), and a fit under
    `RecoverySettings.refine_iou` re-seeded digit by digit (`digit_reseeds`), as
    design §14.3 describes.
@@ -496,6 +499,10 @@ class Recovery:
     ) -> _Frame:
         """Track one frame: masks (n_cams, H, W), keypoints per camera or None.
 
+        `masks` may be a callable ``near=None -> masks`` computing them: in a track
+        without keypoints it is given where the hand is expected (`_expected`), so
+        that the skin component there is kept rather than the largest.
+
         `with_keypoints`: the track has keypoints (so a frame without them may be a
         frame without a hand).  `absent`: the detector looked at this frame and found no
         hand, and none was carried to it: a frame without a hand (NaN pose), the
@@ -513,7 +520,9 @@ class Recovery:
             )  # fmt: skip
         if with_keypoints and not self.started:  # before the hand was first seen
             return _Frame(None, self._nan_pose(), no_hand=True)
-        masks = self._masks(masks() if callable(masks) else masks, None)
+        if callable(masks):  # a track without keypoints: the skin where the hand goes
+            masks = masks(None if with_keypoints else self._expected())
+        masks = self._masks(masks, None)
         empty = not masks.any()
         if with_keypoints and self.no_hand(masks):
             return _Frame(None, self._nan_pose(), empty=empty, no_hand=True)
@@ -533,6 +542,15 @@ class Recovery:
         if not self._worlds:
             return None
         return np.mean([w for _, w in self._worlds], axis=0)
+
+    def _expected(self) -> np.ndarray | None:
+        """Where the hand is expected: the model's silhouettes at the motion prediction
+        (None before a pose), for choosing the skin components (`clean_mask`'s `near`)."""
+        if not self.started or self.previous is None:
+            return None
+        from handvar.render import silhouettes
+
+        return silhouettes(self.hand, self.tracker.prediction(), self.rig)
 
     def _masks(self, masks, kps) -> np.ndarray:
         masks = np.asarray(masks, dtype=bool)

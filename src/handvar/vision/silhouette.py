@@ -146,6 +146,7 @@ def clean_mask(
     fill_holes: bool = CLEANUP_SETTINGS.fill_holes,
     min_area: int = CLEANUP_SETTINGS.min_area,
     max_hole_area: int | None = CLEANUP_SETTINGS.max_hole_area,
+    near: np.ndarray | None = None,
 ) -> np.ndarray:
     """Clean a raw skin mask into a silhouette.
 
@@ -154,6 +155,12 @@ def clean_mask(
     ``cv2.connectedComponentsWithStats``) of at least ``min_area`` pixels, the ``keep``
     largest of them, then (if ``fill_holes``) every enclosed background region (holes,
     4-connected) of at most ``max_hole_area`` pixels is filled.
+
+    With `near` (where the hand is expected: the tracked model's predicted silhouette)
+    the components kept are those overlapping it most, ties and components without
+    overlap by area: a skin-coloured background larger than the hand (a wall, a
+    fridge, a face) is not taken for it.  Where no component overlaps `near`, the
+    largest are kept, as without it.
 
     Parameters
     ----------
@@ -169,6 +176,8 @@ def clean_mask(
         Smallest component kept, in pixels.
     max_hole_area : int, optional
         Largest hole filled, in pixels; None fills all.
+    near : (H, W) array_like, optional
+        Where the hand is expected; non-zero is inside.
 
     Returns
     -------
@@ -186,6 +195,10 @@ def clean_mask(
     >>> out = clean_mask(m, open_radius=0, min_area=10)
     >>> int(out.sum()), bool(out[15, 15]), bool(out[35, 35])
     (625, True, False)
+    >>> m[32:38, 32:40] = True    # a smaller skin-coloured patch, where the hand is expected
+    >>> expected = np.zeros_like(m); expected[33:36, 30:36] = True
+    >>> int(clean_mask(m, open_radius=0, close_radius=0, min_area=10, near=expected).sum())
+    48
     """
     m = as_mask(mask)
     open_radius = as_int(open_radius, "open_radius", minimum=0)
@@ -198,6 +211,10 @@ def clean_mask(
         n_keep = as_int(keep, "keep", minimum=1)
     if max_hole_area is not None:
         max_hole_area = as_int(max_hole_area, "max_hole_area", minimum=0)
+    if near is not None:
+        near = as_mask(near, "near")
+        if near.shape != m.shape:
+            raise ValueError(f"near: expected the mask's shape {m.shape}; got {near.shape}")
 
     if open_radius:
         m = cv2.morphologyEx(m, cv2.MORPH_OPEN, _disk(open_radius))
@@ -212,6 +229,11 @@ def clean_mask(
     n, labels = cv2.connectedComponents(m, connectivity=8)
     areas = np.bincount(labels.ravel(), minlength=n)[1:]
     order = np.argsort(-areas, kind="stable")
+    if near is not None:
+        overlap = np.bincount(labels[near != 0], minlength=n)[1:]
+        overlap[areas < min_area] = 0
+        if overlap.any():
+            order = order[np.argsort(-overlap[order], kind="stable")]
     chosen = order[:n_keep]
     chosen = chosen[areas[chosen] >= min_area] + 1
     if len(chosen) == 1:
@@ -296,6 +318,7 @@ def silhouettes_from_frames(
     frame: int | None = None,
     cameras: Sequence[str] | None = None,
     keypoints: Sequence[np.ndarray | None] | None = None,
+    near: Sequence[np.ndarray] | None = None,
 ) -> list[np.ndarray]:
     """Hand silhouettes of one time step seen by any number of cameras.
 
@@ -324,6 +347,9 @@ def silhouettes_from_frames(
     keypoints : sequence of (21, 2|3) array_like or None, optional
         Per camera, the frame's keypoints in its pixels: the wrist cut is made at the
         detected wrist (`handvar.vision.wrist.find_wrist`).
+    near : sequence of (H_j, W_j) array_like, optional
+        Per camera where the hand is expected (`clean_mask`'s `near`): the components
+        overlapping it are kept rather than the largest.
 
     Returns
     -------
@@ -361,7 +387,7 @@ def silhouettes_from_frames(
             raw = model.mask(image, threshold=threshold, order=order)
         except ValueError as exc:
             raise ValueError(f"frames ({where}): {exc}") from exc
-        sil = clean_mask(raw, **opts)
+        sil = clean_mask(raw, **opts, near=None if near is None else near[j])
         if touches_every_border(sil):
             raise NotAHandError(
                 f"{where}: not a hand (expected a hand inside the image; the skin-coloured "

@@ -126,6 +126,7 @@ def frame_silhouettes(
     wrist: bool = SOURCE_SETTINGS.wrist,
     keypoints=None,
     allow_empty: bool = False,
+    near=None,
 ) -> np.ndarray:
     """The hand silhouettes of one time step, one per camera (`VideoSource.silhouettes`).
 
@@ -145,6 +146,10 @@ def frame_silhouettes(
         Per camera this frame's keypoints in the frames' pixels (or None).
     allow_empty : bool, keyword-only
         An empty silhouette instead of `EmptySilhouetteError`.
+    near : (n_cams, H, W) array_like, keyword-only, optional
+        Where the hand is expected in each camera (the tracked model's predicted
+        silhouettes): the skin components there are kept rather than the largest
+        (`handvar.vision.silhouette.clean_mask`).
 
     Returns
     -------
@@ -159,6 +164,7 @@ def frame_silhouettes(
                 [image], model, threshold=threshold, cleanup=cleanup, wrist=wrist,
                 frame=index, cameras=[names[j]],
                 keypoints=None if keypoints is None else [keypoints[j]],
+                near=None if near is None else [near[j]],
             )  # fmt: skip
         except EmptySilhouetteError:
             if not allow_empty:
