@@ -35,6 +35,8 @@ so that the predictor is what differs.  Printed per predictor:
   error below the decelerating predictor's; per predictor how well the silhouettes the
   tracker was given match the hand's true one (IoU; it keeps the skin component where
   the hand is expected), and per case what keeping the largest component would give.
+  ``--largest`` tracks with the largest component instead
+  (`RecoverySettings.skin_where_expected` off), to compare the two rules.
 
 ``--strip DIR`` draws, per video (and for the realistic case whose predictors are off
 the hand most), the hardest stretch: six frames of the window of 12 where the
@@ -69,6 +71,7 @@ from handvar.evaluation.metrics import joint_errors, pck_2d
 from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
 from handvar.render import draw_overlay
 from handvar.render.overlay import side_by_side
+from handvar.tracking.recovery import RecoverySettings
 from handvar.vision.keypoints import read_keypoints
 from handvar.vision.silhouette import EmptySilhouetteError
 from realistic import generate, scored_points, specs
@@ -160,7 +163,8 @@ def figures(track, reference: np.ndarray, estimate: np.ndarray, scored: np.ndarr
     }
 
 
-def run(name: str, predictors, frames: int | None, seed: int, strip: Path | None) -> dict:
+def run(name: str, predictors, frames: int | None, seed: int, strip: Path | None,
+        recovery=None) -> dict:  # fmt: skip
     """Track video `name` with each predictor from one first pose; their figures."""
     video = example_path(name)
     keypoints = read_keypoints(example_path(f"{name}-keypoints"))
@@ -168,9 +172,8 @@ def run(name: str, predictors, frames: int | None, seed: int, strip: Path | None
     rows, tracks = {}, {}
     for p in predictors:
         t0 = time.perf_counter()
-        track = handvar.track(
-            video, scale=SCALE, detector="none", predictor=p, init=x0, seed=seed, frames=frames
-        )
+        track = handvar.track(video, scale=SCALE, detector="none", predictor=p, init=x0,
+                              seed=seed, frames=frames, recovery=recovery)  # fmt: skip
         rows[p] = score(track, keypoints)
         rows[p]["wall"] = time.perf_counter() - t0
         tracks[p] = track
@@ -273,7 +276,7 @@ def _crop(points: np.ndarray, shape) -> tuple[int, int, int, int]:
 
 
 def run_realistic(directory: Path, predictors, seed: int, cases: str,
-                  strip: Path | None) -> dict:  # fmt: skip
+                  strip: Path | None, recovery=None) -> dict:  # fmt: skip
     """Track each realistic case (module notes) with each predictor; figures per case."""
     results, hardest = {}, None
     for spec in specs(quick=False):
@@ -290,6 +293,7 @@ def run_realistic(directory: Path, predictors, seed: int, cases: str,
                 track = handvar.track(
                     cams, calib=case_dir / "calib.yml", hand=spec.side, detector="none",
                     hand_length=case.hand_length, init=case.poses[0], predictor=p, seed=seed,
+                    recovery=recovery,
                 )  # fmt: skip
             except EmptySilhouetteError as exc:  # the tracker's own refusal, said as such
                 print(f"  not tracked: {exc}", flush=True)
@@ -378,7 +382,7 @@ def score_truth(track, case) -> dict:
 
 
 def realistic_summary(results: dict) -> str:
-    """Per predictor over the realistic cases, mono and stereo: mean PCK, 3D errors,
+    """Per predictor over the realistic cases, mono, stereo and all: mean PCK, 3D errors,
     the frames off the hand and over `LOSS_MM`, lost, re-initialised, ms/frame."""
     lines = [
         "| rig | predictor | PCK@0.2 | MPJPE | abs 3D | frames > 0.5 hand sizes | "
@@ -386,8 +390,8 @@ def realistic_summary(results: dict) -> str:
         "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     predictors = next(iter(results.values())).keys()
-    for rig in ("mono", "stereo"):
-        cases = [rows for name, rows in results.items() if f"-{rig}-" in name]
+    for rig in ("mono", "stereo", "all"):
+        cases = [rows for name, rows in results.items() if rig == "all" or f"-{rig}-" in name]
         if not cases:
             continue
         for p in predictors:
@@ -458,10 +462,15 @@ def main() -> None:
     parser.add_argument("--cases", default="", help="with --realistic: cases containing this")
     parser.add_argument("--strip", type=Path, default=None, metavar="DIR",
                         help="write the overlay strip of the hardest stretch into DIR")  # fmt: skip
+    parser.add_argument("--largest", action="store_true",
+                        help="keep the largest skin component, not the one where the hand "
+                             "is expected (RecoverySettings.skin_where_expected)")  # fmt: skip
     args = parser.parse_args()
     predictors = [p.strip() for p in args.predictors.split(",") if p.strip()]
+    recovery = RecoverySettings(skin_where_expected=not args.largest)
     if args.realistic is not None:
-        results = run_realistic(args.realistic, predictors, args.seed, args.cases, args.strip)
+        results = run_realistic(args.realistic, predictors, args.seed, args.cases, args.strip,
+                                recovery)  # fmt: skip
         print()
         print(table(results))
         print()
@@ -473,7 +482,7 @@ def main() -> None:
     names = args.video or (VIDEOS if args.videos else VIDEOS[:1])
     for name in names:
         print(f"{name}: {example_path(name).name}", flush=True)
-        results[name] = run(name, predictors, args.frames, args.seed, args.strip)
+        results[name] = run(name, predictors, args.frames, args.seed, args.strip, recovery)
     print()
     print(table(results))
     for name, rows in results.items():

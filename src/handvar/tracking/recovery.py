@@ -332,6 +332,12 @@ class RecoverySettings:
         A re-seeded fit must raise the IoU by at least this much to be kept, 0.02:
         the IoU is the only judge there, and a digit moved for a smaller gain is as
         likely to be wrong as right.
+    skin_where_expected : bool
+        In a track without keypoints, each frame's silhouettes keep the skin component
+        the model at the predicted pose overlaps most (`Recovery.frame`); False: the
+        largest, the clean-up's default.  True: chosen on the realistic benchmark's
+        cases, against the truth; it also keeps the component where the model lies
+        once the model has left the hand (docs/results/paper-real-video.md).
     no_hand_iou : float
         In a track with keypoints, a frame without any whose silhouette overlaps the
         model at the predicted pose by less than this IoU (or has none) is flagged
@@ -387,6 +393,7 @@ class RecoverySettings:
     refine_iterations: int = 100
     reseed_digits: int = 4
     reseed_margin: float = 0.02
+    skin_where_expected: bool = True
     no_hand_iou: float = 0.3
     keypoint_iou: bool = False
     keypoint_reseeds: tuple[str, ...] = ("open", "fist")
@@ -403,6 +410,7 @@ class RecoverySettings:
         as_int(self.refine_iterations, "refine_iterations", minimum=0)
         as_int(self.reseed_digits, "reseed_digits", minimum=0)
         as_float(self.reseed_margin, "reseed_margin", minimum=0.0, maximum=1.0)
+        as_instance(self.skin_where_expected, bool, "skin_where_expected")
         as_float(self.no_hand_iou, "no_hand_iou", minimum=0.0, maximum=1.0)
         as_instance(self.keypoint_iou, bool, "keypoint_iou")
         as_instance(self.keypoint_reseeds, tuple, "keypoint_reseeds")
@@ -546,7 +554,7 @@ class Recovery:
     def _expected(self) -> np.ndarray | None:
         """Where the hand is expected: the model's silhouettes at the motion prediction
         (None before a pose), for choosing the skin components (`clean_mask`'s `near`)."""
-        if not self.started or self.previous is None:
+        if not (self.started and self.settings.skin_where_expected) or self.previous is None:
             return None
         from handvar.render import silhouettes
 
