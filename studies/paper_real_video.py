@@ -72,6 +72,7 @@ from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
 from handvar.render import draw_overlay
 from handvar.render.overlay import side_by_side
 from handvar.tracking.recovery import RecoverySettings
+from handvar.tracking.tracker import silhouette_iou
 from handvar.vision.keypoints import read_keypoints
 from handvar.vision.silhouette import EmptySilhouetteError
 from realistic import generate, scored_points, specs
@@ -369,10 +370,8 @@ def score_truth(track, case) -> dict:
     absolute = joint_errors(case.joints, points, alignment="none").mean(axis=1)
     row = figures(track, case.truth_2d[0], estimate, np.ones(n, dtype=bool))
     given = np.asarray([np.asarray(track.sequence.masks[t])[0] for t in range(n)])
-    inter = (given & case.masks[0][:n]).sum(axis=(1, 2))
-    union = np.maximum((given | case.masks[0][:n]).sum(axis=(1, 2)), 1)
     row.update(
-        given=float(np.median(inter / union)),
+        given=float(np.nanmedian(silhouette_iou(given, case.masks[0][:n]))),  # frames as cameras
         mpjpe=float(np.nanmean(relative)),
         abs=float(np.nanmean(absolute)),
         worst=float(np.nanmax(relative)),

@@ -21,8 +21,8 @@ why each exists, are in docs/keypoint-fit.md:
    the prediction.  In a track without keypoints the frame's silhouettes, computed
    when asked, keep the skin component where the model at the prediction lies, not
    the largest (`handvar.vision.silhouette.clean_mask`'s ``near``); a lost fit is
-   refined, then searched
-   again from the silhouettes (`handvar.tracking.init.initial_pose`), and a fit under
+   refined, then searched again from the silhouettes
+   (`handvar.tracking.init.initial_pose`), and a fit under
    `RecoverySettings.refine_iou` re-seeded digit by digit (`digit_reseeds`), as
    design §14.3 describes.
 
@@ -554,7 +554,7 @@ class Recovery:
     def _expected(self) -> np.ndarray | None:
         """Where the hand is expected: the model's silhouettes at the motion prediction
         (None before a pose), for choosing the skin components (`clean_mask`'s `near`)."""
-        if not (self.started and self.settings.skin_where_expected) or self.previous is None:
+        if not self.settings.skin_where_expected or self.previous is None:
             return None
         from handvar.render import silhouettes
 
