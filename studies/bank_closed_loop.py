@@ -110,7 +110,8 @@ def main() -> None:
         _weights_table(sequence, "all")
         _weights_table(sequence, "steering")
     hb = hand_blocks()
-    old_steering = tuple(e for e in STEERING_EXPERTS if e != "fast blend")
+    no_blend = tuple(e for e in STEERING_EXPERTS if e != "fast blend")
+    with_kalman = tuple(e for e in EXPERTS if e in (*STEERING_EXPERTS, "Kalman CV"))
 
     def bank(experts, **kw):
         return lambda: AdaptiveBank(hand_groups(), experts=experts, **{"var_blocks": hb, **kw})
@@ -123,12 +124,16 @@ def main() -> None:
         "RVAR relative": lambda: CATALOGUE["rvar_relative"].build(),
         "bank, all experts": bank("all"),
         "bank, steering": bank("steering"),
-        "steering w/o fast blend": bank(old_steering),
+        "steering w/o fast blend": bank(no_blend),
+        "steering + Kalman q/r=1": bank(with_kalman),
+        "steering, pool 100": bank("steering", pool=100.0),
+        "steering, pool 0": bank("steering", pool=0.0),
         "fast blend alone": bank(["fast blend"]),
         "fast blend, diagonal VAR": bank(["fast blend"], var_blocks=None),
         "fast blend, no bound": bank(["fast blend"], max_step=None),
         "bank, damped only": bank(DAMPED),
         "bank, damped + CV": bank((*DAMPED, "constant velocity")),
+        "bank, damped + Kalman q/r=1": bank((*DAMPED, "Kalman CV")),
         "bank, damped + AR": bank((*DAMPED, "AR velocity", "AR acceleration")),
     }
     if args.cases:

@@ -1,0 +1,144 @@
+"""Both adaptive banks open loop on streams the league does not hold (design §16).
+
+Run:  .venv/bin/python studies/bank_streams.py [--no-pool-check]
+
+The league (``handvar predict ... --noise [--smooth]``) is where the banks' settings
+were chosen.  This study runs them on series it does not hold, each with a copy plus
+Gaussian noise of σ = 0.5 in its units, and prints the league's summary (RMSE over all
+columns / the best simple baseline's, per recording):
+
+- the htrack recording at 15 and 10 frames/s (every 2nd and 3rd frame: faster motion
+  between frames), and the dex landmarks at 15 frames/s;
+- a learned detector's output on two other real clips (MediaPipe Hands on the
+  fingerspelling and the counting clip, shipped in ``examples/data``): its world
+  landmarks (mm) and its image landmarks (px), each over its longest run of frames with
+  a hand; and the keypoints of the dex video;
+- the test suite's synthetic families (a random walk, a smooth random walk in velocity,
+  a sinusoid with noise, white noise), each column its own group;
+
+then, unless ``--no-checks``, two checks of the experts: the steering bank as it is and
+with the q/r = 1 Kalman filter added, on the league's slow smooth rows (each htrack take
+slowed 4x, the random walk in velocity); and the bank of all experts with and without
+the autoregression of the velocity, alone, on htrack at the lower frame rates.
+"""
+
+from __future__ import annotations
+
+import argparse
+from functools import partial
+
+import numpy as np
+
+from handvar.data import example_path
+from handvar.evaluation.openloop import (
+    BASELINES,
+    Recording,
+    format_league,
+    league_predictors,
+    league_table,
+    noise_variants,
+    smooth_variants,
+)
+from handvar.predictors import EXPERTS, STEERING_EXPERTS, AdaptiveBank, hand_blocks, hand_groups
+from handvar.predictors.base import one_step_predictions
+from handvar.synth.motion import htrack_to_handvar
+
+BANKS = ("adaptive", "adaptive_open")
+
+
+def _longest_run(a: np.ndarray) -> np.ndarray:
+    """The longest run of consecutive frames whose every value is finite."""
+    ok = np.r_[np.isfinite(a.reshape(len(a), -1)).all(1), False]
+    best, start = (0, 0), None
+    for i, good in enumerate(ok):
+        if good and start is None:
+            start = i
+        elif not good and start is not None:
+            best = max(best, (start, i), key=lambda r: r[1] - r[0])
+            start = None
+    return a[best[0] : best[1]]
+
+
+def _families(T: int = 1500) -> dict[str, np.ndarray]:
+    """The synthetic families of tests/test_predictors_adaptive.py (the same seed)."""
+    rng = np.random.default_rng(7)
+    return {
+        "random walk": np.cumsum(rng.standard_normal((T, 6)), 0),
+        "smooth velocity": np.cumsum(np.cumsum(0.1 * rng.standard_normal((T, 6)), 0), 0),
+        "sinusoid": 10 * np.sin(2 * np.pi * np.arange(T)[:, None] / 60 + rng.uniform(0, 6, 6))
+        + 0.2 * rng.standard_normal((T, 6)),
+        "white noise": rng.standard_normal((T, 6)),
+    }
+
+
+def recordings() -> list[Recording]:
+    H = htrack_to_handvar(np.loadtxt(example_path("htrack")))
+    D = 1000.0 * np.load(example_path("video-landmarks"))
+    clean = [
+        Recording("htrack, every 2nd frame", H[::2], "handvar"),
+        Recording("htrack, every 3rd frame", H[::3], "handvar"),
+        Recording("dex landmarks, every 2nd frame", D[::2].reshape(-1, 63), "keypoints"),
+    ]
+    for clip in ("fingerspelling", "counting"):
+        z = np.load(example_path(f"{clip}-mediapipe"))
+        for key, layout in (("world_mm", "keypoints"), ("landmarks_px", "columns")):
+            a = _longest_run(z[key])
+            clean.append(Recording(f"{clip} MediaPipe {key} ({len(a)} frames)",
+                                   a.reshape(len(a), -1), layout))  # fmt: skip
+    K = np.load(example_path("video-keypoints"))
+    clean.append(Recording("dex video keypoints", K.reshape(len(K), -1), "keypoints"))
+    out = []
+    for rec in clean:
+        out += [rec, noise_variants(rec, sigmas=(0.5,), outlier_rate=0.0)[0]]
+    out += [Recording(name, X, "columns") for name, X in _families().items()]
+    return out
+
+
+def _ratio(make, rec: Recording, blocks=None) -> float:
+    """RMSE of a fresh predictor from `make` / the best baseline's, on `rec` (a noisy
+    copy scored against its clean series, as in the league)."""
+    truth = rec.X if rec.truth is None else rec.truth
+
+    def rmse(p) -> float:
+        P = one_step_predictions(p, rec.X, resets=rec.resets)
+        ok = np.isfinite(P).all(1)
+        return float(np.sqrt(np.mean((truth - P)[ok] ** 2)))
+
+    preds = league_predictors(blocks, keys=())
+    return rmse(make()) / min(rmse(preds[name]) for name in BASELINES)
+
+
+def _checks() -> None:
+    H = htrack_to_handvar(np.loadtxt(example_path("htrack")))
+    added = tuple(e for e in EXPERTS if e in (*STEERING_EXPERTS, "Kalman CV"))
+    print("steering bank / with the q/r = 1 Kalman filter added, RMSE / best baseline:")
+    for name, X in (("0-3999", H[:4000]), ("4000-5999", H[4000:])):
+        for rec in smooth_variants(Recording(f"htrack {name}", X, "handvar")):
+            a, b = (
+                _ratio(lambda e=e: AdaptiveBank(hand_groups(), experts=e, var_blocks=hand_blocks()),
+                       rec)  # the catalogue's bank on hand parameters
+                for e in ("steering", added)
+            )  # fmt: skip
+            print(f"  {rec.name:<40}{a:7.3f} / {b:.3f}")
+    print("bank of all experts / without / only the autoregression of the velocity:")
+    for rec in recordings()[:4]:
+        ratios = []
+        for experts in (EXPERTS, [e for e in EXPERTS if e != "AR velocity"], ["AR velocity"]):
+            bank = partial(AdaptiveBank, hand_groups(), experts=experts, var_blocks=hand_blocks())
+            ratios.append(_ratio(bank, rec))
+        print(f"  {rec.name:<40}" + " / ".join(f"{r:.3f}" for r in ratios))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--no-checks", action="store_true")
+    args = ap.parse_args()
+    rows = league_table(recordings(), keys=BANKS)
+    text = format_league(rows)
+    print(text[text.index("RMSE / best baseline (") :])  # the summary, not every ranking
+    if not args.no_checks:
+        _checks()
+
+
+if __name__ == "__main__":
+    main()
