@@ -13,8 +13,6 @@ columns / the best simple baseline's, per recording):
   fingerspelling and the counting clip, shipped in ``examples/data``): its world
   landmarks (mm) and its image landmarks (px), each over its longest run of frames with
   a hand; and the keypoints of the dex video;
-- the test suite's synthetic families (a random walk, a smooth random walk in velocity,
-  a sinusoid with noise, white noise), each column its own group;
 
 then, unless ``--no-checks``, two checks of the experts: the steering bank as it is and
 with the q/r = 1 Kalman filter added, on the league's slow smooth rows (each htrack take
@@ -59,18 +57,6 @@ def _longest_run(a: np.ndarray) -> np.ndarray:
     return a[best[0] : best[1]]
 
 
-def _families(T: int = 1500) -> dict[str, np.ndarray]:
-    """The synthetic families of tests/test_predictors_adaptive.py (the same seed)."""
-    rng = np.random.default_rng(7)
-    return {
-        "random walk": np.cumsum(rng.standard_normal((T, 6)), 0),
-        "smooth velocity": np.cumsum(np.cumsum(0.1 * rng.standard_normal((T, 6)), 0), 0),
-        "sinusoid": 10 * np.sin(2 * np.pi * np.arange(T)[:, None] / 60 + rng.uniform(0, 6, 6))
-        + 0.2 * rng.standard_normal((T, 6)),
-        "white noise": rng.standard_normal((T, 6)),
-    }
-
-
 def recordings() -> list[Recording]:
     H = htrack_to_handvar(np.loadtxt(example_path("htrack")))
     D = 1000.0 * np.load(example_path("video-landmarks"))
@@ -90,7 +76,6 @@ def recordings() -> list[Recording]:
     out = []
     for rec in clean:
         out += [rec, noise_variants(rec, sigmas=(0.5,), outlier_rate=0.0)[0]]
-    out += [Recording(name, X, "columns") for name, X in _families().items()]
     return out
 
 
