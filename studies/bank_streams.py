@@ -40,21 +40,9 @@ from handvar.evaluation.openloop import (
 from handvar.predictors import EXPERTS, STEERING_EXPERTS, AdaptiveBank, hand_blocks, hand_groups
 from handvar.predictors.base import one_step_predictions
 from handvar.synth.motion import htrack_to_handvar
+from paper_real_video import longest_run
 
 BANKS = ("adaptive", "adaptive_open")
-
-
-def _longest_run(a: np.ndarray) -> np.ndarray:
-    """The longest run of consecutive frames whose every value is finite."""
-    ok = np.r_[np.isfinite(a.reshape(len(a), -1)).all(1), False]
-    best, start = (0, 0), None
-    for i, good in enumerate(ok):
-        if good and start is None:
-            start = i
-        elif not good and start is not None:
-            best = max(best, (start, i), key=lambda r: r[1] - r[0])
-            start = None
-    return a[best[0] : best[1]]
 
 
 def recordings() -> list[Recording]:
@@ -68,7 +56,9 @@ def recordings() -> list[Recording]:
     for clip in ("fingerspelling", "counting"):
         z = np.load(example_path(f"{clip}-mediapipe"))
         for key, layout in (("world_mm", "keypoints"), ("landmarks_px", "columns")):
-            a = _longest_run(z[key])
+            found = np.isfinite(z[key].reshape(len(z[key]), -1)).all(axis=1)
+            length, start = longest_run(found)  # the longest run of frames with a hand
+            a = z[key][start : start + length]
             clean.append(Recording(f"{clip} MediaPipe {key} ({len(a)} frames)",
                                    a.reshape(len(a), -1), layout))  # fmt: skip
     K = np.load(example_path("video-keypoints"))

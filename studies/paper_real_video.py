@@ -348,12 +348,12 @@ def skin_agreement(folder: Path, truth: np.ndarray) -> dict[str, np.ndarray]:
         inside = np.bincount(labels[hand], minlength=n)[1:]
         if inside.any():
             part = labels == 1 + int(np.argmax(inside))
-            out["nearest"][t] = (part & hand).sum() / (part | hand).sum()
+            out["nearest"][t] = silhouette_iou(part[None], hand[None])[0]
         try:
             mask = silhouettes_from_frames([image], model, wrist=True)[0]
         except EmptySilhouetteError:
             continue
-        out["largest"][t] = (mask & hand).sum() / max((mask | hand).sum(), 1)
+        out["largest"][t] = silhouette_iou(mask[None], hand[None])[0]
     return out
 
 
