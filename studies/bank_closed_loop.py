@@ -14,7 +14,12 @@ prints
    expert sets, the fast blend alone and without its parts (a diagonal VAR instead of
    eq. 25's blocks, no step bound), beside decelerating ρ = 0.4, 0.6, 1 and both
    RVARs; and the same mean over frames 148–160 only, where the thumb crosses the palm
-   (``--window``; the thumb's flexion steps there are printed first).
+   (``--window``; the thumb's flexion steps there are printed first);
+4. with ``--join``, only the join rule's margins: for each expert of ``JOINING``, the
+   ratio of its discounted squared error to the best steering expert's per hand group,
+   frames 30 on (where the rule may act), as the steering bank without the rule sees it
+   open loop on the league's slow smooth rows (median, least) and in closed loop over
+   trials 0..N−1 (least, percentiles).
 
 Trial k uses ``default_rng([0, k])`` as in ``handvar experiment``, so the figures are
 the experiment's first trials.
@@ -30,6 +35,7 @@ from handvar.evaluation.config import ExperimentConfig, tracker_settings
 from handvar.evaluation.trials import _hand
 from handvar.predictors import (
     EXPERTS,
+    JOINING,
     STEERING_EXPERTS,
     AdaptiveBank,
     Decelerating,
@@ -51,6 +57,59 @@ class _Recorder(AdaptiveBank):
             self.seen.append((self.expert_predictions, np.array(x, dtype=float)))
         super().update(x)
         self.history.append(self.weights.mean(0))
+
+
+class _Ratios(AdaptiveBank):
+    """A bank that keeps, every frame, each expert's discounted squared error over the
+    best steering expert's, per group (n_groups, M)."""
+
+    def update(self, x) -> None:
+        super().update(x)
+        d = np.einsum("gaa->ga", self._G)
+        keep = [EXPERTS.index(e) for e in STEERING_EXPERTS]
+        with np.errstate(invalid="ignore", divide="ignore"):  # no errors yet: NaN
+            self.ratios.append(d / d[:, keep].min(1, keepdims=True))
+
+
+def _ratio_bank() -> _Ratios:
+    """The steering bank without the join rule, keeping its ratios."""
+    bank = _Ratios(hand_groups(), experts="steering", join=0.0, var_blocks=hand_blocks())
+    bank.ratios = []
+    return bank
+
+
+def _join_margins(sequence, trials: int) -> None:
+    from handvar.data import example_path
+    from handvar.evaluation.openloop import Recording, smooth_variants
+    from handvar.synth.motion import htrack_to_handvar
+
+    join = AdaptiveBank(experts="steering").join
+    print(f"join rule (join = {join}): each joining expert's discounted squared error / "
+          "the best steering expert's, frames 30 on, every group")  # fmt: skip
+    H = htrack_to_handvar(np.loadtxt(example_path("htrack")))
+    print("open loop, the league's slow smooth rows: median (least)")
+    for name, X in (("0-3999", H[:4000]), ("4000-5999", H[4000:])):
+        for rec in smooth_variants(Recording(f"htrack {name}", X, "handvar")):
+            bank = _ratio_bank()
+            for x in rec.X:
+                bank.update(x)
+            R = np.array(bank.ratios)[30:]
+            cells = (R[..., EXPERTS.index(e)] for e in JOINING)
+            print(f"  {rec.name:<40}"
+                  + "  ".join(f"{np.median(r):.3f} ({r.min():.3f})" for r in cells))  # fmt: skip
+    R = []
+    for k in range(trials):
+        bank = _ratio_bank()
+        _track(sequence, bank, k)
+        R.append(np.array(bank.ratios)[30:])
+    R = np.array(R)  # (trials, frames, groups, M)
+    print(f"closed loop on the benchmark, trials 0..{trials - 1}:")
+    print(f"  {'expert':<20}{'least':>7}{'1 %':>7}{'10 %':>7}{'median':>8}  least per trial")
+    for e in JOINING:
+        r = R[..., EXPERTS.index(e)]
+        q = np.quantile(r, [0.01, 0.1, 0.5])
+        print(f"  {e:<20}{r.min():7.3f}" + "".join(f"{v:7.3f}" for v in q[:2]) + f"{q[2]:8.3f}  "
+              + " ".join(f"{v:.2f}" for v in r.min(axis=(1, 2))))  # fmt: skip
 
 
 def _recorder(experts):
@@ -97,6 +156,7 @@ def main() -> None:
     ap.add_argument("--window", type=int, nargs=2, default=(148, 160), metavar=("FIRST", "LAST"))
     ap.add_argument("--cases", help="semicolon-separated names of the cases to run (default all)")
     ap.add_argument("--no-weights", action="store_true", help="skip the weight tables")
+    ap.add_argument("--join", action="store_true", help="print only the join rule's margins")
     args = ap.parse_args()
     if args.store:
         from handvar.evaluation.store import store_sequence
@@ -106,6 +166,9 @@ def main() -> None:
         from handvar.synth.sequences import make_sequence
 
         sequence = make_sequence("benchmark", seed=0, n_frames=175)
+    if args.join:
+        _join_margins(sequence, args.trials)
+        return
     if not args.no_weights:
         _weights_table(sequence, "all")
         _weights_table(sequence, "steering")

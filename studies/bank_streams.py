@@ -14,10 +14,12 @@ columns / the best simple baseline's, per recording):
   landmarks (mm) and its image landmarks (px), each over its longest run of frames with
   a hand; and the keypoints of the dex video;
 
-then, unless ``--no-checks``, two checks of the experts: the steering bank as it is and
-with the q/r = 1 Kalman filter added, on the league's slow smooth rows (each htrack take
-slowed 4x, the random walk in velocity); and the bank of all experts with and without
-the autoregression of the velocity, alone, on htrack at the lower frame rates.
+then, unless ``--no-checks``, two checks of the experts: the steering bank without the
+join rule (``join=0``), as it is, and with the q/r = 1 Kalman filter always among its
+experts, on the league's slow smooth rows (each htrack take slowed 4x, the random walk
+in velocity), and on the test suite's synthetic families; and the bank of all experts
+with and without the autoregression of the velocity, alone, on htrack at the lower
+frame rates.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from handvar.evaluation.openloop import (
     league_table,
     noise_variants,
     smooth_variants,
+    synthetic_families,
 )
 from handvar.predictors import EXPERTS, STEERING_EXPERTS, AdaptiveBank, hand_blocks, hand_groups
 from handvar.predictors.base import one_step_predictions
@@ -86,15 +89,21 @@ def _ratio(make, rec: Recording, blocks=None) -> float:
 def _checks() -> None:
     H = htrack_to_handvar(np.loadtxt(example_path("htrack")))
     added = tuple(e for e in EXPERTS if e in (*STEERING_EXPERTS, "Kalman CV"))
-    print("steering bank / with the q/r = 1 Kalman filter added, RMSE / best baseline:")
+    print("steering bank without the join rule / as it is / with the q/r = 1 Kalman filter"
+          " always, RMSE / best baseline:")  # fmt: skip
+    variants = ({"experts": "steering", "join": 0.0}, {"experts": "steering"},
+                {"experts": added, "join": 0.0})  # fmt: skip
     for name, X in (("0-3999", H[:4000]), ("4000-5999", H[4000:])):
         for rec in smooth_variants(Recording(f"htrack {name}", X, "handvar")):
-            a, b = (
-                _ratio(lambda e=e: AdaptiveBank(hand_groups(), experts=e, var_blocks=hand_blocks()),
-                       rec)  # the catalogue's bank on hand parameters
-                for e in ("steering", added)
-            )  # fmt: skip
-            print(f"  {rec.name:<40}{a:7.3f} / {b:.3f}")
+            ratios = [
+                _ratio(partial(AdaptiveBank, hand_groups(), var_blocks=hand_blocks(), **kw), rec)
+                for kw in variants  # the catalogue's bank on hand parameters
+            ]
+            print(f"  {rec.name:<40}" + " / ".join(f"{r:.3f}" for r in ratios))
+    for name, X in synthetic_families().items():  # every column alone
+        ratios = [_ratio(partial(AdaptiveBank, **kw), Recording(name, X, "columns"))
+                  for kw in variants]  # fmt: skip
+        print(f"  {'synthetic ' + name:<40}" + " / ".join(f"{r:.3f}" for r in ratios))
     print("bank of all experts / without / only the autoregression of the velocity:")
     for rec in recordings()[:4]:
         ratios = []

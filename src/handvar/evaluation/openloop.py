@@ -46,6 +46,7 @@ __all__ = [
     "noise_variants",
     "read_pose_series",
     "smooth_variants",
+    "synthetic_families",
     "write_csv",
     "write_league_csv",
     "write_league_figure",
@@ -396,7 +397,7 @@ def smooth_variants(
     x_t = x_{t−1} + v_t (ε standard normal, seeded by `seed`; in the columns' units
     per frame²).  On both the motion between frames is almost linear: the best
     baseline is the constant-velocity Kalman filter, and a predictor that damps the
-    last step (decelerating, a steering set without constant velocity) loses to it.
+    last step (decelerating, the steering set without its join rule) loses to it.
 
     Parameters
     ----------
@@ -429,6 +430,28 @@ def smooth_variants(
         f"{recording.name} velocity random walk", X[0] + np.cumsum(v, axis=0), recording.layout
     )
     return [slowed, walk]
+
+
+def synthetic_families(T: int = 1500, width: int = 6, seed: int = 7) -> dict[str, np.ndarray]:
+    """Four synthetic series (T, width), each with its own best simple baseline.
+
+    A random walk (white-noise velocity: no motion is best), a smooth random walk in
+    velocity (second differences of σ = 0.1: a constant-velocity model is best), a
+    sinusoid of period 60 frames and amplitude 10 plus noise of σ = 0.2, and white noise
+    (a low-pass is best).  Seeded by `seed`.
+    """
+    rng = np.random.default_rng(seed)
+    walk = np.cumsum(rng.standard_normal((T, width)), 0)
+    smooth = np.cumsum(np.cumsum(0.1 * rng.standard_normal((T, width)), 0), 0)
+    phase = rng.uniform(0, 6, width)
+    sinusoid = 10 * np.sin(2 * np.pi * np.arange(T)[:, None] / 60 + phase)
+    sinusoid += 0.2 * rng.standard_normal((T, width))
+    return {
+        "random walk": walk,
+        "smooth velocity": smooth,
+        "sinusoid": sinusoid,
+        "white noise": rng.standard_normal((T, width)),
+    }
 
 
 def league_predictors(blocks=None, *, rate: float = 30.0, keys=None) -> dict[str, Predictor]:

@@ -10,7 +10,13 @@
 """
 
 from handvar.params import hand_blocks
-from handvar.predictors.adaptive import EXPERTS, STEERING_EXPERTS, AdaptiveBank, hand_groups
+from handvar.predictors.adaptive import (
+    EXPERTS,
+    JOINING,
+    STEERING_EXPERTS,
+    AdaptiveBank,
+    hand_groups,
+)
 from handvar.predictors.base import Predictor, one_step_chunks, one_step_predictions
 from handvar.predictors.kalman import KalmanCV
 from handvar.predictors.offline import OfflineVAR
@@ -22,6 +28,7 @@ from handvar.predictors.var import VAR, second_differences
 
 __all__ = [
     "EXPERTS",
+    "JOINING",
     "RVAR",
     "STEERING_EXPERTS",
     "VAR",

@@ -40,7 +40,11 @@ weight on the experts that carry the whole last step forward, the weights swing,
 the tracking does not recover after fast motion (design §16, "In closed loop").  The
 fast blend is the steering set's extrapolator: it carries at most γ of the step and
 its own weights, refitted per coordinate within two or three frames, fall back to no
-motion when the extrapolation fails.
+motion when the extrapolation fails.  On slow smooth motion carrying the whole step is
+what predicts best, so in the steering bank an expert kept out (:data:`JOINING`) joins
+a group's weights while its discounted squared error is below ``join`` (¼) times the
+best kept expert's: its RMSE under half theirs, which the tracker's estimates never
+gave it on the benchmark.
 """
 
 from __future__ import annotations
@@ -54,7 +58,7 @@ from handvar.predictors.base import as_vector
 from handvar.predictors.one_euro import one_euro_alpha
 from handvar.validate import as_float, as_int
 
-__all__ = ["EXPERTS", "STEERING_EXPERTS", "AdaptiveBank", "hand_groups"]
+__all__ = ["EXPERTS", "JOINING", "STEERING_EXPERTS", "AdaptiveBank", "hand_groups"]
 
 # The experts, in the order of the weights.
 EXPERTS: tuple[str, ...] = (
@@ -89,6 +93,11 @@ STEERING_EXPERTS: tuple[str, ...] = (
     "Kalman CV q/r=1e-4",
     "fast blend",
 )
+# The experts that join a group's weights when kept out of a bank's set, while clearly
+# the best (discounted squared error below `join` times the best kept expert's): those
+# that carry the whole step, which on slow smooth motion have a tenth of the steering
+# set's error.  The autoregressions, which amplify noise most, never join.
+JOINING: tuple[str, ...] = ("constant velocity", "Kalman CV")
 _RHOS = np.array([0.2, 0.4, 0.6, 1.0])  # experts 1..4
 # Kalman experts 5, 7, 8: (q, r), as KalmanCV's arguments.
 _KALMAN_Q = np.array([1.0, 1e-2, 1e-4])
@@ -185,11 +194,13 @@ def _triangle(saa, sab, sbb, sax, sbx, sxx):  # pragma: no cover
 
 @njit(cache=True)
 def _bank_update(
-    x, S, G, N, W, index, sizes, cfg, aux, allowed, prior, vindex, vsizes, Vyy, Vxy
+    x, S, G, N, W, index, sizes, cfg, aux, allowed, joinable, prior, vindex, vsizes, Vyy, Vxy
 ):  # pragma: no cover
     """One frame: score the experts, update them, refit the weights, combine.
 
-    Only the experts with `allowed` true get weight; `prior` (M,) is w₀.
+    Only the experts with `allowed` true get weight, and in a group those with
+    `joinable` true whose discounted squared error is below cfg[15] times the best
+    allowed expert's (from frame n₀ on); `prior` (M,) is w₀.
 
     `aux` holds [frames seen, increment scale c]; G and N are stored multiplied by c
     (c = λ^−t grows instead of G shrinking, and is folded back when large).
@@ -204,7 +215,7 @@ def _bank_update(
     lam, lam_ar, oe_a_d, oe_min, oe_beta, rate, ridge, pool, n0 = cfg[:9]
     sweeps = int(cfg[9])
     gamma, lam_f, lam_v, max_step = cfg[10], cfg[11], cfg[12], cfg[13]
-    gate = cfg[14]
+    gate, join = cfg[14], cfg[15]
     n = int(aux[0])
     # the discounted count of the gate's innovations, Σ_{k<n} λ_AR^k
     wsum = (1.0 - lam_ar**n) / (1.0 - lam_ar)
@@ -440,7 +451,28 @@ def _bank_update(
     Gv = np.empty(M)
     v = np.empty(M)
     shrink = max(0.0, 1.0 - n / n0) if n0 > 0.0 else 0.0
+    kept = np.empty(M, dtype=np.bool_)
     for g in range(ng):
+        # The experts this group may weight: the allowed ones, and a joinable one while
+        # its error is below `join` times the best allowed expert's.
+        best = np.inf
+        for a in range(M):
+            kept[a] = allowed[a]
+            if allowed[a]:
+                best = min(best, G[g, a, a])
+        if n >= n0 and best > 0.0:
+            for a in range(M):
+                if joinable[a] and not allowed[a] and G[g, a, a] < join * best:
+                    kept[a] = True
+        # An expert that has left the group gives its weight back to the others.
+        left = 0.0
+        for a in range(M):
+            if not kept[a]:
+                left += W[g, a]
+                W[g, a] = 0.0
+        if left > 0.0:
+            for a in range(M):
+                W[g, a] = W[g, a] / (1.0 - left) if left < 1.0 else allowed[a] / m_allowed
         if scale[g] > 0.0:
             f = N[g] / c * scale[g]
             for a in range(M):
@@ -467,7 +499,7 @@ def _bank_update(
                 # Coordinate descent on vᵀ(A + δI)v − 2·1ᵀv over v ≥ 0.
                 for _ in range(sweeps):
                     for a in range(M):
-                        if not allowed[a]:
+                        if not kept[a]:
                             continue
                         new = v[a] + (1.0 - Gv[a]) / (A[a, a] + delta)
                         if new < 0.0:
@@ -567,6 +599,14 @@ class AdaptiveBank:
         One gross error is then not carried into the next prediction as a velocity
         and an acceleration.  ``None`` disables it.  Chosen on the league's rows with
         outlier frames (docs/predictors-notes.md); 3 to 5 give the same league.
+    join : float, optional
+        From frame n₀ on, an expert of :data:`JOINING` that `experts` leaves out gets
+        weight in a group while its discounted squared error there is below join times
+        the best kept expert's (and gives its weight back once it is not); 0 disables
+        it.  Default 0.25 for ``experts="steering"``, else 0 (a list gets exactly its
+        experts).  Chosen between the league's slow smooth rows, where that ratio's
+        median is 0.04–0.15, and the benchmark tracked in closed loop, where its least
+        is 0.52 (docs/predictors-notes.md).
 
     Notes
     -----
@@ -612,6 +652,7 @@ class AdaptiveBank:
         var_memory: float = 30.0,
         max_step: float | None = 10.0,
         ar_gate: float | None = 4.0,
+        join: float | None = None,
     ) -> None:
         self.ar_gate = (
             None
@@ -648,6 +689,12 @@ class AdaptiveBank:
         self._experts_arg = experts if isinstance(experts, str) else list(names)
         self.experts = tuple(e for e in EXPERTS if e in names)
         self._allowed = np.array([e in names for e in EXPERTS])
+        self._joinable = np.array([e in JOINING for e in EXPERTS])
+        self.join = (
+            (0.25 if isinstance(experts, str) and experts == "steering" else 0.0)
+            if join is None
+            else as_float(join, "join", minimum=0.0)
+        )
         # w₀: the fast blend when it is an expert, else decelerating ρ = 0.4, else uniform.
         if self._allowed[_FAST]:
             self._prior = np.zeros(_M)
@@ -675,7 +722,7 @@ class AdaptiveBank:
             1.0, 0.0, self.rate, self.ridge, self.pool, self.prior_frames, self.sweeps,
             self.gamma, 0.5, 1.0 - 1.0 / self.var_memory,
             np.inf if self.max_step is None else self.max_step,
-            np.inf if self.ar_gate is None else self.ar_gate,
+            np.inf if self.ar_gate is None else self.ar_gate, self.join,
         ])  # fmt: skip
         self._vindex, self._vsizes = _partition(self.var_blocks, d, "var_blocks")
         nvb, vmax = self._vindex.shape
@@ -713,6 +760,7 @@ class AdaptiveBank:
             self._cfg,
             self._aux,
             self._allowed,
+            self._joinable,
             self._prior,
             self._vindex,
             self._vsizes,

@@ -56,6 +56,7 @@ _PARAM_NAMES = {
         "var_memory",
         "max_step",
         "ar_gate",
+        "join",
     ),
 }
 # The paper's symbols and a few spellings accepted for the constructor arguments.
