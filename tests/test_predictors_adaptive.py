@@ -492,3 +492,24 @@ def test_a_constant_column_keeps_every_prediction_finite(gate):
     X = np.c_[np.zeros(60), np.cumsum(rng.standard_normal(60))]
     P = one_step_predictions(AdaptiveBank(ar_gate=gate), X)
     assert np.isfinite(P[1:]).all()
+
+
+def test_the_join_rule_does_not_act_when_the_bank_steers_the_benchmark():
+    """Fed the tracker's own estimates on the benchmark, no left-out expert is ever
+    clearly the best: with the join rule and without it the track is the same to the
+    bit (the experiment's 50 trials: docs/predictors-notes.md)."""
+    from handvar.evaluation.config import ExperimentConfig, tracker_settings
+    from handvar.hand.kinematics import HandModel
+    from handvar.params import hand_blocks
+    from handvar.synth.sequences import make_sequence
+    from handvar.tracking import Tracker
+
+    seq = make_sequence("benchmark", n_frames=50)
+    settings = tracker_settings(ExperimentConfig().tracker)
+    poses = []
+    for join in (None, 0.0):
+        bank = AdaptiveBank(hand_groups(), experts="steering", var_blocks=hand_blocks(), join=join)
+        tracker = Tracker(seq.rig, HandModel(), bank, np.random.default_rng([0, 3]), settings)
+        poses.append(tracker.track(seq, seq.truth.poses[0]).poses)
+        assert bank.join == (0.25 if join is None else 0.0)
+    np.testing.assert_array_equal(poses[0], poses[1])
