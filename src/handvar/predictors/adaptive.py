@@ -192,6 +192,33 @@ def _triangle(saa, sab, sbb, sax, sbx, sxx):  # pragma: no cover
     return alpha, beta
 
 
+@njit(cache=True, inline="always")
+def _join(G, w, allowed, joinable, join, kept):  # pragma: no cover
+    """The experts a group may weight (`kept`, set in place): the allowed ones, and a
+    joinable one while its error G[a, a] is below `join` times the best allowed
+    expert's.  An expert that has left gives its weight in `w` back to the others."""
+    M = w.shape[0]
+    best = np.inf
+    m_allowed = 0
+    for a in range(M):
+        kept[a] = allowed[a]
+        if allowed[a]:
+            best = min(best, G[a, a])
+            m_allowed += 1
+    if best > 0.0:
+        for a in range(M):
+            if joinable[a] and not allowed[a] and G[a, a] < join * best:
+                kept[a] = True
+    left = 0.0
+    for a in range(M):
+        if not kept[a]:
+            left += w[a]
+            w[a] = 0.0
+    if left > 0.0:
+        for a in range(M):
+            w[a] = w[a] / (1.0 - left) if left < 1.0 else allowed[a] / m_allowed
+
+
 @njit(cache=True)
 def _bank_update(
     x, S, G, N, W, index, sizes, cfg, aux, allowed, joinable, prior, vindex, vsizes, Vyy, Vxy
@@ -453,26 +480,7 @@ def _bank_update(
     shrink = max(0.0, 1.0 - n / n0) if n0 > 0.0 else 0.0
     kept = np.empty(M, dtype=np.bool_)
     for g in range(ng):
-        # The experts this group may weight: the allowed ones, and a joinable one while
-        # its error is below `join` times the best allowed expert's.
-        best = np.inf
-        for a in range(M):
-            kept[a] = allowed[a]
-            if allowed[a]:
-                best = min(best, G[g, a, a])
-        if n >= n0 and best > 0.0:
-            for a in range(M):
-                if joinable[a] and not allowed[a] and G[g, a, a] < join * best:
-                    kept[a] = True
-        # An expert that has left the group gives its weight back to the others.
-        left = 0.0
-        for a in range(M):
-            if not kept[a]:
-                left += W[g, a]
-                W[g, a] = 0.0
-        if left > 0.0:
-            for a in range(M):
-                W[g, a] = W[g, a] / (1.0 - left) if left < 1.0 else allowed[a] / m_allowed
+        _join(G[g], W[g], allowed, joinable, join if n >= n0 else 0.0, kept)
         if scale[g] > 0.0:
             f = N[g] / c * scale[g]
             for a in range(M):
