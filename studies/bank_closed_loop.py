@@ -63,12 +63,13 @@ class _Ratios(AdaptiveBank):
     """A bank that keeps, every frame, each expert's discounted squared error over the
     best steering expert's, per group (n_groups, M)."""
 
+    STEERING = tuple(EXPERTS.index(e) for e in STEERING_EXPERTS)
+
     def update(self, x) -> None:
         super().update(x)
         d = np.einsum("gaa->ga", self._G)
-        keep = [EXPERTS.index(e) for e in STEERING_EXPERTS]
         with np.errstate(invalid="ignore", divide="ignore"):  # no errors yet: NaN
-            self.ratios.append(d / d[:, keep].min(1, keepdims=True))
+            self.ratios.append(d / d[:, list(self.STEERING)].min(1, keepdims=True))
 
 
 def _ratio_bank() -> _Ratios:
