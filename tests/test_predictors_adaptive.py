@@ -101,12 +101,13 @@ def test_bank_experts_equal_the_standalone_predictors():
             np.testing.assert_allclose(P[EXPERTS.index(name)], p.predict(), rtol=1e-12, atol=1e-9)
 
 
-def _fast_blend_reference(X, var_blocks, gamma=0.8, var_memory=30.0, max_step=10.0):
+def _fast_blend_reference(X, var_blocks, gamma=0.8, var_memory=30.0, max_step=10.0, first_step=0.0):
     """The fast blend written plainly: every sum recomputed from the whole history.
 
     The block VAR's coefficients by discounted least squares on all equations so far
     (numpy's solve), the step bounds, and eq. 27's triangle fit by RVAR's exact
-    ``fit_trust_weights`` on all scored frames with eq. 28's weights 2^−(T−t).
+    ``fit_trust_weights`` on all scored frames with eq. 28's weights 2^−(T−t); until
+    a scored prediction has moved, `first_step` of the mean step.
     """
     from handvar.predictors.rvar import fit_trust_weights
 
@@ -131,6 +132,7 @@ def _fast_blend_reference(X, var_blocks, gamma=0.8, var_memory=30.0, max_step=10
             yh = C @ np.linalg.solve(D, Y[n, b])
             ymax = np.abs(Y[n, b]).max()
             sv[b] = x[b] + np.clip(v[b] + np.clip(yh, -ymax, ymax), -max_step, max_step)
+        moved = np.zeros(d, dtype=bool)
         if n == 0:
             alpha = beta = np.full(d, 0.5)
         else:
@@ -141,24 +143,33 @@ def _fast_blend_reference(X, var_blocks, gamma=0.8, var_memory=30.0, max_step=10
                 np.array(cv_hist) - prev,
                 0.5 ** np.arange(n - 1, -1, -1.0),
             )
+            moved = (np.abs(np.array(sv_hist) - prev) + np.abs(np.array(cv_hist) - prev)).sum(0) > 0
         sv_hist.append(sv)
         cv_hist.append(x + v)
-        out[n] = x + gamma * (alpha * (sv - x) + beta * v)  # eq. 26
+        out[n] = np.where(
+            moved,
+            x + gamma * (alpha * (sv - x) + beta * v),  # eq. 26
+            x + first_step * 0.5 * ((sv - x) + v),
+        )
     return out
 
 
-@pytest.mark.parametrize("var_blocks", [None, [[0], [1, 2, 3], [4]]])
-def test_fast_blend_equals_a_plain_reference(var_blocks):
+@pytest.mark.parametrize(
+    ("var_blocks", "first_step"), [(None, 0.0), ([[0], [1, 2, 3], [4]], 0.0), (None, 0.8)]
+)
+def test_fast_blend_equals_a_plain_reference(var_blocks, first_step):
     rng = np.random.default_rng(12)
     X = np.cumsum(np.cumsum(rng.standard_normal((90, 5)), 0), 0)
     X[40:50] += 30.0 * rng.standard_normal((10, 5))  # steps beyond max_step
-    bank = AdaptiveBank(var_blocks=var_blocks)
+    X[:3, 4] = X[0, 4]  # a coordinate that starts still: its first step comes later
+    bank = AdaptiveBank(var_blocks=var_blocks, first_step=first_step)
     ours = []
     for x in X:
         bank.update(x)
         ours.append(bank.expert_predictions[EXPERTS.index("fast blend")])
     blocks = [[j] for j in range(5)] if var_blocks is None else var_blocks
-    np.testing.assert_allclose(np.array(ours), _fast_blend_reference(X, blocks), atol=1e-7)
+    want = _fast_blend_reference(X, blocks, first_step=first_step)
+    np.testing.assert_allclose(np.array(ours), want, atol=1e-7)
 
 
 def test_bank_weights_solve_the_simplex_least_squares():
@@ -215,6 +226,8 @@ def test_bank_rejects_bad_input_and_resets():
         AdaptiveBank(var_blocks=[[0], [0, 1]]).update([1.0, 2.0])
     with pytest.raises(ValueError, match="max_step"):
         AdaptiveBank(max_step=0.0)
+    with pytest.raises(ValueError, match="first_step"):
+        AdaptiveBank(first_step=1.5)
     with pytest.raises(ValueError, match="gamma"):
         AdaptiveBank(gamma=1.5)
 

@@ -134,7 +134,8 @@ _P0 = _RB0 + 6  # the experts' predictions, M rows
 _OUT = _P0 + _M  # the combined prediction
 _ROWS = _OUT + 1
 # cfg (the kernel's parameters): λ, λ_AR, α(f_d) of One Euro, f_cmin, β, rate, ridge,
-# pool, n₀, sweeps, γ and λ_F of the fast blend.
+# pool, n₀, sweeps, γ and λ_F of the fast blend, λ_V, max_step, ar_gate, join and the
+# fast blend's first_step.
 
 
 @njit(cache=True, inline="always")
@@ -242,7 +243,7 @@ def _bank_update(
     lam, lam_ar, oe_a_d, oe_min, oe_beta, rate, ridge, pool, n0 = cfg[:9]
     sweeps = int(cfg[9])
     gamma, lam_f, lam_v, max_step = cfg[10], cfg[11], cfg[12], cfg[13]
-    gate, join = cfg[14], cfg[15]
+    gate, join, first_step = cfg[14], cfg[15], cfg[16]
     n = int(aux[0])
     # the discounted count of the gate's innovations, Σ_{k<n} λ_AR^k
     wsum = (1.0 - lam_ar**n) / (1.0 - lam_ar)
@@ -438,13 +439,13 @@ def _bank_update(
     # x_T + γ (α (x̂^SV − x_T) + β (x̂^CV − x_T)), α, β on the triangle.
     for j in range(d):
         z = x[j]
-        if n >= 1:
+        if S[_FB0, j] + S[_FB0 + 2, j] > 0.0:
             al, be = _triangle(S[_FB0, j], S[_FB0 + 1, j], S[_FB0 + 2, j],
                                S[_FB0 + 3, j], S[_FB0 + 4, j], S[_FB0 + 5, j])  # fmt: skip
-        else:
-            al = 0.5
-            be = 0.5
-        S[_P0 + 11, j] = z + gamma * (al * (S[_SV, j] - z) + be * (S[_P0 + 4, j] - z))
+            step = gamma * (al * (S[_SV, j] - z) + be * (S[_P0 + 4, j] - z))
+        else:  # no scored prediction has moved yet: carry `first_step` of the step
+            step = first_step * 0.5 * ((S[_SV, j] - z) + (S[_P0 + 4, j] - z))
+        S[_P0 + 11, j] = z + step
     # 3. Refit the weights of every group and combine.  Each group's Gram matrix is
     # normalised to mean diagonal 1 over the experts that may get weight (Ĝ_g) and
     # shrunk towards the pooled Ĝ of all groups by `pool` pseudo-observations:
@@ -615,6 +616,12 @@ class AdaptiveBank:
         experts).  Chosen between the league's slow smooth rows, where that ratio's
         median is 0.04–0.15, and the benchmark tracked in closed loop, where its least
         is 0.52 (docs/predictors-notes.md).
+    first_step : float, default 0
+        The share of the step x̂ − x_T of ½ (x̂^SV + x̂^CV) that the fast blend carries
+        until one of its scored predictions has moved (the first, made from one
+        frame, has not): at the series' second prediction.  0 predicts no motion
+        there; a step helps open loop on fast clips but lost steering the benchmark
+        (docs/predictors-notes.md).
 
     Notes
     -----
@@ -626,7 +633,8 @@ class AdaptiveBank:
     b, C_b = Σ λ_V^{T−t} y_t y_{t−1}ᵀ, D_b = Σ λ_V^{T−t} y_{t−1} y_{t−1}ᵀ + εI
     (ε = 10⁻⁹ tr D_b / k), each ŷ_j clipped to the block's largest |y_T(i)| and the
     step v_T + ŷ to ±max_step; ŷ = 0 until a block of k coordinates has k + 1
-    equations.  α = β = ½ until a prediction has been scored.
+    equations.  Until a scored prediction has moved, α and β are not fitted and the
+    fast blend carries `first_step` of the step (above).
 
     The weights start uniform; with one frame seen every expert predicts that frame.
     Every expert is offset-equivariant, and the weights depend only on errors, so
@@ -661,7 +669,9 @@ class AdaptiveBank:
         max_step: float | None = 10.0,
         ar_gate: float | None = 4.0,
         join: float | None = None,
+        first_step: float = 0.0,
     ) -> None:
+        self.first_step = as_float(first_step, "first_step", minimum=0.0, maximum=1.0)
         self.ar_gate = (
             None
             if ar_gate is None
@@ -730,7 +740,7 @@ class AdaptiveBank:
             1.0, 0.0, self.rate, self.ridge, self.pool, self.prior_frames, self.sweeps,
             self.gamma, 0.5, 1.0 - 1.0 / self.var_memory,
             np.inf if self.max_step is None else self.max_step,
-            np.inf if self.ar_gate is None else self.ar_gate, self.join,
+            np.inf if self.ar_gate is None else self.ar_gate, self.join, self.first_step,
         ])  # fmt: skip
         self._vindex, self._vsizes = _partition(self.var_blocks, d, "var_blocks")
         nvb, vmax = self._vindex.shape

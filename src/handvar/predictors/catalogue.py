@@ -57,6 +57,7 @@ _PARAM_NAMES = {
         "max_step",
         "ar_gate",
         "join",
+        "first_step",
     ),
 }
 # The paper's symbols and a few spellings accepted for the constructor arguments.
