@@ -1,6 +1,6 @@
 """Both adaptive banks open loop on streams the league does not hold (design §16).
 
-Run:  .venv/bin/python studies/bank_streams.py [--no-pool-check]
+Run:  .venv/bin/python studies/bank_streams.py [--no-checks]
 
 The league (``handvar predict ... --noise [--smooth]``) is where the banks' settings
 were chosen.  This study runs them on series it does not hold, each with a copy plus
@@ -8,7 +8,8 @@ Gaussian noise of σ = 0.5 in its units, and prints the league's summary (RMSE o
 columns / the best simple baseline's, per recording):
 
 - the htrack recording at 15 and 10 frames/s (every 2nd and 3rd frame: faster motion
-  between frames), and the dex landmarks at 15 frames/s;
+  between frames; its two takes, frames 0-3999 and 4000 on, split by a reset as in
+  the league), and the dex landmarks at 15 frames/s;
 - a learned detector's output on two other real clips (MediaPipe Hands on the
   fingerspelling and the counting clip, shipped in ``examples/data``): its world
   landmarks (mm) and its image landmarks (px), each over its longest run of frames with
@@ -17,14 +18,15 @@ columns / the best simple baseline's, per recording):
 then, unless ``--no-checks``, two checks of the experts: the steering bank without the
 join rule (``join=0``), as it is, and with the q/r = 1 Kalman filter always among its
 experts, on the league's slow smooth rows (each htrack take slowed 4x, the random walk
-in velocity), and on the test suite's synthetic families; and the bank of all experts
-with and without the autoregression of the velocity, alone, on htrack at the lower
-frame rates.
+in velocity), and on the test suite's synthetic families; and both banks on htrack at
+the lower frame rates with and without the reset at the cut between its takes (a jump
+in position that no predictor is told of without it).
 """
 
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 from functools import partial
 
 import numpy as np
@@ -34,14 +36,22 @@ from handvar.evaluation.openloop import (
     BASELINES,
     Recording,
     format_league,
+    layout_structure,
     league_predictors,
     league_table,
     noise_variants,
     smooth_variants,
     synthetic_families,
 )
-from handvar.predictors import EXPERTS, STEERING_EXPERTS, AdaptiveBank, hand_blocks, hand_groups
+from handvar.predictors import (
+    EXPERTS,
+    STEERING_EXPERTS,
+    AdaptiveBank,
+    hand_blocks,
+    hand_groups,
+)
 from handvar.predictors.base import one_step_predictions
+from handvar.predictors.catalogue import CATALOGUE
 from handvar.synth.motion import htrack_to_handvar
 from paper_real_video import longest_run
 
@@ -51,9 +61,9 @@ BANKS = ("adaptive", "adaptive_open")
 def recordings() -> list[Recording]:
     H = htrack_to_handvar(np.loadtxt(example_path("htrack")))
     D = 1000.0 * np.load(example_path("video-landmarks"))
-    clean = [
-        Recording("htrack, every 2nd frame", H[::2], "handvar"),
-        Recording("htrack, every 3rd frame", H[::3], "handvar"),
+    clean = [  # htrack's second take starts at frame 4000 (the league's two ranges)
+        Recording("htrack, every 2nd frame", H[::2], "handvar", resets=(2000,)),
+        Recording("htrack, every 3rd frame", H[::3], "handvar", resets=(1334,)),
         Recording("dex landmarks, every 2nd frame", D[::2].reshape(-1, 63), "keypoints"),
     ]
     for clip in ("fingerspelling", "counting"):
@@ -72,14 +82,14 @@ def recordings() -> list[Recording]:
     return out
 
 
-def _ratio(make, rec: Recording, blocks=None) -> float:
+def _ratio(make, rec: Recording, blocks=None, first: int = 0) -> float:
     """RMSE of a fresh predictor from `make` / the best baseline's, on `rec` (a noisy
-    copy scored against its clean series, as in the league)."""
+    copy scored against its clean series, as in the league), over rows `first` on."""
     truth = rec.X if rec.truth is None else rec.truth
 
     def rmse(p) -> float:
         P = one_step_predictions(p, rec.X, resets=rec.resets)
-        ok = np.isfinite(P).all(1)
+        ok = np.isfinite(P).all(1) & (np.arange(len(P)) >= first)
         return float(np.sqrt(np.mean((truth - P)[ok] ** 2)))
 
     preds = league_predictors(blocks, keys=())
@@ -104,13 +114,35 @@ def _checks() -> None:
         ratios = [_ratio(partial(AdaptiveBank, **kw), Recording(name, X, "columns"))
                   for kw in variants]  # fmt: skip
         print(f"  {'synthetic ' + name:<40}" + " / ".join(f"{r:.3f}" for r in ratios))
-    print("bank of all experts / without / only the autoregression of the velocity:")
+    jump = np.abs(H[4000, :3] - H[3999, :3]).max()
+    print(f"at the cut between htrack's two takes (a jump of {jump:.0f} mm in position),"
+          " with and without a reset there: the steering bank / the bank of all experts,"
+          " RMSE / best baseline:")  # fmt: skip
     for rec in recordings()[:4]:
         ratios = []
-        for experts in (EXPERTS, [e for e in EXPERTS if e != "AR velocity"], ["AR velocity"]):
-            bank = partial(AdaptiveBank, hand_groups(), experts=experts, var_blocks=hand_blocks())
-            ratios.append(_ratio(bank, rec))
-        print(f"  {rec.name:<40}" + " / ".join(f"{r:.3f}" for r in ratios))
+        for resets in (rec.resets, ()):
+            cut = replace(rec, resets=resets)
+            for key in BANKS:
+                ratios.append(_ratio(_bank(rec, key), cut))
+        print(f"  {rec.name:<40}" + " / ".join(f"{r:.3f}" for r in ratios[:2])
+              + "  without: " + " / ".join(f"{r:.3f}" for r in ratios[2:]))  # fmt: skip
+    print("rows where a bank is over 1.01x the best baseline: scored from the third"
+          " prediction (frame 3) on, and from the start with the fast blend's first_step"
+          " 0.4 and 0.8; the steering bank / the bank of all experts:")  # fmt: skip
+    for rec in recordings():
+        if max(_ratio(_bank(rec, key), rec) for key in BANKS) > 1.01:
+            cells = [[_ratio(_bank(rec, key), rec, first=3) for key in BANKS]]
+            for step in (0.4, 0.8):
+                cells.append([_ratio(_bank(rec, key, first_step=step), rec) for key in BANKS])
+            print(f"  {rec.name:<54}" + "   ".join(" / ".join(f"{r:.3f}" for r in c)
+                                                    for c in cells))  # fmt: skip
+
+
+def _bank(rec: Recording, key: str, **params):
+    """A maker of the catalogue's bank `key` (with `params`) for `rec`'s layout, as the
+    league builds it."""
+    spec = CATALOGUE[key].with_params(**params) if params else CATALOGUE[key]
+    return partial(spec.build, layout_structure(rec.layout, rec.X.shape[1])[1])
 
 
 def main() -> None:
