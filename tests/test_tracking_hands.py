@@ -287,7 +287,9 @@ def test_track_hands_in_real_time_drops_frames_and_keeps_identities(tmp_path):
     """A recording played at its own rate (``realtime=True``) with a detector slower
     than its frames: frames are dropped, each hand's track holds every frame of the
     recording (its last pose on a dropped one) with the latency of the others, and the
-    identities hold against the truth."""
+    identities hold against the truth, though the detector's labels lie on some frames.
+    (Two hands apart: how many frames are dropped depends on the machine's load, and a
+    crossing seen on a few frames only is the offline tests' business.)"""
     import time
 
     import cv2
@@ -295,7 +297,8 @@ def test_track_hands_in_real_time_drops_frames_and_keeps_identities(tmp_path):
     import handvar
     from handvar.evaluation.two_hands import score_two_hands, two_hand_case
 
-    case = two_hand_case("cross", seed=0, frames=(20, 60), size=(320, 180))
+    case = two_hand_case("apart", seed=0, frames=(20, 60), size=(320, 180))
+    assert case.wrong_label.any()
     written = case.write(tmp_path / "case")
     images = [cv2.imread(str(p)).astype(np.int16) for p in sorted(written["frames"][0].iterdir())]
 
