@@ -65,6 +65,7 @@ from handvar.export.hands import checked_hands
 from handvar.hand.anthropometry import BONES, HandShape, bone_index
 from handvar.hand.kinematics import HandModel, world_from_hand_rotation
 from handvar.params import DIGITS, N_PARAMS
+from handvar.render.mesh import vertex_normals
 from handvar.validate import as_array, as_instance
 
 __all__ = [
@@ -246,16 +247,6 @@ def _quaternions(matrices: np.ndarray) -> np.ndarray:
     turn = np.where(np.einsum("ij,ij->i", q[1:], q[:-1]) < 0, -1.0, 1.0)
     q[1:] *= np.cumprod(turn)[:, None]
     return q
-
-
-def _vertex_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """(V, 3) unit normals: the area-weighted sum of the faces' normals (outward)."""
-    a, b, c = (vertices[triangles[:, i]] for i in range(3))
-    face = np.cross(b - a, c - a)
-    out = np.zeros_like(vertices)
-    for i in range(3):
-        np.add.at(out, triangles[:, i], face)
-    return out / np.linalg.norm(out, axis=1, keepdims=True)
 
 
 def _frame(R: np.ndarray, o: np.ndarray) -> np.ndarray:
@@ -507,7 +498,7 @@ def _skinned_hand(
     attributes = {
         "POSITION": buf.accessor(positions.astype(np.float32), "VEC3", target=34962,
                                  bounds=True),
-        "NORMAL": buf.accessor(_vertex_normals(positions, triangles).astype(np.float32),
+        "NORMAL": buf.accessor(vertex_normals(positions, triangles).astype(np.float32),
                                "VEC3", target=34962),
     }  # fmt: skip
     dense = _influences(weights, d, reach, len(BONES) + len(tips))

@@ -26,9 +26,11 @@ def vertex_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """(V, 3) unit outward vertex normals: sums of the adjacent faces' area normals."""
     a, b, c = (vertices[triangles[:, i]] for i in range(3))
     face = np.cross(b - a, c - a)  # 2 · area · normal (counter-clockwise = outward)
-    normals = np.zeros_like(vertices)
-    for i in range(3):
-        np.add.at(normals, triangles[:, i], face)
+    # each face's normal onto its three corners (bincount: np.add.at's sums, faster)
+    corners, n = triangles.T.ravel(), len(vertices)
+    normals = np.stack(
+        [np.bincount(corners, weights=np.tile(face[:, k], 3), minlength=n) for k in range(3)], 1
+    )
     norm = np.linalg.norm(normals, axis=1, keepdims=True)
     return normals / np.where(norm > 0, norm, 1.0)
 
