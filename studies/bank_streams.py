@@ -15,12 +15,14 @@ columns / the best simple baseline's, per recording):
   landmarks (mm) and its image landmarks (px), each over its longest run of frames with
   a hand; and the keypoints of the dex video;
 
-then, unless ``--no-checks``, two checks of the experts: the steering bank without the
+then, unless ``--no-checks``, three checks: the steering bank without the
 join rule (``join=0``), as it is, and with the q/r = 1 Kalman filter always among its
 experts, on the league's slow smooth rows (each htrack take slowed 4x, the random walk
 in velocity), and on the test suite's synthetic families; and both banks on htrack at
 the lower frame rates with and without the reset at the cut between its takes (a jump
-in position that no predictor is told of without it).
+in position that no predictor is told of without it); and, on the rows where a bank is
+over 1.01 times the best baseline, both scored from frame 3 on and with the fast
+blend's ``first_step`` (a step at the series' second prediction).
 """
 
 from __future__ import annotations
@@ -56,14 +58,15 @@ from handvar.synth.motion import htrack_to_handvar
 from paper_real_video import longest_run
 
 BANKS = ("adaptive", "adaptive_open")
+TAKE = 4000  # the first frame of htrack's second take (the league's two ranges)
 
 
 def recordings() -> list[Recording]:
     H = htrack_to_handvar(np.loadtxt(example_path("htrack")))
     D = 1000.0 * np.load(example_path("video-landmarks"))
-    clean = [  # htrack's second take starts at frame 4000 (the league's two ranges)
-        Recording("htrack, every 2nd frame", H[::2], "handvar", resets=(2000,)),
-        Recording("htrack, every 3rd frame", H[::3], "handvar", resets=(1334,)),
+    clean = [  # the row of H[::k] where the second take starts: ⌈TAKE / k⌉
+        Recording("htrack, every 2nd frame", H[::2], "handvar", resets=(-(-TAKE // 2),)),
+        Recording("htrack, every 3rd frame", H[::3], "handvar", resets=(-(-TAKE // 3),)),
         Recording("dex landmarks, every 2nd frame", D[::2].reshape(-1, 63), "keypoints"),
     ]
     for clip in ("fingerspelling", "counting"):
@@ -103,7 +106,7 @@ def _checks() -> None:
           " always, RMSE / best baseline:")  # fmt: skip
     variants = ({"experts": "steering", "join": 0.0}, {"experts": "steering"},
                 {"experts": added, "join": 0.0})  # fmt: skip
-    for name, X in (("0-3999", H[:4000]), ("4000-5999", H[4000:])):
+    for name, X in (("0-3999", H[:TAKE]), ("4000-5999", H[TAKE:])):
         for rec in smooth_variants(Recording(f"htrack {name}", X, "handvar")):
             ratios = [
                 _ratio(partial(AdaptiveBank, hand_groups(), var_blocks=hand_blocks(), **kw), rec)
@@ -114,7 +117,7 @@ def _checks() -> None:
         ratios = [_ratio(partial(AdaptiveBank, **kw), Recording(name, X, "columns"))
                   for kw in variants]  # fmt: skip
         print(f"  {'synthetic ' + name:<40}" + " / ".join(f"{r:.3f}" for r in ratios))
-    jump = np.abs(H[4000, :3] - H[3999, :3]).max()
+    jump = np.abs(H[TAKE, :3] - H[TAKE - 1, :3]).max()
     print(f"at the cut between htrack's two takes (a jump of {jump:.0f} mm in position),"
           " with and without a reset there: the steering bank / the bank of all experts,"
           " RMSE / best baseline:")  # fmt: skip
