@@ -459,8 +459,9 @@ def _render_view(camera, parts, background, light, ambient, diffuse, *, labels: 
     `parts` of the surface seen at each pixel ((H, W) int, −1 for the background) and its
     camera depth ((H, W), mm, inf for the background): ``img, mask, part, depth``.
     """
+    from handvar.geometry.normals import vertex_normals
     from handvar.hand.raster import rasterize_triangles
-    from handvar.render.mesh import pixel_normals, vertex_normals
+    from handvar.render.mesh import pixel_normals
 
     verts, tris, albedo, hand_tri, normals, part_tri = [], [], [], [], [], []
     offset = 0

@@ -62,10 +62,10 @@ from scipy.spatial.transform import Rotation
 from handvar.atomic import write_atomic
 from handvar.export.absent import hand_frames, held_poses
 from handvar.export.hands import checked_hands
+from handvar.geometry.normals import vertex_normals
 from handvar.hand.anthropometry import BONES, HandShape, bone_index
 from handvar.hand.kinematics import HandModel, world_from_hand_rotation
 from handvar.params import DIGITS, N_PARAMS
-from handvar.render.mesh import vertex_normals
 from handvar.validate import as_array, as_instance
 
 __all__ = [

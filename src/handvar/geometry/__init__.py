@@ -1,5 +1,5 @@
 """Geometry below the hand model: lens distortion, cone-spheres in 3D and in the image,
-and triangle meshes made coarser.
+and triangle meshes (made coarser; their vertex normals).
 
 A leaf package (design §12): it imports nothing from handvar but `handvar.validate`.
 
@@ -10,6 +10,7 @@ A leaf package (design §12): it imports nothing from handvar but `handvar.valid
 - :mod:`~handvar.geometry.projected`: cone-spheres in the image plane (outline circles,
   the closest point of a union of them and its derivatives).
 - :mod:`~handvar.geometry.rotations`: the shortest rotation between two directions.
+- :mod:`~handvar.geometry.normals`: a triangle mesh's vertex normals.
 """
 
 from handvar.geometry.cone_spheres import (
@@ -21,6 +22,7 @@ from handvar.geometry.cone_spheres import (
 )
 from handvar.geometry.decimate import decimate_mesh
 from handvar.geometry.distortion import distort, distort_normalized, distortion_coefficients
+from handvar.geometry.normals import vertex_normals
 from handvar.geometry.projected import (
     ProjectedPrimitives,
     closest_point_cone_spheres_2d,
@@ -42,4 +44,5 @@ __all__ = [
     "outline_circles",
     "sample_cone_spheres",
     "shortest_rotation",
+    "vertex_normals",
 ]

@@ -15,24 +15,12 @@ from __future__ import annotations
 import numpy as np
 
 from handvar.camera import Rig
+from handvar.geometry.normals import vertex_normals
 from handvar.params import check_pose
 from handvar.render.common import BACKGROUNDS, Shading, check_rig, shade_views
 from handvar.validate import one_of
 
-__all__ = ["mesh_silhouettes", "pixel_normals", "render_mesh_rgb", "vertex_normals"]
-
-
-def vertex_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """(V, 3) unit outward vertex normals: sums of the adjacent faces' area normals."""
-    a, b, c = (vertices[triangles[:, i]] for i in range(3))
-    face = np.cross(b - a, c - a)  # 2 · area · normal (counter-clockwise = outward)
-    # each face's normal onto its three corners (bincount: np.add.at's sums, faster)
-    corners, n = triangles.T.ravel(), len(vertices)
-    normals = np.stack(
-        [np.bincount(corners, weights=np.tile(face[:, k], 3), minlength=n) for k in range(3)], 1
-    )
-    norm = np.linalg.norm(normals, axis=1, keepdims=True)
-    return normals / np.where(norm > 0, norm, 1.0)
+__all__ = ["mesh_silhouettes", "pixel_normals", "render_mesh_rgb"]
 
 
 def pixel_normals(uv, triangles, normals, rows, cols, tri) -> np.ndarray:
@@ -44,7 +32,7 @@ def pixel_normals(uv, triangles, normals, rows, cols, tri) -> np.ndarray:
         Projected vertices, pixels.
     triangles : (T, 3) int ndarray
     normals : (V, 3) ndarray
-        Vertex normals (`vertex_normals`).
+        Vertex normals (`handvar.geometry.vertex_normals`).
     rows, cols : (n,) int ndarray
         The pixels (centres at integers).
     tri : (n,) int ndarray
