@@ -185,6 +185,17 @@ def run(name: str, predictors, frames: int | None, seed: int, strip: Path | None
     return rows
 
 
+def spread(seeds=(0, 1, 2)) -> None:
+    """The default silhouette track of the example video with each seed (module notes)."""
+    name = VIDEOS[0]
+    keypoints = read_keypoints(example_path(f"{name}-keypoints"))
+    for seed in seeds:
+        track = handvar.track(example_path(name), scale=SCALE, detector="none", seed=seed)
+        r = score(track, keypoints)
+        print(f"seed {seed}: PCK@0.2 {r['pck']:.3f}, frames > 0.5 hand sizes {r['off']}, "
+              f"lost {r['lost']}, re-initialised {r['reinit']}", flush=True)  # fmt: skip
+
+
 def _print_row(p: str, r: dict) -> None:
     extra = "" if "mpjpe" not in r else (
         f"  3D {r['mpjpe']:.1f} mm (abs {r['abs']:.1f}; worst frame {r['worst']:.1f}; "
@@ -461,12 +472,17 @@ def main() -> None:
     parser.add_argument("--cases", default="", help="with --realistic: cases containing this")
     parser.add_argument("--strip", type=Path, default=None, metavar="DIR",
                         help="write the overlay strip of the hardest stretch into DIR")  # fmt: skip
+    parser.add_argument("--spread", action="store_true",
+                        help="the default example track with seeds 0, 1, 2")  # fmt: skip
     parser.add_argument("--largest", action="store_true",
                         help="keep the largest skin component, not the one where the hand "
                              "is expected (RecoverySettings.skin_where_expected)")  # fmt: skip
     args = parser.parse_args()
     predictors = [p.strip() for p in args.predictors.split(",") if p.strip()]
     recovery = RecoverySettings(skin_where_expected=not args.largest)
+    if args.spread:
+        spread()
+        return
     if args.realistic is not None:
         results = run_realistic(args.realistic, predictors, args.seed, args.cases, args.strip,
                                 recovery)  # fmt: skip
