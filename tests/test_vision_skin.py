@@ -279,16 +279,21 @@ def test_skin_mask_recovers_synthetic_blobs(model):
 def test_default_silhouette_of_one_synthetic_hand(model):
     # Default threshold (Θ = 0.5) and clean-up (largest component) on frames with one
     # hand-like blob.  At Θ = 0.5 part of the pale-cream and yellow clutter passes as
-    # skin; where such clutter touches the hand it merges (1 frame in 12 here), which
-    # is what the stricter Θ = 1 avoids at the cost of shaded skin on real video.
+    # skin; where such clutter touches the hand it merges, which is what the stricter
+    # Θ = 1 avoids at the cost of shaded skin on real video.  The clean-up's opening of
+    # 1 px (chosen on the realistic benchmark, `CleanupSettings`) removes less of that
+    # clutter than the 2 px before: IoU >= 0.9 on 26 of these 36 frames (33 before),
+    # median 0.995 (0.987 before), printed with ``-s``.
     from handvar.vision.silhouette import clean_mask
 
     rng = np.random.default_rng(6)
     scores = []
-    for _ in range(12):
+    for _ in range(36):
         frame, truth = synthetic_frame(rng, n_blobs=1)
         scores.append(iou(clean_mask(model.mask(frame)), truth))
-    assert np.sum(np.array(scores) >= 0.9) >= 11, scores
+    good = int(np.sum(np.array(scores) >= 0.9))
+    print(f"IoU >= 0.9 on {good} of {len(scores)} frames, median {np.median(scores):.3f}")
+    assert good >= 2 / 3 * len(scores), scores
     assert np.median(scores) >= 0.95, scores
 
 

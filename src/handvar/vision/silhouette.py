@@ -65,7 +65,9 @@ class CleanupSettings:
     video), which bridged the gaps between the fingers and cut the fingertips short.
     No opening (0 and 2) scores 0.831 there but fails the cluttered synthetic frames of
     the skin test (`tests/test_vision_skin.py`): without an opening, the closing glues
-    skin-coloured speckle to the hand.
+    skin-coloured speckle to the hand.  The opening of 1 px leaves more of that clutter
+    than 2 px did: on the same test's frames with one hand the IoU is at least 0.9 on
+    26 of 36 frames, against 33 before.
 
     Attributes
     ----------
