@@ -34,7 +34,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from handvar.evaluation.metrics import joint_errors, pck_2d
 from handvar.evaluation.realistic import read_case
+from handvar.tracking.tracker import silhouette_iou
 from handvar.vision.silhouette import (
     CLEANUP_SETTINGS,
     EmptySilhouetteError,
@@ -45,10 +47,6 @@ from realistic import generate, specs
 # (opening, closing) radii in pixels; the first pair is the default.
 RADII = ((CLEANUP_SETTINGS.open_radius, CLEANUP_SETTINGS.close_radius),
          (2, 4), (1, 2), (0, 2), (1, 1), (1, 0), (2, 2), (2, 0), (0, 0))  # fmt: skip
-
-
-def iou(a: np.ndarray, b: np.ndarray) -> float:
-    return float((a & b).sum() / max((a | b).sum(), 1))
 
 
 def case_ious(case, radii, every: int) -> dict[tuple[int, int], list[float]]:
@@ -65,13 +63,12 @@ def case_ious(case, radii, every: int) -> dict[tuple[int, int], list[float]]:
                                                       cleanup=cleanup)  # fmt: skip
                 except EmptySilhouetteError:  # no skin, or skin on every border
                     mask = np.zeros_like(true)
-                out[r].append(iou(mask, true))
+                out[r].append(float(silhouette_iou(mask[None], true[None])[0]))
     return out
 
 
 def one_frame_fits(case, every: int) -> dict[str, list[tuple[float, float, float, float]]]:
     """Per silhouette ("true", "skin"), (PCK, 3D, depth error, area ratio) of each fit."""
-    from handvar.evaluation.metrics import joint_errors
     from handvar.hand import HandModel
     from handvar.hand.anthropometry import HandShape
     from handvar.predictors import NoMotion
@@ -93,16 +90,13 @@ def one_frame_fits(case, every: int) -> dict[str, list[tuple[float, float, float
             continue
         area = silhouettes(hand, x, case.rig).sum() / true.sum()
         ray = (x[:3] - centre) / np.linalg.norm(x[:3] - centre)
-        truth_2d = case.truth_2d[0][t]
-        size = np.linalg.norm(truth_2d[9] - truth_2d[0])
         for name, masks in (("true", true), ("skin", skin)):
             tracker = Tracker(case.rig, hand, NoMotion(), np.random.default_rng(t))
             tracker.reset(x)
             fit = tracker.step(masks).pose
             points = scored_points(hand, fit[None])
             error = float(joint_errors(case.joints[t][None], points, alignment="wrist").mean())
-            image = cam.project(points[0])
-            pck = float(np.mean(np.linalg.norm(image - truth_2d, axis=1) < 0.2 * size))
+            pck = pck_2d(case.truth_2d[0][t][None], cam.project(points[0])[None], 0.2)
             out[name].append((pck, error, float((fit[:3] - x[:3]) @ ray), float(area)))
     return out
 
