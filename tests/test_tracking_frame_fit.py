@@ -310,6 +310,52 @@ def test_the_keypoint_rows_are_the_projections_error_and_their_jacobian_its_deri
     np.testing.assert_allclose(J, numeric, rtol=1e-4, atol=1e-6 * np.abs(numeric).max())
 
 
+def test_the_rows_beyond_hubers_bend_and_of_the_3d_joints_are_their_costs():
+    """The compiled rows (a camera without distortion) against the costs they stand for,
+    computed by the camera's own projection: ½|r_i|² = c_i ρ(d_i) / σ_k² with Huber's ρ
+    (d²/2, then h (d − h/2)), and the 3D joints' rows ((W_i − W_0) − (w_i − w_0)) / σ_w."""
+    from handvar.tracking.frame_fit import FRAME_FIT_DEFAULTS as s
+    from handvar.tracking.frame_fit import _clean, _Problem
+    from handvar.vision.keypoints import world_in_camera
+
+    hand, x = HandModel(), named_pose("point")
+    cam = Rig.default().cameras[0]
+    assert not cam.has_distortion
+    rig = Rig([cam])
+    rng = np.random.default_rng(3)
+    kp = _clean(keypoints(hand, rig, x), 1, 0.05)
+    kp[0, :, :2] += rng.normal(0.0, 6.0, (21, 2))
+    kp[0, [4, 8, 13], :2] += [(60.0, -20.0), (-45.0, 50.0), (80.0, 0.0)]  # gross errors
+    kp[0, :, 2] = rng.uniform(0.3, 1.0, 21)
+    kp[0, 9, 2] = 0.0  # not found: no row
+    world = hand.joints(x) + rng.normal(0.0, 4.0, (21, 3)) + 100.0  # any origin
+    moved = x + rng.normal(0.0, 1.0, 26)
+    problem = _Problem(hand, rig, kp, None, None, world, s, x)
+    r, J = problem.rows(moved)
+    np.testing.assert_array_equal(problem.rows(moved, jacobian=False)[0], r)
+    assert J.shape == (r.size, 26)
+
+    ok = np.flatnonzero(kp[0, :, 2] > 0)
+    G = hand.joints(moved)
+    d = np.linalg.norm(cam.project(G[ok]) - kp[0, ok, :2], axis=1) / problem.sizes[0]
+    h = s.huber
+    assert (d > h).sum() >= 3 and (d <= h).sum() >= 3  # both parts of Huber's loss
+    rho = np.where(d <= h, 0.5 * d**2, h * (d - 0.5 * h))
+    half = 0.5 * (r[: 2 * ok.size].reshape(-1, 2) ** 2).sum(axis=1)
+    np.testing.assert_allclose(half, kp[0, ok, 2] * rho / s.noise**2, rtol=1e-9)
+
+    w = world_in_camera(world, np.where(kp[0, :, 2:] > 0, kp[0, :, :2], np.nan), cam)
+    W = hand.joints(moved) @ cam.R.T
+    expected = ((W[1:] - W[0]) - (w[1:] - w[0])) / s.world_noise
+    np.testing.assert_allclose(r[2 * ok.size:].reshape(-1, 3), expected, rtol=1e-9,
+                               atol=1e-9)  # fmt: skip
+    rows3d = lambda y: problem.rows(y, jacobian=False)[0][2 * ok.size :]  # noqa: E731
+    numeric = np.column_stack([(rows3d(moved + 1e-5 * e) - rows3d(moved - 1e-5 * e)) / 2e-5
+                               for e in np.eye(26)])  # fmt: skip
+    np.testing.assert_allclose(J[2 * ok.size:], numeric, rtol=1e-4,
+                               atol=1e-6 * np.abs(numeric).max())  # fmt: skip
+
+
 def test_skin_beyond_the_hand_does_not_move_the_fit_and_a_silhouette_elsewhere_is_ignored():
     from handvar.render import silhouettes
     from handvar.tracking.costs import prepare_frame

@@ -48,10 +48,12 @@ recording first (docs/live-and-batch.md).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import inspect
 import itertools
 import json
 import os
+import threading
 import time
 import warnings
 import zipfile
@@ -629,6 +631,7 @@ def track(
         Naming the argument at fault (``keypoint_every: expected ...``), before any
         frame is read where it can be.
     """
+    _load_compiled_loops()
     if as_int(hands, "hands", minimum=1, maximum=2) == 2:
         alone = {
             "hand": hand,
@@ -1940,6 +1943,30 @@ class HandsTrack:
                 frame = side_by_side(views, list(rig.names))
                 writer.write(cv2.cvtColor(frame, cv2.COLOR_RGB2BGR))
         return writer.path_written
+
+
+@functools.cache
+def _load_compiled_loops() -> threading.Thread:
+    """Start loading the fit's compiled loops (numba's cache; the first call of a
+    process also loads numba itself) in a thread of their own, once per process.
+
+    Why: a track's first fit would wait for them; in a thread they load while the
+    detector's processes start and the first frames are read and detected
+    (`benchmarks/two_hands.py` prints the cost of a run besides its frames).  A call
+    of a loop still loading waits for it (numba's compiler lock).
+    """
+
+    def load() -> None:
+        from handvar.hand import HandModel, named_pose
+        from handvar.tracking.frame_fit import fit_frame
+
+        hand, camera, x = HandModel(), Rig.default().cameras[0], named_pose("open")
+        seen = np.column_stack([camera.project(hand.joints(x)), np.ones(len(JOINTS))])
+        fit_frame([seen], Rig([camera]), hand, x + 1.0, world=hand.joints(x))
+
+    thread = threading.Thread(target=load, name="handvar-compiled-loops", daemon=True)
+    thread.start()
+    return thread
 
 
 def track_hands(

@@ -43,7 +43,11 @@ within the joint limits, where
 E is minimised by Levenberg–Marquardt on the exact Jacobians of G(x)
 (`handvar.tracking.keypoint_cost.keypoint_points`) and of the projection
 (`handvar.camera.Camera.project_jacobian`), Huber's loss by iteratively
-reweighted least squares, each step projected onto the joint limits.  A keypoint still
+reweighted least squares, each step projected onto the joint limits.  The keypoint rows
+of a camera without lens distortion, the 3D joints' rows and the damped step are
+compiled loops (numba): the same rows to rounding in one pass each, where the general
+route costs a dozen small array operations per call (the tests check them against the
+camera's own projection and finite differences).  A keypoint still
 farther than `FrameFitSettings.reject` hand sizes from its joint at convergence is
 *rejected*: it gets weight 0 and the fit takes a few more steps without it; the number
 of rejected keypoints is reported per frame (`FrameFit.rejected`).
@@ -58,6 +62,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
 from handvar.params import LOWER, N_PARAMS, UPPER, clamp
@@ -287,11 +292,11 @@ class _Problem:
             self._prior_jacobian = np.diag(1.0 / sigma)
         self.world = None  # relative to its wrist, in the first camera's axes
         if world is not None:
-            seen = np.where(kp[0, :, 2:] > 0, kp[0, :, :2], np.nan)
-            w = world_in_camera(world, seen, rig.cameras[0])  # module notes
+            w = _world_in_first_camera(world, kp[0], rig.cameras[0])  # module notes
             self.world_ok = np.isfinite(w).all(axis=1)
             self.world_ok[WRIST] = False
             self.world = w - w[WRIST]
+            self._world_points = np.flatnonzero(self.world_ok)
         self.silhouettes = silhouettes if settings.silhouette > 0 else None
         self.sizes = np.array([hand_size_px(hand, start, cam) for cam in rig])
         self.present = [np.flatnonzero(k[:, 2] > 0) for k in kp]
@@ -308,20 +313,8 @@ class _Problem:
             G, JG = keypoint_points(self.hand, x, s.tips), None
         rows, jac = [], []
         for j, cam in enumerate(self.rig):
-            ok = self.present[j]
-            if not ok.size:
-                continue
-            px, Jp = cam.project_jacobian(G[ok], jacobian=jacobian)
-            e = (px - self.kp[j, ok, :2]) / self.sizes[j]
-            d = np.sqrt((e**2).sum(axis=1))
-            h = s.huber
-            beta = np.where(d <= h, 1.0, np.sqrt(np.maximum(2.0 * h * (d - 0.5 * h), 0.0))
-                            / np.maximum(d, 1e-12))  # fmt: skip
-            w = (np.sqrt(self.kp[j, ok, 2]) * beta / s.noise)[:, None]
-            rows.append((w * e).ravel())
-            if jacobian:
-                Je = np.einsum("nij,njp->nip", Jp, JG[ok]) / self.sizes[j]
-                jac.append((w[:, :, None] * Je).reshape(-1, N_PARAMS))
+            if self.present[j].size:
+                self._keypoint_rows(j, cam, G, JG, rows, jac)
         if self.silhouettes is not None:
             self._silhouette_rows(G, JG, rows, jac)
         if self.prior is not None:
@@ -329,16 +322,43 @@ class _Problem:
             if jacobian:
                 jac.append(self._prior_jacobian)
         if self.world is not None:
-            W = (G - G[WRIST]) @ self.R0.T
-            ok = self.world_ok
-            rows.append(((W[ok] - self.world[ok]) / s.world_noise).ravel())
+            ok = self._world_points
+            r = np.empty(3 * ok.size)
+            J = np.empty((3 * ok.size, N_PARAMS)) if jacobian else _NO_ROWS
+            _world_rows(G, _NO_JG if JG is None else JG, ok, self.R0, self.world,
+                        s.world_noise, r, J, jacobian)  # fmt: skip
+            rows.append(r)
             if jacobian:
-                JW = np.einsum("ab,nbp->nap", self.R0, JG - JG[WRIST][None])
-                jac.append((JW[ok] / s.world_noise).reshape(-1, N_PARAMS))
+                jac.append(J)
         r = np.concatenate(rows) if rows else np.zeros(0)
         if not jacobian:
             return r, None
         return r, (np.concatenate(jac) if jac else np.zeros((0, N_PARAMS)))
+
+    def _keypoint_rows(self, j, cam, G, JG, rows, jac) -> None:
+        """Append camera j's keypoint rows at joints G (Jacobian JG, or None)."""
+        s, ok, jacobian = self.s, self.present[j], JG is not None
+        if not cam.has_distortion:  # the same rows by compiled loops (module notes)
+            r = np.empty(2 * ok.size)
+            J = np.empty((2 * ok.size, N_PARAMS)) if jacobian else _NO_ROWS
+            _keypoint_rows(G, JG if jacobian else _NO_JG, ok, cam.R, cam.t, cam.fx, cam.fy,
+                           cam.cx, cam.cy, self.kp[j], self.sizes[j], s.huber, s.noise, r,
+                           J, jacobian)  # fmt: skip
+            rows.append(r)
+            if jacobian:
+                jac.append(J)
+            return
+        px, Jp = cam.project_jacobian(G[ok], jacobian=jacobian)
+        e = (px - self.kp[j, ok, :2]) / self.sizes[j]
+        d = np.sqrt((e**2).sum(axis=1))
+        h = s.huber
+        beta = np.where(d <= h, 1.0, np.sqrt(np.maximum(2.0 * h * (d - 0.5 * h), 0.0))
+                        / np.maximum(d, 1e-12))  # fmt: skip
+        w = (np.sqrt(self.kp[j, ok, 2]) * beta / s.noise)[:, None]
+        rows.append((w * e).ravel())
+        if jacobian:
+            Je = np.einsum("nij,njp->nip", Jp, JG[ok]) / self.sizes[j]
+            jac.append((w[:, :, None] * Je).reshape(-1, N_PARAMS))
 
     def _silhouette_rows(self, G, JG, rows, jac) -> None:
         """Append the silhouette term's rows (module notes) at joints G (Jacobian JG)."""
@@ -376,6 +396,83 @@ class _Problem:
                     self.hand, x, cam
                 )
         return d
+
+
+def _world_in_first_camera(world, kp, camera) -> np.ndarray:
+    """`world_in_camera` of the detector's 3D joints with `camera`'s keypoints `kp`
+    (21, 3), kept for the next call with the same ones (a frame's fits share them)."""
+    key = (camera, world.tobytes(), kp.tobytes())
+    cached = _WORLD_CACHE[0]
+    if cached is not None and cached[0][0] is camera and cached[0][1:] == key[1:]:
+        return cached[1]
+    w = world_in_camera(world, np.where(kp[:, 2:] > 0, kp[:, :2], np.nan), camera)
+    w.flags.writeable = False
+    _WORLD_CACHE[0] = (key, w)
+    return w
+
+
+_WORLD_CACHE: list = [None]  # ((camera, world bytes, keypoint bytes), result)
+
+_NO_ROWS, _NO_JG = np.empty((0, N_PARAMS)), np.empty((0, 3, N_PARAMS))
+
+
+@njit(cache=True)
+def _keypoint_rows(G, JG, ok, R, t, fx, fy, cx, cy, kp, size, huber, noise, r, J, jacobian):
+    """The keypoint rows of one camera without lens distortion into `r` (2n,) and,
+    with `jacobian`, their Jacobian into `J` (2n, 26): the rows of `_Problem.rows`'
+    general route (`Camera.project_jacobian`) to rounding, in one pass over the n
+    points `ok`."""
+    for m in range(ok.shape[0]):
+        n = ok[m]
+        X = R[0, 0] * G[n, 0] + R[0, 1] * G[n, 1] + R[0, 2] * G[n, 2] + t[0]
+        Y = R[1, 0] * G[n, 0] + R[1, 1] * G[n, 1] + R[1, 2] * G[n, 2] + t[1]
+        Z = R[2, 0] * G[n, 0] + R[2, 1] * G[n, 1] + R[2, 2] * G[n, 2] + t[2]
+        inv_z = 1.0 / Z
+        x, y = X * inv_z, Y * inv_z
+        ex = (x * fx + cx - kp[n, 0]) / size
+        ey = (y * fy + cy - kp[n, 1]) / size
+        d = np.sqrt(ex * ex + ey * ey)
+        beta = 1.0
+        if d > huber:
+            beta = np.sqrt(max(2.0 * huber * (d - 0.5 * huber), 0.0)) / max(d, 1e-12)
+        w = np.sqrt(kp[n, 2]) * beta / noise
+        r[2 * m] = w * ex
+        r[2 * m + 1] = w * ey
+        if not jacobian:
+            continue
+        # d pixels / d G_n = diag(fx, fy) [[1/Z, 0, −x/Z], [0, 1/Z, −y/Z]] R, summed in
+        # the general route's order (BLAS may still round its products differently)
+        zu, zv = fx * (-x * inv_z), fy * (-y * inv_z)
+        pu0 = fx * inv_z * R[0, 0] + 0.0 * R[1, 0] + zu * R[2, 0]
+        pu1 = fx * inv_z * R[0, 1] + 0.0 * R[1, 1] + zu * R[2, 1]
+        pu2 = fx * inv_z * R[0, 2] + 0.0 * R[1, 2] + zu * R[2, 2]
+        pv0 = 0.0 * R[0, 0] + fy * inv_z * R[1, 0] + zv * R[2, 0]
+        pv1 = 0.0 * R[0, 1] + fy * inv_z * R[1, 1] + zv * R[2, 1]
+        pv2 = 0.0 * R[0, 2] + fy * inv_z * R[1, 2] + zv * R[2, 2]
+        for q in range(N_PARAMS):
+            J[2 * m, q] = w * ((pu0 * JG[n, 0, q] + pu1 * JG[n, 1, q] + pu2 * JG[n, 2, q]) / size)
+            J[2 * m + 1, q] = w * ((pv0 * JG[n, 0, q] + pv1 * JG[n, 1, q] + pv2 * JG[n, 2, q])
+                                   / size)  # fmt: skip
+
+
+@njit(cache=True)
+def _world_rows(G, JG, ok, R0, world, noise, r, J, jacobian):
+    """The rows of the detector's 3D joints into `r` (3n,) and, with `jacobian`, their
+    Jacobian into `J` (3n, 26): ((G_n − G_wrist) R0ᵀ − w_n) / σ_w over the n points `ok`."""
+    for m in range(ok.shape[0]):
+        n = ok[m]
+        for a in range(3):
+            v = 0.0
+            for b in range(3):
+                v += R0[a, b] * (G[n, b] - G[WRIST, b])
+            r[3 * m + a] = (v - world[n, a]) / noise
+            if not jacobian:
+                continue
+            for q in range(N_PARAMS):
+                v = 0.0
+                for b in range(3):
+                    v += R0[a, b] * (JG[n, b, q] - JG[WRIST, b, q])
+                J[3 * m + a, q] = v / noise
 
 
 def _agreeing_cameras(data: FrameData, kp: np.ndarray, sizes: np.ndarray) -> np.ndarray:
@@ -419,10 +516,9 @@ def _solve(problem: _Problem, x, steps: int) -> tuple[np.ndarray, float, int]:
     for _ in range(steps):
         A = J.T @ J
         g = J.T @ r
-        diag = np.maximum(np.diag(A), 1e-9)
         improved = False
         for _ in range(6):
-            step = np.linalg.solve(A + lam * np.diag(diag), -g)
+            step = _damped_step(A, g, lam)
             x_new = np.clip(x + step, LOWER, UPPER)
             r2, _ = problem.rows(x_new, jacobian=False)
             c2 = 0.5 * float(r2 @ r2)
@@ -440,6 +536,16 @@ def _solve(problem: _Problem, x, steps: int) -> tuple[np.ndarray, float, int]:
             break
         r, J = problem.rows(x)
     return x, cost, taken
+
+
+@njit(cache=True)
+def _damped_step(A, g, lam):
+    """Levenberg–Marquardt's step: solve (A + λ diag(A)) δ = −g, the diagonal at least
+    1e-9 (a parameter no row moves)."""
+    M = A.copy()
+    for i in range(A.shape[0]):
+        M[i, i] += lam * max(A[i, i], 1e-9)
+    return np.linalg.solve(M, -g)
 
 
 def fit_frame(
