@@ -23,8 +23,6 @@ import os
 from collections.abc import Sequence
 
 import numpy as np
-from scipy.interpolate import CubicSpline
-from scipy.ndimage import gaussian_filter1d
 
 from handvar.params import LOWER, N_PARAMS, NAMES, UPPER, clamp
 from handvar.validate import as_array, as_float
@@ -485,6 +483,9 @@ def retime(
         ``out[n]`` is the motion at source time ``n · speed / fps`` seconds, for all
         n whose time lies inside the recording.
     """
+    from scipy.interpolate import CubicSpline  # here: a recording's track needs neither
+    from scipy.ndimage import gaussian_filter1d
+
     arr = np.asarray(poses, dtype=float)
     if arr.ndim != 2 or arr.shape[0] < 2:
         raise ValueError(f"poses: expected an (N, D) array with N >= 2; got shape {arr.shape}")
