@@ -78,7 +78,6 @@ def one_frame_fits(case, every: int) -> dict[str, list[tuple[float, float, float
 
     hand = HandModel(HandShape.from_size(case.hand_length, side=case.side))
     cam = case.rig.cameras[0]
-    centre = -cam.R.T @ np.ravel(cam.t)
     out = {"true": [], "skin": []}
     for t in range(0, case.n_frames, every):
         x = case.poses[t]
@@ -89,7 +88,7 @@ def one_frame_fits(case, every: int) -> dict[str, list[tuple[float, float, float
         except EmptySilhouetteError:
             continue
         area = silhouettes(hand, x, case.rig).sum() / true.sum()
-        ray = (x[:3] - centre) / np.linalg.norm(x[:3] - centre)
+        ray = (x[:3] - cam.center) / np.linalg.norm(x[:3] - cam.center)
         for name, masks in (("true", true), ("skin", skin)):
             tracker = Tracker(case.rig, hand, NoMotion(), np.random.default_rng(t))
             tracker.reset(x)

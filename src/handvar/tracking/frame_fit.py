@@ -293,10 +293,10 @@ class _Problem:
         self.world = None  # relative to its wrist, in the first camera's axes
         if world is not None:
             w = _world_in_first_camera(world, kp[0], rig.cameras[0])  # module notes
-            self.world_ok = np.isfinite(w).all(axis=1)
-            self.world_ok[WRIST] = False
+            ok = np.isfinite(w).all(axis=1)
+            ok[WRIST] = False
             self.world = w - w[WRIST]
-            self._world_points = np.flatnonzero(self.world_ok)
+            self.world_points = np.flatnonzero(ok)  # the joints with a row
         self.silhouettes = silhouettes if settings.silhouette > 0 else None
         self.sizes = np.array([hand_size_px(hand, start, cam) for cam in rig])
         self.present = [np.flatnonzero(k[:, 2] > 0) for k in kp]
@@ -322,7 +322,7 @@ class _Problem:
             if jacobian:
                 jac.append(self._prior_jacobian)
         if self.world is not None:
-            ok = self._world_points
+            ok = self.world_points
             r = np.empty(3 * ok.size)
             J = np.empty((3 * ok.size, N_PARAMS)) if jacobian else _NO_ROWS
             _world_rows(G, _NO_JG if JG is None else JG, ok, self.R0, self.world,
@@ -401,17 +401,17 @@ class _Problem:
 def _world_in_first_camera(world, kp, camera) -> np.ndarray:
     """`world_in_camera` of the detector's 3D joints with `camera`'s keypoints `kp`
     (21, 3), kept for the next call with the same ones (a frame's fits share them)."""
-    key = (camera, world.tobytes(), kp.tobytes())
+    key = (world.tobytes(), kp.tobytes())
     cached = _WORLD_CACHE[0]
-    if cached is not None and cached[0][0] is camera and cached[0][1:] == key[1:]:
-        return cached[1]
+    if cached is not None and cached[0] is camera and cached[1] == key:
+        return cached[2]
     w = world_in_camera(world, np.where(kp[:, 2:] > 0, kp[:, :2], np.nan), camera)
     w.flags.writeable = False
-    _WORLD_CACHE[0] = (key, w)
+    _WORLD_CACHE[0] = (camera, key, w)
     return w
 
 
-_WORLD_CACHE: list = [None]  # ((camera, world bytes, keypoint bytes), result)
+_WORLD_CACHE: list = [None]  # (camera, (world bytes, keypoint bytes), result)
 
 _NO_ROWS, _NO_JG = np.empty((0, N_PARAMS)), np.empty((0, 3, N_PARAMS))
 
@@ -440,15 +440,14 @@ def _keypoint_rows(G, JG, ok, R, t, fx, fy, cx, cy, kp, size, huber, noise, r, J
         r[2 * m + 1] = w * ey
         if not jacobian:
             continue
-        # d pixels / d G_n = diag(fx, fy) [[1/Z, 0, −x/Z], [0, 1/Z, −y/Z]] R, summed in
-        # the general route's order (BLAS may still round its products differently)
+        # d pixels / d G_n = diag(fx, fy) [[1/Z, 0, −x/Z], [0, 1/Z, −y/Z]] R
         zu, zv = fx * (-x * inv_z), fy * (-y * inv_z)
-        pu0 = fx * inv_z * R[0, 0] + 0.0 * R[1, 0] + zu * R[2, 0]
-        pu1 = fx * inv_z * R[0, 1] + 0.0 * R[1, 1] + zu * R[2, 1]
-        pu2 = fx * inv_z * R[0, 2] + 0.0 * R[1, 2] + zu * R[2, 2]
-        pv0 = 0.0 * R[0, 0] + fy * inv_z * R[1, 0] + zv * R[2, 0]
-        pv1 = 0.0 * R[0, 1] + fy * inv_z * R[1, 1] + zv * R[2, 1]
-        pv2 = 0.0 * R[0, 2] + fy * inv_z * R[1, 2] + zv * R[2, 2]
+        pu0 = fx * inv_z * R[0, 0] + zu * R[2, 0]
+        pu1 = fx * inv_z * R[0, 1] + zu * R[2, 1]
+        pu2 = fx * inv_z * R[0, 2] + zu * R[2, 2]
+        pv0 = fy * inv_z * R[1, 0] + zv * R[2, 0]
+        pv1 = fy * inv_z * R[1, 1] + zv * R[2, 1]
+        pv2 = fy * inv_z * R[1, 2] + zv * R[2, 2]
         for q in range(N_PARAMS):
             J[2 * m, q] = w * ((pu0 * JG[n, 0, q] + pu1 * JG[n, 1, q] + pu2 * JG[n, 2, q]) / size)
             J[2 * m + 1, q] = w * ((pv0 * JG[n, 0, q] + pv1 * JG[n, 1, q] + pv2 * JG[n, 2, q])
