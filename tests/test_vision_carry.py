@@ -74,6 +74,22 @@ def test_a_point_whose_surroundings_change_is_held_or_dropped(hold):
     assert not carried.present[:, 2:].any()  # missing points are not invented
 
 
+def test_a_lost_point_is_held_for_hold_frames_then_dropped_while_the_others_go_on():
+    base = texture()
+    later = base.copy()
+    later[60:100, 60:100] = texture(seed=7)[60:100, 60:100]
+    frames = [shifted(base, 2, 0)] + [shifted(later, 0, 0)] * 3
+    detected = np.full((4, 21, 3), np.nan)
+    detected[0, :2] = [[80.0, 80.0, 1.0], [30.0, 30.0, 1.0]]
+    settings = CarrySettings(hold=0.5, hold_frames=2)
+    carried = carry_keypoints(frames, Keypoints2D.from_array(detected), settings)
+    assert carried.present[1:3, 0].all() and not carried.present[3, 0]  # held 2 frames
+    np.testing.assert_allclose(carried.confidence[1:3, 0], 0.5)
+    assert carried.present[1:, 1].all()  # the followed point is carried on
+    with pytest.raises(ValueError, match="hold_frames"):
+        CarrySettings(hold_frames=-1)
+
+
 def test_detections_pass_unchanged_and_restart_the_carry():
     base = texture()
     frames = [shifted(base, t, 0) for t in range(6)]

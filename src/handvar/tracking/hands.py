@@ -53,8 +53,11 @@ detector's label:
    while `BEHIND_SHARE` of its expected points or more lie inside the other hand's
    outline (behind it, or touching it), for up to `MISSED_FRAMES` in the open; after
    that it is a frame without that hand.  With a detector on every K-th frame
-   (``keypoint_every``) the flow carries each detection up to the detector's next
-   frame instead, as for one hand.
+   (``keypoint_every``) the flow carries each detection to the frames it skips, the
+   points it loses held there as one hand's (`CarrySettings.hold`), and a hand missed
+   on the detector's frame is followed on as above: carried by its prediction alone
+   there, a hand half hidden by the other drifted onto it and the two swapped on the
+   two-hand benchmark (docs/results/two-hands.md).
 
 A frame's `HandsResult` holds one `FrameResult` per hand, under its id (0, 1: the order
 in which the hands were first seen) with its side.  With ``hands=1`` it tracks the
@@ -350,7 +353,7 @@ class HandsTracker:
         MediaPipe: the frames are mirrored (a selfie camera).
     keypoint_every : int, keyword-only
         Run the detector on every K-th frame only; on the frames between, each hand's
-        last detection is carried forward by optical flow, up to the next one.
+        last detection is carried forward by optical flow (module notes, rule 6).
     **options
         For each hand's `HandTracker`: ``predictor``, ``hand_length``, ``model``,
         ``keypoint_tips``, ``recovery``, ``seed``, ``fov``.
@@ -521,15 +524,15 @@ class HandsTracker:
         """Per camera, the hand's last detection carried forward by optical flow
         (`handvar.vision.carry.KeypointCarrier`) where it has none: through a
         detector's miss for `MISSED_CARRY` frames, the points the flow loses dropped
-        (rule 6); with a slower detector, up to its next frame (as one hand's tracker)."""
-        from handvar.vision.carry import CARRY_SETTINGS, KeypointCarrier, until_next_detection
+        (rule 6); with a slower detector, held up to its next frame."""
+        from handvar.vision.carry import CARRY_SETTINGS, KeypointCarrier
 
         if h.carriers is None:
-            settings = (
-                until_next_detection(self.every)
-                if self.every > 1
-                else dataclasses.replace(CARRY_SETTINGS, max_frames=MISSED_CARRY, hold=0.0)
-            )
+            settings = dataclasses.replace(CARRY_SETTINGS, max_frames=MISSED_CARRY, hold=0.0)
+            if self.every > 1:  # held as one hand's up to the detector's next frame
+                settings = dataclasses.replace(
+                    settings, hold=CARRY_SETTINGS.hold, hold_frames=self.every - 1
+                )
             h.carriers = [KeypointCarrier(settings) for _ in greys]
         return [c.step(grey, k) for c, grey, k in zip(h.carriers, greys, kps, strict=True)]
 

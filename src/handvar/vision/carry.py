@@ -75,6 +75,9 @@ class CarrySettings:
         was last followed (module notes); 0 drops it.  0.5, chosen among 0, 0.5 and 1
         on the realistic benchmark and the three real videos with keypoints every 5th
         frame (docs/keypoint-fit.md, "rules").
+    hold_frames : int or None
+        Frames after a detection for which a lost point is held; after that it is
+        dropped.  None (the default): for as long as the others are carried.
     """
 
     window: int = 15
@@ -83,6 +86,7 @@ class CarrySettings:
     confidence: float = 1.0
     max_frames: int = 30
     hold: float = 0.5
+    hold_frames: int | None = None
 
     def __post_init__(self) -> None:
         as_int(self.window, "window", minimum=3)
@@ -92,6 +96,8 @@ class CarrySettings:
                  exclusive_minimum=True)  # fmt: skip
         as_int(self.max_frames, "max_frames", minimum=1)
         as_float(self.hold, "hold", minimum=0.0, maximum=1.0)
+        if self.hold_frames is not None:
+            as_int(self.hold_frames, "hold_frames", minimum=0)
 
 
 CARRY_SETTINGS = CarrySettings()
@@ -197,7 +203,9 @@ class KeypointCarrier:
         if self._points is None or previous is None or self._age > self.settings.max_frames:
             return None
         self._carry(previous, grey)
-        factor = np.where(self._followed, self.settings.confidence, self.settings.hold)
+        s = self.settings
+        hold = s.hold if s.hold_frames is None or self._age <= s.hold_frames else 0.0
+        factor = np.where(self._followed, s.confidence, hold)
         confidence = self._confidence * factor
         ok = confidence > 0
         if not ok.any():
