@@ -16,6 +16,13 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet --force-reinstall --no-deps \
 		"opencv-contrib-python==$$($(BIN)/python -c 'import importlib.metadata as m; print(m.version("opencv-contrib-python"))')"
 	$(BIN)/python -c "import cv2, mediapipe, numpy; print('cv2', cv2.__version__, 'numpy', numpy.__version__)"
+	# numba compiles the package's loops at their first call and keeps them (its cache,
+	# beside the sources): a short track compiles them here, so that a user's first
+	# track runs at full speed (benchmarks/one_command.py --cold: about 10 s otherwise).
+	$(BIN)/handvar track examples/data/tfjs-asl-hand.mp4 --scale 0.5 --frames 10 \
+		--out $(VENV)/first-track --no-video > $(VENV)/first-track.log 2>&1 \
+		|| (cat $(VENV)/first-track.log; exit 1)
+	rm -rf $(VENV)/first-track $(VENV)/first-track.log
 	touch $(STAMP)
 
 # The main job on built-in defaults: the predictors on real recorded motion, then a

@@ -9,7 +9,13 @@ the video file and as a folder of 1280×720 images (PNG, and JPEG with ``--jpeg`
 as a recording with no video container would be.  Printed per run: frames, wall
 time, frames/s all-in, and the command's own summary line's rate.
 
+``--cold`` runs each video file twice with numba's cache in a new, empty folder
+(``NUMBA_CACHE_DIR``): the first run compiles the package's loops, as the first run
+after ``pip install`` does (``make`` compiles them once when it installs), the second
+finds them.
+
     python benchmarks/one_command.py [--videos example counting] [--jpeg] [--folders-only]
+    python benchmarks/one_command.py --cold [--videos fingerspelling]
 """
 
 from __future__ import annotations
@@ -41,8 +47,20 @@ def _folder(video: Path, folder: Path, suffix: str) -> int:
     return n
 
 
-def _run(source: Path, out: Path) -> tuple[float, str]:
-    return timed_track(source, "--scale", "0.5", "--out", out)
+def _run(source: Path, out: Path, env: dict | None = None) -> tuple[float, str]:
+    return timed_track(source, "--scale", "0.5", "--out", out, env=env)
+
+
+def _cold(names: list[str], tmp: Path) -> None:
+    """Each video file with numba's cache empty, then again with it filled."""
+    for name in names:
+        video = example_path(VIDEOS[name])
+        n = int(cv2.VideoCapture(str(video)).get(cv2.CAP_PROP_FRAME_COUNT))
+        cache = {"NUMBA_CACHE_DIR": str(tmp / f"{name}-numba")}
+        for kind in ("cold", "warm"):
+            seconds, line = _run(video, tmp / f"{name}-{kind}", cache)
+            rate = re.search(r"([\d.]+) frames/s all-in", line).group(1)
+            print(f"{name:<15} {kind:<8} {n:>6} {seconds:>7.1f} {n / seconds:>9.1f}  {rate}")
 
 
 def main() -> None:
@@ -50,11 +68,16 @@ def main() -> None:
     parser.add_argument("--videos", nargs="+", default=list(VIDEOS), choices=list(VIDEOS))
     parser.add_argument("--jpeg", action="store_true", help="JPEG frames instead of PNG")
     parser.add_argument("--folders-only", action="store_true")
+    parser.add_argument("--cold", action="store_true",
+                        help="each video file with numba's cache empty, then filled")  # fmt: skip
     args = parser.parse_args()
     suffix = ".jpg" if args.jpeg else ".png"
     print(f"{'video':<15} {'as':<8} {'frames':>6} {'wall s':>7} {'frames/s':>9}  "
           f"summary line's rate")  # fmt: skip
     with tempfile.TemporaryDirectory() as tmp:
+        if args.cold:
+            _cold(args.videos, Path(tmp))
+            return
         for name in args.videos:
             video = example_path(VIDEOS[name])
             folder = Path(tmp) / f"{name}-frames"
