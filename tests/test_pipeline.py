@@ -302,3 +302,43 @@ def test_the_options_are_checked_before_the_source_is_looked_at():
     assert options.scale == 1.0 and options.init_pose.shape == (26,)
     with pytest.raises(ValueError, match=r"^init: expected a named pose"):
         track("nonesuch", init="nonesuch")  # the init is named, not the source
+
+
+@pytest.mark.parametrize(("carry", "between"), [("both", "interpolated"), ("forward", "held")])
+def test_the_detectors_3d_between_two_detections_is_interpolated_on_a_recording(
+    monkeypatch, carry, between
+):
+    """The fingerspelling clip with its MediaPipe keypoints and world landmarks on every
+    5th frame: carried both ways (a recording's default), a frame between two detections
+    gives the fit the two detections' 3D interpolated linearly, as read from the file;
+    carried forward (live), the last detection's."""
+    from handvar.data import example_path
+    from handvar.tracking.recovery import Recovery
+    from handvar.vision.keypoints import Keypoints2D, read_keypoints
+
+    kp = read_keypoints(example_path("fingerspelling-keypoints"))
+    with np.load(example_path("fingerspelling-mediapipe")) as z:
+        world = z["world_mm"]
+    given = {}
+    cue = Recovery._world_cue
+
+    def recorded(self, world, kps):
+        given[self._frame_no] = None if world is None else np.array(world)
+        return cue(self, world, kps)
+
+    monkeypatch.setattr(Recovery, "_world_cue", recorded)
+    t0 = 20  # a detection with 3D on frames 20, 25 and 30
+    assert np.isfinite(world[[t0, t0 + 5, t0 + 10]]).all()
+    keypoints = Keypoints2D(kp.xy, kp.confidence, kp.name, world=world)
+    track(example_path("fingerspelling"), keypoints=keypoints, keypoint_every=5, carry=carry,
+          frames=t0 + 11, scale=0.5)  # fmt: skip
+    for t in [t for t in range(t0, t0 + 10) if t % 5]:
+        a, b = 5 * (t // 5), 5 * (t // 5) + 5
+        want = world[a] + (t - a) / 5 * (world[b] - world[a]) if between == "interpolated" else None
+        got = given[t]  # the fit's count of frames before this one
+        if want is None:
+            assert got is None, t  # no 3D of its own: the last detections' mean is used
+        else:
+            np.testing.assert_allclose(got, want, atol=1e-9, err_msg=str(t))
+    for t in (t0, t0 + 5, t0 + 10):
+        np.testing.assert_allclose(given[t], world[t])

@@ -1265,6 +1265,18 @@ def _first_pose(decided: TrackDefaults, init_pose, truth, label: str) -> np.ndar
     raise ValueError(f"{label}: the sequence has no ground truth; give the first pose with init")
 
 
+def _between(before, index: int, held: list):
+    """The detector's 3D on frame `index`, held between two detections: interpolated
+    linearly between `before` ((index, world) of the last one) and the next one's in
+    `held` ((n, index, seconds, images, world, ran) of the frames read after), None
+    without both or with a detector's frame without 3D between."""
+    after = next(((i, w) for _, i, _, _, w, ran in held if ran), None)
+    if before is None or after is None or after[1] is None:
+        return None
+    (i0, w0), (i1, w1) = before, after
+    return w0 + (index - i0) / (i1 - i0) * (w1 - w0)
+
+
 def _world_cue(detected):
     """The detector's metric 3D of the first camera, frame by frame (`world[i]`), or None.
 
@@ -1605,7 +1617,9 @@ class _Stream:
         keypoints of them are final: the frames up to the next detection are read
         first (at most `CarrySettings.max_frames`), and the silhouettes of the frames
         held are computed only when the fit asks, as for any frame.  A frame read
-        ahead without its images (before the first hand) is given no keypoints.
+        ahead without its images (before the first hand) is given no keypoints.  Held
+        between two detections with 3D, a frame is given their 3D interpolated
+        linearly (`_between`), as its keypoints are blended from both.
         """
         if self.carriers is None or not self.two_way:
             for index, seconds, images, dets, world, ran in items:
@@ -1618,10 +1632,15 @@ class _Stream:
             return
         held: list = []  # (n, index, seconds, images, world, ran) read, keypoints not final
         final: list[dict] = [{} for _ in self.carriers]  # per camera: n → keypoints
+        last: list = [None]  # (index, world) of the last detection with 3D given out
 
         def ready():
             while held and all(held[0][0] in f for f in final):
                 n, index, seconds, images, world, ran = held.pop(0)
+                if ran:
+                    last[0] = None if world is None else (index, world)
+                elif world is None:
+                    world = _between(last[0], index, held)
                 yield index, seconds, images, [f.pop(n) for f in final], world, ran
 
         n = 0

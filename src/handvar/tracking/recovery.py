@@ -382,7 +382,9 @@ class RecoverySettings:
         The detector's 3D given to the fit (its weak cue w) is the mean of the 3D it
         gave over the last this many frames, this one included; a frame whose
         keypoints were carried by optical flow (no detection) gets the mean of the
-        last ones, and a frame without keypoints starts it anew.  One frame's 3D is
+        last ones (on a recording carried both ways, `handvar.track` gives such a
+        frame the 3D of the detections around it, interpolated), and a frame without
+        keypoints starts it anew.  One frame's 3D is
         noisy, far more than the hand moves between frames; the 2D keypoints keep the
         fit on time.  3: chosen on the realistic benchmark with the detector inside,
         1, 3, 5 and 9 (docs/keypoint-fit.md, "the fit of one frame").
