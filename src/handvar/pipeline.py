@@ -1265,15 +1265,20 @@ def _first_pose(decided: TrackDefaults, init_pose, truth, label: str) -> np.ndar
     raise ValueError(f"{label}: the sequence has no ground truth; give the first pose with init")
 
 
-def _between(before, index: int, held: list):
-    """The detector's 3D on frame `index`, held between two detections: interpolated
-    linearly between `before` ((index, world) of the last one) and the next one's in
-    `held` ((n, index, seconds, images, world, ran) of the frames read after), None
-    without both or with a detector's frame without 3D between."""
-    after = next(((i, w) for _, i, _, _, w, ran in held if ran), None)
-    if before is None or after is None or after[1] is None:
-        return None
-    (i0, w0), (i1, w1) = before, after
+def _between(last: list, index: int, world, ran: bool, held: list):
+    """The detector's 3D given out with frame `index` (its `world`, `ran`: whether the
+    detector looked at it) of frames carried both ways: on a frame between two
+    detections, their 3D interpolated linearly, between ``last[0]`` ((index, world) of
+    the last detection given out, updated here) and the next one's in `held` ((n,
+    index, seconds, images, world, ran) of the frames read after); None without both,
+    or with a detector's frame without 3D between."""
+    if ran:
+        last[0] = None if world is None else (index, world)
+        return world
+    after = next(((i, w) for _, i, _, _, w, r in held if r), None)
+    if world is not None or last[0] is None or after is None or after[1] is None:
+        return world
+    (i0, w0), (i1, w1) = last[0], after
     return w0 + (index - i0) / (i1 - i0) * (w1 - w0)
 
 
@@ -1637,10 +1642,7 @@ class _Stream:
         def ready():
             while held and all(held[0][0] in f for f in final):
                 n, index, seconds, images, world, ran = held.pop(0)
-                if ran:
-                    last[0] = None if world is None else (index, world)
-                elif world is None:
-                    world = _between(last[0], index, held)
+                world = _between(last, index, world, ran, held)
                 yield index, seconds, images, [f.pop(n) for f in final], world, ran
 
         n = 0
