@@ -5,11 +5,11 @@ time per frame.
 Videos (`handvar.data.example_path`): the example video (``video``, 1280×720), the
 fingerspelling clip (``fingerspelling``, 620×1080) and the counting clip
 (``counting``, 640×480, no hand in its first ~110 and last ~90 frames), each with the
-MediaPipe keypoints of every frame.  Each is tracked as `handvar track` does, online
-(frames resized so that the longer side is 640 px; monocular, assumed camera; a right
-hand of 185 mm; RVAR predictor, seed 0; the first pose fitted to the first keypoints),
-with the detections of every frame (K = 1) or of every 5th, carried forward by optical
-flow between (K = 5).  Printed per video and K:
+MediaPipe keypoints of every frame.  Each is tracked as `handvar track` does, frame by
+frame (frames resized so that the longer side is 640 px; monocular, assumed camera; a
+right hand of 185 mm; RVAR predictor, seed 0; the first pose fitted to the first
+keypoints), with the detections of every frame (K = 1) or of every 5th, carried by
+optical flow between (K = 5; both ways, a recording's default).  Printed per video and K:
 
 - frames, frames with a detection given, no-hand frames, lost, re-initialised;
 - the keypoint check (`TrackQuality.check`: on every frame with a detection given the
