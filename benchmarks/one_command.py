@@ -58,9 +58,13 @@ def _cold(names: list[str], tmp: Path) -> None:
         n = int(cv2.VideoCapture(str(video)).get(cv2.CAP_PROP_FRAME_COUNT))
         cache = {"NUMBA_CACHE_DIR": str(tmp / f"{name}-numba")}
         for kind in ("cold", "warm"):
-            seconds, line = _run(video, tmp / f"{name}-{kind}", cache)
-            rate = re.search(r"([\d.]+) frames/s all-in", line).group(1)
-            print(f"{name:<15} {kind:<8} {n:>6} {seconds:>7.1f} {n / seconds:>9.1f}  {rate}")
+            _print(name, kind, n, *_run(video, tmp / f"{name}-{kind}", cache))
+
+
+def _print(name: str, kind: str, n: int, seconds: float, line: str) -> None:
+    """One run's row: frames, wall time, frames/s all-in and the summary line's rate."""
+    rate = re.search(r"([\d.]+) frames/s all-in", line).group(1)
+    print(f"{name:<15} {kind:<8} {n:>6} {seconds:>7.1f} {n / seconds:>9.1f}  {rate}")
 
 
 def main() -> None:
@@ -86,9 +90,7 @@ def main() -> None:
             if not args.folders_only:
                 sources.insert(0, ("video", video))
             for kind, source in sources:
-                seconds, line = _run(source, Path(tmp) / f"{name}-{kind}")
-                rate = re.search(r"([\d.]+) frames/s all-in", line).group(1)
-                print(f"{name:<15} {kind:<8} {n:>6} {seconds:>7.1f} {n / seconds:>9.1f}  {rate}")
+                _print(name, kind, n, *_run(source, Path(tmp) / f"{name}-{kind}"))
 
 
 if __name__ == "__main__":

@@ -1275,9 +1275,11 @@ def _between(last: list, index: int, world, ran: bool, held: list):
     if ran:
         last[0] = None if world is None else (index, world)
         return world
-    after = next(((i, w) for _, i, _, _, w, r in held if r), None)
-    if world is not None or last[0] is None or after is None or after[1] is None:
+    if world is not None or last[0] is None:
         return world
+    after = next(((i, w) for _, i, _, _, w, r in held if r), None)
+    if after is None or after[1] is None:
+        return None
     (i0, w0), (i1, w1) = last[0], after
     return w0 + (index - i0) / (i1 - i0) * (w1 - w0)
 

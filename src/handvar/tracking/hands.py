@@ -528,11 +528,9 @@ class HandsTracker:
         from handvar.vision.carry import CARRY_SETTINGS, KeypointCarrier
 
         if h.carriers is None:
-            settings = dataclasses.replace(CARRY_SETTINGS, max_frames=MISSED_CARRY, hold=0.0)
-            if self.every > 1:  # held as one hand's up to the detector's next frame
-                settings = dataclasses.replace(
-                    settings, hold=CARRY_SETTINGS.hold, hold_frames=self.every - 1
-                )
+            # with a slower detector, held as one hand's up to the detector's next frame
+            held = {"hold": 0.0} if self.every == 1 else {"hold_frames": self.every - 1}
+            settings = dataclasses.replace(CARRY_SETTINGS, max_frames=MISSED_CARRY, **held)
             h.carriers = [KeypointCarrier(settings) for _ in greys]
         return [c.step(grey, k) for c, grey, k in zip(h.carriers, greys, kps, strict=True)]
 
