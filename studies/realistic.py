@@ -77,6 +77,7 @@ from handvar.evaluation.metrics import (
     lag,
     mean_point_error,
     pck_2d,
+    thinned,
 )
 from handvar.evaluation.realistic import SKIN_TONES, read_case, realistic_case
 from handvar.pipeline import Track
@@ -373,23 +374,6 @@ def triangulated(case, xy: np.ndarray) -> np.ndarray:
         X = cv2.triangulatePoints(P[0], P[1], pa[ok].T.astype(float), pb[ok].T.astype(float))
         out[ok] = (X[:3] / X[3]).T
     return out.reshape(xy.shape[1], -1, 3)
-
-
-def thinned(xy: np.ndarray, every: int, interpolate: bool) -> np.ndarray:
-    """(n_cams, T, 21, 2) detections kept on every `every`-th frame only, the frames between
-    filled by holding the last one or interpolating linearly to the next (which needs
-    the future; beyond the last, held)."""
-    out = np.full_like(xy, np.nan)
-    T = xy.shape[1]
-    for t in range(T):
-        t0 = t - t % every
-        t1 = t0 + every
-        if not interpolate or t1 >= T or t == t0:
-            out[:, t] = xy[:, t0]
-        else:
-            w = (t - t0) / every
-            out[:, t] = (1.0 - w) * xy[:, t0] + w * xy[:, t1]
-    return out
 
 
 RUNS = ("keypoints", "triangulated", "held every 5", "interpolated every 5", "fit every 1",

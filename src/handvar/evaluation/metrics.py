@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from handvar.predictors.var import second_differences
+from handvar.validate import as_int
 
 __all__ = [
     "acceleration_error",
@@ -29,6 +30,7 @@ __all__ = [
     "rotation_angle",
     "similarity",
     "similarity_align",
+    "thinned",
 ]
 
 #: The reference length of 2D PCK: from the wrist to the middle finger's MCP (G(x)'s order).
@@ -180,6 +182,33 @@ def pck_2d(truth, estimate, threshold: float = 0.2) -> float:
     with np.errstate(invalid="ignore"):
         ok = d <= threshold * ref[:, None]  # NaN compares False
     return float(ok.mean())
+
+
+def thinned(points, every: int, interpolate: bool) -> np.ndarray:
+    """Points (..., T, K, D) kept on every `every`-th frame only, the frames between
+    filled by holding the last one or, with `interpolate`, linearly to the next (which
+    needs the future; beyond the last kept frame, held): what a user of a detector run
+    on every `every`-th frame has without a tracker.  NaN stays NaN.
+
+    Examples
+    --------
+    >>> x = np.arange(5.0).reshape(5, 1, 1)
+    >>> thinned(x, 2, True)[:, 0, 0].tolist(), thinned(x, 3, False)[:, 0, 0].tolist()
+    ([0.0, 1.0, 2.0, 3.0, 4.0], [0.0, 0.0, 0.0, 3.0, 3.0])
+    """
+    every = as_int(every, "every", minimum=1)
+    p = np.moveaxis(np.asarray(points, dtype=float), -3, 0)
+    out = np.empty_like(p)
+    T = len(p)
+    for t in range(T):
+        t0 = t - t % every
+        t1 = t0 + every
+        if not interpolate or t1 >= T or t == t0:
+            out[t] = p[t0]
+        else:
+            w = (t - t0) / every
+            out[t] = (1.0 - w) * p[t0] + w * p[t1]
+    return np.moveaxis(out, 0, -3)
 
 
 def mean_point_error(truth, estimate) -> tuple[float, int]:
