@@ -121,13 +121,16 @@ def test_frames_read_ahead_in_order_and_stopping_early_leaves_no_reader(tmp_path
     cap = cv2.VideoCapture(str(path / "frame_%d.png" if kind == "folder" else path))
     direct = [cap.read()[1] for _ in range(9)]  # OpenCV alone, one frame at a time
     cap.release()
+    # Readers of other tests in this process may wait for the collector: count ours only.
+    before = set(threading.enumerate())
     reader = open_frames(path)
     for t, image in reader.frames():
         np.testing.assert_array_equal(image, direct[t])
     frames_iter = reader.frames(start=1)
     assert next(frames_iter)[0] == 1 and next(frames_iter)[0] == 2
+    assert [t for t in set(threading.enumerate()) - before if t.name.startswith("handvar-read")]
     frames_iter.close()  # the reads queued ahead are cancelled, the one running waited for
-    assert not [t for t in threading.enumerate() if t.name.startswith("handvar-read")]
+    assert not [t for t in set(threading.enumerate()) - before if t.name.startswith("handvar-read")]
 
 
 # --- checks ----------------------------------------------------------------------------
