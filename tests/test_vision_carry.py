@@ -171,14 +171,27 @@ def test_at_the_end_only_the_frames_the_detector_did_not_look_at_keep_the_forwar
     base, step = texture(), np.array([1.0, 0.5])
     frames = [shifted(base, *(t * step)) for t in range(6)]
     detected = points()
-    carrier = TwoWayCarrier()
+    carrier = TwoWayCarrier(reach=2)
     for t, image in enumerate(frames):
         carrier.step(image, detected if t == 0 else None)
     # a detector on every 3rd frame did not look at frames 1, 2: carried forward there
-    ends = dict(carrier.flush(reach=2))
+    ends = dict(carrier.flush())
     for t in (1, 2):
         np.testing.assert_allclose(ends[t][:, :2], detected[:, :2] + t * step, atol=0.1)
     assert ends[3] is None and ends[5] is None  # it looked at frame 3 and found no hand
+
+
+def test_before_a_run_only_the_frames_the_detector_did_not_look_at_get_the_backward_carry():
+    base, step = texture(), np.array([1.0, 0.5])
+    frames = [shifted(base, *(t * step)) for t in range(7)]
+    detected = np.full((7, 21, 3), np.nan)
+    detected[6] = points()  # a detector on every 3rd frame found nothing on 0 and 3
+    kp = Keypoints2D.from_array(detected)
+    carried = carry_keypoints(frames, kp, both=True, every=3)
+    assert not carried.present[:4].any()
+    for t in (4, 5):  # it did not look at frames 4, 5: carried back from frame 6 there
+        np.testing.assert_allclose(carried.xy[t], detected[6, :, :2] - (6 - t) * step, atol=0.1)
+    assert not carry_keypoints(frames, kp, both=True).present[:6].any()  # on every frame
 
 
 def test_both_ways_recovers_a_point_lost_forwards():

@@ -1425,10 +1425,13 @@ class _Stream:
         self.carry = carry
         self.carriers = None  # per camera, carrying forward, or both ways with a delay
         if self.keyed and carry in ("forward", "both"):
-            kind = KeypointCarrier if carry == "forward" else TwoWayCarrier
             online = carry == "forward" and every > 1  # up to the next detector frame
             settings = until_next_detection(every) if online else CARRY_SETTINGS
-            self.carriers = [kind(settings) for _ in source.names]
+            self.carriers = [
+                KeypointCarrier(settings) if carry == "forward"
+                else TwoWayCarrier(settings, reach=every - 1)
+                for _ in source.names
+            ]  # fmt: skip
         self.two_way = carry == "both"
         self.stop = frames
         self.model = SkinModel()
@@ -1660,7 +1663,7 @@ class _Stream:
             self.seconds["keypoints"] += self.clock() - clock
             yield from ready()
         for f, carrier in zip(final, self.carriers, strict=True):
-            f.update(carrier.flush(self.every - 1))  # the detector's last frames unseen
+            f.update(carrier.flush())  # the detector's last frames unseen
         yield from ready()
 
     def on_frame(self, user: Callable | None):

@@ -240,13 +240,17 @@ class TwoWayCarrier:
     as ``(t, keypoints)`` pairs (t counting the frames given from 0, keypoints as
     `KeypointCarrier.step` returns them).  A detection frame is final at once, and so
     are the frames before it: their points carried forward from the previous detection
-    and backwards from this one are blended (`_blend`).  Keypoints are carried only
-    inside a gap between two detections of at most `CarrySettings.max_frames` frames:
-    never before the first detection nor after the last (there is no hand there, as
-    far as the detector knows), and not across a longer gap.  A frame is held back
-    until the next detection, or until `CarrySettings.max_frames` frames have passed:
-    the delay is at most that many frames, and as many frames are kept.  `flush` gives
-    out the frames still held after the last detection, without keypoints.
+    and backwards from this one are blended (`_blend`).  Keypoints are carried across
+    a gap between two detections of at most `CarrySettings.max_frames` frames, not
+    across a longer one.  Before a run of detections (the first, or the first after a
+    longer gap) and after its last, there is no hand as far as the detector knows,
+    except on the frames it did not look at: with a detector on every (`reach` + 1)-th
+    frame, the `reach` frames before the run's first detection get its points carried
+    backwards, and the `reach` frames after its last keep the points carried forward.
+    A frame is held back until the next detection, or until
+    `CarrySettings.max_frames` frames have passed: the delay is at most that many
+    frames, and as many frames are kept.  `flush` gives out the frames still held
+    after the last detection.
 
     Examples
     --------
@@ -262,11 +266,13 @@ class TwoWayCarrier:
     (1, [22.0, 20.0, 1.0])
     """
 
-    def __init__(self, settings: CarrySettings = CARRY_SETTINGS) -> None:
+    def __init__(self, settings: CarrySettings = CARRY_SETTINGS, *, reach: int = 0) -> None:
         self.settings = as_instance(settings, CarrySettings, "settings")
+        self.reach = as_int(reach, "reach", minimum=0)
         self._forward = KeypointCarrier(settings)
         self._t = -1  # the frame given last
         self._last: int | None = None  # the frame of the last detection
+        self._across = False  # the gap since it is short enough to carry across
         self._gap: list[tuple[int, np.ndarray, np.ndarray | None]] = []  # t, grey, forward
 
     def step(self, image, keypoints=None) -> list[tuple[int, np.ndarray | None]]:
@@ -277,45 +283,44 @@ class TwoWayCarrier:
         detection = None if keypoints is None else as_frame_keypoints(keypoints, "keypoints")
         if detection is not None and np.any(detection[:, 2] > 0):
             out = self._blend(grey, detection)
-            self._last, self._gap = self._t, []
+            self._last, self._across, self._gap = self._t, True, []
             return [*out, (self._t, forward)]
         self._gap.append((self._t, grey, forward))
         if len(self._gap) > self.settings.max_frames:  # a gap too long to carry across
-            t, _, _ = self._gap.pop(0)
-            self._last = None  # the next detection starts afresh, as the first one
-            return [(t, None)]
+            self._across = False  # the next detection starts a run
+            return [self._after_run(*self._gap.pop(0))]
         return []
 
-    def flush(self, reach: int = 0) -> list[tuple[int, np.ndarray | None]]:
+    def flush(self) -> list[tuple[int, np.ndarray | None]]:
         """The frames still held at the end, after the last detection: none carried
         there, except to the `reach` frames right after it, which keep the points
-        carried forward (a detector run on every (reach + 1)-th frame did not look at
-        them: `until_next_detection`'s online rule)."""
-        reach = as_int(reach, "reach", minimum=0)
-        last = self._last
-
-        def kept(t, f):
-            return f if last is not None and t - last <= reach else None
-
-        out, self._gap = [(t, kept(t, f)) for t, _, f in self._gap], []
+        carried forward (the detector did not look at them:
+        `until_next_detection`'s online rule)."""
+        out, self._gap = [self._after_run(*held) for held in self._gap], []
         return out
+
+    def _after_run(self, t, grey, forward) -> tuple[int, np.ndarray | None]:
+        """A frame given out after the last detection of a run: its points carried
+        forward within `reach` frames of that detection, none beyond."""
+        near = self._last is not None and t - self._last <= self.reach
+        return t, forward if near else None
 
     def _blend(self, grey, detection) -> list[tuple[int, np.ndarray | None]]:
         """Carry `detection` back over the held frames and blend (module notes).
 
         A point carried both ways is the mean of the two weighted by the nearness of
         each detection, w_f = k_b / (k_f + k_b) on the forward point, which is k_f
-        frames after its detection (none before the first: w_f = 0), and 1 − w_f on the
-        backward one, k_b frames before this detection; a point carried one way only is
-        that one.
+        frames after its detection, and 1 − w_f on the backward one, k_b frames before
+        this detection; a point carried one way only is that one.
         """
-        if self._last is None:  # before the first detection (or after a long gap)
-            return [(t, None) for t, _, _ in self._gap]
         back = KeypointCarrier(self.settings)
         back.step(grey, detection)
         out = []
         reach = True  # the backward carry still has points
         for t, g, f in reversed(self._gap):
+            if not self._across:  # before a run: its first detection's `reach` frames
+                reach = reach and self._t - t <= self.reach
+                f = None
             b = back.step(g) if reach else None
             reach = b is not None
             if b is None:
@@ -326,7 +331,7 @@ class TwoWayCarrier:
                 continue
             fwd, bwd = f[:, 2] > 0, b[:, 2] > 0
             k_b = self._t - t
-            w = 0.0 if self._last is None else k_b / ((t - self._last) + k_b)
+            w = k_b / ((t - self._last) + k_b)
             mixed = w * np.nan_to_num(f) + (1.0 - w) * np.nan_to_num(b)
             k = np.where((fwd & bwd)[:, None], mixed, np.where(bwd[:, None], b, f))
             out.append((t, k))
@@ -369,10 +374,10 @@ def carry_keypoints(
     # stops at the shorter: the keypoints' last frame or the last image
     frames = zip(range(keypoints.n_frames), images, strict=False)
     if both:
-        two_way = TwoWayCarrier(settings)
+        two_way = TwoWayCarrier(settings, reach=as_int(every, "every", minimum=1) - 1)
         done = [d for t, image in frames
                 for d in two_way.step(_grey(image, "images"), keypoints.frame(t))]  # fmt: skip
-        done += two_way.flush(as_int(every, "every", minimum=1) - 1)
+        done += two_way.flush()
     else:
         forward = KeypointCarrier(settings)
         done = [(t, forward.step(_grey(image, "images"), keypoints.frame(t)))
