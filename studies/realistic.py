@@ -44,9 +44,14 @@ detector's ``.npz`` instead, its world landmarks as the fit's weak 3D cue.
 ``--detector inside`` runs the one command instead (``handvar track CAMS --calib
 calib.yml --out DIR``: the detector inside, nothing else given) and prints beside it
 what a user has without the fit: the detector's points and 3D, its points triangulated
-(two cameras), its every 5th frame held or interpolated, and every 3D estimate's jitter
-(acceleration error) and lag (the frames it trails the truth by,
-`handvar.evaluation.metrics.lag`).
+(two cameras), the detections of the run with the detector on every 5th frame held or
+interpolated (`handvar.evaluation.metrics.thinned`; MediaPipe follows the hand from
+frame to frame, so its detections on every 5th frame are not those of every frame
+thinned), and every 3D estimate's jitter (acceleration error) and lag (the frames it
+trails the truth by, `handvar.evaluation.metrics.lag`).  The one command decides the
+side from the detector's handedness; a track of the other side than the case's is
+scored as it is, as the detector's points are whatever their label, and counted under
+"wrong side".  A run that fails scores every frame lost and every point wrong.
 
 Run: ``PYTHONPATH=src .venv/bin/python studies/realistic.py`` (about 5–10 minutes on
 two cores); ``--quick`` for a one-minute subset; ``--out DIR`` keeps the generated cases
@@ -291,13 +296,13 @@ def project(rig, points: np.ndarray) -> np.ndarray:
     return out
 
 
-def fit_points(out: Path, side: str) -> tuple[np.ndarray, np.ndarray | None]:
+def fit_points(out: Path, side: str | None) -> tuple[np.ndarray, np.ndarray | None]:
     """The fit's scored points (T, 21, 3) mm from its poses through the hand it tracked
-    with (`side` checked against it), and its lost flags (`check` for its keypoint
-    check)."""
+    with (`side` checked against it, unless None), and its lost flags (`check` for its
+    keypoint check)."""
     track = Track.load(out)
     hand = track.hand  # the shape the track fitted (shape_fit), not the given one
-    if hand.shape.side != side:
+    if side is not None and hand.shape.side != side:
         raise RuntimeError(f"{out}: tracked a {hand.shape.side} hand; expected {side}")
     lost = None if track.quality is None else np.asarray(track.quality.lost, dtype=bool)
     return scored_points(hand, track.poses), lost
@@ -359,6 +364,11 @@ def scores(
     return row
 
 
+def failed_row(case) -> dict[str, float]:
+    """The figures of a run that gave nothing: every frame lost, every point wrong."""
+    return {"frames": case.n_frames, "lost": float(case.n_frames), "pck": 0.0, "failed": True}
+
+
 def triangulated(case, xy: np.ndarray) -> np.ndarray:
     """(T, 21, 3) mm: each point of the first two cameras' detections triangulated on
     its own (``cv2.triangulatePoints``, the baseline of a user with two calibrated
@@ -381,7 +391,7 @@ RUNS = ("keypoints", "triangulated", "held every 5", "interpolated every 5", "fi
 COLUMNS = (("pck", "PCK@0.2", "{:.3f}"), ("px", "2D px", "{:.1f}"), ("mpjpe", "MPJPE", "{:.1f}"),
            ("pa", "PA-MPJPE", "{:.1f}"), ("auc", "AUC 20-50", "{:.3f}"),
            ("abs", "abs 3D", "{:.1f}"), ("accel", "accel", "{:.2f}"),
-           ("lag", "lag", "{:.1f}"), ("lost", "lost", "{:.0f}"),
+           ("lag", "lag", "{:.1f}"), ("lost", "lost", "{:.0f}"), ("wrong", "wrong side", "{:.0f}"),
            ("fail", "check fails", "{:.0f}"), ("rej", "rejected", "{:.0f}"),
            ("track_ms", "ms/frame", "{:.1f}"), ("ms", "with start-up", "{:.0f}"))  # fmt: skip
 
@@ -424,7 +434,7 @@ def overall(rows, label: str, keep) -> list[tuple[str, str, dict]]:
         agg = {}
         for key, _, _ in COLUMNS:
             v = np.array([r.get(key, np.nan) for r in sel], dtype=float)
-            if key in ("lost", "fail", "rej"):
+            if key in ("lost", "fail", "rej", "wrong"):
                 agg[key] = float(v.sum()) if np.isfinite(v).all() else np.nan
             elif key == "lag":  # one shift for all the cases' frames
                 motion = [r["motion"] for r in sel if "motion" in r]
@@ -437,9 +447,10 @@ def overall(rows, label: str, keep) -> list[tuple[str, str, dict]]:
     return out
 
 
-def baseline_rows(case, detector: dict, label: str) -> list:
+def baseline_rows(case, detector: dict, label: str, every_5th: bool = True) -> list:
     """What a user could do with the detector's output alone: its points and 3D, its
-    points triangulated (two cameras), and its every 5th frame held or interpolated."""
+    points triangulated (two cameras), and (`every_5th`) its every 5th frame held or
+    interpolated."""
     xy = detector["xy"]
     raw_lost = ~np.isfinite(xy[0]).all(axis=(1, 2))
     raw = scores(case, xy, detector["world"], raw_lost, None, truth_axes=case.rig.cameras[0].R)
@@ -450,10 +461,15 @@ def baseline_rows(case, detector: dict, label: str) -> list:
         lost = ~np.isfinite(points).all(axis=(1, 2))
         rows.append((label, "triangulated", scores(case, project(case.rig, points), points,
                                                    lost, None)))  # fmt: skip
-    for run, interpolate in (("held every 5", False), ("interpolated every 5", True)):
-        held = thinned(xy, 5, interpolate)
-        rows.append((label, run, scores(case, held, None, None, None)))
-    return rows
+    return rows if every_5th is False else rows + sparse_rows(case, xy, label)
+
+
+def sparse_rows(case, xy: np.ndarray, label: str) -> list:
+    """The detections (n_cams, T, 21, 2) of every 5th frame held, or interpolated between
+    (`thinned`), as a user of a detector run on every 5th frame has them."""
+    runs = (("held every 5", False), ("interpolated every 5", True))
+    return [(label, run, scores(case, thinned(xy, 5, interpolate), None, None, None))
+            for run, interpolate in runs]  # fmt: skip
 
 
 def inside_rows(
@@ -468,13 +484,16 @@ def inside_rows(
         try:
             seconds, out, detector = run_inside(case_dir, spec, every, out, extra)
             if every == 1:
-                rows += baseline_rows(case, detector, label)
-            pts, lost = fit_points(out, spec.side)
+                rows += baseline_rows(case, detector, label, every_5th=False)
+            else:  # the detections this run got: the detector's tracking sees every 5th
+                rows += sparse_rows(case, detector["xy"], label)
+            pts, lost = fit_points(out, None)  # the side it chose, scored as it is
             row = scores(case, project(case.rig, pts), pts, lost, seconds, out=out)
             row |= check(out, every)
+            row["wrong"] = float(Track.load(out).hand.shape.side != spec.side)
         except RuntimeError as exc:  # scored as every frame lost
             print(f"{spec.name} every {every}: failed: {exc}", file=sys.stderr)
-            row = {"frames": case.n_frames, "lost": float(case.n_frames), "failed": True}
+            row = failed_row(case)
         rows.append((label, f"fit every {every}", row))
     return rows
 
@@ -555,8 +574,7 @@ def main() -> None:
                         row |= check(out, every, gross)
                     except RuntimeError as exc:  # scored as every frame lost
                         print(f"{spec.name} every {every}: failed: {exc}", file=sys.stderr)
-                        row = {"frames": case.n_frames, "lost": float(case.n_frames),
-                               "failed": True}  # fmt: skip
+                        row = failed_row(case)
                     rows.append((label, f"fit every {every}", row))
             print(
                 f"# {spec.name}: generated in {gen:.1f} s; "

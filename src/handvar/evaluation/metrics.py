@@ -185,30 +185,43 @@ def pck_2d(truth, estimate, threshold: float = 0.2) -> float:
 
 
 def thinned(points, every: int, interpolate: bool) -> np.ndarray:
-    """Points (..., T, K, D) kept on every `every`-th frame only, the frames between
-    filled by holding the last one or, with `interpolate`, linearly to the next (which
-    needs the future; beyond the last kept frame, held): what a user of a detector run
-    on every `every`-th frame has without a tracker.  NaN stays NaN.
+    """Points (..., T, K, D) of a detector run on every `every`-th frame, the frames
+    between filled as a user without a tracker would: each point held from the last
+    detector frame that found it or, with `interpolate`, interpolated linearly between
+    the last and the next that found it (which needs the future), held from the one
+    there is where there is one only.  NaN before a point's first detection (held) or
+    where none found it (interpolated).
 
     Examples
     --------
-    >>> x = np.arange(5.0).reshape(5, 1, 1)
+    >>> x = np.arange(7.0).reshape(7, 1, 1)
     >>> thinned(x, 2, True)[:, 0, 0].tolist(), thinned(x, 3, False)[:, 0, 0].tolist()
-    ([0.0, 1.0, 2.0, 3.0, 4.0], [0.0, 0.0, 0.0, 3.0, 3.0])
+    ([0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0], [0.0, 0.0, 0.0, 3.0, 3.0, 3.0, 6.0])
+    >>> x[[0, 4]] = np.nan  # the detector found nothing on frames 0 and 4
+    >>> thinned(x, 2, True)[:, 0, 0].tolist()
+    [2.0, 2.0, 2.0, 3.0, 4.0, 5.0, 6.0]
     """
     every = as_int(every, "every", minimum=1)
     p = np.moveaxis(np.asarray(points, dtype=float), -3, 0)
-    out = np.empty_like(p)
     T = len(p)
-    for t in range(T):
-        t0 = t - t % every
-        t1 = t0 + every
-        if not interpolate or t1 >= T or t == t0:
-            out[t] = p[t0]
+    flat = p.reshape(T, -1, p.shape[-1])  # (T, points, D)
+    out = np.full_like(flat, np.nan)
+    t = np.arange(T)
+    for m in range(flat.shape[1]):
+        found = np.flatnonzero(np.isfinite(flat[::every, m]).all(axis=-1)) * every
+        if not found.size:
+            continue
+        before = np.searchsorted(found, t, side="right") - 1  # the last at or before t
+        after = np.minimum(before + 1, found.size - 1)  # the next after it (or the last)
+        t0, t1 = found[np.maximum(before, 0)], found[after]
+        if interpolate:
+            t0 = np.where(before < 0, t1, t0)  # before the first: held from it
+            t1 = np.where(t1 < t, t0, t1)  # after the last: held from it
+            w = np.where(t1 > t0, (t - t0) / np.maximum(t1 - t0, 1), 0.0)[:, None]
+            out[:, m] = (1.0 - w) * flat[t0, m] + w * flat[t1, m]
         else:
-            w = (t - t0) / every
-            out[t] = (1.0 - w) * p[t0] + w * p[t1]
-    return np.moveaxis(out, 0, -3)
+            out[before >= 0, m] = flat[t0[before >= 0], m]
+    return np.moveaxis(out.reshape(p.shape), 0, -3)
 
 
 def mean_point_error(truth, estimate) -> tuple[float, int]:
