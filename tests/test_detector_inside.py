@@ -120,6 +120,40 @@ def test_mediapipe_inside_the_command_writes_its_points_and_a_rerun_reuses_them(
     assert "reused" not in res.output
 
 
+def test_a_rerun_into_out_tracks_the_side_its_first_run_decided_and_another_side_detects_again(
+    tmp_path,
+):
+    import dataclasses
+
+    from handvar.vision.keypoints import write_keypoints
+
+    folder = tmp_path / "clip"
+    folder.mkdir()
+    cap = cv2.VideoCapture(str(VIDEO))
+    for i in range(8):
+        cv2.imwrite(str(folder / f"{i}.png"), cv2.resize(cap.read()[1], (320, 180)))
+    cap.release()
+    out = tmp_path / "out"
+
+    def run(*more):
+        res = CliRunner().invoke(main, ["track", str(folder), "--out", str(out), "--no-video",
+                                        *more])  # fmt: skip
+        assert res.exit_code == 0, res.output
+        return res.output, handvar.Track.load(out).hand.shape.side
+
+    output, side = run()
+    assert "(detector mediapipe)" in output and side == "right"
+    # the detector's labels need not agree with the side the run decided (two cameras'
+    # may differ): the rerun keeps the run's side, as its points were chosen for it
+    kp = read_keypoints(out / "keypoints.npz")
+    write_keypoints(out / "keypoints.npz",
+                    dataclasses.replace(kp, handedness=np.full(kp.n_frames, "left")))  # fmt: skip
+    output, side = run()
+    assert "(detector reused from keypoints.npz)" in output and side == "right"
+    output, side = run("--hand", "left")  # another side: the detector chooses again
+    assert "(detector mediapipe)" in output and side == "left"
+
+
 def test_without_mediapipe_auto_says_what_the_silhouettes_need(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "mediapipe", None)  # as if not installed
     res = CliRunner().invoke(

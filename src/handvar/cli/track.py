@@ -195,17 +195,17 @@ def track_command(
         if keypoint_files:
             raise ValueError("--keypoints: expected none with --camera")
         source, options = _open_camera(camera, calib, fov, scale), {}
-    reused = ()
+    reused, keypoints = (), list(keypoint_files) or None
     if camera is None and not keypoint_files and detector != "none":
-        keypoint_files = reused = _detected_before(out, seq[0])
+        reused, keypoints, side = _detected_before(out, seq[0], side)
     with _option_names(seq[0] if seq else "--camera"), _stop_on_interrupt(source):
         result = _track_one(
-            source, keypoints=list(keypoint_files) or None, hand=side, hand_length=hand_length,
+            source, keypoints=keypoints, hand=side, hand_length=hand_length,
             model=model, predictor=predictor, init=None if init is None else load_pose(init),
             keypoint_every=keypoint_every, carry=carry, keypoint_tips=keypoint_tips,
             recover=recover, seed=seed, frames=n_frames, progress=not show,
             realtime=realtime and camera is None, show=show, allow_short=allow_short,
-            recovery=recovery, detector=detector if not keypoint_files else "auto", **options,
+            recovery=recovery, detector=detector if keypoints is None else "auto", **options,
         )  # fmt: skip
     written = _save_track(result, out, video, reused)
     _print_summary(result, written, out, predictor, seed)
@@ -395,29 +395,39 @@ def _save_detected(out, result) -> None:
         write_keypoints(path, k)
 
 
-def _detected_before(out, seq: str) -> tuple:
+def _detected_before(out, seq: str, side: str | None) -> tuple[tuple, list | None, str | None]:
     """The keypoint files an earlier run into OUT detected on the same whole recording,
-    to use again (a rerun with other settings); none otherwise."""
+    to use again (a rerun with other settings), their keypoints, and the side to track,
+    the earlier run's: the side it decided, not the detector's handedness in the files
+    (which may differ between cameras, or from that side).  The files hold the hands
+    chosen for that side, so a rerun for the other side (--hand) detects again.
+    Without such files ``((), None, side)``."""
+    import dataclasses
     import json
     from pathlib import Path
 
     import numpy as np
 
+    from handvar.vision.keypoints import read_keypoints
+
     track_file = Path(out) / "track.npz"
     if not track_file.is_file():
-        return ()
+        return (), None, side
     try:
         with np.load(track_file, allow_pickle=False) as z:
             options = json.loads(str(z["meta"])).get("options", {})
     except (OSError, ValueError, KeyError, EOFError):
-        return ()
+        return (), None, side
     paths = seq.split(",")
     same = options.get("source") == paths and options.get("detector") not in (None, "none")
     whole = options.get("frames") is None
     files = _keypoint_files(out, len(paths))
-    if not (same and whole and all(f.is_file() for f in files)):
-        return ()
-    return tuple(str(f) for f in files)
+    earlier = options.get("hand")
+    if not (same and whole and earlier in ("right", "left") and side in (None, "auto", earlier)
+            and all(f.is_file() for f in files)):  # fmt: skip
+        return (), None, side
+    keypoints = [dataclasses.replace(read_keypoints(f), handedness=None) for f in files]
+    return tuple(str(f) for f in files), keypoints, earlier
 
 
 def _open_camera(index: int, calib, fov, scale):
