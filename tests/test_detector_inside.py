@@ -154,6 +154,37 @@ def test_a_rerun_into_out_tracks_the_side_its_first_run_decided_and_another_side
     assert "(detector mediapipe)" in output and side == "left"
 
 
+def test_an_error_in_the_fit_stops_the_detectors_and_the_readers():
+    import os
+    import threading
+
+    def detectors() -> set[str]:
+        """This process's children running MediaPipe (`handvar.vision.detector`)."""
+        pid, out = os.getpid(), set()
+        with open(f"/proc/{pid}/task/{pid}/children") as f:
+            for child in f.read().split():
+                try:
+                    with open(f"/proc/{child}/cmdline", "rb") as cmd:
+                        if b"handvar.vision.detector" in cmd.read():
+                            out.add(child)
+                except FileNotFoundError:  # ended meanwhile
+                    pass
+        return out
+
+    def stop_at_frame_3(i, *_):
+        if i == 3:
+            raise RuntimeError("the user's callback")
+
+    threads, before = set(threading.enumerate()), detectors()
+    with pytest.raises(RuntimeError, match="the user's callback") as error:
+        handvar.track(VIDEO, scale=0.5, frames=60, on_frame=stop_at_frame_3)
+    # the traceback, kept (as a notebook keeps it), holds the suspended frames: what read
+    # ahead for them is stopped all the same
+    assert error.traceback
+    assert not [t for t in set(threading.enumerate()) - threads if t.name.startswith("handvar")]
+    assert not detectors() - before, "MediaPipe's worker processes are left running"
+
+
 def test_without_mediapipe_auto_says_what_the_silhouettes_need(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "mediapipe", None)  # as if not installed
     res = CliRunner().invoke(

@@ -47,6 +47,7 @@ recording first (docs/live-and-batch.md).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import inspect
@@ -1072,7 +1073,10 @@ def _fit(tracker, x0, opened: _Opened, options: TrackOptions, decided: TrackDefa
 def _fit_stream(tracker, x0, opened: _Opened, options: TrackOptions, bar) -> _Fitted:
     """The frames of `opened.stream` fitted one at a time; the dropped ones filled in."""
     stream = opened.stream
-    recovered = _run_stream(tracker, stream, x0, options.recovery, options.on_frame, bar)
+    try:
+        recovered = _run_stream(tracker, stream, x0, options.recovery, options.on_frame, bar)
+    finally:
+        stream.close()
     result, quality = _with_dropped(recovered, stream.rows(), stream.n_frames)
     fitted = _Fitted(
         result, tracker.hand, stream.sequence(), stream.keypoints(opened.source.names),
@@ -1580,6 +1584,13 @@ class _Stream:
         n = self.source.n_frames
         return n if self.stop is None else min(self.stop, n)
 
+    def close(self) -> None:
+        """Stop what reads ahead: the detector's workers and the frame readers.  An
+        error or an interrupt in the fit leaves them suspended otherwise, alive as long
+        as its traceback is kept (in a notebook, until the next error)."""
+        if self._items is not None:
+            self._items.close()
+
     # -- to the fit ---------------------------------------------------------------------
 
     def frames(self):
@@ -2067,25 +2078,27 @@ def track_hands(
     tracker = HandsTracker(opened.rig, hands=hands, detector=None, predictor=predictor,
                            hand_length=hand_length, model=model, seed=seed,
                            keypoint_every=every)  # fmt: skip
-    items, detectors, outside = _hands_found(played, keypoints, detector, mirrored, realtime)
+    reading, detectors, outside = _hands_found(played, keypoints, detector, mirrored, realtime)
+    items = reading
     if progress and not realtime:
         from tqdm import tqdm
 
         items = tqdm(items, total=played.total, desc="tracking", unit="frame", leave=False)
     seconds, rows, latency = [], [], []
     clock0 = None
-    for index, captured, images, found in items:
-        given = None if found is None else [
-            [_scaled(d, played.scale, size) for d in ds]
-            for ds, size in zip(found, played.sizes, strict=True)
-        ]  # fmt: skip
-        t0 = time.perf_counter()
-        if clock0 is None:  # the zero of the capture times
-            clock0 = played.origin[0] if played.origin else t0 - captured
-        tracker.process(images, detections=given)
-        seconds.append(time.perf_counter() - t0)
-        rows.append(index)
-        latency.append(time.perf_counter() - clock0 - captured)
+    with contextlib.closing(reading):  # an error in the fit stops what reads ahead
+        for index, captured, images, found in items:
+            given = None if found is None else [
+                [_scaled(d, played.scale, size) for d in ds]
+                for ds, size in zip(found, played.sizes, strict=True)
+            ]  # fmt: skip
+            t0 = time.perf_counter()
+            if clock0 is None:  # the zero of the capture times
+                clock0 = played.origin[0] if played.origin else t0 - captured
+            tracker.process(images, detections=given)
+            seconds.append(time.perf_counter() - t0)
+            rows.append(index)
+            latency.append(time.perf_counter() - clock0 - captured)
     name = opened.names[0] if opened.names else "recording"
     if all(h.tracker.recovery is None for h in tracker.hands):
         where = "the detector found" if keypoints is None else "the keypoint file has"
