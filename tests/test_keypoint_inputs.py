@@ -79,6 +79,28 @@ def test_a_left_hand_tracked_as_right_is_an_error_and_auto_takes_the_handedness(
         track(VIDEO, hand="auto", detector="none", frames=2)
 
 
+def test_cameras_whose_handedness_disagree_give_the_side_of_most_frames_or_take_the_given():
+    from handvar.vision.keypoints import hand_side
+
+    xy = np.zeros((10, 21, 2))
+    xy[:, 9, 1] = 50.0
+
+    def camera(rights: int) -> Keypoints2D:
+        sides = np.array(["right"] * rights + ["left"] * (10 - rights))
+        return Keypoints2D(xy, np.ones((10, 21)), handedness=sides)
+
+    # one view labels the hand right on 8 of 10 frames, the other left on 7: 11 right
+    assert hand_side([camera(8), camera(3)], "auto") == "right"
+    assert hand_side([camera(2), None, camera(7)], "auto") == "left"  # 9 right, 11 left
+    for given in ("right", "left"):  # labels at odds with each other overrule nothing
+        assert hand_side([camera(8), camera(3)], given) == given
+    with pytest.raises(ValueError, match="split evenly between right and left"):
+        hand_side([camera(7), camera(3)], "auto")
+    # agreeing cameras still check a given side against their word
+    with pytest.raises(ValueError, match=r"handedness gives \(right\); got left"):
+        hand_side([camera(8), camera(9)], "left")
+
+
 def test_init_checks_the_side_against_the_handedness_and_auto_takes_it(detected, tmp_path):
     write_keypoints(tmp_path / "k.npz", with_side(detected, "left"))
     write_keypoints(tmp_path / "k.npy", detected)

@@ -204,9 +204,7 @@ def vote_side(found_per_frame: Iterable[list[Detection]]) -> str | None:
         _, d = choose(found, "auto")
         if d is not None and d.side:
             votes[d.side] += d.score
-    if votes["right"] == votes["left"]:
-        return None
-    return max(votes, key=votes.get)
+    return _winner(votes)
 
 
 @dataclass(frozen=True, eq=False)
@@ -299,16 +297,18 @@ class Keypoints2D:
     def side(self) -> str | None:
         """The side of the hand by its frames' handedness: "right" or "left", the one
         of most frames with a detection (weighted by the presence when given); None
-        without handedness."""
+        without handedness or on a tie."""
+        return _winner(self.side_votes())
+
+    def side_votes(self) -> dict[str, float]:
+        """Per side, the frames with a detection whose handedness names it (weighted
+        by the presence when given); none without handedness."""
         if self.handedness is None:
-            return None
+            return {"right": 0.0, "left": 0.0}
         seen = self.present.any(axis=1) & (self.handedness != "")
         w = np.ones(self.n_frames) if self.presence is None else np.nan_to_num(self.presence)
-        votes = {side: float(w[seen & (self.handedness == side)].sum())
-                 for side in ("right", "left")}  # fmt: skip
-        if votes["right"] == votes["left"]:
-            return None
-        return max(votes, key=votes.get)
+        return {side: float(w[seen & (self.handedness == side)].sum())
+                for side in ("right", "left")}  # fmt: skip
 
     @classmethod
     def from_array(cls, array, *, name: str = "keypoints") -> Keypoints2D:
@@ -576,18 +576,28 @@ def hand_side(keypoints, hand: str) -> str:
         Per camera (None: a camera without).
     hand : {"right", "left", "auto"}
 
+    Where the cameras' handedness disagree (a detector run on each view labels the
+    same hand apart), it says nothing sure: `hand` is taken as given, and "auto" takes
+    the side of most frames over all the cameras, as the detector inside the pipeline
+    votes over them.
+
     Raises
     ------
     ValueError
-        When the cameras' handedness disagree, when it contradicts `hand`, or with "auto"
-        when no keypoints have a handedness.
+        When the handedness of every camera contradicts `hand`, or with "auto" when no
+        keypoints have a handedness (or their votes tie).
     """
     one_of(hand, ("right", "left", "auto"), "hand")
-    sides = {k.side() for k in keypoints if k is not None} - {None}
-    if len(sides) > 1:
-        raise ValueError("keypoints: expected one hand; got right in one camera, left in another")
+    votes = [k.side_votes() for k in keypoints if k is not None]
+    sides = {_winner(v) for v in votes} - {None}
+    if len(sides) > 1:  # the cameras disagree
+        pooled = {side: sum(v[side] for v in votes) for side in ("right", "left")}
+        sides = set() if hand != "auto" else {_winner(pooled)} - {None}
     seen = next(iter(sides), None)
     if hand == "auto":
+        if seen is None and any(sum(v.values()) for v in votes):
+            raise ValueError("hand: auto found the keypoints' handedness split evenly "
+                             "between right and left; give the side")  # fmt: skip
         if seen is None:
             raise ValueError(
                 "hand: auto expected keypoints with handedness (a .npz written by handvar "
@@ -599,6 +609,13 @@ def hand_side(keypoints, hand: str) -> str:
             f"hand: expected the side the keypoints' handedness gives ({seen}); got {hand}"
         )
     return hand
+
+
+def _winner(votes: dict[str, float]) -> str | None:
+    """The side with more votes; None on a tie (none at all included)."""
+    if votes["right"] == votes["left"]:
+        return None
+    return max(votes, key=votes.get)
 
 
 # --- files -----------------------------------------------------------------------------
