@@ -154,6 +154,38 @@ def test_a_rerun_into_out_tracks_the_side_its_first_run_decided_and_another_side
     assert "(detector mediapipe)" in output and side == "left"
 
 
+def test_two_cameras_take_the_side_from_the_hands_shape_where_the_labels_are_wrong():
+    from types import SimpleNamespace
+
+    from handvar.camera import Rig
+    from handvar.hand.anthropometry import HandShape
+    from handvar.hand.kinematics import HandModel
+    from handvar.pipeline import _Stream
+    from handvar.synth.sequences import make_sequence
+    from handvar.tracking.keypoint_cost import keypoint_points
+
+    seq = make_sequence("flip", n_frames=30)  # a right hand before the paper's stereo rig
+    joints = [keypoint_points(HandModel(HandShape.from_size(185.0)), x, "pad")
+              for x in seq.truth.poses]  # fmt: skip
+
+    def decided(rig: Rig, label: str) -> tuple[str, bool]:
+        """The side the stream decides from the true points labelled `label`, and
+        whether the labels still weigh its detections."""
+        items = [(t, t / 30, None, [[Detection(np.column_stack([cam.project(P), np.ones(21)]),
+                                               side=label, score=0.9)] for cam in rig])
+                 for t, P in enumerate(joints)]  # fmt: skip
+        source = SimpleNamespace(rig=rig, frames=None, names=["cam0"])
+        stream = _Stream(source, None, carry="none", frames=None, realtime=False,
+                         detectors=[None] * len(rig))  # fmt: skip
+        stream._items = iter(items)
+        return stream.decide_side("auto"), stream.labelled
+
+    assert len(seq.rig) == 2
+    assert decided(seq.rig, "left") == ("right", False)  # the shape overrules the labels
+    assert decided(seq.rig, "right") == ("right", True)
+    assert decided(Rig([seq.rig.cameras[0]]), "left") == ("left", True)  # one camera: labels
+
+
 def test_an_error_in_the_fit_stops_the_detectors_and_the_readers():
     import os
     import threading

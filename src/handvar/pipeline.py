@@ -1442,6 +1442,8 @@ class _Stream:
         self.clock = time.perf_counter
         self.t0: float | None = None
         self.hand = "auto"  # the side the detections are chosen for (`decide_side`)
+        self.deciding = False  # the detector looks at every frame, for the side
+        self.labelled = True  # its labels tell which hand a detection is (`decide_side`)
         self.found: dict[int, list] = {}  # detector: per frame and camera, the chosen hand
         self.indices: list[int] = []  # recording index of each tracked frame
         self.capture: list[float] = []  # its capture time, s after the first frame's
@@ -1485,16 +1487,21 @@ class _Stream:
             else:
                 from handvar.vision.detector import detect_ahead
 
-                feed = ((i, s, images, full if i % self.every == 0 else None)
+                feed = ((i, s, images, full if i % self.every == 0 or self.deciding else None)
                         for i, s, images, full in self._feed())  # fmt: skip
                 self._items = detect_ahead(feed, self.detectors, depth=1 if self.realtime else 4)
         return self._items
 
     def decide_side(self, hand: str) -> str:
-        """The side of the hand with a detector: `hand`, or with "auto" the handedness of
-        the first `SIDE_FRAMES` frames with a hand (`handvar.vision.detector.vote_side`;
-        a detector that says no side: right).  The frames are read ahead (those before
-        the first hand without their images: they are frames without a hand).
+        """The side of the hand with a detector: `hand`, or with "auto" the side of the
+        first `SIDE_FRAMES` frames with a hand.  With two cameras or more, where the
+        first two see one hand (their rays meet, `_two_views`), by its shape in 3D: the
+        sum of its `chirality` over those frames; else by the detector's handedness
+        (`handvar.vision.detector.vote_side`; a detector that says no side: right).  The
+        frames are read ahead (those before the first hand without their images: they
+        are frames without a hand), and the detector looks at each of them for the
+        vote, whatever ``every``; the fit is given only its detections of every
+        ``every``-th frame (`_detections`).
 
         Raises
         ------
@@ -1507,22 +1514,49 @@ class _Stream:
         if hand != "auto":
             return hand
         votes: list = []  # per frame with a hand and camera, the hands found
+        shape: list[float] = []  # per frame two cameras see one hand, its chirality
         seen = 0  # frames with a hand
+        self.deciding = True
         for index, seconds, images, found in self._items_read():
             if found is not None and any(found):
                 seen += 1
                 votes.extend(found)
+                shape.append(self._two_views(found))
             self._ahead.append((index, seconds, images if seen else None, found))
             if seen >= SIDE_FRAMES:
                 break
+        self.deciding = False
         if not seen:
             self.exhausted = True
             raise ValueError(
                 f"{self._name()}: expected a hand; the detector found none in its "
                 f"{len(self._ahead)} frames"
             )
-        self.hand = vote_side(votes) or "right"
+        score = float(np.nansum(shape))
+        by_shape = None if score == 0.0 else ("right" if score > 0.0 else "left")
+        by_label = vote_side(votes)
+        self.hand = by_shape or by_label or "right"
+        # labels the hand's shape overrules say nothing of which hand a detection is
+        self.labelled = by_shape is None or by_label in (None, by_shape)
         return self.hand
+
+    def _two_views(self, found) -> float:
+        """The `chirality` of the hand the first two cameras found on a frame (each its
+        most confident), triangulated, where their rays meet within
+        `handvar.tracking.hands.RAY_GAP` (one hand, its points labelled alike); else
+        NaN."""
+        from handvar.tracking.hands import RAY_GAP, ray_points
+        from handvar.vision.keypoints import chirality, choose
+
+        if len(found) < 2:
+            return np.nan
+        (a, _), (b, _) = choose(found[0], "auto"), choose(found[1], "auto")
+        if a is None or b is None:
+            return np.nan
+        cameras = self.source.rig.cameras
+        points, gap = ray_points(cameras[0], self._to_tracked(a, 0), cameras[1],
+                                 self._to_tracked(b, 1))  # fmt: skip
+        return chirality(points) if gap <= RAY_GAP else np.nan
 
     def _name(self) -> str:
         return self.source.names[0] if self.live else str(self.source.readers[0].path)
@@ -1539,10 +1573,10 @@ class _Stream:
             if self.detectors is None:
                 yield (index, seconds, images, *self._from_file(index))
                 continue
-            if found is None:
+            if found is None or index % self.every:  # (looked at for the side only)
                 yield index, seconds, images, [None] * len(self.detectors), None, False
                 continue
-            chosen = [choose(f, self.hand) for f in found]
+            chosen = [choose(f, self.hand if self.labelled else "auto") for f in found]
             self.found[index] = chosen
             dets = [None if p is None else self._to_tracked(p, j)
                     for j, (p, _) in enumerate(chosen)]  # fmt: skip

@@ -643,16 +643,25 @@ def _in_front(other: _Hand, h: _Hand, camera) -> bool:
 
 
 def _ray_gap(camera_a, points_a: np.ndarray, camera_b, points_b: np.ndarray) -> float:
-    """Median distance (mm) between the rays of the points two cameras see of a hand:
-    small when they are one hand's (each point's two rays meet), inf when fewer than
-    three points are seen in both or the points where the rays meet do not make a hand
-    (wrist → middle MCP outside `PALM_MM`, as two hands at one height in a side-by-side
-    rig would pair)."""
+    """Median distance (mm) between the rays of the points two cameras see of a hand
+    (`ray_points`)."""
+    return ray_points(camera_a, points_a, camera_b, points_b)[1]
+
+
+def ray_points(camera_a, points_a: np.ndarray, camera_b, points_b: np.ndarray):
+    """The hand two cameras see, from their (21, 3) points (pixels, confidence): per
+    point the middle of the closest approach of its two rays, (21, 3) mm (NaN where a
+    camera lacks it), and the median distance between the rays (mm): small when the
+    points are one hand's (each point's two rays meet), inf when fewer than three points
+    are seen in both or the points where the rays meet do not make a hand (wrist →
+    middle MCP outside `PALM_MM`, as two hands at one height in a side-by-side rig
+    would pair)."""
     from handvar.vision.keypoints import HandLandmark
 
+    mid = np.full((len(points_a), 3), np.nan)
     seen = (points_a[:, 2] > 0) & (points_b[:, 2] > 0)
     if seen.sum() < 3:
-        return np.inf
+        return mid, np.inf
     oa, da = camera_a.rays(points_a[seen, :2])
     ob, db = camera_b.rays(points_b[seen, :2])
     w = oa - ob  # closest points oa + s da, ob + t db of each pair of rays
@@ -661,14 +670,12 @@ def _ray_gap(camera_a, points_a: np.ndarray, camera_b, points_b: np.ndarray) -> 
     den = np.maximum(a * c - b * b, 1e-12)
     pa = oa + ((b * e - c * d) / den)[:, None] * da
     pb = ob + ((a * e - b * d) / den)[:, None] * db
-    index = np.flatnonzero(seen)
+    mid[seen] = 0.5 * (pa + pb)
     wrist, mcp = HandLandmark.WRIST, HandLandmark.MIDDLE_FINGER_MCP
-    if wrist in index and mcp in index:
-        mid = 0.5 * (pa + pb)
-        palm = np.linalg.norm(mid[index == mcp][0] - mid[index == wrist][0])
-        if not PALM_MM[0] <= palm <= PALM_MM[1]:
-            return np.inf
-    return float(np.median(np.linalg.norm(pa - pb, axis=1)))
+    palm = np.linalg.norm(mid[mcp] - mid[wrist])  # NaN (no test) without both
+    if palm < PALM_MM[0] or palm > PALM_MM[1]:
+        return mid, np.inf
+    return mid, float(np.median(np.linalg.norm(pa - pb, axis=1)))
 
 
 def _given_values(given: dict, j: int) -> list:

@@ -86,6 +86,7 @@ __all__ = [
     "check_detections",
     "check_keypoints",
     "check_output_suffix",
+    "chirality",
     "choose",
     "hand_side",
     "read_detections",
@@ -194,6 +195,41 @@ def choose(found: list[Detection], hand: str) -> tuple[np.ndarray | None, Detect
     points = chosen.points.copy()
     points[:, 2] *= best
     return points, chosen
+
+
+def chirality(points) -> float:
+    """Which hand 21 points in 3D are, by their shape: > 0 a right hand, < 0 a left.
+
+    With n = (index MCP − little MCP) × (middle MCP − wrist), the normal of the palm
+    that points to its inner side on a right hand and to its back on a left, the score
+    is how far the thumb's tip lies from its MCP along n, plus how far the fingers'
+    further joints lie from their MCPs along it on average, in palm lengths (wrist →
+    middle MCP): a thumb and fingers bent towards the palm, as hands hold them, lie on
+    the inner side.  A hand and its mirror image score opposite.  NaN where a point it
+    needs is missing.
+
+    Parameters
+    ----------
+    points : (21, 3) array_like
+        The points in the order of `KEYPOINT_NAMES` (any metric frame).
+
+    Examples
+    --------
+    >>> from handvar.hand.anthropometry import HandShape
+    >>> from handvar.hand.kinematics import HandModel, named_pose
+    >>> from handvar.tracking.keypoint_cost import keypoint_points
+    >>> right = keypoint_points(HandModel(HandShape.from_size(185.0)), named_pose("fist"), "pad")
+    >>> bool(chirality(right) > 0), bool(chirality(right * [-1.0, 1.0, 1.0]) < 0)
+    (True, True)
+    """
+    P = as_array(points, "points", (N_KEYPOINTS, 3), finite=False)
+    L = HandLandmark
+    n = np.cross(P[L.INDEX_FINGER_MCP] - P[L.PINKY_MCP], P[L.MIDDLE_FINGER_MCP] - P[L.WRIST])
+    length = np.linalg.norm(P[L.MIDDLE_FINGER_MCP] - P[L.WRIST])
+    n = n / (np.linalg.norm(n) * length)
+    thumb = (P[L.THUMB_TIP] - P[L.THUMB_MCP]) @ n
+    fingers = np.mean([(P[m + k] - P[m]) @ n for m in MCP for k in (1, 2, 3)])
+    return float(thumb + fingers)
 
 
 def vote_side(found_per_frame: Iterable[list[Detection]]) -> str | None:
