@@ -1073,10 +1073,8 @@ def _fit(tracker, x0, opened: _Opened, options: TrackOptions, decided: TrackDefa
 def _fit_stream(tracker, x0, opened: _Opened, options: TrackOptions, bar) -> _Fitted:
     """The frames of `opened.stream` fitted one at a time; the dropped ones filled in."""
     stream = opened.stream
-    try:
+    with contextlib.closing(stream):  # an error in the fit stops what reads ahead
         recovered = _run_stream(tracker, stream, x0, options.recovery, options.on_frame, bar)
-    finally:
-        stream.close()
     result, quality = _with_dropped(recovered, stream.rows(), stream.n_frames)
     fitted = _Fitted(
         result, tracker.hand, stream.sequence(), stream.keypoints(opened.source.names),

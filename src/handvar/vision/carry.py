@@ -316,13 +316,13 @@ class TwoWayCarrier:
         back = KeypointCarrier(self.settings)
         back.step(grey, detection)
         out = []
-        reach = True  # the backward carry still has points
+        going = True  # the backward carry still has points
         for t, g, f in reversed(self._gap):
             if not self._across:  # before a run: its first detection's `reach` frames
-                reach = reach and self._t - t <= self.reach
+                going = going and self._t - t <= self.reach
                 f = None
-            b = back.step(g) if reach else None
-            reach = b is not None
+            b = back.step(g) if going else None
+            going = b is not None
             if b is None:
                 out.append((t, f))
                 continue
