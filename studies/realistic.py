@@ -192,19 +192,21 @@ def run_fit(
     out: Path,
     keypoints: list[Path] | None = None,
     extra: tuple[str, ...] = (),
+    side: str = "given",
 ) -> tuple[float, Path]:
     """``handvar init`` then ``handvar track`` on the case's files; wall time (s), out dir.
     `keypoints`: one file per camera (default: the simulated detector's); `extra`: more
-    options of ``handvar track``.  Where the first frame has neither keypoints nor a
-    silhouette (`init` says so), ``track`` runs without ``--init``, as that message
-    advises."""
+    options of ``handvar track``; `side` "auto": ``--hand auto``, else the case's side.
+    Where the first frame has neither keypoints nor a silhouette (`init` says so),
+    ``track`` runs without ``--init``, as that message advises."""
     cams = [str(case_dir / f"cam{j}") for j in range(spec.cameras)]
     if keypoints is None:
         keypoints = [case_dir / f"keypoints{j}.npy" for j in range(spec.cameras)]
     kps = []
     for path in keypoints:
         kps += ["--keypoints", str(path)]
-    common = ["--calib", str(case_dir / "calib.yml"), "--hand", spec.side,
+    hand = "auto" if side == "auto" else spec.side
+    common = ["--calib", str(case_dir / "calib.yml"), "--hand", hand,
               "--hand-length", str(HAND_LENGTH)]  # fmt: skip
     out.parent.mkdir(parents=True, exist_ok=True)
     x0 = out.parent / f"{out.name}-x0.txt"
@@ -259,27 +261,29 @@ def run_inside(
 
 
 def mediapipe_keypoints(
-    case_dir: Path, spec: Spec, python: str, with_world: bool = False
+    case_dir: Path, spec: Spec, python: str, with_world: bool = False, side: str = "given"
 ) -> tuple[list[Path], dict]:
     """MediaPipe Hands on the case's frames, as a user would run it (``handvar keypoints``
     in an environment with the ``mediapipe`` extra, `python`): per camera the (T, 21, 2)
     pixel file the tracker is given, ``mediapipe{j}.npy`` (`with_world`: the detector's
     ``.npz``: its world landmarks the fit's weak 3D cue), and the detector's own
     estimate: ``xy`` (n_cams, T, 21, 2) and camera 0's world landmarks ``world``
-    (T, 21, 3) mm, NaN where no hand was found.  Kept in `case_dir` once made."""
+    (T, 21, 3) mm, NaN where no hand was found.  `side` "auto": ``--hand auto`` (the
+    ``.npz``, with its handedness, given to the fit).  Kept in `case_dir` once made."""
     paths, xy, world = [], [], None
+    auto = side == "auto"
     for j in range(spec.cameras):
-        npz = case_dir / f"mediapipe{j}.npz"
+        npz = case_dir / f"mediapipe{j}{'-auto' if auto else ''}.npz"
         if not npz.exists():
             cmd = [python, "-m", "handvar", "keypoints", str(case_dir / f"cam{j}"),
-                   "--out", str(npz), "--hand", spec.side]  # fmt: skip
+                   "--out", str(npz), "--hand", "auto" if auto else spec.side]  # fmt: skip
             done = subprocess.run(cmd, capture_output=True, text=True)
             if done.returncode != 0:
                 raise RuntimeError(f"{' '.join(cmd)}\n{done.stderr.strip()}")
         kp = read_keypoints(npz)
         points = np.where(kp.present[..., None], kp.xy, np.nan)
         np.save(case_dir / f"mediapipe{j}.npy", points)
-        paths.append(npz if with_world else case_dir / f"mediapipe{j}.npy")
+        paths.append(npz if with_world or auto else case_dir / f"mediapipe{j}.npy")
         xy.append(points)
         if j == 0 and kp.world is not None:
             world = np.where(kp.present[..., None], kp.world, np.nan)
@@ -516,6 +520,12 @@ def main() -> None:
         help="with --detector mediapipe: give the fit the detector's world landmarks too",
     )  # fmt: skip
     parser.add_argument(
+        "--side", choices=("given", "auto"), default="given",
+        help="auto: handvar keypoints, init and track with --hand auto (the detector's "
+        ".npz with its handedness; with two cameras the hand's shape decides), the "
+        "track's side scored as it is (wrong side)",
+    )  # fmt: skip
+    parser.add_argument(
         "--mediapipe-python", default=sys.executable,
         help="the Python of an environment with handvar[mediapipe] (default: this one)",
     )  # fmt: skip
@@ -552,7 +562,7 @@ def main() -> None:
                 continue
             if args.detector == "mediapipe":
                 given, detector = mediapipe_keypoints(case_dir, spec, args.mediapipe_python,
-                                                      args.world)  # fmt: skip
+                                                      args.world, args.side)  # fmt: skip
                 raw_lost = ~np.isfinite(detector["xy"][0]).all(axis=(1, 2))
                 raw = scores(case, detector["xy"], detector["world"], raw_lost, None,
                              truth_axes=case.rig.cameras[0].R)  # fmt: skip
@@ -563,15 +573,19 @@ def main() -> None:
             if not args.no_fit:
                 for every in (1, 5):
                     world = "-world" if args.world else ""
-                    name = "-".join([spec.name, args.detector + world, *extra[1::2]])
+                    auto = ["auto"] if args.side == "auto" else []
+                    name = "-".join([spec.name, args.detector + world, *auto, *extra[1::2]])
                     out = base / "fits" / f"{name}-every{every}"
                     try:
-                        seconds, out = run_fit(case_dir, spec, every, out, given, extra)
-                        pts, lost = fit_points(out, spec.side)
+                        seconds, out = run_fit(case_dir, spec, every, out, given, extra,
+                                               args.side)  # fmt: skip
+                        pts, lost = fit_points(out, None if auto else spec.side)
                         proj = project(case.rig, pts)
                         row = scores(case, proj, pts, lost, seconds, out=out)
                         gross = None if given is not None else case.gross.any(axis=0)
                         row |= check(out, every, gross)
+                        if auto:  # the side the commands chose, scored as it is
+                            row["wrong"] = float(Track.load(out).hand.shape.side != spec.side)
                     except RuntimeError as exc:  # scored as every frame lost
                         print(f"{spec.name} every {every}: failed: {exc}", file=sys.stderr)
                         row = failed_row(case)

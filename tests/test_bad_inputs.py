@@ -455,11 +455,11 @@ CASES = [
     _c("track-hand-auto-without-handedness",
        "track {r}/skin.avi --hand auto --keypoints {r}/kp_skin4.npy --out {r}/t1",
        "--hand: auto expected --keypoints with handedness (a .npz written by handvar "
-       "keypoints); got none"),
+       "keypoints) or two calibrated cameras' --keypoints; got neither"),
     _c("init-hand-auto-without-handedness",
        "init {r}/skin.avi --hand auto --keypoints {r}/kp_skin4.npy --out {r}/existing.txt",
        "--hand: auto expected --keypoints with handedness (a .npz written by handvar "
-       "keypoints); got none"),
+       "keypoints) or two calibrated cameras' --keypoints; got neither"),
     # export, view
     _c("export-far-pose-json", "export {r}/track_far --format json",
        "track.npz: poses: expected a pose within the parameter limits; tz = 1e+09 at frame 1"),

@@ -3,6 +3,8 @@ frame, never a silent wrong track (`handvar.vision.keypoints.check_keypoints`)."
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -126,3 +128,80 @@ def test_init_checks_the_side_against_the_handedness_and_auto_takes_it(detected,
     res = init(tmp_path / "k.npy", "right", "right.txt")  # the same points, the other hand
     assert res.exit_code == 0, res.output
     assert not np.allclose(np.loadtxt(tmp_path / "auto.txt"), np.loadtxt(tmp_path / "right.txt"))
+
+
+@pytest.fixture(scope="module")
+def stereo_cases(tmp_path_factory):
+    """A right and a left hand making counting gestures before a calibrated stereo pair
+    (`realistic_case`, written as a user has them), and per camera their true points'
+    projections labelled the other side on every frame: a detector run on each view can
+    call the hand of both views the other side."""
+    from handvar.evaluation.realistic import realistic_case
+
+    out = {}
+    for side, label in (("right", "left"), ("left", "right")):
+        case = realistic_case("counting", cameras=2, side=side, seed=1, frames=(0, 6),
+                              size=(320, 180), distractor="none", skin="medium",
+                              background=np.full((90, 160, 3), 110, np.uint8))  # fmt: skip
+        paths = case.write(tmp_path_factory.mktemp(side))
+        labelled = [Keypoints2D(xy, np.ones(xy.shape[:2]), handedness=np.full(len(xy), label))
+                    for xy in case.truth_2d]  # fmt: skip
+        out[side] = case, paths, labelled
+    return out
+
+
+def test_two_cameras_keypoint_files_take_the_side_from_the_hands_shape(stereo_cases):
+    from handvar.vision.keypoints import hand_side
+
+    case, _, right = stereo_cases["right"]
+    cameras = case.rig.cameras
+    assert hand_side(right, "auto") == "left"  # the labels alone
+    assert hand_side(right, "auto", cameras) == "right"
+    assert hand_side(stereo_cases["left"][2], "auto", cameras) == "left"
+    assert hand_side(right, "right", cameras) == "right"  # the labels it overrules say nothing
+    assert hand_side(right, "left", cameras) == "left"  # a side the labels give is taken
+    unlabelled = [Keypoints2D(k.xy, k.confidence) for k in right]
+    assert hand_side(unlabelled, "auto", cameras) == "right"
+    with pytest.raises(ValueError, match="or two calibrated cameras' keypoints; got neither"):
+        hand_side(unlabelled[:1], "auto", cameras[:1])
+    # with the labels' scores the confidences are weighed for the side, as the detector
+    # inside weighs its detections: by the score alone where the shape overrules them
+    from handvar.vision.keypoints import check_keypoints
+
+    scored = [dataclasses.replace(k, handedness_score=np.full(k.n_frames, 0.9)) for k in right]
+    sizes = [c.size for c in cameras]
+    out, side, _ = check_keypoints(scored, case.n_frames, sizes, "auto", cameras=cameras)
+    assert side == "right" and np.allclose(out[0].confidence, 0.9)
+    mixed = dataclasses.replace(scored[0], handedness=np.array(["left"] * 4 + ["right"] * 2))
+    out, side, _ = check_keypoints([mixed], case.n_frames, sizes[:1], "auto")  # labels count
+    assert side == "left" and np.allclose(out[0].confidence, [[0.9]] * 4 + [[0.1]] * 2)
+    out, side, _ = check_keypoints(scored, case.n_frames, sizes, "left")  # given, no cameras
+    assert np.allclose(out[1].confidence, 0.9)
+    right_given = check_keypoints(scored, case.n_frames, sizes, "right", cameras=cameras)[0]
+    assert np.allclose(right_given[1].confidence, 0.9)  # the shape confirms; labels overruled
+
+
+@pytest.mark.parametrize("side", ["right", "left"])
+def test_init_and_track_with_two_cameras_keypoint_files_take_the_side_of_the_hands_shape(
+    stereo_cases, side, tmp_path
+):
+    from handvar.pipeline import Track
+
+    _, paths, labelled = stereo_cases[side]
+    cams = [str(p) for p in paths["frames"]]
+    common = ["--calib", str(paths["calib"])]
+    for j, k in enumerate(labelled):
+        write_keypoints(tmp_path / f"k{j}.npz", k)
+        common += ["--keypoints", str(tmp_path / f"k{j}.npz")]
+
+    def run(*args: str):
+        res = CliRunner().invoke(main, [*args, *common])
+        assert res.exit_code == 0, res.output
+
+    run("init", *cams, "--hand", "auto", "--out", str(tmp_path / "x0.txt"))
+    run("init", *cams, "--hand", side, "--out", str(tmp_path / "given.txt"))
+    np.testing.assert_array_equal(np.loadtxt(tmp_path / "x0.txt"),
+                                  np.loadtxt(tmp_path / "given.txt"))  # fmt: skip
+    run("track", ",".join(cams), "--hand", "auto", "--init", str(tmp_path / "x0.txt"),
+        "--frames", "2", "--no-video", "--out", str(tmp_path / "t"))  # fmt: skip
+    assert Track.load(tmp_path / "t").hand.shape.side == side

@@ -233,6 +233,18 @@ def test_mediapipe_on_the_video_matches_the_shipped_keypoints(tmp_path):
     np.testing.assert_allclose(
         read_keypoints(out).confidence, 1.0 - shipped.confidence[:3], atol=0.01
     )
+    # the .npz keeps each point's own confidence and the handedness score beside it:
+    # weighed for the left hand (as the tracker does once it knows the side) they are
+    # the confidences of the left hand's .csv
+    npz = tmp_path / "k.npz"
+    res = CliRunner().invoke(
+        main, ["keypoints", str(VIDEO), "--out", str(npz), "--frames", "3", "--hand", "auto"]
+    )
+    assert res.exit_code == 0, res.output
+    kept = read_keypoints(npz)
+    assert (kept.confidence == 1.0).all() and (kept.handedness_score >= 0.5).all()
+    np.testing.assert_allclose(kept.for_side("left").confidence, read_keypoints(out).confidence,
+                               atol=0.01)  # fmt: skip
 
 
 # --- what the detector knows besides the points (.npz) ---------------------------------------

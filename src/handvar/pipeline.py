@@ -946,6 +946,7 @@ def _open(source, spec, options: TrackOptions, decided: TrackDefaults, detected,
         from handvar.synth.sequences import make_sequence
 
         sequence = make_sequence(spec.name, n_frames=options.frames)
+    detected = _every(detected, options.keypoint_every)
     return _Opened(sequence.rig, sequence.rig, decided.hand, sequence=sequence,
                    detected=detected, keypoints=detected)  # fmt: skip
 
@@ -959,23 +960,20 @@ def _open_recording(spec, options: TrackOptions, decided: TrackDefaults, detecte
     paths, calib, fov = list(spec.paths), options.calib, options.fov
     opened = open_source(paths, calib, fov=fov, scale=options.scale,
                          allow_short=options.allow_short)  # fmt: skip
-    full_rig = (
-        opened.rig
-        if options.scale == 1.0
-        else open_source(paths, calib, fov=fov, allow_short=options.allow_short).rig
-    )
+    full_rig = opened.full_rig
     hand, outside = decided.hand, 0
     if detected is not None:
         from handvar.vision.keypoints import check_keypoints
 
         short = [reader.may_end_early for reader in opened.readers]
-        detected, hand, outside = check_keypoints(
-            detected, opened.n_frames, [r.size for r in opened.readers], hand, short
-        )
+        detected, hand, outside = check_keypoints(detected, opened.n_frames,
+                                                  [r.size for r in opened.readers], hand,
+                                                  short, full_rig.cameras)  # fmt: skip
         if len(detected) != opened.n_cameras:
             raise ValueError(
                 f"keypoints: expected one file per camera ({opened.n_cameras}); got {len(detected)}"
             )
+        detected = _every(detected, options.keypoint_every)
     if decided.recover:  # frame by frame
         stream = _Stream(opened, detected, carry=decided.carry, frames=options.frames,
                          realtime=options.realtime, detectors=detectors,
@@ -1216,7 +1214,9 @@ def _resolve_source(source):
 
 
 def _read_keypoints(keypoints, spec, every: int, detector: bool = False):
-    """Per camera a `Keypoints2D` (every `every`-th frame), or None without keypoints."""
+    """Per camera a `Keypoints2D` (all its frames: the side is decided on them, as
+    `handvar init` decides it; `_every` keeps those fitted), or None without
+    keypoints."""
     if keypoints is None:
         if every != 1 and not detector:
             raise ValueError("keypoint_every: expected only with keypoints or a detector")
@@ -1234,8 +1234,15 @@ def _read_keypoints(keypoints, spec, every: int, detector: bool = False):
             entry = read_keypoints(entry)
         elif not isinstance(entry, Keypoints2D):
             entry = Keypoints2D.from_array(entry)
-        out.append(entry.every(every))
+        out.append(entry)
     return out
+
+
+def _every(detected, every: int):
+    """Each camera's keypoints of every `every`-th frame (`Keypoints2D.every`)."""
+    if detected is None or every == 1:
+        return detected
+    return [None if k is None else k.every(every) for k in detected]
 
 
 def _init_pose(init) -> np.ndarray | None:
@@ -1539,12 +1546,9 @@ class _Stream:
         return self.hand
 
     def _two_views(self, found) -> float:
-        """The `chirality` of the hand the first two cameras found on a frame (each its
-        most confident), triangulated, where their rays meet within
-        `handvar.tracking.hands.RAY_GAP` (one hand, its points labelled alike); else
-        NaN."""
-        from handvar.tracking.hands import RAY_GAP, ray_points
-        from handvar.vision.keypoints import chirality, choose
+        """The `handvar.vision.keypoints.two_view_chirality` of the hand the first two
+        cameras found on a frame (each its most confident); NaN with fewer."""
+        from handvar.vision.keypoints import choose, two_view_chirality
 
         if len(found) < 2:
             return np.nan
@@ -1552,9 +1556,8 @@ class _Stream:
         if a is None or b is None:
             return np.nan
         cameras = self.source.rig.cameras
-        points, gap = ray_points(cameras[0], self._to_tracked(a, 0), cameras[1],
-                                 self._to_tracked(b, 1))  # fmt: skip
-        return chirality(points) if gap <= RAY_GAP else np.nan
+        return two_view_chirality(cameras[0], self._to_tracked(a, 0), cameras[1],
+                                  self._to_tracked(b, 1))  # fmt: skip
 
     def _name(self) -> str:
         return self.source.names[0] if self.live else str(self.source.readers[0].path)

@@ -60,9 +60,10 @@ INIT_MIN_IOU = 0.3
               show_default=True, help="Hand length (wrist to middle fingertip), mm.")  # fmt: skip
 @click.option("--hand", "side", type=click.Choice(("right", "left", "auto")), default="right",
               show_default=True,
-              help="Which hand is filmed; auto: the side of the keypoints' handedness "
-              "(a .npz of `handvar keypoints`, MediaPipe's labels read for the person's "
-              "hand, as `handvar track --hand auto`).")  # fmt: skip
+              help="Which hand is filmed; auto: with two cameras' keypoints the side of "
+              "the hand's 3D shape, else of the keypoints' handedness (a .npz of `handvar "
+              "keypoints`, MediaPipe's labels read for the person's hand), as `handvar "
+              "track --hand auto`.")  # fmt: skip
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Seed of the refinement's random samples.")  # fmt: skip
 @click.option("--out", type=click.Path(dir_okay=False), default="init_pose.txt",
@@ -203,7 +204,8 @@ def _frame_keypoints(files, opened, frame, scale, side):
     (scaled by `scale` on recordings), and the side of the hand; the files checked
     against the opened SOURCES as `handvar track` checks them
     (`handvar.vision.keypoints.check_keypoints`: one per camera, the frame count, the
-    pixels, `side` against their handedness or with "auto" taken from it)."""
+    pixels, `side` against their handedness or with "auto" taken from the hand's shape
+    with two cameras, else from their handedness)."""
     from handvar.io import Sequence
     from handvar.vision.keypoints import check_keypoints, hand_side, read_keypoints
 
@@ -211,15 +213,16 @@ def _frame_keypoints(files, opened, frame, scale, side):
         return None, hand_side([], side)
     if isinstance(opened, Sequence):
         sizes, per, scale = [c.size for c in opened.rig.cameras], "camera of the sequence", 1.0
-        short = None
+        short, cameras = None, opened.rig.cameras
     else:
         sizes, per = [reader.size for reader in opened.readers], "source"
         short = [reader.may_end_early for reader in opened.readers]
+        cameras = opened.full_rig.cameras
     if len(files) != len(sizes):
         raise ValueError(
             f"--keypoints: expected one file per {per} ({len(sizes)}); got {len(files)}"
         )
     read, side, _ = check_keypoints([read_keypoints(p) for p in files], opened.n_frames,
-                                    sizes, side, short)  # fmt: skip
+                                    sizes, side, short, cameras)  # fmt: skip
     return [kp.scaled(scale).frame(frame) if scale != 1.0 else kp.frame(frame)
             for kp in read], side  # fmt: skip

@@ -66,8 +66,10 @@ def keypoints_command(video, out, hands, hand, mirrored, n_frames, allow_short) 
         )  # fmt: skip
     except MissingExtraError as exc:
         raise ValueError(str(exc)) from None
-    write_keypoints(out, kp)
-    c = kp.confidence[:, 0]
+    # the .npz keeps the handedness and its score: the tracker weighs them by its side
+    weighted = kp.for_side(None if hand == "auto" else hand)
+    write_keypoints(out, kp if out.lower().endswith(".npz") else weighted)
+    c = weighted.confidence[:, 0]
     found = int(np.count_nonzero(c > 0))
     sure = int(np.count_nonzero(c >= 0.5))
     side = hand if hand != "auto" else f"{kp.side() or 'no'} (auto)"

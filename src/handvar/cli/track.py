@@ -58,9 +58,10 @@ def _check_predictor(ctx, param, value: str) -> str:
 @click.option("--hand-length", type=_FiniteRange(min=50.0, max=400.0), default=185.0,
               show_default=True, help="Hand length of the model, mm (as for `init`).")  # fmt: skip
 @click.option("--hand", "side", type=click.Choice(("right", "left", "auto")), default=None,
-              help="Which hand is tracked (as for `init`); auto: the side of the detector's "
-                   "handedness, or of a .npz of `handvar keypoints` [default: auto with the "
-                   "detector or such a .npz, else right].")  # fmt: skip
+              help="Which hand is tracked (as for `init`); auto: with two cameras the side "
+                   "of the hand's 3D shape, else of the detector's handedness or of a .npz "
+                   "of `handvar keypoints` [default: auto with the detector or such a .npz, "
+                   "else right].")  # fmt: skip
 @click.option("--detector", type=click.Choice(("auto", "mediapipe", "none")), default="auto",
               show_default=True,
               help="The keypoint detector run inside the pipeline on a recording or a "

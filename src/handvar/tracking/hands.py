@@ -85,6 +85,7 @@ import numpy as np
 
 from handvar.hand.anthropometry import other_side
 from handvar.validate import as_int
+from handvar.vision.keypoints import RAY_GAP, ray_points
 
 __all__ = [
     "BEHIND_CARRY",
@@ -146,11 +147,6 @@ MISSED_FRAMES = 2
 MISSED_CARRY = 60
 #: Of those, the frames it is followed while a hand in front of it overlaps it.
 BEHIND_CARRY = 10
-#: mm: a new hand's detection in another camera is the one whose rays pass nearest those
-#: of the first camera's (median over the points), within this.
-RAY_GAP = 20.0
-#: mm: the wrist → middle-MCP length a hand's points seen by two cameras may make.
-PALM_MM = (50.0, 130.0)
 #: Frames without a detection after which a hand is no longer expected anywhere.
 GONE_FRAMES = 10
 
@@ -646,36 +642,6 @@ def _ray_gap(camera_a, points_a: np.ndarray, camera_b, points_b: np.ndarray) -> 
     """Median distance (mm) between the rays of the points two cameras see of a hand
     (`ray_points`)."""
     return ray_points(camera_a, points_a, camera_b, points_b)[1]
-
-
-def ray_points(camera_a, points_a: np.ndarray, camera_b, points_b: np.ndarray):
-    """The hand two cameras see, from their (21, 3) points (pixels, confidence): per
-    point the middle of the closest approach of its two rays, (21, 3) mm (NaN where a
-    camera lacks it), and the median distance between the rays (mm): small when the
-    points are one hand's (each point's two rays meet), inf when fewer than three points
-    are seen in both or the points where the rays meet do not make a hand (wrist →
-    middle MCP outside `PALM_MM`, as two hands at one height in a side-by-side rig
-    would pair)."""
-    from handvar.vision.keypoints import HandLandmark
-
-    mid = np.full((len(points_a), 3), np.nan)
-    seen = (points_a[:, 2] > 0) & (points_b[:, 2] > 0)
-    if seen.sum() < 3:
-        return mid, np.inf
-    oa, da = camera_a.rays(points_a[seen, :2])
-    ob, db = camera_b.rays(points_b[seen, :2])
-    w = oa - ob  # closest points oa + s da, ob + t db of each pair of rays
-    a, b, c = (da * da).sum(1), (da * db).sum(1), (db * db).sum(1)
-    d, e = (da * w).sum(1), (db * w).sum(1)
-    den = np.maximum(a * c - b * b, 1e-12)
-    pa = oa + ((b * e - c * d) / den)[:, None] * da
-    pb = ob + ((a * e - b * d) / den)[:, None] * db
-    mid[seen] = 0.5 * (pa + pb)
-    wrist, mcp = HandLandmark.WRIST, HandLandmark.MIDDLE_FINGER_MCP
-    palm = np.linalg.norm(mid[mcp] - mid[wrist])  # NaN (no test) without both
-    if palm < PALM_MM[0] or palm > PALM_MM[1]:
-        return mid, np.inf
-    return mid, float(np.median(np.linalg.norm(pa - pb, axis=1)))
 
 
 def _given_values(given: dict, j: int) -> list:

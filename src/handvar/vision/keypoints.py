@@ -32,7 +32,12 @@ Files
   ``presence`` (T,) the probability that a hand is there; ``handedness`` (T,) the side
   of the hand seen, ``"right"``, ``"left"`` or ``""`` (unknown), as the image shows it
   (MediaPipe's label, which assumes a mirrored image, is turned into that by the
-  adapter, `handvar.vision.mediapipe`).  NaN (or ``""``) where missing.  The ``.npy``
+  adapter, `handvar.vision.mediapipe`); ``handedness_score`` (T,) the probability that
+  the handedness is right.  NaN (or ``""``) where missing.  With a handedness score the
+  points' confidences are the detector's own, not yet weighted by the side: a reader
+  weighs them once the side tracked is known (`Keypoints2D.for_side`, which
+  `check_keypoints` applies), as the detector inside the pipeline weighs its
+  detections (`choose`).  The ``.npy``
   and ``.csv`` formats hold only the first part, and files without the rest read
   as before.  World points in metres (MediaPipe's own unit) are recognised by the hand's
   size (`world_in_mm`): read in mm with a `KeypointUnitWarning`; a size that is a hand's
@@ -79,6 +84,8 @@ __all__ = [
     "N_KEYPOINTS",
     "PALM",
     "PALM_LENGTH_MM",
+    "PALM_MM",
+    "RAY_GAP",
     "Detection",
     "KeypointUnitWarning",
     "Keypoints2D",
@@ -89,9 +96,12 @@ __all__ = [
     "chirality",
     "choose",
     "hand_side",
+    "ray_points",
     "read_detections",
     "read_keypoints",
     "scaled_pixels",
+    "shape_side",
+    "two_view_chirality",
     "vote_side",
     "world_in_camera",
     "world_in_mm",
@@ -232,6 +242,49 @@ def chirality(points) -> float:
     return float(thumb + fingers)
 
 
+#: mm: two cameras' points are one hand's where the median distance between their rays
+#: is within this (`ray_points`).
+RAY_GAP = 20.0
+#: mm: the wrist → middle-MCP length a hand's points seen by two cameras may make.
+PALM_MM = (50.0, 130.0)
+
+
+def ray_points(camera_a, points_a: np.ndarray, camera_b, points_b: np.ndarray):
+    """The hand two cameras see, from their (21, 3) points (pixels, confidence): per
+    point the middle of the closest approach of its two rays, (21, 3) mm (NaN where a
+    camera lacks it), and the median distance between the rays (mm): small when the
+    points are one hand's (each point's two rays meet), inf when fewer than three points
+    are seen in both or the points where the rays meet do not make a hand (wrist →
+    middle MCP outside `PALM_MM`, as two hands at one height in a side-by-side rig
+    would pair)."""
+    mid = np.full((len(points_a), 3), np.nan)
+    seen = (points_a[:, 2] > 0) & (points_b[:, 2] > 0)
+    if seen.sum() < 3:
+        return mid, np.inf
+    oa, da = camera_a.rays(points_a[seen, :2])
+    ob, db = camera_b.rays(points_b[seen, :2])
+    w = oa - ob  # closest points oa + s da, ob + t db of each pair of rays
+    a, b, c = (da * da).sum(1), (da * db).sum(1), (db * db).sum(1)
+    d, e = (da * w).sum(1), (db * w).sum(1)
+    den = np.maximum(a * c - b * b, 1e-12)
+    pa = oa + ((b * e - c * d) / den)[:, None] * da
+    pb = ob + ((a * e - b * d) / den)[:, None] * db
+    mid[seen] = 0.5 * (pa + pb)
+    wrist, mcp = HandLandmark.WRIST, HandLandmark.MIDDLE_FINGER_MCP
+    palm = np.linalg.norm(mid[mcp] - mid[wrist])  # NaN (no test) without both
+    if palm < PALM_MM[0] or palm > PALM_MM[1]:
+        return mid, np.inf
+    return mid, float(np.median(np.linalg.norm(pa - pb, axis=1)))
+
+
+def two_view_chirality(camera_a, points_a: np.ndarray, camera_b, points_b: np.ndarray) -> float:
+    """The `chirality` of the hand two cameras see, from their (21, 3) points (pixels,
+    confidence) triangulated by `ray_points`, where the rays meet within `RAY_GAP` (one
+    hand, its points labelled alike); else NaN."""
+    points, gap = ray_points(camera_a, points_a, camera_b, points_b)
+    return chirality(points) if gap <= RAY_GAP else math.nan
+
+
 def vote_side(found_per_frame: Iterable[list[Detection]]) -> str | None:
     """The side of the hand by the handedness of the most confident hand of each frame,
     weighted by its score: "right", "left", or None without a side said."""
@@ -264,6 +317,7 @@ class Keypoints2D:
     depth: np.ndarray | None = None
     presence: np.ndarray | None = None
     handedness: np.ndarray | None = None
+    handedness_score: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         self._check_extras()
@@ -285,7 +339,8 @@ class Keypoints2D:
     def _check_extras(self) -> None:
         n = np.shape(self.xy)[0] if np.ndim(self.xy) == 3 else None
         for field_, tail in (("world", (N_KEYPOINTS, 3)), ("depth", (N_KEYPOINTS,)),
-                             ("presence", ()), ("handedness", ())):  # fmt: skip
+                             ("presence", ()), ("handedness", ()),
+                             ("handedness_score", ())):  # fmt: skip
             value = getattr(self, field_)
             if value is None:
                 continue
@@ -300,6 +355,9 @@ class Keypoints2D:
                 a = np.array(value, dtype=float)
                 if np.isinf(a).any():
                     raise ValueError(f"{self.name}: expected finite {field_} or NaN; got infinity")
+                if field_ == "handedness_score" and ((a < 0) | (a > 1)).any():
+                    raise ValueError(f"{self.name}: expected handedness_score in [0, 1]; got "
+                                     f"{float(a[(a < 0) | (a > 1)][0])!r}")  # fmt: skip
             if a.shape != (n, *tail):
                 raise ValueError(
                     f"{self.name}: expected {field_} of shape {(n, *tail)}; got {a.shape}"
@@ -310,7 +368,7 @@ class Keypoints2D:
     def _with(self, xy, confidence, keep=None) -> Keypoints2D:
         """These keypoints with new points, the extras kept (missing where not `keep`)."""
         extras = {}
-        for name in ("world", "depth", "presence", "handedness"):
+        for name in _EXTRAS:
             v = getattr(self, name)
             if v is not None and keep is not None:
                 blank = "" if name == "handedness" else np.nan
@@ -326,8 +384,7 @@ class Keypoints2D:
             return np.concatenate([v, np.full((extra, *v.shape[1:]), blank, dtype=v.dtype)])
 
         extras = {name: None if v is None else pad(v, "" if name == "handedness" else np.nan)
-                  for name in ("world", "depth", "presence", "handedness")
-                  for v in [getattr(self, name)]}  # fmt: skip
+                  for name in _EXTRAS for v in [getattr(self, name)]}  # fmt: skip
         return Keypoints2D(pad(self.xy, np.nan), pad(self.confidence, 0.0), self.name, **extras)
 
     def side(self) -> str | None:
@@ -338,11 +395,15 @@ class Keypoints2D:
 
     def side_votes(self) -> dict[str, float]:
         """Per side, the frames with a detection whose handedness names it (weighted
-        by the presence when given); none without handedness."""
+        by the presence and the handedness score when given, as `vote_side` weighs the
+        detections); none without handedness."""
         if self.handedness is None:
             return {"right": 0.0, "left": 0.0}
         seen = self.present.any(axis=1) & (self.handedness != "")
-        w = np.ones(self.n_frames) if self.presence is None else np.nan_to_num(self.presence)
+        w = np.ones(self.n_frames)
+        for weight in (self.presence, self.handedness_score):
+            if weight is not None:
+                w = w * np.nan_to_num(weight, nan=1.0)
         return {side: float(w[seen & (self.handedness == side)].sum())
                 for side in ("right", "left")}  # fmt: skip
 
@@ -429,6 +490,32 @@ class Keypoints2D:
         """
         return self._with(scaled_pixels(self.xy, factor, size), self.confidence)
 
+    def for_side(self, side: str | None) -> Keypoints2D:
+        """These keypoints with each frame's confidences weighted by how probably its
+        hand is of `side`, as the detector inside the pipeline weighs a detection
+        (`choose`): by the handedness score where the handedness names `side`, by one
+        minus it where it names the other; by the score alone with `side` None (labels
+        that say nothing of the side tracked).  The score is then dropped: the
+        confidences are weighted once.  Unchanged without a handedness score.
+
+        Examples
+        --------
+        >>> kp = Keypoints2D(np.zeros((2, 21, 2)), np.ones((2, 21)),
+        ...                  handedness=np.array(["right", "left"]),
+        ...                  handedness_score=np.array([0.9, 0.8]))
+        >>> kp.for_side("right").confidence[:, 0].round(2).tolist()
+        [0.9, 0.2]
+        """
+        if self.handedness_score is None:
+            return self
+        score = np.nan_to_num(self.handedness_score, nan=1.0)
+        if side is not None:
+            one_of(side, ("right", "left"), "side")
+            other = (self.handedness != side) & (self.handedness != "")
+            score = np.where(other, 1.0 - score, score)
+        return dataclasses.replace(self, confidence=self.confidence * score[:, None],
+                                   handedness_score=None)  # fmt: skip
+
     def every(self, k: int, *, offset: int = 0) -> Keypoints2D:
         """Keep every `k`-th frame (``t ≡ offset mod k``); the others become missing.
 
@@ -484,7 +571,7 @@ def as_frame_keypoints(value, name: str = "keypoints") -> np.ndarray:
     return Keypoints2D.from_array(a[None], name=name).frame(0)
 
 
-def check_keypoints(keypoints, n_frames: int, sizes, hand: str, short=None):
+def check_keypoints(keypoints, n_frames: int, sizes, hand: str, short=None, cameras=None):
     """Check a recording's keypoints before tracking; return them cleaned and the side.
 
     - Each camera's keypoints must have the recording's `n_frames` frames and at least
@@ -495,8 +582,12 @@ def check_keypoints(keypoints, n_frames: int, sizes, hand: str, short=None):
       coordinates, not pixels: an error.
     - Points more than half a frame beyond its border are not the hand's: they are
       dropped (missing), and their count returned.
-    - `hand` "auto" takes the side of the keypoints' handedness (`Keypoints2D.side`);
-      a side that the handedness contradicts is an error.
+    - `hand` "auto" takes the side of the hand's 3D shape with two `cameras`, else of
+      the keypoints' handedness (`hand_side`); a side that the handedness contradicts
+      and the shape does not give is an error.
+    - Confidences with a handedness score are weighted for the side
+      (`Keypoints2D.for_side`; by the score alone where the shape overrules the
+      handedness).
 
     Parameters
     ----------
@@ -509,6 +600,8 @@ def check_keypoints(keypoints, n_frames: int, sizes, hand: str, short=None):
     hand : {"right", "left", "auto"}
     short : sequence of bool, optional
         Per camera, whether fewer frames than `n_frames` are taken.
+    cameras : sequence of Camera, optional
+        Per camera, the calibrated camera of the full-resolution frames.
 
     Returns
     -------
@@ -550,7 +643,9 @@ def check_keypoints(keypoints, n_frames: int, sizes, hand: str, short=None):
             dropped += int(outside.sum())
             k = k._with(k.xy, np.where(outside, 0.0, k.confidence))
         out.append(k)
-    return out, hand_side(out, hand), dropped
+    side, labelled = _side_and_labels(out, hand, cameras)
+    out = [None if k is None else k.for_side(side if labelled else None) for k in out]
+    return out, side, dropped
 
 
 def _outside_frame(xy, present, size, name: str) -> np.ndarray:
@@ -602,15 +697,20 @@ def check_detections(frames: list[list[Detection]], size, name: str):
     return [[next(kept) for _ in found] for found in frames], int(outside.sum())
 
 
-def hand_side(keypoints, hand: str) -> str:
+def hand_side(keypoints, hand: str, cameras=None) -> str:
     """The side of the hand tracked: `hand`, checked against the keypoints' handedness;
-    with `hand` "auto", the handedness's side.
+    with `hand` "auto", the side the hand's 3D shape gives, else the handedness's.
 
     Parameters
     ----------
     keypoints : list of Keypoints2D or None
         Per camera (None: a camera without).
     hand : {"right", "left", "auto"}
+    cameras : sequence of Camera, optional
+        Per camera, the camera of the keypoints' pixels.  With two cameras' keypoints
+        the hand's shape decides (`shape_side`), as the detector inside the pipeline
+        decides it: a detector run on each view can label the hand of both views the
+        other side.
 
     Where the cameras' handedness disagree (a detector run on each view labels the
     same hand apart), it says nothing sure: `hand` is taken as given, and "auto" takes
@@ -620,14 +720,23 @@ def hand_side(keypoints, hand: str) -> str:
     Raises
     ------
     ValueError
-        When the handedness of every camera contradicts `hand`, or with "auto" when no
-        keypoints have a handedness (or their votes tie).
+        When the handedness of every camera contradicts `hand` and the shape does not
+        give it, or with "auto" when neither the shape nor the handedness gives a side.
     """
+    return _side_and_labels(keypoints, hand, cameras)[0]
+
+
+def _side_and_labels(keypoints, hand: str, cameras=None) -> tuple[str, bool]:
+    """`hand_side`'s side, and whether the keypoints' handedness says which hand a
+    detection is: not where the hand's shape overrules it."""
     one_of(hand, ("right", "left", "auto"), "hand")
+    by_shape = shape_side(keypoints, cameras)
     votes = [k.side_votes() for k in keypoints if k is not None]
+    pooled = {side: sum(v[side] for v in votes) for side in ("right", "left")}
+    if by_shape is not None and hand in ("auto", by_shape):
+        return by_shape, _winner(pooled) in (None, by_shape)
     sides = {_winner(v) for v in votes} - {None}
     if len(sides) > 1:  # the cameras disagree
-        pooled = {side: sum(v[side] for v in votes) for side in ("right", "left")}
         sides = set() if hand != "auto" else {_winner(pooled)} - {None}
     seen = next(iter(sides), None)
     if hand == "auto":
@@ -637,14 +746,38 @@ def hand_side(keypoints, hand: str) -> str:
         if seen is None:
             raise ValueError(
                 "hand: auto expected keypoints with handedness (a .npz written by handvar "
-                "keypoints); got none"
+                "keypoints) or two calibrated cameras' keypoints; got neither"
             )
-        return seen
+        return seen, True
     if seen is not None and seen != hand:
         raise ValueError(
             f"hand: expected the side the keypoints' handedness gives ({seen}); got {hand}"
         )
-    return hand
+    return hand, True
+
+
+def shape_side(keypoints, cameras) -> str | None:
+    """The side the hand's 3D shape gives: the sign of the sum of the
+    `two_view_chirality` of the first two cameras' keypoints over the frames both
+    have (right where positive); None without two cameras' keypoints or a sum of 0.
+
+    Parameters
+    ----------
+    keypoints : list of Keypoints2D or None
+        Per camera (None: a camera without).
+    cameras : sequence of Camera or None
+        Per camera, the camera of the keypoints' pixels.
+    """
+    if cameras is None:
+        return None
+    pairs = [(c, k) for c, k in zip(cameras, keypoints, strict=True) if k is not None][:2]
+    if len(pairs) < 2:
+        return None
+    (camera_a, a), (camera_b, b) = pairs
+    both = np.flatnonzero((a.present.sum(1) >= 3) & (b.present.sum(1) >= 3))
+    score = float(np.nansum([two_view_chirality(camera_a, a.frame(t), camera_b, b.frame(t))
+                             for t in both]))  # fmt: skip
+    return None if score == 0.0 else ("right" if score > 0.0 else "left")
 
 
 def _winner(votes: dict[str, float]) -> str | None:
@@ -757,7 +890,7 @@ def read_keypoints(path: str | os.PathLike) -> Keypoints2D:
 
 
 #: The optional arrays of a ``.npz`` keypoint file (module notes).
-_EXTRAS = ("world", "depth", "presence", "handedness")
+_EXTRAS = ("world", "depth", "presence", "handedness", "handedness_score")
 
 
 def _read_npz(path: Path) -> Keypoints2D:
@@ -899,8 +1032,9 @@ def check_output_suffix(path: str | os.PathLike) -> Path:
 
 def write_keypoints(path: str | os.PathLike, keypoints: Keypoints2D | np.ndarray) -> None:
     """Write keypoints as ``.npy`` (T, 21, 3), ``.csv`` (63 columns with a header) or
-    ``.npz`` (with the world points, depth, presence and handedness given; module
-    notes).  Only the ``.npz`` keeps those.
+    ``.npz`` (with the world points, depth, presence, handedness and its score given;
+    module notes).  Only the ``.npz`` keeps those; the others hold the confidences
+    weighted by the handedness score (`Keypoints2D.for_side` with no side).
 
     The file is written atomically (`handvar.atomic.write_atomic`).
 
@@ -913,7 +1047,8 @@ def write_keypoints(path: str | os.PathLike, keypoints: Keypoints2D | np.ndarray
     path = Path(path)
     if not isinstance(keypoints, Keypoints2D):
         keypoints = Keypoints2D.from_array(keypoints, name="keypoints")
-    array = keypoints.to_array()
+    # a file without the handedness score holds confidences already weighted by it
+    array = keypoints.for_side(None).to_array()
     suffix = path.suffix.lower()
     if suffix == ".npy":
 
@@ -923,6 +1058,7 @@ def write_keypoints(path: str | os.PathLike, keypoints: Keypoints2D | np.ndarray
 
     elif suffix == ".npz":
         extras = {k: getattr(keypoints, k) for k in _EXTRAS if getattr(keypoints, k) is not None}
+        array = keypoints.to_array()
 
         def write(tmp: str) -> None:
             with open(tmp, "wb") as fh:

@@ -28,7 +28,9 @@ Choices
 - The asked-for hand: of the hands found in a frame (up to two), the one most probably
   of the asked side — probability ``score`` if its label is that side, ``1 − score``
   otherwise.  Its 21 points get that probability as their confidence (the legacy API
-  has no per-point visibility), so a hand of doubtful side is kept but down-weighted.
+  has no per-point visibility), so a hand of doubtful side is kept but down-weighted;
+  with ``details`` they keep their own confidence (1) and the score is kept beside the
+  handedness, so that the side decided later weighs them (`Keypoints2D.for_side`).
   A frame without a hand is NaN with confidence 0.
 - Pixels: a landmark's normalised ``(x, y)`` times the frame's width and height is a
   position measured from the image's corner; minus ½ it is in handvar's convention
@@ -262,8 +264,10 @@ def detect_keypoints(
     mirrored : bool, keyword-only
         True for a mirrored (selfie) video, where MediaPipe's labels are literal.
     details : bool, keyword-only
-        Return a `Keypoints2D` with the world landmarks, depth, presence and
-        handedness (module notes) instead of the array.
+        Return a `Keypoints2D` with the world landmarks, depth, presence, handedness
+        and its score (module notes) instead of the array; its confidences are the
+        points' own, to be weighted by the side once it is known
+        (`handvar.vision.keypoints.Keypoints2D.for_side`).
     model_complexity : {0, 1}, keyword-only
         MediaPipe's landmark model (1: the full one).
     min_detection_confidence, min_tracking_confidence : float, keyword-only
@@ -285,15 +289,18 @@ def detect_keypoints(
         min_tracking_confidence=min_tracking_confidence,
     )  # fmt: skip
     out: list[np.ndarray] = []
-    world, depth, sides = [], [], []
+    world, depth, sides, scores = [], [], [], []
     try:
         for image in frames:
             found = detector(image)
             points, chosen = choose(found, hand)
+            if details and chosen is not None:  # weighted by the side when it is known
+                points = chosen.points
             row = np.full((21, 3), np.nan) if points is None else points
             if points is None:
                 row[:, 2] = 0.0
             out.append(row)
+            scores.append(np.nan if chosen is None else chosen.score)
             z = next((z for f, z in zip(found, detector.depths, strict=True) if f is chosen),
                      np.full(21, np.nan))  # fmt: skip
             world.append(np.full((21, 3), np.nan) if chosen is None or chosen.world is None
@@ -313,6 +320,7 @@ def detect_keypoints(
     return Keypoints2D(
         kp.xy, kp.confidence, kp.name, world=np.stack(world), depth=np.stack(depth),
         presence=kp.present.any(axis=1).astype(float), handedness=np.array(sides),
+        handedness_score=np.array(scores),
     )  # fmt: skip
 
 

@@ -188,6 +188,8 @@ class VideoSource:
     rig : Rig
         The cameras, for the frames as this source delivers them (resized by
         `scale`).
+    full_rig : Rig
+        The cameras, for the frames as read (before `scale`).
     fps : float
         Frame rate.
     scale : float
@@ -203,9 +205,11 @@ class VideoSource:
         fps: float,
         scale: float = 1.0,
         calibrated: bool = True,
+        full_rig: Rig | None = None,
     ) -> None:
         self.readers = readers
         self.rig = rig
+        self.full_rig = rig if full_rig is None else full_rig
         self.fps = fps
         self.scale = scale
         self.calibrated = calibrated
@@ -612,13 +616,12 @@ def open_source(
         raise ValueError("paths: expected one video file or image folder per camera; got none")
     scale = as_float(scale, "scale", minimum=0.0, maximum=4.0, exclusive_minimum=True)
     readers = tuple(open_frames(p, allow_short=allow_short) for p in paths)
-    rig, calibrated = _source_rig(readers, calibration, fov)
-    if scale != 1.0:
-        rig = rig.scaled(scale)
+    full_rig, calibrated = _source_rig(readers, calibration, fov)
+    rig = full_rig if scale == 1.0 else full_rig.scaled(scale)
     if fps is None:
         fps = next((r.fps for r in readers if r.fps), SOURCE_SETTINGS.fps)
     fps = as_float(fps, "fps", minimum=0.0, exclusive_minimum=True)
-    return VideoSource(readers, rig, fps, scale, calibrated)
+    return VideoSource(readers, rig, fps, scale, calibrated, full_rig)
 
 
 def _source_rig(readers, calibration, fov) -> tuple[Rig, bool]:
