@@ -41,6 +41,9 @@ fit as (T, 21, 2) pixel files as a user with a detector's points only would; the
 row scores the detector: its 2D points, and its 3D (the world landmarks, hand-centred,
 in camera 0's axes) in the wrist-relative columns.  ``--world`` gives the fit the
 detector's ``.npz`` instead, its world landmarks as the fit's weak 3D cue.
+``--side auto`` leaves the side to the commands as a user may (``handvar keypoints CAM
+--hand auto``, its ``.npz`` with the handedness given to ``init`` and ``track --hand
+auto``), the track's side scored as it is ("wrong side").
 ``--detector inside`` runs the one command instead (``handvar track CAMS --calib
 calib.yml --out DIR``: the detector inside, nothing else given) and prints beside it
 what a user has without the fit: the detector's points and 3D, its points triangulated
@@ -49,9 +52,10 @@ interpolated (`handvar.evaluation.metrics.thinned`; MediaPipe follows the hand f
 frame to frame, so its detections on every 5th frame are not those of every frame
 thinned), and every 3D estimate's jitter (acceleration error) and lag (the frames it
 trails the truth by, `handvar.evaluation.metrics.lag`).  The one command decides the
-side from the detector's handedness; a track of the other side than the case's is
-scored as it is, as the detector's points are whatever their label, and counted under
-"wrong side".  A run that fails scores every frame lost and every point wrong.
+side from the detector's handedness (two cameras: the hand's 3D shape); a track of
+the other side than the case's is scored as it is, as the detector's points are
+whatever their label, and counted under "wrong side".  A run that fails scores every
+frame lost and every point wrong.
 
 Run: ``PYTHONPATH=src .venv/bin/python studies/realistic.py`` (about 5–10 minutes on
 two cores); ``--quick`` for a one-minute subset; ``--out DIR`` keeps the generated cases
