@@ -363,3 +363,28 @@ def test_the_command_with_mediapipe_inside_prints_nothing_of_mediapipes_own(tmp_
     assert res.returncode == 0, res.stderr
     shown = [s.strip() for s in res.stderr.replace("\r", "\n").splitlines() if s.strip()]
     assert all(s.startswith("tracking:") for s in shown), shown
+
+
+def test_hand_tracker_with_two_cameras_takes_the_side_from_the_hands_shape():
+    # a right hand before the paper's stereo rig, every detection labelled left: the
+    # per-frame tracker decides as the one command does (the test above)
+    from handvar.hand.anthropometry import HandShape
+    from handvar.hand.kinematics import HandModel
+    from handvar.synth.sequences import make_sequence
+    from handvar.tracking.keypoint_cost import keypoint_points
+
+    seq = make_sequence("flip", n_frames=4)
+    model = HandModel(HandShape.from_size(185.0))
+    frames = iter(range(4 * len(seq.rig)))
+
+    def detect(image):
+        t, j = divmod(next(frames), len(seq.rig))
+        points = seq.rig.cameras[j].project(keypoint_points(model, seq.truth.poses[t], "pad"))
+        return {"points": points, "side": "left", "score": 0.9}
+
+    blank = np.zeros((*seq.rig.cameras[0].size[::-1], 3), np.uint8)
+    tracker = handvar.HandTracker(seq.rig, detector=detect)
+    for _ in range(4):
+        tracker.process([blank] * len(seq.rig))
+    assert tracker.side == "right" and tracker.hand.shape.side == "right"
+    assert not tracker.labelled  # the labels the shape overrules weigh nothing

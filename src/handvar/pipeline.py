@@ -1513,7 +1513,8 @@ class _Stream:
         ValueError
             The detector found no hand in the whole recording.
         """
-        from handvar.vision.detector import SIDE_FRAMES, vote_side
+        from handvar.vision.detector import SIDE_FRAMES
+        from handvar.vision.keypoints import decide_side
 
         self.hand = hand
         if hand != "auto":
@@ -1537,12 +1538,7 @@ class _Stream:
                 f"{self._name()}: expected a hand; the detector found none in its "
                 f"{len(self._ahead)} frames"
             )
-        score = float(np.nansum(shape))
-        by_shape = None if score == 0.0 else ("right" if score > 0.0 else "left")
-        by_label = vote_side(votes)
-        self.hand = by_shape or by_label or "right"
-        # labels the hand's shape overrules say nothing of which hand a detection is
-        self.labelled = by_shape is None or by_label in (None, by_shape)
+        self.hand, self.labelled = decide_side(votes, float(np.nansum(shape)))
         return self.hand
 
     def _two_views(self, found) -> float:

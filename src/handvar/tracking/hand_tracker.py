@@ -99,9 +99,10 @@ class HandTracker:
         one assumed camera (`handvar.vision.sources.assumed_camera`, field of view
         `fov`) of the first frame's size.
     hand : {"auto", "right", "left"}, keyword-only
-        The side tracked; "auto": the handedness of the frames with a hand so far, until
-        `handvar.vision.detector.SIDE_FRAMES` of them (a detector that says no side:
-        right); where the majority turns, the model is built again on the other side.
+        The side tracked; "auto": that of the frames with a hand so far, until
+        `handvar.vision.detector.SIDE_FRAMES` of them: with two cameras the hand's 3D
+        shape, else the handedness (a detector that says no side: right); where it
+        turns, the model is built again on the other side.
     detector : {"auto", "mediapipe", "none"} or callable, keyword-only
         The keypoint detector (`handvar.vision.detector.make_detectors`): "auto" is
         MediaPipe Hands when installed, else none (silhouettes alone); a callable
@@ -155,6 +156,8 @@ class HandTracker:
         self.detectors = make_detectors(detector, n, mirrored=mirrored)
         self.side = None if hand == "auto" else hand
         self._votes = [] if hand == "auto" else None  # the hands found, while voting
+        self._shape = 0.0  # with two cameras, the sum of the hand's chirality (`_vote`)
+        self.labelled = True  # whether the labels weigh which hand a detection is
         self.predictor = catalogue_key(as_instance(predictor, str, "predictor"), "predictor")
         self.hand_length = as_float(hand_length, "hand_length", minimum=0.0,
                                     exclusive_minimum=True)  # fmt: skip
@@ -332,7 +335,8 @@ class HandTracker:
         found = [d(image) for d, image in zip(self.detectors, images, strict=True)] if ran else None
         if found is not None and self._votes is not None and any(found):
             self._vote(found)
-        chosen = [choose(f, self.side or "auto") for f in found] if found else None
+        side = self.side if self.labelled else None
+        chosen = [choose(f, side or "auto") for f in found] if found else None
         kps = None if chosen is None else [p for p, _ in chosen]
         world = None if chosen is None or chosen[0][1] is None else chosen[0][1].world
         if self.every > 1:
@@ -340,15 +344,23 @@ class HandTracker:
         return kps, world, ran
 
     def _vote(self, found) -> None:
-        """With ``hand="auto"``: the side by the handedness of the frames with a hand so
-        far, `SIDE_FRAMES` of them at most (as `handvar.track` decides it before its first
-        fit).  Where the majority turns, the model is built again on the other side and
-        the predictor restarts at the next frame with a hand; the frames returned stay as
-        they were."""
-        from handvar.vision.detector import SIDE_FRAMES, vote_side
+        """With ``hand="auto"``: the side of the frames with a hand so far, `SIDE_FRAMES`
+        of them at most, as `handvar.track` decides it before its first fit
+        (`handvar.vision.keypoints.decide_side`: with two cameras by the hand's 3D
+        shape, else by the handedness).  Where it turns, the model is built again on
+        the other side and the predictor restarts at the next frame with a hand; the
+        frames returned stay as they were."""
+        from handvar.vision.detector import SIDE_FRAMES
+        from handvar.vision.keypoints import choose, decide_side, two_view_chirality
 
         self._votes.extend(found)
-        side = vote_side(self._votes) or "right"
+        if len(found) >= 2:  # the hand both cameras see, triangulated
+            (a, _), (b, _) = choose(found[0], "auto"), choose(found[1], "auto")
+            if a is not None and b is not None:
+                cameras = self.rig.cameras
+                score = two_view_chirality(cameras[0], a, cameras[1], b)
+                self._shape += 0.0 if np.isnan(score) else score
+        side, self.labelled = decide_side(self._votes, float(self._shape))
         if side != self.side:
             self.side = side
             self.recovery = None  # built again at this frame (`process`)

@@ -95,6 +95,7 @@ __all__ = [
     "check_output_suffix",
     "chirality",
     "choose",
+    "decide_side",
     "hand_side",
     "ray_points",
     "read_detections",
@@ -294,6 +295,20 @@ def vote_side(found_per_frame: Iterable[list[Detection]]) -> str | None:
         if d is not None and d.side:
             votes[d.side] += d.score
     return _winner(votes)
+
+
+def decide_side(found_per_frame: Iterable[list[Detection]], shape: float) -> tuple[str, bool]:
+    """The side of a hand found on frames, and whether its labels still weigh which
+    hand a detection is.
+
+    The side is that of the hand's 3D shape where `shape`, the sum of the frames'
+    `two_view_chirality` (0 without two cameras), is not 0; else of the handedness
+    (`vote_side`; right where none is said).  The labels weigh the detections unless
+    the shape overrules them (`choose` then keeps the most confident hand).
+    """
+    by_shape = None if shape == 0.0 else ("right" if shape > 0.0 else "left")
+    by_label = vote_side(found_per_frame)
+    return by_shape or by_label or "right", by_shape is None or by_label in (None, by_shape)
 
 
 @dataclass(frozen=True, eq=False)
