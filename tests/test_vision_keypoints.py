@@ -330,6 +330,29 @@ def test_mediapipe_on_the_mirrored_video_sees_a_left_hand(tmp_path, video):
         assert read_keypoints(out).side() == side
 
 
+def test_auto_keeps_one_hand_where_two_are_in_view(tmp_path):
+    import cv2
+
+    # the fingerspelling clip beside its mirror image: a right hand on the left half, a
+    # left one on the right; taking each frame's most confident hand jumped between them
+    # (frames 2 and 10-13); the side of the first frames with a hand keeps one
+    folder = tmp_path / "both"
+    folder.mkdir()
+    cap = cv2.VideoCapture(str(example_path("fingerspelling")))
+    for i in range(16):
+        ok, frame = cap.read()
+        assert ok
+        gap = np.full((frame.shape[0], 64, 3), 128, np.uint8)
+        cv2.imwrite(str(folder / f"{i:03d}.png"), np.hstack([frame, gap, frame[:, ::-1]]))
+    out = tmp_path / "k.npz"
+    res = CliRunner().invoke(main, ["keypoints", str(folder), "--out", str(out), "--hand", "auto"])
+    assert res.exit_code == 0, res.output
+    kept = read_keypoints(out)
+    x = np.nanmean(kept.xy[..., 0], axis=1)
+    assert kept.present.any(axis=1).all() and (x < frame.shape[1]).all(), x.round()
+    assert kept.side() == "right"
+
+
 def test_mediapipes_world_landmarks_are_seen_along_the_ray_not_in_the_cameras_axes():
     """The same hand at the centre and at the border of a wide image: MediaPipe gives
     (nearly) the same world landmarks, though in the camera's axes the two hands are

@@ -18,7 +18,9 @@ from handvar.cli.common import _one_line_errors
                    "handvar track --hands 2 --keypoints.")  # fmt: skip
 @click.option("--hand", type=click.Choice(["right", "left", "auto"]), default="right",
               show_default=True,
-              help="Which hand to keep; auto: the most confident, its side stored.")  # fmt: skip
+              help="Which hand to keep; auto: the side most of the first 30 frames "
+                   "with a hand say, then that side's on every frame, its label "
+                   "stored.")  # fmt: skip
 @click.option("--mirrored", is_flag=True,
               help="The video is mirrored (a selfie camera).")  # fmt: skip
 @click.option("--frames", "n_frames", type=click.IntRange(min=1), default=None,

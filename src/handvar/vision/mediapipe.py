@@ -19,7 +19,9 @@ Choices
   For an ordinary camera (``mirrored=False``, the default) its "Left" is the right hand
   (`handedness_side`); the keypoint file stores the side the image shows.  The same
   video mirrored shows the other hand, and the side read from it is the other one.
-- ``hand="auto"``: the most confident hand of either side is kept, its side stored.
+- ``hand="auto"``: the side of the first 30 frames with a hand, by their handedness (as
+  the pipeline decides it), then on every frame the hand most probably of that side,
+  its own label stored: where two hands are in view, one hand is kept throughout.
 - What the detector knows besides the points (``details=True``, the ``.npz`` keypoint
   file): the world landmarks (metres × 1000: mm, hand-centred, in the axes of a view along
   the ray through the hand), each
@@ -260,7 +262,9 @@ def detect_keypoints(
         BGR colour frames in order (one video).
     hand : {"right", "left", "auto"}, keyword-only
         Which hand to keep (module notes; `handvar.vision.keypoints.choose`); "auto": the
-        most confident of either side.
+        side of the first `handvar.vision.detector.SIDE_FRAMES` frames with a hand (by
+        their handedness, `vote_side`, as the pipeline decides it), then the hand most
+        probably of that side on every frame.
     mirrored : bool, keyword-only
         True for a mirrored (selfie) video, where MediaPipe's labels are literal.
     details : bool, keyword-only
@@ -279,7 +283,8 @@ def detect_keypoints(
         x, y (pixels of the frame, centres at integers) and the confidence that the
         points belong to the asked hand; NaN and 0 where no hand was found.
     """
-    from handvar.vision.keypoints import choose
+    from handvar.vision.detector import SIDE_FRAMES
+    from handvar.vision.keypoints import choose, vote_side
 
     if hand not in ("right", "left", "auto"):
         raise ValueError(f"hand: expected one of right, left, auto; got {hand!r}")
@@ -288,27 +293,31 @@ def detect_keypoints(
         min_detection_confidence=min_detection_confidence,
         min_tracking_confidence=min_tracking_confidence,
     )  # fmt: skip
-    out: list[np.ndarray] = []
-    world, depth, sides, scores = [], [], [], []
+    found_all, depths = [], []  # per frame the hands found and their depths
     try:
         for image in frames:
-            found = detector(image)
-            points, chosen = choose(found, hand)
-            if details and chosen is not None:  # weighted by the side when it is known
-                points = chosen.points
-            row = np.full((21, 3), np.nan) if points is None else points
-            if points is None:
-                row[:, 2] = 0.0
-            out.append(row)
-            scores.append(np.nan if chosen is None else chosen.score)
-            z = next((z for f, z in zip(found, detector.depths, strict=True) if f is chosen),
-                     np.full(21, np.nan))  # fmt: skip
-            world.append(np.full((21, 3), np.nan) if chosen is None or chosen.world is None
-                         else chosen.world)  # fmt: skip
-            depth.append(z)
-            sides.append("" if chosen is None else chosen.side)
+            found_all.append(detector(image))
+            depths.append(detector.depths)
     finally:
         detector.close()
+    if hand == "auto":  # the side of the first frames with a hand, as the pipeline's
+        hand = vote_side([f for f in found_all if f][:SIDE_FRAMES]) or "auto"
+    out: list[np.ndarray] = []
+    world, depth, sides, scores = [], [], [], []
+    for found, zs in zip(found_all, depths, strict=True):
+        points, chosen = choose(found, hand)
+        if details and chosen is not None:  # weighted by the side when it is known
+            points = chosen.points
+        row = np.full((21, 3), np.nan) if points is None else points
+        if points is None:
+            row[:, 2] = 0.0
+        out.append(row)
+        scores.append(np.nan if chosen is None else chosen.score)
+        z = next((z for f, z in zip(found, zs, strict=True) if f is chosen), np.full(21, np.nan))
+        world.append(np.full((21, 3), np.nan) if chosen is None or chosen.world is None
+                     else chosen.world)  # fmt: skip
+        depth.append(z)
+        sides.append("" if chosen is None else chosen.side)
     if not out:
         raise ValueError("frames: expected at least one frame; got none")
     array = np.stack(out)
