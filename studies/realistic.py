@@ -39,7 +39,9 @@ frames instead (``handvar keypoints CAM --hand SIDE``, run by ``--mediapipe-pyth
 Python of an environment with ``handvar[mediapipe]``, by default this one), given to the
 fit as (T, 21, 2) pixel files as a user with a detector's points only would; the first
 row scores the detector: its 2D points, and its 3D (the world landmarks, hand-centred,
-in camera 0's axes) in the wrist-relative columns.  ``--world`` gives the fit the
+in camera 0's axes) in the wrist-relative columns; beside it what a user has without
+the fit: with two cameras its points triangulated, and its every 5th frame held or
+interpolated (the detections the fit with every 5th frame is given).  ``--world`` gives the
 detector's ``.npz`` instead, its world landmarks as the fit's weak 3D cue.
 ``--side auto`` leaves the side to the commands as a user may (``handvar keypoints CAM
 --hand auto``, its ``.npz`` with the handedness given to ``init`` and ``track --hand
@@ -567,13 +569,11 @@ def main() -> None:
             if args.detector == "mediapipe":
                 given, detector = mediapipe_keypoints(case_dir, spec, args.mediapipe_python,
                                                       args.world, args.side)  # fmt: skip
-                raw_lost = ~np.isfinite(detector["xy"][0]).all(axis=(1, 2))
-                raw = scores(case, detector["xy"], detector["world"], raw_lost, None,
-                             truth_axes=case.rig.cameras[0].R)  # fmt: skip
-                raw["abs"] = np.nan  # hand-centred: no absolute position
+                # the fit every 5th frame is given these detections thinned
+                rows += baseline_rows(case, detector, label)
             else:
                 raw = scores(case, case.keypoints, None, case.missed[0], None)
-            rows.append((label, "keypoints", raw))
+                rows.append((label, "keypoints", raw))
             if not args.no_fit:
                 for every in (1, 5):
                     world = "-world" if args.world else ""
