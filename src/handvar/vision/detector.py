@@ -30,7 +30,7 @@ from collections.abc import Callable, Iterable, Iterator
 
 import numpy as np
 
-from handvar.vision.keypoints import N_KEYPOINTS, Detection, choose, vote_side
+from handvar.vision.keypoints import N_KEYPOINTS, SIDE_FRAMES, Detection, choose, vote_side
 
 __all__ = [
     "DETECTORS",
@@ -46,11 +46,6 @@ __all__ = [
 #: The detectors `handvar track --detector` names: "auto" is MediaPipe when it is
 #: installed, else none (the silhouette tracker, with a notice).
 DETECTORS: tuple[str, ...] = ("auto", "mediapipe", "none")
-#: Frames with a detected hand whose handedness decides the side of a track with
-#: ``hand`` "auto": a second at 30 fps.  On the realistic benchmark's renders the
-#: majority of 10 gave the true side on 27 of 32 runs, of 20, 30 or 60 on 29
-#: (docs/detector.md).
-SIDE_FRAMES = 30
 
 
 def user_detector(function: Callable, name: str = "detector") -> Callable:

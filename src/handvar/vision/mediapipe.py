@@ -262,7 +262,7 @@ def detect_keypoints(
         BGR colour frames in order (one video).
     hand : {"right", "left", "auto"}, keyword-only
         Which hand to keep (module notes; `handvar.vision.keypoints.choose`); "auto": the
-        side of the first `handvar.vision.detector.SIDE_FRAMES` frames with a hand (by
+        side of the first `handvar.vision.keypoints.SIDE_FRAMES` frames with a hand (by
         their handedness, `vote_side`, as the pipeline decides it), then the hand most
         probably of that side on every frame.
     mirrored : bool, keyword-only
@@ -283,8 +283,7 @@ def detect_keypoints(
         x, y (pixels of the frame, centres at integers) and the confidence that the
         points belong to the asked hand; NaN and 0 where no hand was found.
     """
-    from handvar.vision.detector import SIDE_FRAMES
-    from handvar.vision.keypoints import choose, vote_side
+    from handvar.vision.keypoints import SIDE_FRAMES, choose, vote_side
 
     if hand not in ("right", "left", "auto"):
         raise ValueError(f"hand: expected one of right, left, auto; got {hand!r}")
