@@ -1070,9 +1070,9 @@ def write_keypoints(path: str | os.PathLike, keypoints: Keypoints2D | np.ndarray
     path = Path(path)
     if not isinstance(keypoints, Keypoints2D):
         keypoints = Keypoints2D.from_array(keypoints, name="keypoints")
-    # a file without the handedness score holds confidences already weighted by it
-    array = keypoints.for_side(None).to_array()
     suffix = path.suffix.lower()
+    # a file without the handedness score holds confidences already weighted by it
+    array = (keypoints if suffix == ".npz" else keypoints.for_side(None)).to_array()
     if suffix == ".npy":
 
         def write(tmp: str) -> None:
@@ -1081,7 +1081,6 @@ def write_keypoints(path: str | os.PathLike, keypoints: Keypoints2D | np.ndarray
 
     elif suffix == ".npz":
         extras = {k: getattr(keypoints, k) for k in _EXTRAS if getattr(keypoints, k) is not None}
-        array = keypoints.to_array()
 
         def write(tmp: str) -> None:
             with open(tmp, "wb") as fh:
