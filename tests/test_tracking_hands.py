@@ -497,3 +497,29 @@ def test_a_real_video_beside_its_mirror_keeps_each_hand_on_its_half(tmp_path):
         halves[track.shape.side] = set((x > size[0] / 2).tolist())
     # the real (right) hand on the left half, its mirror (a left hand) on the right
     assert halves == {"right": {False}, "left": {True}}
+
+
+def test_one_hands_views_given_to_two_hands_go_to_the_one_nearer_in_3d():
+    # two cameras; the right hand's last joints here, the left one's 120 mm behind it:
+    # camera 0's view of the right hand went to the left hand's track, camera 1's to
+    # the right one's (each camera's assignment on its own): both go to the right hand
+    from types import SimpleNamespace
+
+    rig = realistic_rig(2)
+    model = HandModel(HandShape.from_size(185.0))
+    joints = keypoint_points(model, motion_poses("counting", 0)[0][0], "pad")
+    tracker = HandsTracker(rig, detector=None)
+    left, right = tracker.hands
+    right.last = SimpleNamespace(joints=joints)
+    behind, aside = np.array([0.0, 0.0, 120.0]), np.array([90.0, 0.0, 0.0])  # mm
+    left.last = SimpleNamespace(joints=joints + behind)
+    views = [Detection(np.c_[cam.project(joints), np.ones(21)], side="left", score=0.9)
+             for cam in rig.cameras]  # fmt: skip
+    given = {left.id: [views[0], None], right.id: [None, views[1]]}
+    tracker._agree(given)
+    assert given == {left.id: [None, None], right.id: [views[0], views[1]]}
+    # views of two hands (their rays do not meet) stay where they were given
+    other = Detection(np.c_[rig.cameras[1].project(joints + aside), np.ones(21)])
+    given = {left.id: [views[0], None], right.id: [None, other]}
+    tracker._agree(given)
+    assert given == {left.id: [views[0], None], right.id: [None, other]}

@@ -17,7 +17,11 @@ detector's label:
    of the detector's frames since it was last given a detection if more: a hand
    followed by optical flow is less sure of its place than a detected one).  The label is
    one vote among others: a hand that crosses the other keeps its identity when the
-   detector's labels swap.
+   detector's labels swap.  With two cameras or more, one hand's views given to two
+   hands (one camera's detection to one, another's to the other, and their rays meet
+   within `RAY_GAP`: one hand) go both to the hand whose last joints lie nearer the
+   points they triangulate, in 3D, where the hand in front and the one it hides are
+   apart in depth (`_agree`).
 3. **A new hand.**  A detection left over, not within `DUPLICATE` hand sizes of a
    tracked hand's detection (MediaPipe sometimes finds one hand twice), nor within
    `NEW_HAND` of the detection of a tracked hand of the side it is labelled (found
@@ -77,6 +81,7 @@ Examples
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import time
 from dataclasses import dataclass
 
@@ -328,6 +333,14 @@ class _Hand:
         e = self.expected
         return None if e is None else np.stack([e[j], self.last.projected[j]])
 
+    def distance(self, points: np.ndarray) -> float:
+        """Mean distance (mm) of its last joints to 3D `points` (21, 3), over the points
+        given (NaN elsewhere); inf without a last fit."""
+        if self.last is None:
+            return np.inf
+        d = np.linalg.norm(self.last.joints - points, axis=1)
+        return float(np.nanmean(d)) if np.isfinite(d).any() else np.inf
+
     def depth(self, camera) -> float:
         """Mean depth of its last joints in `camera`, mm."""
         return float(np.nanmean(camera.camera_from_world(self.last.joints)[:, 2]))
@@ -461,6 +474,7 @@ class HandsTracker:
             if j == 0:
                 taken = set(pairs.values())
                 births = [d for k, d in enumerate(found) if k not in taken]
+        self._agree(given)
         self._born(births, given, detections)
         out = {}
         for h in self.hands:
@@ -469,6 +483,25 @@ class HandsTracker:
             kps = [None if d is None else d.points.copy() for d in given[h.id]]
             out[h.id] = (self._down_weighted(h, kps), None if first is None else first.world)
         return out
+
+    def _agree(self, given) -> None:
+        """Rule 2, two cameras or more: one hand's views given to two hands go to the
+        one whose last joints lie nearer the points the views triangulate (module
+        notes); the other keeps neither."""
+        cameras = self.rig.cameras
+        for j in range(1, len(cameras)):
+            for a, b in itertools.permutations(self.hands, 2):
+                d0, dj = given[a.id][0], given[b.id][j]
+                if d0 is None or dj is None or given[a.id][j] is not None \
+                        or given[b.id][0] is not None:  # fmt: skip
+                    continue
+                points, gap = ray_points(cameras[0], d0.points, cameras[j], dj.points)
+                if gap > RAY_GAP:
+                    continue  # two hands
+                keep = min((a, b), key=lambda h: h.distance(points))
+                given[keep.id][0], given[keep.id][j] = d0, dj
+                lose = b if keep is a else a
+                given[lose.id][0] = given[lose.id][j] = None
 
     def _born(self, births, given, detections) -> None:
         """Start the free hands on the detections of the first camera left over."""
