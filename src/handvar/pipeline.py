@@ -1500,8 +1500,8 @@ class _Stream:
     def decide_side(self, hand: str) -> str:
         """The side of the hand with a detector: `hand`, or with "auto" the side of the
         first `SIDE_FRAMES` frames with a hand.  With two cameras or more, where the
-        first two see one hand (their rays meet, `_two_views`), by its shape in 3D: the
-        sum of its `chirality` over those frames; else by the detector's handedness
+        first two see one hand (their rays meet, `found_chirality`), by its shape in 3D:
+        the sum of its `chirality` over those frames; else by the detector's handedness
         (`handvar.vision.detector.vote_side`; a detector that says no side: right).  The
         frames are read ahead (those before the first hand without their images: they
         are frames without a hand), and the detector looks at each of them for the
@@ -1514,7 +1514,7 @@ class _Stream:
             The detector found no hand in the whole recording.
         """
         from handvar.vision.detector import SIDE_FRAMES
-        from handvar.vision.keypoints import decide_side
+        from handvar.vision.keypoints import decide_side, found_chirality
 
         self.hand = hand
         if hand != "auto":
@@ -1527,7 +1527,7 @@ class _Stream:
             if found is not None and any(found):
                 seen += 1
                 votes.extend(found)
-                shape.append(self._two_views(found))
+                shape.append(found_chirality(found, self.source.rig.cameras, self._to_tracked))
             self._ahead.append((index, seconds, images if seen else None, found))
             if seen >= SIDE_FRAMES:
                 break
@@ -1540,20 +1540,6 @@ class _Stream:
             )
         self.hand, self.labelled = decide_side(votes, float(np.nansum(shape)))
         return self.hand
-
-    def _two_views(self, found) -> float:
-        """The `handvar.vision.keypoints.two_view_chirality` of the hand the first two
-        cameras found on a frame (each its most confident); NaN with fewer."""
-        from handvar.vision.keypoints import choose, two_view_chirality
-
-        if len(found) < 2:
-            return np.nan
-        (a, _), (b, _) = choose(found[0], "auto"), choose(found[1], "auto")
-        if a is None or b is None:
-            return np.nan
-        cameras = self.source.rig.cameras
-        return two_view_chirality(cameras[0], self._to_tracked(a, 0), cameras[1],
-                                  self._to_tracked(b, 1))  # fmt: skip
 
     def _name(self) -> str:
         return self.source.names[0] if self.live else str(self.source.readers[0].path)

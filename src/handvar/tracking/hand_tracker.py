@@ -351,15 +351,11 @@ class HandTracker:
         the other side and the predictor restarts at the next frame with a hand; the
         frames returned stay as they were."""
         from handvar.vision.detector import SIDE_FRAMES
-        from handvar.vision.keypoints import choose, decide_side, two_view_chirality
+        from handvar.vision.keypoints import decide_side, found_chirality
 
         self._votes.extend(found)
         if len(found) >= 2:  # the hand both cameras see, triangulated
-            (a, _), (b, _) = choose(found[0], "auto"), choose(found[1], "auto")
-            if a is not None and b is not None:
-                cameras = self.rig.cameras
-                score = two_view_chirality(cameras[0], a, cameras[1], b)
-                self._shape += 0.0 if np.isnan(score) else score
+            self._shape = np.nansum([self._shape, found_chirality(found, self.rig.cameras)])
         side, self.labelled = decide_side(self._votes, float(self._shape))
         if side != self.side:
             self.side = side

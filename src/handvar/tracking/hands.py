@@ -545,7 +545,7 @@ class HandsTracker:
         cameras, d = self.rig.cameras, given[hand.id][0]
         for j in range(1, len(detections)):
             rest = [e for e in detections[j] if e not in _given_values(given, j)]
-            gaps = [_ray_gap(cameras[0], d.points, cameras[j], e.points) for e in rest]
+            gaps = [ray_points(cameras[0], d.points, cameras[j], e.points)[1] for e in rest]
             near = [e for e, g in zip(rest, gaps, strict=True) if g <= RAY_GAP]
             given[hand.id][j] = min(near, key=lambda e: gaps[rest.index(e)]) if near else None
 
@@ -669,12 +669,6 @@ class HandsTracker:
 def _in_front(other: _Hand, h: _Hand, camera) -> bool:
     """`other`'s last joints nearer `camera` than `h`'s by `FRONT` mm or more (rule 5)."""
     return other.depth(camera) <= h.depth(camera) - FRONT
-
-
-def _ray_gap(camera_a, points_a: np.ndarray, camera_b, points_b: np.ndarray) -> float:
-    """Median distance (mm) between the rays of the points two cameras see of a hand
-    (`ray_points`)."""
-    return ray_points(camera_a, points_a, camera_b, points_b)[1]
 
 
 def _given_values(given: dict, j: int) -> list:

@@ -97,6 +97,7 @@ __all__ = [
     "chirality",
     "choose",
     "decide_side",
+    "found_chirality",
     "hand_side",
     "ray_points",
     "read_detections",
@@ -287,6 +288,26 @@ def two_view_chirality(camera_a, points_a: np.ndarray, camera_b, points_b: np.nd
     return chirality(points) if gap <= RAY_GAP else math.nan
 
 
+def found_chirality(found, cameras, pixels=None) -> float:
+    """The `two_view_chirality` of the hand the first two cameras found on a frame, each
+    its most confident (`choose`); NaN with fewer.  `pixels(points, j)`: camera j's
+    points in the pixels of `cameras` (default: as found)."""
+    if len(found) < 2:
+        return math.nan
+    (a, _), (b, _) = choose(found[0], "auto"), choose(found[1], "auto")
+    if a is None or b is None:
+        return math.nan
+    if pixels is not None:
+        a, b = pixels(a, 0), pixels(b, 1)
+    return two_view_chirality(cameras[0], a, cameras[1], b)
+
+
+def _side_of(score: float) -> str | None:
+    """The side a summed `chirality` gives: right where positive, left where negative,
+    None at 0."""
+    return None if score == 0.0 else ("right" if score > 0.0 else "left")
+
+
 #: Frames with a detected hand whose handedness decides the side of a track with
 #: ``hand`` "auto": a second at 30 fps.  On the realistic benchmark's renders the
 #: majority of 10 gave the true side on 27 of 32 runs, of 20, 30 or 60 on 29
@@ -314,7 +335,7 @@ def decide_side(found_per_frame: Iterable[list[Detection]], shape: float) -> tup
     (`vote_side`; right where none is said).  The labels weigh the detections unless
     the shape overrules them (`choose` then keeps the most confident hand).
     """
-    by_shape = None if shape == 0.0 else ("right" if shape > 0.0 else "left")
+    by_shape = _side_of(shape)
     by_label = vote_side(found_per_frame)
     return by_shape or by_label or "right", by_shape is None or by_label in (None, by_shape)
 
@@ -800,7 +821,7 @@ def shape_side(keypoints, cameras) -> str | None:
     both = np.flatnonzero((a.present.sum(1) >= 3) & (b.present.sum(1) >= 3))
     score = float(np.nansum([two_view_chirality(camera_a, a.frame(t), camera_b, b.frame(t))
                              for t in both]))  # fmt: skip
-    return None if score == 0.0 else ("right" if score > 0.0 else "left")
+    return _side_of(score)
 
 
 def _winner(votes: dict[str, float]) -> str | None:
