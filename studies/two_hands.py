@@ -2,7 +2,8 @@
 
 Usage: PYTHONPATH=src python studies/two_hands.py [--seeds N] [--cameras 1|2]
        [--detector simulated|mediapipe] [--every K] [--scenario NAME ...] [--size W H]
-       [--missed-carry N] [--side-run N] [--cache DIR] [--landmarks full|lite]
+       [--missed-carry N] [--side-run N] [--same-hand X] [--cache DIR]
+       [--landmarks full|lite]
 
 For every scenario of `handvar.evaluation.two_hands.SCENARIOS` and seed, renders the
 case (640×360 by default) and tracks it with `handvar.tracking.hands.HandsTracker`, the
@@ -34,7 +35,9 @@ the fit:
 side (`handvar.tracking.hands.SIDE_RUN`); the last line gives the runs seen, on tracks
 whose side is right and on those whose side is wrong.  ``--missed-carry N`` sets the
 frames a hand the detector misses is followed by optical flow
-(`handvar.tracking.hands.MISSED_CARRY`, to compare values).  With ``--every K`` the
+(`handvar.tracking.hands.MISSED_CARRY`, to compare values); ``--same-hand X`` the
+palm lengths within which one hand's views given to two hands are merged
+(`handvar.tracking.hands.SAME_HAND`; ``inf``: wherever their rays meet).  With ``--every K`` the
 detector runs on every K-th frame only; the fit carries each hand's detection by
 optical flow over the frames between, and the detections' baseline is interpolated
 linearly between the detector's frames.  ``--landmarks lite`` runs MediaPipe with its lite landmark
@@ -252,6 +255,9 @@ def main() -> None:
     parser.add_argument("--missed-carry", type=int, default=None,
                         help="frames a missed hand is followed by optical flow "
                              "(handvar.tracking.hands.MISSED_CARRY)")  # fmt: skip
+    parser.add_argument("--same-hand", type=float, default=None,
+                        help="palm lengths within which two hands' views are one hand's "
+                             "(handvar.tracking.hands.SAME_HAND)")  # fmt: skip
     parser.add_argument("--landmarks", default="full", choices=("full", "lite"),
                         help="MediaPipe's landmark model (the pipeline's: full)")  # fmt: skip
     parser.add_argument(
@@ -266,6 +272,10 @@ def main() -> None:
         import handvar.tracking.hands
 
         handvar.tracking.hands.MISSED_CARRY = args.missed_carry
+    if args.same_hand is not None:
+        import handvar.tracking.hands
+
+        handvar.tracking.hands.SAME_HAND = args.same_hand
     print(f"{args.detector} detector on every {args.every} frame(s), {args.cameras} camera(s), "
           f"{args.size[0]}x{args.size[1]}, seeds 0..{args.seeds - 1}")  # fmt: skip
     head = (f"{'case':<18}{'hand':<6}{'switches det/fit':>17}{'PCK det':>9}{'PCK fit':>9}"

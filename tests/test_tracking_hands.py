@@ -523,3 +523,46 @@ def test_one_hands_views_given_to_two_hands_go_to_the_one_nearer_in_3d():
     given = {left.id: [views[0], None], right.id: [None, other]}
     tracker._agree(given)
     assert given == {left.id: [views[0], None], right.id: [None, other]}
+
+
+def _placed(rig, joints):
+    """A hand's last fit as `_agree` reads it: its joints and their projections."""
+    from types import SimpleNamespace
+
+    projected = np.stack([cam.project(joints) for cam in rig.cameras])
+    return SimpleNamespace(joints=joints, index=0, projected=projected)
+
+
+def test_views_of_two_hands_given_to_one_are_parted():
+    # camera 0's view of the right hand and camera 1's of the left hand (90 mm aside)
+    # both went to the right hand's track: their rays do not meet, so the right hand
+    # keeps the view where it is expected and the other goes to the left hand
+    rig = realistic_rig(2)
+    model = HandModel(HandShape.from_size(185.0))
+    joints = keypoint_points(model, motion_poses("counting", 0)[0][0], "pad")
+    aside = np.array([90.0, 0.0, 0.0])  # mm
+    tracker = HandsTracker(rig, detector=None)
+    left, right = tracker.hands
+    right.last, left.last = _placed(rig, joints), _placed(rig, joints + aside)
+    mine = Detection(np.c_[rig.cameras[0].project(joints), np.ones(21)])
+    theirs = Detection(np.c_[rig.cameras[1].project(joints + aside), np.ones(21)])
+    given = {left.id: [None, None], right.id: [mine, theirs]}
+    tracker._agree(given)
+    assert given == {left.id: [None, theirs], right.id: [mine, None]}
+
+
+def test_views_whose_rays_meet_far_from_both_hands_are_not_merged():
+    # one camera's view to each hand; the rays meet, but where neither hand is (both
+    # 150 mm off, more than half a palm): two hands seen where their rays happen to
+    # cross (a ghost), so each hand keeps its view
+    rig = realistic_rig(2)
+    model = HandModel(HandShape.from_size(185.0))
+    joints = keypoint_points(model, motion_poses("counting", 0)[0][0], "pad")
+    tracker = HandsTracker(rig, detector=None)
+    left, right = tracker.hands
+    left.last = _placed(rig, joints + np.array([0.0, 0.0, 150.0]))
+    right.last = _placed(rig, joints + np.array([150.0, 0.0, 0.0]))
+    views = [Detection(np.c_[cam.project(joints), np.ones(21)]) for cam in rig.cameras]
+    given = {left.id: [views[0], None], right.id: [None, views[1]]}
+    tracker._agree(given)
+    assert given == {left.id: [views[0], None], right.id: [None, views[1]]}

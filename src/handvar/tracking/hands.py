@@ -17,11 +17,16 @@ detector's label:
    of the detector's frames since it was last given a detection if more: a hand
    followed by optical flow is less sure of its place than a detected one).  The label is
    one vote among others: a hand that crosses the other keeps its identity when the
-   detector's labels swap.  With two cameras or more, one hand's views given to two
-   hands (one camera's detection to one, another's to the other, and their rays meet
-   within `RAY_GAP`: one hand) go both to the hand whose last joints lie nearer the
-   points they triangulate, in 3D, where the hand in front and the one it hides are
-   apart in depth (`_agree`).
+   detector's labels swap.  With two cameras or more (`_agree`), a hand given views
+   whose rays do not meet within `RAY_GAP` (two hands) keeps the one nearer where it
+   is expected; the other goes to the other hand if that has none in its camera and
+   it is that hand's (its rays meet that hand's other view, or, without one, it lies
+   within that hand's gate).  One hand's views given to two hands (one camera's
+   detection to one, another's to the other, their rays meeting) go both to the hand
+   whose last joints lie nearer the points they triangulate, in 3D, where the hand
+   in front and the one it hides are apart in depth, if within `SAME_HAND` of its
+   palm's length: two views of two hands may meet too, at a point where neither is
+   (a ghost).
 3. **A new hand.**  A detection left over, not within `DUPLICATE` hand sizes of a
    tracked hand's detection (MediaPipe sometimes finds one hand twice), nor within
    `NEW_HAND` of the detection of a tracked hand of the side it is labelled (found
@@ -106,6 +111,7 @@ __all__ = [
     "MISSED_FRAMES",
     "NEW_HAND",
     "RAY_GAP",
+    "SAME_HAND",
     "SIDE_FRAMES",
     "SIDE_RUN",
     "SIDE_SURE",
@@ -125,6 +131,9 @@ GATE_GROWTH = 0.2
 LABEL_COST = 0.25
 #: Hand sizes within which a second detection is the same hand found twice.
 DUPLICATE = 0.35
+#: Palm lengths (its wrist → middle MCP) from a hand's last joints within which the
+#: points two hands' views triangulate must lie for the views to be that one hand's.
+SAME_HAND = 0.5
 #: Hand sizes from a tracked hand given no detection within which a detection left over
 #: is that hand's, off by a detector's gross error, not a new hand.
 NEW_HAND = 2.0
@@ -341,6 +350,12 @@ class _Hand:
         d = np.linalg.norm(self.last.joints - points, axis=1)
         return float(np.nanmean(d)) if np.isfinite(d).any() else np.inf
 
+    def palm(self) -> float:
+        """Wrist → middle-MCP length of its last joints, mm (0 without a last fit)."""
+        if self.last is None:
+            return 0.0
+        return float(np.linalg.norm(self.last.joints[9] - self.last.joints[0]))
+
     def depth(self, camera) -> float:
         """Mean depth of its last joints in `camera`, mm."""
         return float(np.nanmean(camera.camera_from_world(self.last.joints)[:, 2]))
@@ -485,11 +500,21 @@ class HandsTracker:
         return out
 
     def _agree(self, given) -> None:
-        """Rule 2, two cameras or more: one hand's views given to two hands go to the
-        one whose last joints lie nearer the points the views triangulate (module
-        notes); the other keeps neither."""
+        """Rule 2, two cameras or more: two hands' views given to one hand are parted
+        (it keeps the view nearer where it is expected, the other goes to the other
+        hand if it fits there); one hand's views given to two hands go to the one whose
+        last joints lie nearer the points the views triangulate (module notes); the
+        other keeps neither."""
         cameras = self.rig.cameras
         for j in range(1, len(cameras)):
+            for h in self.hands:
+                d0, dj = given[h.id][0], given[h.id][j]
+                if d0 is None or dj is None or h.expected is None:
+                    continue
+                if ray_points(cameras[0], d0.points, cameras[j], dj.points)[1] <= RAY_GAP:
+                    continue  # one hand
+                far = max((0, j), key=lambda i: _distance(h.places(i), given[h.id][i].points))
+                self._give_other(h, given, far)
             for a, b in itertools.permutations(self.hands, 2):
                 d0, dj = given[a.id][0], given[b.id][j]
                 if d0 is None or dj is None or given[a.id][j] is not None \
@@ -499,9 +524,33 @@ class HandsTracker:
                 if gap > RAY_GAP:
                     continue  # two hands
                 keep = min((a, b), key=lambda h: h.distance(points))
+                if keep.distance(points) > SAME_HAND * keep.palm():
+                    continue  # two hands whose rays happen to meet (a ghost)
                 given[keep.id][0], given[keep.id][j] = d0, dj
                 lose = b if keep is a else a
                 given[lose.id][0] = given[lose.id][j] = None
+
+    def _give_other(self, h: _Hand, given, i: int) -> None:
+        """Camera i's view taken from `h` (not its hand: `_agree`) and given to the other
+        hand if it has none there and the view is its: its rays meet that hand's view in
+        another camera within `RAY_GAP`, or, without any view, it lies within the
+        hand's gate of where it is expected."""
+        d, given[h.id][i] = given[h.id][i], None
+        cameras = self.rig.cameras
+        for other in self.hands:
+            views = given[other.id]
+            if other is h or views[i] is not None:
+                continue
+            seen = [k for k, v in enumerate(views) if v is not None]
+            if seen:
+                k = seen[0]
+                mine = ray_points(cameras[i], d.points, cameras[k], views[k].points)[1] <= RAY_GAP
+            else:
+                gate = GATE + GATE_GROWTH * max(other.missing, other.undetected)
+                mine = other.expected is not None and _distance(other.places(i), d.points) <= gate
+            if mine:
+                views[i] = d
+                return
 
     def _born(self, births, given, detections) -> None:
         """Start the free hands on the detections of the first camera left over."""
