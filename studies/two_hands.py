@@ -211,14 +211,32 @@ def world_error(case, detections):
     return [float(np.mean(e)) if e else np.nan for e in errs]
 
 
+def nearest_detections(case, k: int) -> np.ndarray:
+    """(2, T, 21, 2): per camera of the first two and frame, the points of the
+    detection nearest true hand k (mean distance under 0.5 of its size), NaN where
+    none is: each hand's points given it by the truth, whatever their label."""
+    from handvar.synth.keypoints import hand_size_px
+
+    out = np.full((2, case.n_frames, 21, 2), np.nan)
+    for j in range(2):
+        size = hand_size_px(case.rig.cameras[j], case.joints[k])
+        for t, found in enumerate(case.detections[j]):
+            dist = [np.nanmean(np.linalg.norm(d.points[:, :2] - case.truth_2d[j, k, t], axis=1))
+                    for d in found]  # fmt: skip
+            if dist and min(dist) < 0.5 * size[t]:
+                d = found[int(np.argmin(dist))]
+                out[j, t] = np.where(d.points[:, 2:] > 0, d.points[:, :2], np.nan)
+    return out
+
+
 def triangulation_error(case, k: int, tracks: dict, score) -> tuple[float, float]:
-    """True hand k's detections in the first two cameras triangulated point by point
-    (`studies/realistic.py`'s `triangulated`, each hand's points given it by the truth:
-    the baseline at its best), and the fit on the same frames: mean absolute 3D error, mm."""
+    """True hand k's detections in the first two cameras (`nearest_detections`: the
+    baseline at its best) triangulated point by point (`studies/realistic.py`'s
+    `triangulated`), and the fit on the same frames: mean absolute 3D error, mm."""
     from handvar.evaluation.metrics import joint_errors
     from realistic import triangulated
 
-    tri = triangulated(case, case.keypoints[:2, k, :, :, :2])
+    tri = triangulated(case, nearest_detections(case, k))
     fit = np.full_like(tri, np.nan)
     for t in np.flatnonzero(score.match[k] >= 0):
         fit[t] = tracks[score.ids[score.match[k, t]]]["joints"][t]

@@ -566,3 +566,51 @@ def test_views_whose_rays_meet_far_from_both_hands_are_not_merged():
     given = {left.id: [views[0], None], right.id: [None, views[1]]}
     tracker._agree(given)
     assert given == {left.id: [views[0], None], right.id: [None, views[1]]}
+
+
+def test_a_hand_only_the_second_camera_finds_starts_a_track():
+    # camera 0 misses the hand on the first frame; camera 1 finds it: a track starts,
+    # drawn on its points there (before, hands started on camera 0's detections only)
+    rig = realistic_rig(2)
+    model = HandModel(HandShape.from_size(185.0))
+    joints = keypoint_points(model, motion_poses("counting", 0)[0][0], "pad")
+    seen = Detection(np.c_[rig.cameras[1].project(joints), np.ones(21)], side="right")
+    tracker = HandsTracker(rig, detector=None)
+    frames = [np.zeros((cam.height, cam.width, 3), np.uint8) for cam in rig.cameras]
+    result = tracker.process(frames, detections=[[], [seen]])
+    drawn = [h for h in result.hands if not h.no_hand]
+    assert len(drawn) == 1 and drawn[0].side == "right"
+    size = np.linalg.norm(seen.points[9, :2] - seen.points[0, :2])
+    off = np.linalg.norm(drawn[0].projected[1] - seen.points[:, :2], axis=1)
+    assert np.median(off) < 0.2 * size
+
+
+def test_a_hand_followed_onto_the_other_restarts_on_a_hand_left_over():
+    # the left hand's track, given no detection, lies on the right hand's detections in
+    # both cameras (its flow followed the right hand); a hand 200 mm aside, detected in
+    # both cameras, is given to nobody: the left track restarts on it, keeping its side.
+    # Lying on the right hand in camera 0 only (hidden behind it) it does not.
+    rig = realistic_rig(2)
+    model = HandModel(HandShape.from_size(185.0))
+    joints = keypoint_points(model, motion_poses("counting", 0)[0][0], "pad")
+    aside = joints + np.array([200.0, 0.0, 0.0])
+
+    def views(points):
+        return [Detection(np.c_[cam.project(points), np.ones(21)]) for cam in rig.cameras]
+
+    right_views, other_views = views(joints), views(aside)
+    detections = [[right_views[j], other_views[j]] for j in range(2)]
+    tracker = HandsTracker(rig, detector=None)
+    left, right = tracker.hands
+    left.side, right.side = "left", "right"
+    right.last = _placed(rig, joints)
+    left.last = _placed(rig, joints + np.array([3.0, 0.0, 0.0]))  # on the right hand
+    given = {left.id: [None, None], right.id: list(right_views)}
+    tracker._born(given, detections)
+    assert given[left.id] == other_views and left.side == "left"
+    # behind the right hand along camera 0's rays: there on camera 0 only
+    centre = rig.cameras[0].center
+    left.last = _placed(rig, centre + 1.25 * (joints - centre))
+    given = {left.id: [None, None], right.id: list(right_views)}
+    tracker._born(given, detections)
+    assert given[left.id] == [None, None]

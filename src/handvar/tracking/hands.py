@@ -27,13 +27,16 @@ detector's label:
    in front and the one it hides are apart in depth, if within `SAME_HAND` of its
    palm's length: two views of two hands may meet too, at a point where neither is
    (a ghost).
-3. **A new hand.**  A detection left over, not within `DUPLICATE` hand sizes of a
-   tracked hand's detection (MediaPipe sometimes finds one hand twice), nor within
-   `NEW_HAND` of the detection of a tracked hand of the side it is labelled (found
-   twice, labelled alike), nor within `NEW_HAND` of a tracked hand given none (that
-   hand's, off by a gross error), starts
-   the free hand (in the other cameras, the detection whose rays pass nearest the
-   first camera's, within `RAY_GAP` mm).  Its side: the other side than that of the
+3. **A new hand.**  A detection left over in any camera (the first camera's first),
+   not within `DUPLICATE` hand sizes of a tracked hand's detection (MediaPipe
+   sometimes finds one hand twice), nor within `NEW_HAND` of the detection of a
+   tracked hand of the side it is labelled (found twice, labelled alike), nor within
+   `NEW_HAND` of a tracked hand given none (that hand's, off by a gross error), starts
+   the free hand (in the other cameras, the detection whose rays pass nearest its
+   own, within `RAY_GAP` mm).  A hand is free where it is expected nowhere, or, given
+   no detection, where it lies on the other hand's detections (within `DUPLICATE`)
+   in two cameras or more: the flow followed it onto the other hand (on one camera's
+   alone it may be hidden behind it).  Its side: the other side than that of the
    hand tracked or found on this frame if there is one (two hands of one person), else
    the detector's label.  So a hand that leaves and comes back is re-acquired with its
    side.
@@ -479,18 +482,14 @@ class HandsTracker:
         """Per hand id, its keypoints per camera and the first camera's world points."""
         n = len(detections)
         given: dict[int, list] = {h.id: [None] * n for h in self.hands}
-        births: list = []
         for j, found in enumerate(detections):
             expected = [h.places(j) for h in self.hands]
             gates = [GATE + GATE_GROWTH * max(h.missing, h.undetected) for h in self.hands]
             pairs = assign(expected, [h.side for h in self.hands], found, gates)
             for hand, k in pairs.items():
                 given[self.hands[hand].id][j] = found[k]
-            if j == 0:
-                taken = set(pairs.values())
-                births = [d for k, d in enumerate(found) if k not in taken]
         self._agree(given)
-        self._born(births, given, detections)
+        self._born(given, detections)
         out = {}
         for h in self.hands:
             first = given[h.id][0]
@@ -552,51 +551,74 @@ class HandsTracker:
                 views[i] = d
                 return
 
-    def _born(self, births, given, detections) -> None:
-        """Start the free hands on the detections of the first camera left over."""
-        for d in sorted(births, key=lambda d: -np.count_nonzero(d.points[:, 2] > 0)):
-            if any(
-                _distance(g.points[:, :2], d.points)
-                < (NEW_HAND if d.side and d.side == h.side else DUPLICATE)
-                for h in self.hands
-                if (g := given[h.id][0]) is not None
-            ):
-                continue  # the same hand found twice (labelled as it: farther apart)
-            if any(
-                h.expected is not None
-                and given[h.id][0] is None
-                and _distance(h.places(0), d.points) < NEW_HAND
-                for h in self.hands
-            ):
-                continue  # a tracked hand's detection off by more than the gate
-            free = [h for h in self.hands if h.expected is None and given[h.id][0] is None]
-            if not free:
-                return
-            placed = [h for h in self.hands  # tracked, or found on this frame
-                      if h.expected is not None or given[h.id][0] is not None]  # fmt: skip
-            others = [h.side for h in placed if h.side]
-            side = other_side(others[0]) if others else (d.side or "right")
-            hand = next((h for h in free if h.side == side), free[0])
-            if hand.side != side:
-                self._set_side(hand, side)
-            hand.last = hand.before = None  # a new track
-            other = next((h for h in self.hands if h is not hand), None)
-            if other is not None and not other.side:
-                other.side = other_side(side)
-                other.tracker.side = other.side
-            hand.votes = []
-            given[hand.id][0] = d
-            self._match_cameras(hand, given, detections)
+    def _born(self, given, detections) -> None:
+        """Start the free hands on the detections left over, the first camera's first."""
+        for j, found in enumerate(detections):
+            rest = [d for d in found if d not in _given_values(given, j)]
+            for d in sorted(rest, key=lambda d: -np.count_nonzero(d.points[:, 2] > 0)):
+                if d in _given_values(given, j) or not self._new_hand(d, j, given):
+                    continue  # given to a hand born in another camera, or not a new hand
+                free = [h for h in self.hands if not _has_view(given, h)
+                        and (h.expected is None or self._on_other(h, given))]  # fmt: skip
+                if not free:
+                    return
+                placed = [h for h in self.hands if h not in free  # tracked, or found now
+                          and (h.expected is not None or _has_view(given, h))]  # fmt: skip
+                others = [h.side for h in placed if h.side]
+                side = other_side(others[0]) if others else (d.side or "right")
+                hand = next((h for h in free if h.side == side), free[0])
+                if hand.side != side:
+                    self._set_side(hand, side)
+                hand.last = hand.before = None  # a new track
+                other = next((h for h in self.hands if h is not hand), None)
+                if other is not None and not other.side:
+                    other.side = other_side(side)
+                    other.tracker.side = other.side
+                hand.votes = []
+                given[hand.id][j] = d
+                self._match_cameras(hand, given, detections, j)
 
-    def _match_cameras(self, hand: _Hand, given, detections) -> None:
-        """A hand's detections in the other cameras: those whose rays meet its first
-        camera's (`RAY_GAP`)."""
-        cameras, d = self.rig.cameras, given[hand.id][0]
-        for j in range(1, len(detections)):
-            rest = [e for e in detections[j] if e not in _given_values(given, j)]
-            gaps = [ray_points(cameras[0], d.points, cameras[j], e.points)[1] for e in rest]
+    def _new_hand(self, d, j: int, given) -> bool:
+        """Detection d of camera j left over is a new hand's (rule 3): not the same hand
+        found twice, nor a tracked hand's off by more than its gate."""
+        for h in self.hands:
+            g = given[h.id][j]
+            if g is not None and _distance(g.points[:, :2], d.points) < (
+                NEW_HAND if d.side and d.side == h.side else DUPLICATE
+            ):
+                return False  # the same hand found twice (labelled as it: farther apart)
+            if (h.expected is not None and g is None and not self._on_other(h, given)
+                    and _distance(h.places(j), d.points) < NEW_HAND):  # fmt: skip
+                return False  # a tracked hand's detection off by more than the gate
+        return True
+
+    def _on_other(self, h: _Hand, given) -> bool:
+        """`h`, given no view, is expected on the other hand's detections (within
+        `DUPLICATE`) in two cameras or more: followed onto it, not hidden behind it
+        (which one camera alone cannot tell)."""
+        if h.expected is None or _has_view(given, h):
+            return False
+        for other in self.hands:
+            views = [(j, v) for j, v in enumerate(given[other.id]) if v is not None]
+            if (
+                other is not h
+                and len(views) >= 2
+                and all(_distance(h.places(j), v.points) < DUPLICATE for j, v in views)
+            ):
+                return True
+        return False
+
+    def _match_cameras(self, hand: _Hand, given, detections, j: int = 0) -> None:
+        """A hand's detections in the other cameras than j: those whose rays meet its
+        camera j's (`RAY_GAP`)."""
+        cameras, d = self.rig.cameras, given[hand.id][j]
+        for k in range(len(detections)):
+            if k == j:
+                continue
+            rest = [e for e in detections[k] if e not in _given_values(given, k)]
+            gaps = [ray_points(cameras[j], d.points, cameras[k], e.points)[1] for e in rest]
             near = [e for e, g in zip(rest, gaps, strict=True) if g <= RAY_GAP]
-            given[hand.id][j] = min(near, key=lambda e: gaps[rest.index(e)]) if near else None
+            given[hand.id][k] = min(near, key=lambda e: gaps[rest.index(e)]) if near else None
 
     def _carry(self, h: _Hand, greys, kps: list) -> list:
         """Per camera, the hand's last detection carried forward by optical flow
@@ -718,6 +740,11 @@ class HandsTracker:
 def _in_front(other: _Hand, h: _Hand, camera) -> bool:
     """`other`'s last joints nearer `camera` than `h`'s by `FRONT` mm or more (rule 5)."""
     return other.depth(camera) <= h.depth(camera) - FRONT
+
+
+def _has_view(given: dict, h: _Hand) -> bool:
+    """`h` was given a detection in some camera."""
+    return any(v is not None for v in given[h.id])
 
 
 def _given_values(given: dict, j: int) -> list:
