@@ -505,10 +505,7 @@ def test_one_hands_views_given_to_two_hands_go_to_the_one_nearer_in_3d():
     # the right one's (each camera's assignment on its own): both go to the right hand
     from types import SimpleNamespace
 
-    rig = realistic_rig(2)
-    model = HandModel(HandShape.from_size(185.0))
-    joints = keypoint_points(model, motion_poses("counting", 0)[0][0], "pad")
-    tracker = HandsTracker(rig, detector=None)
+    rig, joints, tracker = _two_cameras()
     left, right = tracker.hands
     right.last = SimpleNamespace(joints=joints)
     behind, aside = np.array([0.0, 0.0, 120.0]), np.array([90.0, 0.0, 0.0])  # mm
@@ -525,6 +522,15 @@ def test_one_hands_views_given_to_two_hands_go_to_the_one_nearer_in_3d():
     assert given == {left.id: [views[0], None], right.id: [None, other]}
 
 
+def _two_cameras():
+    """The realistic stereo pair, a right hand's 21 points on it (mm) and a two-hand
+    tracker on it."""
+    rig = realistic_rig(2)
+    model = HandModel(HandShape.from_size(185.0))
+    joints = keypoint_points(model, motion_poses("counting", 0)[0][0], "pad")
+    return rig, joints, HandsTracker(rig, detector=None)
+
+
 def _placed(rig, joints):
     """A hand's last fit as `_agree` reads it: its joints and their projections."""
     from types import SimpleNamespace
@@ -537,11 +543,8 @@ def test_views_of_two_hands_given_to_one_are_parted():
     # camera 0's view of the right hand and camera 1's of the left hand (90 mm aside)
     # both went to the right hand's track: their rays do not meet, so the right hand
     # keeps the view where it is expected and the other goes to the left hand
-    rig = realistic_rig(2)
-    model = HandModel(HandShape.from_size(185.0))
-    joints = keypoint_points(model, motion_poses("counting", 0)[0][0], "pad")
+    rig, joints, tracker = _two_cameras()
     aside = np.array([90.0, 0.0, 0.0])  # mm
-    tracker = HandsTracker(rig, detector=None)
     left, right = tracker.hands
     right.last, left.last = _placed(rig, joints), _placed(rig, joints + aside)
     mine = Detection(np.c_[rig.cameras[0].project(joints), np.ones(21)])
@@ -555,10 +558,7 @@ def test_views_whose_rays_meet_far_from_both_hands_are_not_merged():
     # one camera's view to each hand; the rays meet, but where neither hand is (both
     # 150 mm off, more than half a palm): two hands seen where their rays happen to
     # cross (a ghost), so each hand keeps its view
-    rig = realistic_rig(2)
-    model = HandModel(HandShape.from_size(185.0))
-    joints = keypoint_points(model, motion_poses("counting", 0)[0][0], "pad")
-    tracker = HandsTracker(rig, detector=None)
+    rig, joints, tracker = _two_cameras()
     left, right = tracker.hands
     left.last = _placed(rig, joints + np.array([0.0, 0.0, 150.0]))
     right.last = _placed(rig, joints + np.array([150.0, 0.0, 0.0]))
@@ -571,11 +571,8 @@ def test_views_whose_rays_meet_far_from_both_hands_are_not_merged():
 def test_a_hand_only_the_second_camera_finds_starts_a_track():
     # camera 0 misses the hand on the first frame; camera 1 finds it: a track starts,
     # drawn on its points there (before, hands started on camera 0's detections only)
-    rig = realistic_rig(2)
-    model = HandModel(HandShape.from_size(185.0))
-    joints = keypoint_points(model, motion_poses("counting", 0)[0][0], "pad")
+    rig, joints, tracker = _two_cameras()
     seen = Detection(np.c_[rig.cameras[1].project(joints), np.ones(21)], side="right")
-    tracker = HandsTracker(rig, detector=None)
     frames = [np.zeros((cam.height, cam.width, 3), np.uint8) for cam in rig.cameras]
     result = tracker.process(frames, detections=[[], [seen]])
     drawn = [h for h in result.hands if not h.no_hand]
@@ -590,9 +587,7 @@ def test_a_hand_followed_onto_the_other_restarts_on_a_hand_left_over():
     # both cameras (its flow followed the right hand); a hand 200 mm aside, detected in
     # both cameras, is given to nobody: the left track restarts on it, keeping its side.
     # Lying on the right hand in camera 0 only (hidden behind it) it does not.
-    rig = realistic_rig(2)
-    model = HandModel(HandShape.from_size(185.0))
-    joints = keypoint_points(model, motion_poses("counting", 0)[0][0], "pad")
+    rig, joints, tracker = _two_cameras()
     aside = joints + np.array([200.0, 0.0, 0.0])
 
     def views(points):
@@ -600,7 +595,6 @@ def test_a_hand_followed_onto_the_other_restarts_on_a_hand_left_over():
 
     right_views, other_views = views(joints), views(aside)
     detections = [[right_views[j], other_views[j]] for j in range(2)]
-    tracker = HandsTracker(rig, detector=None)
     left, right = tracker.hands
     left.side, right.side = "left", "right"
     right.last = _placed(rig, joints)
