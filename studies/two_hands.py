@@ -189,54 +189,54 @@ def mediapipe_detections(case, cache=None, model: int = 1):
     return out
 
 
+def nearest(case, detections, j: int, k: int) -> list:
+    """Per frame, the detection of camera j nearest true hand k (mean distance under
+    0.5 of its size), or None: each hand's detection given it by the truth, whatever
+    its label."""
+    from handvar.synth.keypoints import hand_size_px
+
+    size = hand_size_px(case.rig.cameras[j], case.joints[k])
+    out = []
+    for t, found in enumerate(detections[j]):
+        dist = [np.nanmean(np.linalg.norm(d.points[:, :2] - case.truth_2d[j, k, t], axis=1))
+                for d in found]  # fmt: skip
+        near = bool(dist) and min(dist) < 0.5 * size[t]
+        out.append(found[int(np.argmin(dist))] if near else None)
+    return out
+
+
 def world_error(case, detections):
     """Per true hand, the wrist-relative error (mm) of the detector's world landmarks on
-    the frames a detection lies within 0.5 hand sizes of it (camera 0)."""
+    the frames a detection lies within 0.5 hand sizes of it (camera 0, `nearest`)."""
     from handvar.evaluation.metrics import joint_errors
-    from handvar.synth.keypoints import hand_size_px
 
     errs = [[], []]
     for k in range(2):
-        size = hand_size_px(case.rig.cameras[0], case.joints[k])
-        for t, found in enumerate(detections[0]):
-            best = None
-            for d in found:
-                if d.world is None:
-                    continue
-                dist = np.nanmean(np.linalg.norm(d.points[:, :2] - case.truth_2d[0, k, t], axis=1))
-                if dist < 0.5 * size[t] and (best is None or dist < best[0]):
-                    best = (dist, d.world)
-            if best is not None and case.in_view[0, k, t]:
-                errs[k].append(joint_errors(case.joints[k, t][None], best[1][None]).mean())
+        for t, d in enumerate(nearest(case, detections, 0, k)):
+            if d is not None and d.world is not None and case.in_view[0, k, t]:
+                errs[k].append(joint_errors(case.joints[k, t][None], d.world[None]).mean())
     return [float(np.mean(e)) if e else np.nan for e in errs]
 
 
-def nearest_detections(case, k: int) -> np.ndarray:
-    """(2, T, 21, 2): per camera of the first two and frame, the points of the
-    detection nearest true hand k (mean distance under 0.5 of its size), NaN where
-    none is: each hand's points given it by the truth, whatever their label."""
-    from handvar.synth.keypoints import hand_size_px
-
+def nearest_points(case, k: int) -> np.ndarray:
+    """(2, T, 21, 2): the points of `nearest` in the first two cameras, NaN where there
+    is none (and where a point is not found)."""
     out = np.full((2, case.n_frames, 21, 2), np.nan)
     for j in range(2):
-        size = hand_size_px(case.rig.cameras[j], case.joints[k])
-        for t, found in enumerate(case.detections[j]):
-            dist = [np.nanmean(np.linalg.norm(d.points[:, :2] - case.truth_2d[j, k, t], axis=1))
-                    for d in found]  # fmt: skip
-            if dist and min(dist) < 0.5 * size[t]:
-                d = found[int(np.argmin(dist))]
+        for t, d in enumerate(nearest(case, case.detections, j, k)):
+            if d is not None:
                 out[j, t] = np.where(d.points[:, 2:] > 0, d.points[:, :2], np.nan)
     return out
 
 
 def triangulation_error(case, k: int, tracks: dict, score) -> tuple[float, float]:
-    """True hand k's detections in the first two cameras (`nearest_detections`: the
+    """True hand k's detections in the first two cameras (`nearest_points`: the
     baseline at its best) triangulated point by point (`studies/realistic.py`'s
     `triangulated`), and the fit on the same frames: mean absolute 3D error, mm."""
     from handvar.evaluation.metrics import joint_errors
     from realistic import triangulated
 
-    tri = triangulated(case, nearest_detections(case, k))
+    tri = triangulated(case, nearest_points(case, k))
     fit = np.full_like(tri, np.nan)
     for t in np.flatnonzero(score.match[k] >= 0):
         fit[t] = tracks[score.ids[score.match[k, t]]]["joints"][t]

@@ -353,11 +353,19 @@ class _Hand:
         d = np.linalg.norm(self.last.joints - points, axis=1)
         return float(np.nanmean(d)) if np.isfinite(d).any() else np.inf
 
+    @property
+    def gate(self) -> float:
+        """The largest cost of a detection given to it, hand sizes (rule 2)."""
+        return GATE + GATE_GROWTH * max(self.missing, self.undetected)
+
     def palm(self) -> float:
         """Wrist → middle-MCP length of its last joints, mm (0 without a last fit)."""
+        from handvar.vision.keypoints import HandLandmark as L
+
         if self.last is None:
             return 0.0
-        return float(np.linalg.norm(self.last.joints[9] - self.last.joints[0]))
+        joints = self.last.joints
+        return float(np.linalg.norm(joints[L.MIDDLE_FINGER_MCP] - joints[L.WRIST]))
 
     def depth(self, camera) -> float:
         """Mean depth of its last joints in `camera`, mm."""
@@ -484,8 +492,8 @@ class HandsTracker:
         given: dict[int, list] = {h.id: [None] * n for h in self.hands}
         for j, found in enumerate(detections):
             expected = [h.places(j) for h in self.hands]
-            gates = [GATE + GATE_GROWTH * max(h.missing, h.undetected) for h in self.hands]
-            pairs = assign(expected, [h.side for h in self.hands], found, gates)
+            pairs = assign(expected, [h.side for h in self.hands], found,
+                           [h.gate for h in self.hands])  # fmt: skip
             for hand, k in pairs.items():
                 given[self.hands[hand].id][j] = found[k]
         self._agree(given)
@@ -545,8 +553,10 @@ class HandsTracker:
                 k = seen[0]
                 mine = ray_points(cameras[i], d.points, cameras[k], views[k].points)[1] <= RAY_GAP
             else:
-                gate = GATE + GATE_GROWTH * max(other.missing, other.undetected)
-                mine = other.expected is not None and _distance(other.places(i), d.points) <= gate
+                mine = (
+                    other.expected is not None
+                    and _distance(other.places(i), d.points) <= other.gate
+                )
             if mine:
                 views[i] = d
                 return
@@ -556,8 +566,8 @@ class HandsTracker:
         for j, found in enumerate(detections):
             rest = [d for d in found if d not in _given_values(given, j)]
             for d in sorted(rest, key=lambda d: -np.count_nonzero(d.points[:, 2] > 0)):
-                if d in _given_values(given, j) or not self._new_hand(d, j, given):
-                    continue  # given to a hand born in another camera, or not a new hand
+                if not self._new_hand(d, j, given):
+                    continue
                 free = [h for h in self.hands if not _has_view(given, h)
                         and (h.expected is None or self._on_other(h, given))]  # fmt: skip
                 if not free:
