@@ -29,7 +29,9 @@ the fit:
   landmarks' wrist-relative error beside it; with two cameras, the absolute error of
   each hand's detections triangulated point by point (given to it by the truth: the
   baseline at its best) and the fit's on the same frames;
-- the tracker's rate (fits and assignment, frames/s).
+- the tracker's rate (fits and assignment, frames/s);
+
+and last a Markdown table per scenario (its seeds and both hands) with the overall row.
 
 ``--side-run N`` sets the run of sure labels for the other side that turns a hand's
 side (`handvar.tracking.hands.SIDE_RUN`); the last line gives the runs seen, on tracks
@@ -308,8 +310,10 @@ def main() -> None:
               "side_det": 0, "side_fit": 0, "runs": {True: [], False: []},
               "rel": [], "abs": [], "mp": [], "tri": [], "same": [], "fps": [],
               "view": 0}  # fmt: skip
+    by_scenario = {}
     for scenario in args.scenario:
         for seed in range(args.seeds):
+            first = len(totals["det"])  # this case's rows of the totals start here
             case = two_hand_case(scenario, cameras=args.cameras, seed=seed, size=tuple(args.size))
             detections = case.detections
             if args.detector == "mediapipe":
@@ -358,6 +362,13 @@ def main() -> None:
             totals["sw_det"] += raw.switches
             totals["sw_fit"] += fit.switches
             totals["fps"].append(fps)
+            row = by_scenario.setdefault(scenario, {"sw_det": 0, "sw_fit": 0, "lost_det": 0,
+                                                    "lost_fit": 0, "rows": []})  # fmt: skip
+            row["sw_det"] += raw.switches
+            row["sw_fit"] += fit.switches
+            row["lost_det"] += int(sum(raw.lost[k] for k in range(2) if case.in_view[0, k].any()))
+            row["lost_fit"] += int(sum(fit.lost[k] for k in range(2) if case.in_view[0, k].any()))
+            row["rows"].append(slice(first, len(totals["det"])))
     print(f"all: identity switches {totals['sw_det']} (detector's labels) / {totals['sw_fit']} "
           f"(fit); PCK {np.nanmean(totals['det']):.3f} / {np.nanmean(totals['fit']):.3f}; "
           f"lost {totals['lost_det']} / {totals['lost_fit']} of {totals['view']} hand-frames "
@@ -376,6 +387,40 @@ def main() -> None:
              f"{np.nanmean(totals['tri']):.1f} mm, fit {np.nanmean(totals['same']):.1f} mm"
              if totals["tri"] else "")
           + f"; {np.mean(totals['fps']):.1f} fits/s (both hands)")  # fmt: skip
+    print_scenarios(by_scenario, totals)
+
+
+def print_scenarios(by_scenario, totals) -> None:
+    """Per scenario (its seeds and both hands), a Markdown table of the detector's and
+    the fit's switches, PCK (the mean of the hands') and lost frames, and the fit's 3D
+    error (wrist-relative, absolute; mm)."""
+    mp = bool(totals["mp"])  # MediaPipe's world landmarks beside the fit's 3D
+    tri = bool(totals["tri"])  # two cameras: the detections triangulated, the fit there
+
+    def cells(k) -> str:
+        rel = f"{np.nanmean(np.asarray(totals['rel'])[k]):.1f}"
+        if mp:
+            rel += f" / {np.nanmean(np.asarray(totals['mp'])[k]):.1f}"
+        out = f"{rel} | {np.nanmean(np.asarray(totals['abs'])[k]):.1f} |"
+        if tri:
+            out += (f" {np.nanmean(np.asarray(totals['tri'])[k]):.1f} / "
+                    f"**{np.nanmean(np.asarray(totals['same'])[k]):.1f}** |")  # fmt: skip
+        return out
+
+    every = np.arange(len(totals["det"]))
+    print(f"\n| scenario | switches | PCK | lost | 3D wrist-relative{': fit / MP' if mp else ''} "
+          "| 3D absolute |" + (" triangulated / **fit**, same frames |" if tri else "")
+          + "\n|---|---:|---:|---:|---:|---:|" + ("---:|" if tri else ""))  # fmt: skip
+    for scenario, row in by_scenario.items():
+        k = np.concatenate([every[r] for r in row["rows"]])
+        det, fit = (np.nanmean(np.asarray(totals[key])[k]) for key in ("det", "fit"))
+        print(f"| {scenario} | {row['sw_det']} / **{row['sw_fit']}** | {det:.3f} / "
+              f"**{fit:.3f}** | {row['lost_det']} / **{row['lost_fit']}** | "
+              f"{cells(k)}")  # fmt: skip
+    print(f"| **all** ({totals['view']} hand-frames in view) | {totals['sw_det']} / "
+          f"**{totals['sw_fit']}** | {np.nanmean(totals['det']):.3f} / "
+          f"**{np.nanmean(totals['fit']):.3f}** | {totals['lost_det']} / "
+          f"**{totals['lost_fit']}** | {cells(every)}")  # fmt: skip
 
 
 if __name__ == "__main__":
