@@ -54,11 +54,13 @@ of rejected keypoints is reported per frame (`FrameFit.rejected`).
 
 `reinitialise` starts the same fit from the perspective-n-point palm poses of the
 frame's keypoints (`handvar.tracking.keypoint_fit.palm_candidates`), without a prior:
-a direct re-initialisation with no grid search.
+a direct re-initialisation with no grid search, and the first pose of `handvar init`
+with keypoints.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -234,6 +236,9 @@ class FrameFit:
         E at the pose.
     iterations : int
         Levenberg–Marquardt steps taken.
+    starts : int
+        The fits started to find it: 1, or with `reinitialise` one per palm pose and
+        finger posture.
     """
 
     pose: np.ndarray
@@ -241,6 +246,7 @@ class FrameFit:
     rejected: np.ndarray
     cost: float
     iterations: int
+    starts: int = 1
 
     @property
     def n_rejected(self) -> int:
@@ -252,6 +258,19 @@ class FrameFit:
         """Mean d_ij over the kept keypoints, hand sizes (NaN if none)."""
         d = self.distances[~self.rejected & ~np.isnan(self.distances)]
         return float(d.mean()) if d.size else float("nan")
+
+    @property
+    def n_off(self) -> int:
+        """Kept keypoints farther than the keypoint check's `CHECK_THRESHOLD` hand sizes."""
+        d = self.distances[~self.rejected & ~np.isnan(self.distances)]
+        return int(np.sum(d > CHECK_THRESHOLD))
+
+    @property
+    def order(self) -> tuple[int, float]:
+        """How two fits of one frame's keypoints compare, best lowest: fewer keypoints
+        rejected or off (`n_off`), then closer (`error`).  Not by the cost: a fit that
+        rejects a keypoint drops its row, so a fit that rejects more can cost less."""
+        return (self.n_rejected + self.n_off, self.error)
 
 
 def hand_size_px(hand, x, camera) -> float:
@@ -643,35 +662,54 @@ def reinitialise(
     world=None,
     silhouettes: FrameData | None = None,
     settings: FrameFitSettings = FRAME_FIT_DEFAULTS,
+    shapes: tuple[str, ...] = ("open",),
 ) -> FrameFit | None:
     """The pose of a frame from its keypoints alone: `fit_frame` from every palm pose.
 
     The perspective-n-point palm poses of each camera's keypoints
-    (`handvar.tracking.keypoint_fit.palm_candidates`, four per camera) with the fingers
-    open are fitted without a prior, and the fit of the lowest cost is kept, of those
-    in front of every camera with keypoints.  None when no camera shows the wrist and
-    the four MCPs, or every fit lies behind a camera.
+    (`handvar.tracking.keypoint_fit.palm_candidates`, four per camera), each with the
+    fingers in every posture of `shapes` (`handvar.hand.kinematics.named_pose`), are
+    fitted without a prior; of the fits in front of every camera with keypoints the one
+    whose keypoints' loss is lowest is kept, each rejected keypoint charged the loss at
+    the rejection distance (`_truncated_cost`).  None when no camera shows the wrist
+    and the four MCPs, or every fit lies behind a camera.
     """
     from handvar.hand.kinematics import named_pose
     from handvar.tracking.keypoint_fit import _behind, palm_candidates
 
     kp = _clean(keypoints, len(rig), settings.min_confidence)
     seen = [k if (k[:, 2] > 0).any() else None for k in kp]
-    best = None
-    base = named_pose("open")
+    best, starts = None, 0
     for cam, k in zip(rig, kp, strict=True):
         if not (k[:, 2] > 0).any():
             continue
         for p in palm_candidates(np.where(k[:, 2:] > 0, k, np.nan), cam, hand):
-            x0 = base.copy()
-            x0[:6] = p
-            fit = fit_frame(kp, rig, hand, x0, world=world, silhouettes=silhouettes,
-                            settings=settings)  # fmt: skip
-            if _behind(fit.pose, hand, rig, seen):
-                continue  # a point reflection through a camera's centre projects alike
-            if best is None or fit.cost < best.cost:
-                best = fit
-    return best
+            for name in shapes:
+                starts += 1
+                x0 = named_pose(name)
+                x0[:6] = p
+                fit = fit_frame(kp, rig, hand, x0, world=world, silhouettes=silhouettes,
+                                settings=settings)  # fmt: skip
+                if _behind(fit.pose, hand, rig, seen):
+                    continue  # a point reflection through a camera's centre projects alike
+                score = _truncated_cost(fit, kp, settings)
+                if best is None or score < best[0]:
+                    best = (score, fit)
+    return None if best is None else dataclasses.replace(best[1], starts=starts)
+
+
+def _truncated_cost(fit: FrameFit, kp: np.ndarray, settings: FrameFitSettings) -> float:
+    """Σ c_ij ρ(min(d_ij, `FrameFitSettings.reject`)) at the fit: its keypoints' Huber
+    loss, each rejected one charged the loss at the rejection distance, d_ij in the
+    model's hand sizes at the fit (`FrameFit.distances`), so that the fits of one frame
+    from different starts compare on the same keypoints and the same scale.  (E itself
+    does not: it leaves a fit's rejected keypoints out, so a fit far off, rejecting most
+    of them, would cost least, and it measures d in the hand's size at the start.)"""
+    h = settings.huber
+    d = np.minimum(fit.distances, settings.reject)
+    ok = ~np.isnan(d)
+    rho = np.where(d <= h, 0.5 * d * d, h * (d - 0.5 * h))
+    return float((kp[:, :, 2][ok] * rho[ok]).sum())
 
 
 def honoured(

@@ -22,10 +22,12 @@ the first frame's silhouettes:
    resolution, and the one with the highest IoU is returned.
 
 With 2D keypoints (``keypoints``, design §14.1) the palm's orientation, the side of the hand
-that faces the camera, the position and the depth come from them instead
-(`handvar.tracking.keypoint_fit.fit_keypoints`: a PnP fit of the palm, then least
-squares of all 21 projected joints); steps 1–3 are skipped, and the search runs only
-when no camera shows the wrist and the four MCPs.  Step 4 then refines the keypoint fit
+that faces the camera, the position and the depth come from them instead, by the fit
+the tracker re-initialises with (`handvar.tracking.frame_fit.reinitialise`: the
+perspective-n-point poses of the palm, then the keypoint-first fit of all 21 projected
+joints from each, with the fingers in each posture of `InitSettings.keypoint_shapes`);
+steps 1–3 are skipped, and the search runs only when no camera shows the wrist and the
+four MCPs.  Step 4 then refines the keypoint fit
 too, and the refined pose is kept only if its keypoint error stays within
 `InitSettings.keypoint_slack` pixels of the fit's (the silhouette cannot see inside
 itself and may pull the model down a forearm).
@@ -98,6 +100,8 @@ class InitSettings:
     keypoint_slack : float
         With keypoints: the silhouette refinement is kept only if it raises the mean
         keypoint error by at most this many pixels (of the masks' resolution).
+    keypoint_shapes : tuple of str
+        With keypoints: the finger postures each palm pose is fitted from.
     """
 
     shapes: tuple[str, ...] = ("open", "spread", "fist", "point", "pinch", "thumb_across")
@@ -112,14 +116,17 @@ class InitSettings:
     distinct: float = 25.0
     refine_passes: int = 10
     keypoint_slack: float = 2.0
+    keypoint_shapes: tuple[str, ...] = ("open", "fist", "point")
 
     def __post_init__(self) -> None:
         from handvar.hand.kinematics import POSE_NAMES
 
-        if not self.shapes or any(s not in POSE_NAMES for s in self.shapes):
-            raise ValueError(
-                f"shapes: expected names among {', '.join(POSE_NAMES)}; got {self.shapes!r}"
-            )
+        for name in ("shapes", "keypoint_shapes"):
+            shapes = getattr(self, name)
+            if not shapes or any(s not in POSE_NAMES for s in shapes):
+                raise ValueError(
+                    f"{name}: expected names among {', '.join(POSE_NAMES)}; got {shapes!r}"
+                )
         for name in ("roll", "pitch", "yaw"):
             values = np.asarray(getattr(self, name), dtype=float)
             if values.ndim != 1 or values.size == 0 or not np.all(np.isfinite(values)):
@@ -151,7 +158,8 @@ class InitResult:
         Named hand shape of the candidate the pose was refined from; ``"keypoints"``
         when it came from keypoints.
     n_candidates : int
-        Candidates scored by the search (least-squares runs with keypoints).
+        Candidates scored by the search (with keypoints: the fits started,
+        `FrameFit.starts`).
     keypoint_error : float
         Mean distance of the projected joints to the keypoints, pixels; NaN without
         keypoints.
@@ -530,14 +538,18 @@ def _keypoint_pose(m, rig, hand, keypoints, settings, rng, tracker_settings):
     """The pose from keypoints, refined on the silhouettes (module notes); None if none."""
     from handvar.predictors import NoMotion
     from handvar.render import silhouettes
-    from handvar.tracking.keypoint_fit import KeypointFitSettings, fit_keypoints, keypoint_error
+    from handvar.tracking.frame_fit import FrameFitSettings, reinitialise
+    from handvar.tracking.keypoint_fit import _frames, keypoint_error
     from handvar.tracking.tracker import Tracker
 
     tips = "end" if tracker_settings is None else tracker_settings.cost.keypoint_tips
-    fit = fit_keypoints(keypoints, rig, hand, settings=KeypointFitSettings(tips=tips))
+    keypoints = _frames(keypoints, rig)
+    fit = reinitialise(keypoints, rig, hand, settings=FrameFitSettings(tips=tips),
+                       shapes=settings.keypoint_shapes)  # fmt: skip
     if fit is None:
         return None
-    pose, error = fit.pose, fit.error
+    pose = fit.pose
+    error = keypoint_error(pose, hand, rig, keypoints, tips=tips)
     iou = silhouette_iou(silhouettes(hand, pose, rig), m)
     fit_iou = iou
     if settings.refine_passes and m.any(axis=(1, 2)).all():  # refined where there is one
@@ -554,6 +566,6 @@ def _keypoint_pose(m, rig, hand, keypoints, settings, rng, tracker_settings):
         iou=float(iou),
         search_iou=float(fit_iou),
         shape="keypoints",
-        n_candidates=fit.n_candidates,
+        n_candidates=fit.starts,
         keypoint_error=float(error),
     )

@@ -318,6 +318,11 @@ class RecoverySettings:
         Re-initialise a lost frame (False: only flag it): from its keypoints by a direct
         fit (`handvar.tracking.frame_fit.reinitialise`), or, in a track without
         keypoints, by the silhouette search (`handvar.tracking.init.initial_pose`).
+    reinit_shapes : tuple of str
+        The finger postures the direct fit from keypoints starts each palm pose from
+        (`reinitialise`'s ``shapes``).  ("open",): with ("open", "fist", "point")
+        the realistic benchmark's figures moved by no more than run-to-run noise, for
+        three times the time (docs/keypoint-fit.md, "a pose from keypoints alone").
     refine_iou : float
         In a track without keypoints, a fit whose mean silhouette IoU is below this
         after the refinement and the search is tried again with one digit at a time
@@ -391,6 +396,7 @@ class RecoverySettings:
     """
 
     reinit: bool = True
+    reinit_shapes: tuple[str, ...] = ("open",)
     refine_iou: float = 0.8
     refine_iterations: int = 100
     reseed_digits: int = 4
@@ -415,9 +421,10 @@ class RecoverySettings:
         as_instance(self.skin_where_expected, bool, "skin_where_expected")
         as_float(self.no_hand_iou, "no_hand_iou", minimum=0.0, maximum=1.0)
         as_instance(self.keypoint_iou, bool, "keypoint_iou")
-        as_instance(self.keypoint_reseeds, tuple, "keypoint_reseeds")
-        for name in self.keypoint_reseeds:
-            one_of(name, POSE_NAMES, "keypoint_reseeds")
+        for option in ("reinit_shapes", "keypoint_reseeds"):
+            as_instance(getattr(self, option), tuple, option)
+            for name in getattr(self, option):
+                one_of(name, POSE_NAMES, option)
         as_instance(self.restart, bool, "restart")
         as_int(self.prior_steps, "prior_steps", minimum=0)
         as_int(self.depth_mirror, "depth_mirror", minimum=0)
@@ -662,16 +669,17 @@ class Recovery:
             The frame was re-initialised.
         """
         lost = fit is None or self._lost(fit)
-        restart = not lost and self.settings.restart and _off(fit) > 0
+        restart = not lost and self.settings.restart and fit.n_off > 0
         if not (fit is None or (self.settings.reinit and (lost or restart))):
             return fit, False
         t1 = time.perf_counter()
         direct = reinitialise(kps, self.rig, self.hand, world=world,
                               silhouettes=self._silhouettes,
-                              settings=self.fit_settings)  # fmt: skip
+                              settings=self.fit_settings,
+                              shapes=self.settings.reinit_shapes)  # fmt: skip
         if lost:
             self.init_seconds.append(time.perf_counter() - t1)
-        if direct is None or not (fit is None or _fit_score(direct) < _fit_score(fit)):
+        if direct is None or not (fit is None or direct.order < fit.order):
             return fit, False
         if lost:  # a re-initialisation: the predictor restarts there
             self.tracker.reset(direct.pose)
@@ -700,7 +708,7 @@ class Recovery:
         """
 
         def better(alt) -> bool:
-            return _fit_score(alt)[0] <= _fit_score(fit)[0] and alt.cost < fit.cost
+            return alt.order[0] <= fit.order[0] and alt.cost < fit.cost
 
         start = depth_mirror(fit.pose, self.hand, self.rig.cameras[0])
         alt = self._fit(kps, start, world, self._mirror_settings)
@@ -712,7 +720,7 @@ class Recovery:
     def _reseed_digits(self, fit, kps, world, prediction, scale):
         """Rule 1's second look (`RecoverySettings.keypoint_reseeds`): each digit with a
         keypoint rejected or off is fitted again from the named shapes' angles; the
-        best fit by `_fit_score` is kept.
+        best fit by `FrameFit.order` is kept.
 
         Why: a digit that the fit from the prediction left in a wrong local minimum
         (a finger bent the wrong way after a fast motion) has its keypoints rejected as
@@ -731,7 +739,7 @@ class Recovery:
                 again = self._fit(kps, start, world)
                 if self._with_prior():
                     again = self._prior_stage(again, kps, world, prediction, scale)
-                if _fit_score(again) < _fit_score(fit):
+                if again.order < fit.order:
                     fit = again
         return fit
 
@@ -1012,19 +1020,6 @@ def _at(values, i):
 def _rejected_share(fit, present) -> np.ndarray:
     """Per camera, the share of its keypoints `fit` rejected (0 for a camera without)."""
     return fit.rejected.sum(axis=1) / np.maximum(present.sum(axis=1), 1)
-
-
-def _off(fit) -> int:
-    """Kept keypoints of a keypoint fit farther than the keypoint check's 0.2 hand sizes
-    (in the fit's hand size)."""
-    d = fit.distances[~fit.rejected & ~np.isnan(fit.distances)]
-    return int(np.sum(d > CHECK_THRESHOLD))
-
-
-def _fit_score(fit) -> tuple[int, float]:
-    """Order of two keypoint fits of one frame, best lowest: fewer keypoints rejected or
-    off (`_off`), then closer."""
-    return (fit.n_rejected + _off(fit), fit.error)
 
 
 def _better(a, b) -> bool:
