@@ -608,3 +608,24 @@ def test_a_hand_followed_onto_the_other_restarts_on_a_hand_left_over():
     given = {left.id: [None, None], right.id: list(right_views)}
     tracker._born(given, detections)
     assert given[left.id] == [None, None]
+
+
+def test_a_hand_seen_in_one_camera_gets_the_other_cameras_view_whose_rays_meet_it():
+    # the right hand was given camera 1's view only (in camera 0 it is expected
+    # elsewhere); camera 0 has its detection and that of a hand 200 mm aside left over:
+    # it gets its own, whose rays meet its camera 1 view, not the other
+    rig, joints, tracker = _two_cameras()
+    aside = joints + np.array([200.0, 0.0, 0.0])
+    left, right = tracker.hands
+
+    def view(j, points):
+        return Detection(np.c_[rig.cameras[j].project(points), np.ones(21)])
+
+    mine, other = view(0, joints), view(0, aside)
+    given = {left.id: [None, None], right.id: [None, view(1, joints)]}
+    tracker._complete(given, [[other, mine], [given[right.id][1]]])
+    assert given[right.id][0] is mine and given[left.id] == [None, None]
+    # only the other hand's detection left over: its rays do not meet, it stays
+    given = {left.id: [None, None], right.id: [None, view(1, joints)]}
+    tracker._complete(given, [[other], [given[right.id][1]]])
+    assert given[right.id][0] is None

@@ -26,7 +26,10 @@ detector's label:
    whose last joints lie nearer the points they triangulate, in 3D, where the hand
    in front and the one it hides are apart in depth, if within `SAME_HAND` of its
    palm's length: two views of two hands may meet too, at a point where neither is
-   (a ghost).
+   (a ghost).  A hand given a view in some camera and none in another gets the
+   detection left over there whose rays meet its view's within `RAY_GAP`, the
+   nearest (`_complete`): where it is expected in that camera, the flow may have
+   followed the other hand.
 3. **A new hand.**  A detection left over in any camera (the first camera's first),
    not within `DUPLICATE` hand sizes of a tracked hand's detection (MediaPipe
    sometimes finds one hand twice), nor within `NEW_HAND` of the detection of a
@@ -497,6 +500,7 @@ class HandsTracker:
             for hand, k in pairs.items():
                 given[self.hands[hand].id][j] = found[k]
         self._agree(given)
+        self._complete(given, detections)
         self._born(given, detections)
         out = {}
         for h in self.hands:
@@ -617,6 +621,25 @@ class HandsTracker:
             ):
                 return True
         return False
+
+    def _complete(self, given, detections) -> None:
+        """Rule 2, two cameras or more: a hand given a view in some camera and none in
+        another gets the detection left over there whose rays meet its view's
+        (`RAY_GAP`), the nearest."""
+        cameras = self.rig.cameras
+        for h in self.hands:
+            views = [(j, v) for j, v in enumerate(given[h.id]) if v is not None]
+            if not views:
+                continue
+            j, v = views[0]
+            for k in range(len(detections)):
+                if given[h.id][k] is not None:
+                    continue
+                rest = [e for e in detections[k] if e not in _given_values(given, k)]
+                gaps = [ray_points(cameras[j], v.points, cameras[k], e.points)[1] for e in rest]
+                near = [(g, i) for i, g in enumerate(gaps) if g <= RAY_GAP]
+                if near:
+                    given[h.id][k] = rest[min(near)[1]]
 
     def _match_cameras(self, hand: _Hand, given, detections, j: int = 0) -> None:
         """A hand's detections in the other cameras than j: those whose rays meet its
