@@ -305,7 +305,7 @@ def main() -> None:
     if args.cameras == 2:
         head += f"{'tri':>7}{'fit':>7}"
     print(head + f"{'fits/s':>8}")
-    totals = {"det": [], "fit": [], "sw_det": 0, "sw_fit": 0, "lost_det": 0, "lost_fit": 0,
+    totals = {"det": [], "fit": [], "sw_det": 0, "sw_fit": 0, "lost_det": [], "lost_fit": [],
               "seen_det": 0, "seen_fit": 0, "off_det": 0, "off_fit": 0, "off_hidden": 0,
               "side_det": 0, "side_fit": 0, "runs": {True: [], False: []},
               "rel": [], "abs": [], "mp": [], "tri": [], "same": [], "fps": [],
@@ -351,8 +351,8 @@ def main() -> None:
                 totals["fit"].append(fit.pck[k])
                 totals["rel"].append(fit.mpjpe_relative[k])
                 totals["abs"].append(fit.mpjpe[k])
-                totals["lost_det"] += int(raw.lost[k])
-                totals["lost_fit"] += int(fit.lost[k])
+                totals["lost_det"].append(int(raw.lost[k]))
+                totals["lost_fit"].append(int(fit.lost[k]))
                 totals["seen_det"] += int(raw.lost_visible[k])
                 totals["seen_fit"] += int(fit.lost_visible[k])
                 totals["view"] += int(case.in_view[0, k].sum())
@@ -362,18 +362,15 @@ def main() -> None:
             totals["sw_det"] += raw.switches
             totals["sw_fit"] += fit.switches
             totals["fps"].append(fps)
-            row = by_scenario.setdefault(scenario, {"sw_det": 0, "sw_fit": 0, "lost_det": 0,
-                                                    "lost_fit": 0, "rows": []})  # fmt: skip
+            row = by_scenario.setdefault(scenario, {"sw_det": 0, "sw_fit": 0, "rows": []})
             row["sw_det"] += raw.switches
             row["sw_fit"] += fit.switches
-            row["lost_det"] += int(sum(raw.lost[k] for k in range(2) if case.in_view[0, k].any()))
-            row["lost_fit"] += int(sum(fit.lost[k] for k in range(2) if case.in_view[0, k].any()))
-            row["rows"].append(slice(first, len(totals["det"])))
+            row["rows"].extend(range(first, len(totals["det"])))
     print(f"all: identity switches {totals['sw_det']} (detector's labels) / {totals['sw_fit']} "
           f"(fit); PCK {np.nanmean(totals['det']):.3f} / {np.nanmean(totals['fit']):.3f}; "
-          f"lost {totals['lost_det']} / {totals['lost_fit']} of {totals['view']} hand-frames "
-          f"in view ({totals['seen_det']} / {totals['seen_fit']} with at least half the "
-          f"hand visible); drawn on no hand {totals['off_det']} / {totals['off_fit']} "
+          f"lost {sum(totals['lost_det'])} / {sum(totals['lost_fit'])} of {totals['view']} "
+          f"hand-frames in view ({totals['seen_det']} / {totals['seen_fit']} with at least "
+          f"half the hand visible); drawn on no hand {totals['off_det']} / {totals['off_fit']} "
           f"({totals['off_hidden']} of them carried hidden); on a "
           f"hand of the other side {totals['side_det']} / {totals['side_fit']} (labels "
           f"sure of the other side in a row on a track: at most "
@@ -391,36 +388,35 @@ def main() -> None:
 
 
 def print_scenarios(by_scenario, totals) -> None:
-    """Per scenario (its seeds and both hands), a Markdown table of the detector's and
-    the fit's switches, PCK (the mean of the hands') and lost frames, and the fit's 3D
-    error (wrist-relative, absolute; mm)."""
+    """Per scenario (its seeds and both hands) and overall, a Markdown table of the
+    detector's and the fit's switches, PCK (the mean of the hands') and lost frames, and
+    the fit's 3D error (wrist-relative, absolute; mm), with MediaPipe's world landmarks
+    and the triangulated detections beside it where the run has them."""
     mp = bool(totals["mp"])  # MediaPipe's world landmarks beside the fit's 3D
     tri = bool(totals["tri"])  # two cameras: the detections triangulated, the fit there
 
-    def cells(k) -> str:
-        rel = f"{np.nanmean(np.asarray(totals['rel'])[k]):.1f}"
-        if mp:
-            rel += f" / {np.nanmean(np.asarray(totals['mp'])[k]):.1f}"
-        out = f"{rel} | {np.nanmean(np.asarray(totals['abs'])[k]):.1f} |"
-        if tri:
-            out += (f" {np.nanmean(np.asarray(totals['tri'])[k]):.1f} / "
-                    f"**{np.nanmean(np.asarray(totals['same'])[k]):.1f}** |")  # fmt: skip
-        return out
+    def mean(key, k) -> float:
+        return float(np.nanmean(np.asarray(totals[key])[k]))
 
-    every = np.arange(len(totals["det"]))
+    def line(name, sw_det, sw_fit, k) -> str:
+        lost = [int(np.asarray(totals[key])[k].sum()) for key in ("lost_det", "lost_fit")]
+        out = (
+            f"| {name} | {sw_det} / **{sw_fit}** | {mean('det', k):.3f} / "
+            f"**{mean('fit', k):.3f}** | {lost[0]} / **{lost[1]}** | {mean('rel', k):.1f}"
+        )
+        out += f" / {mean('mp', k):.1f}" if mp else ""
+        out += f" | {mean('abs', k):.1f} |"
+        if tri:
+            out += f" {mean('tri', k):.1f} / **{mean('same', k):.1f}** |"
+        return out  # fmt: skip
+
     print(f"\n| scenario | switches | PCK | lost | 3D wrist-relative{': fit / MP' if mp else ''} "
           "| 3D absolute |" + (" triangulated / **fit**, same frames |" if tri else "")
           + "\n|---|---:|---:|---:|---:|---:|" + ("---:|" if tri else ""))  # fmt: skip
     for scenario, row in by_scenario.items():
-        k = np.concatenate([every[r] for r in row["rows"]])
-        det, fit = (np.nanmean(np.asarray(totals[key])[k]) for key in ("det", "fit"))
-        print(f"| {scenario} | {row['sw_det']} / **{row['sw_fit']}** | {det:.3f} / "
-              f"**{fit:.3f}** | {row['lost_det']} / **{row['lost_fit']}** | "
-              f"{cells(k)}")  # fmt: skip
-    print(f"| **all** ({totals['view']} hand-frames in view) | {totals['sw_det']} / "
-          f"**{totals['sw_fit']}** | {np.nanmean(totals['det']):.3f} / "
-          f"**{np.nanmean(totals['fit']):.3f}** | {totals['lost_det']} / "
-          f"**{totals['lost_fit']}** | {cells(every)}")  # fmt: skip
+        print(line(scenario, row["sw_det"], row["sw_fit"], row["rows"]))
+    print(line(f"**all** ({totals['view']} hand-frames in view)", totals["sw_det"],
+               totals["sw_fit"], np.arange(len(totals["det"]))))  # fmt: skip
 
 
 if __name__ == "__main__":

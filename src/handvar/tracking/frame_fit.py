@@ -254,16 +254,20 @@ class FrameFit:
         return int(self.rejected.sum())
 
     @property
+    def _kept(self) -> np.ndarray:
+        """d_ij of the kept keypoints, flat."""
+        return self.distances[~self.rejected & ~np.isnan(self.distances)]
+
+    @property
     def error(self) -> float:
         """Mean d_ij over the kept keypoints, hand sizes (NaN if none)."""
-        d = self.distances[~self.rejected & ~np.isnan(self.distances)]
+        d = self._kept
         return float(d.mean()) if d.size else float("nan")
 
     @property
     def n_off(self) -> int:
         """Kept keypoints farther than the keypoint check's `CHECK_THRESHOLD` hand sizes."""
-        d = self.distances[~self.rejected & ~np.isnan(self.distances)]
-        return int(np.sum(d > CHECK_THRESHOLD))
+        return int(np.sum(self._kept > CHECK_THRESHOLD))
 
     @property
     def order(self) -> tuple[int, float]:

@@ -624,34 +624,24 @@ class HandsTracker:
 
     def _complete(self, given, detections) -> None:
         """Rule 2, two cameras or more: a hand given a view in some camera and none in
-        another gets the detection left over there whose rays meet its view's
-        (`RAY_GAP`), the nearest."""
-        cameras = self.rig.cameras
+        another gets the detection left over there whose rays meet its view's."""
         for h in self.hands:
-            views = [(j, v) for j, v in enumerate(given[h.id]) if v is not None]
-            if not views:
-                continue
-            j, v = views[0]
-            for k in range(len(detections)):
-                if given[h.id][k] is not None:
-                    continue
-                rest = [e for e in detections[k] if e not in _given_values(given, k)]
-                gaps = [ray_points(cameras[j], v.points, cameras[k], e.points)[1] for e in rest]
-                near = [(g, i) for i, g in enumerate(gaps) if g <= RAY_GAP]
-                if near:
-                    given[h.id][k] = rest[min(near)[1]]
+            j = next((j for j, v in enumerate(given[h.id]) if v is not None), None)
+            if j is not None:
+                self._match_cameras(h, given, detections, j)
 
     def _match_cameras(self, hand: _Hand, given, detections, j: int = 0) -> None:
-        """A hand's detections in the other cameras than j: those whose rays meet its
-        camera j's (`RAY_GAP`)."""
+        """A hand's detections in the other cameras than j where it has none: the one
+        left over whose rays meet its camera j's (`RAY_GAP`), the nearest."""
         cameras, d = self.rig.cameras, given[hand.id][j]
         for k in range(len(detections)):
-            if k == j:
+            if k == j or given[hand.id][k] is not None:
                 continue
             rest = [e for e in detections[k] if e not in _given_values(given, k)]
             gaps = [ray_points(cameras[j], d.points, cameras[k], e.points)[1] for e in rest]
             near = [e for e, g in zip(rest, gaps, strict=True) if g <= RAY_GAP]
-            given[hand.id][k] = min(near, key=lambda e: gaps[rest.index(e)]) if near else None
+            if near:
+                given[hand.id][k] = min(near, key=lambda e: gaps[rest.index(e)])
 
     def _carry(self, h: _Hand, greys, kps: list) -> list:
         """Per camera, the hand's last detection carried forward by optical flow
