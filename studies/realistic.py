@@ -60,7 +60,10 @@ whatever their label, and counted under "wrong side".  A run that fails scores e
 frame lost and every point wrong.
 
 Run: ``PYTHONPATH=src .venv/bin/python studies/realistic.py`` (about 5–10 minutes on
-two cores); ``--quick`` for a one-minute subset; ``--out DIR`` keeps the generated cases
+two cores); ``--quick`` for a one-minute subset; ``--fast`` for the four cases of the
+fast gestures instead (``fast``: the counting and spread gestures at three times the
+pace, twice over, the palm moving with them); each case's line says how far its joints
+move in 5 frames; ``--out DIR`` keeps the generated cases
 (and the fits) in DIR; ``--cases`` to run only the cases whose name contains a string;
 ``--silhouette-term S`` tracks with the keypoint fit's silhouette term at σ S;
 ``--predictor P`` with ``handvar track``'s predictor P.
@@ -125,10 +128,19 @@ class Spec:
 
 #: Frames of each motion: a window with its fast events (benchmark: the little finger
 #: at 73, the global rotation at 100; flexion: the single digits; flip: the whole turn).
-WINDOWS = {"benchmark": (50, 110), "flexion": (20, 80), "flip": (10, 70), "counting": (0, 60)}
+WINDOWS = {
+    "benchmark": (50, 110),
+    "flexion": (20, 80),
+    "flip": (10, 70),
+    "counting": (0, 60),
+    "fast": (0, 60),
+}
+#: The motions of the benchmark's cases, and of its fast gestures' (``--fast``).
+MOTIONS = ("benchmark", "flip", "flexion", "counting")
+FAST = ("fast",)
 
 
-def specs(quick: bool) -> list[Spec]:
+def specs(quick: bool, motions: tuple[str, ...] = MOTIONS) -> list[Spec]:
     """The cases: every motion, mono and stereo, right and left (quick: one of each motion)."""
     backgrounds = ("video", "fridge", "rectangles", "gradient")
     distractors = ("arm", "face", "none")
@@ -136,7 +148,7 @@ def specs(quick: bool) -> list[Spec]:
     out = []
     k = 0
     combos = [(1, "right"), (2, "left"), (1, "left"), (2, "right")] if not quick else [(1, "right")]
-    for m, motion in enumerate(("benchmark", "flip", "flexion", "counting")):
+    for m, motion in enumerate(motions):
         for c, (cameras, side) in enumerate(combos):
             if quick:
                 cameras, side = ((1, "right"), (2, "left"), (1, "left"), (2, "right"))[m]
@@ -508,11 +520,26 @@ def inside_rows(
     return rows
 
 
+def pace(case) -> str:
+    """How far the true joints move in 5 frames, in hand sizes (the wrist → middle-MCP
+    length in camera 0's image): the mean over the joints and frames, and the mean of
+    each frame's fastest joint."""
+    p = case.truth_2d[0]
+    size = np.linalg.norm(p[:-5, 9] - p[:-5, 0], axis=1)
+    moved = np.linalg.norm(p[5:] - p[:-5], axis=2) / size[:, None]
+    return f"{moved.mean():.2f} hand sizes (the fastest joint {moved.max(axis=1).mean():.2f})"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="four 30-frame cases (~1 min)")
     parser.add_argument("--out", type=Path, default=None, help="keep the cases in DIR")
     parser.add_argument("--cases", default="", help="only cases whose name contains this")
+    parser.add_argument(
+        "--fast", action="store_true",
+        help="the fast gestures' four cases instead (counting and spread at three times "
+        "the pace, the palm moving with them)",
+    )  # fmt: skip
     parser.add_argument("--no-fit", action="store_true", help="score the raw keypoints only")
     parser.add_argument(
         "--detector", choices=("simulated", "mediapipe", "inside"), default="simulated",
@@ -549,7 +576,7 @@ def main() -> None:
     if args.predictor:
         extra += ("--predictor", args.predictor)
 
-    todo = [s for s in specs(args.quick) if args.cases in s.name]
+    todo = [s for s in specs(args.quick, FAST if args.fast else MOTIONS) if args.cases in s.name]
     with tempfile.TemporaryDirectory() as tmp:
         base = args.out if args.out is not None else Path(tmp)
         base.mkdir(parents=True, exist_ok=True)
@@ -560,6 +587,7 @@ def main() -> None:
             t0 = time.perf_counter()
             case = generate(spec, case_dir)
             gen = time.perf_counter() - t0
+            print(f"{spec.name}: the joints move {pace(case)} in 5 frames")
             label = (f"{spec.name} ({spec.background}, {spec.distractor}, {spec.skin}, "
                      f"{case.n_frames} fr)")  # fmt: skip
             given = None  # the simulated detector's keypoints files

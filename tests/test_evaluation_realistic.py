@@ -26,9 +26,12 @@ from handvar.evaluation.metrics import (
     similarity_align,
 )
 from handvar.evaluation.realistic import (
+    FAST_PACE,
     GROSS_KINDS,
     DetectorErrors,
+    counting_poses,
     detector_keypoints,
+    motion_poses,
     personal_shape,
     read_case,
     realistic_case,
@@ -113,6 +116,34 @@ def test_the_same_seed_gives_the_same_case_and_another_seed_another(right_case):
     other = realistic_case("benchmark", seed=4, frames=(60, 64), size=SMALL, distractor="arm",
                            background="fridge")  # fmt: skip
     assert not np.array_equal(other.frames, right_case.frames)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_fast_gestures_are_the_counting_gestures_at_their_pace(seed):
+    from handvar.hand.kinematics import named_pose
+    from handvar.params import digit_angles
+
+    slow, fps = motion_poses("counting", seed)
+    fast, fast_fps = motion_poses("fast", seed)
+    fingers = np.concatenate([digit_angles(d) for d in range(1, 5)])
+
+    def fastest(poses):  # the fastest finger angle's speed, degrees per frame
+        return np.abs(np.diff(poses[:, fingers], axis=0)).max()
+
+    # each transition 0.35–0.6 s divided by the pace: the fastest speeds' ratio is the
+    # pace times at most 0.6 / 0.35 either way
+    assert fps == fast_fps
+    assert FAST_PACE * 0.35 / 0.6 < fastest(fast) / fastest(slow) < FAST_PACE * 0.6 / 0.35
+    # from the fist and back to it, twice through the spread hand
+    for poses in (slow, fast):
+        np.testing.assert_allclose(
+            poses[[0, -1]][:, fingers], named_pose("fist")[None, fingers].repeat(2, 0), atol=1e-6
+        )
+    spread = named_pose("spread")[fingers]
+    at_spread = np.flatnonzero(np.abs(fast[:, fingers] - spread).max(axis=1) < 1e-6)
+    assert np.any(np.diff(at_spread) > 1)  # reached, left, reached again
+    with pytest.raises(ValueError, match="pace"):
+        counting_poses(seed, pace=0.0)
 
 
 def test_a_persons_hand_moves_every_bone_and_knuckle_and_nothing_else():

@@ -14,8 +14,9 @@ A test for the real-video path that a user's recording would be, with the truth 
   a slight optical blur, sensor noise, and motion blur (the average of sub-frame
   renderings) on frames where the hand moves fast;
 - **the motion**: the paper's sequences (``benchmark``, ``flip``, ``flexion``,
-  `handvar.synth.sequences`) and ``counting`` (fist, one to four fingers, spread hand,
-  from the named hand shapes of `handvar.hand.kinematics`);
+  `handvar.synth.sequences`), ``counting`` (fist, one to four fingers, spread hand,
+  from the named hand shapes of `handvar.hand.kinematics`) and ``fast`` (the same
+  gestures three times as fast, twice over, the palm moving with them);
 - **the keypoints** of a detector (`detector_keypoints`): the true points with an AR(1)
   noise of `DetectorErrors.noise` hand sizes, gross errors on `DetectorErrors.gross` of
   the frames (a finger's points swapped with its neighbour's, a fingertip snapped to its
@@ -52,6 +53,7 @@ from handvar.validate import as_float, as_int, one_of
 __all__ = [
     "BACKGROUNDS",
     "DISTRACTORS",
+    "FAST_PACE",
     "GROSS_KINDS",
     "MOTIONS",
     "SKIN_TONES",
@@ -76,7 +78,9 @@ SKIN_TONES: dict[str, tuple[int, int, int]] = {
     "dark": (92, 62, 46),
 }
 #: Motions a case may follow.
-MOTIONS: tuple[str, ...] = ("benchmark", "flip", "flexion", "counting")
+MOTIONS: tuple[str, ...] = ("benchmark", "flip", "flexion", "counting", "fast")
+#: The ``fast`` motion's pace: the counting gestures this many times as fast.
+FAST_PACE = 3.0
 #: Generated backgrounds (`textured_background`).
 BACKGROUNDS: tuple[str, ...] = ("gradient", "rectangles", "fridge")
 #: Skin-coloured distractors.
@@ -188,14 +192,18 @@ def realistic_rig(cameras: int = 1, settings: SceneSettings = SceneSettings()):
 # --- motions -----------------------------------------------------------------------------
 
 
-def counting_poses(seed: int = 0, fps: float = 25.0) -> np.ndarray:
+def counting_poses(
+    seed: int = 0, fps: float = 25.0, *, pace: float = 1.0, rounds: int = 1
+) -> np.ndarray:
     """Counting and spread gestures: fist, then one to four fingers, the spread hand, fist.
 
     Key poses from the named hand shapes (`handvar.hand.kinematics.named_pose`): the
     fist; "one" the pointing hand; two to four extend the middle, ring and little
     fingers in turn (their angles from the open hand); then the spread hand; each held
-    briefly, with minimum-jerk transitions of seeded durations and a slow drift of the
-    palm (as the paper's sequences, `handvar.synth.sequences`).
+    briefly, with minimum-jerk transitions of seeded durations (0.35–0.6 s, holds
+    0.15–0.35 s, each divided by `pace`) and a drift of the palm (as the paper's
+    sequences, `handvar.synth.sequences`: ±10–15° and ±15 mm, knots every 1.2 and
+    1.5 s divided by `pace`); the gestures `rounds` times over.
 
     Returns
     -------
@@ -207,6 +215,7 @@ def counting_poses(seed: int = 0, fps: float = 25.0) -> np.ndarray:
     from handvar.synth.motion import keyframe_motion
     from handvar.synth.sequences import palm_drift
 
+    pace = as_float(pace, "pace", minimum=0.0, exclusive_minimum=True)
     rng = np.random.default_rng([int(seed), 10])
     fist, point, spread = named_pose("fist"), named_pose("point"), named_pose("spread")
     keys = [fist, point]
@@ -215,12 +224,14 @@ def counting_poses(seed: int = 0, fps: float = 25.0) -> np.ndarray:
         current = current.copy()
         current[digit_angles(digit)] = 0.0  # the open hand's angles
         keys.append(current)
-    keys += [spread, fist]
-    durations = rng.uniform(0.35, 0.6, len(keys) - 1)
-    holds = rng.uniform(0.15, 0.35, len(keys))
+    keys += [spread]
+    keys = keys * as_int(rounds, "rounds", minimum=1) + [fist]
+    durations = rng.uniform(0.35, 0.6, len(keys) - 1) / pace
+    holds = rng.uniform(0.15, 0.35, len(keys)) / pace
     poses = keyframe_motion(np.array(keys), durations, holds=holds, fps=fps)
     t = np.arange(len(poses)) / fps
-    palm_drift(poses, t, rng, (("rx", 10.0), ("ry", 15.0), ("rz", 10.0)), 15.0, (1.2, 1.5))
+    palm_drift(poses, t, rng, (("rx", 10.0), ("ry", 15.0), ("rz", 10.0)), 15.0,
+               (1.2 / pace, 1.5 / pace))  # fmt: skip
     return clamp(poses)
 
 
@@ -231,6 +242,8 @@ def motion_poses(name: str, seed: int = 0) -> tuple[np.ndarray, float]:
     one_of(name, MOTIONS, "motion")
     if name == "counting":
         return counting_poses(seed), 25.0
+    if name == "fast":  # FAST_PACE times the pace, twice over
+        return counting_poses(seed, pace=FAST_PACE, rounds=2), 25.0
     return sequence_poses(name, seed), SEQUENCE_FPS[name]
 
 
@@ -823,7 +836,7 @@ def realistic_case(
 
     Parameters
     ----------
-    motion : {"benchmark", "flip", "flexion", "counting"}
+    motion : {"benchmark", "flip", "flexion", "counting", "fast"}
     cameras : {1, 2}, keyword-only
         One camera or a stereo pair (`realistic_rig`).
     side : {"right", "left"}, keyword-only
