@@ -135,12 +135,12 @@ WINDOWS = {
     "counting": (0, 60),
     "fast": (0, 60),
 }
-#: The motions of the benchmark's cases, and of its fast gestures' (``--fast``).
-MOTIONS = ("benchmark", "flip", "flexion", "counting")
-FAST = ("fast",)
+#: The motions of the benchmark's 16 cases, and of its fast gestures' four (``--fast``).
+CASE_MOTIONS = ("benchmark", "flip", "flexion", "counting")
+FAST_MOTIONS = ("fast",)
 
 
-def specs(quick: bool, motions: tuple[str, ...] = MOTIONS) -> list[Spec]:
+def specs(quick: bool, motions: tuple[str, ...] = CASE_MOTIONS) -> list[Spec]:
     """The cases: every motion, mono and stereo, right and left (quick: one of each motion)."""
     backgrounds = ("video", "fridge", "rectangles", "gradient")
     distractors = ("arm", "face", "none")
@@ -576,7 +576,8 @@ def main() -> None:
     if args.predictor:
         extra += ("--predictor", args.predictor)
 
-    todo = [s for s in specs(args.quick, FAST if args.fast else MOTIONS) if args.cases in s.name]
+    motions = FAST_MOTIONS if args.fast else CASE_MOTIONS
+    todo = [s for s in specs(args.quick, motions) if args.cases in s.name]
     with tempfile.TemporaryDirectory() as tmp:
         base = args.out if args.out is not None else Path(tmp)
         base.mkdir(parents=True, exist_ok=True)
