@@ -22,6 +22,14 @@ with the first camera alone (``--calib`` of that camera, one keypoint file): one
 camera cannot tell the hand's size, so the hand keeps the given 185 mm and its depth
 is off by the size's ratio.
 
+``--labels mediapipe`` gives both the fit and the triangulation MediaPipe's points on
+each camera's repeated frames instead (``handvar keypoints CAM --hand SIDE --out
+mediapipe{j}.npz``, its points given to ``init`` and ``track`` as ``.npy`` files:
+MediaPipe's handedness names the other side on some renders, and the study gives the
+true one), as a user with a real stereo pair has them; its 21 points are scored
+against the true ones, where it marks a joint elsewhere than the truth both estimates
+carry that, and a case where it misses the hand in a view is reported and left out.
+
 Run: ``PYTHONPATH=src .venv/bin/python studies/stereo_shape.py [--cases 8] [--out DIR]``.
 """
 
@@ -41,6 +49,7 @@ from handvar.evaluation.realistic import SceneSettings, realistic_case
 from handvar.hand.anthropometry import MIDDLE_MCP, WRIST, HandLandmark
 from handvar.pipeline import Track
 from handvar.tracking.keypoint_cost import keypoint_points
+from handvar.vision.keypoints import read_keypoints
 
 ROOT = Path(__file__).resolve().parents[1]
 HANDVAR = [sys.executable, "-m", "handvar"]
@@ -79,12 +88,35 @@ def make_case(k: int, spread: float, repeat: int, noise: float, labels: str,
         image = (directory / "one" / f"cam{j}" / "00000.jpg").read_bytes()
         for t in range(repeat):
             (folder / f"{t:05d}.jpg").write_bytes(image)
+        if labels == "mediapipe":
+            found = detected(folder, side, directory / f"mediapipe{j}.npz")
+            np.save(directory / f"mediapipe{j}.npy", points_2d(found))
+            keypoints.append(directory / f"mediapipe{j}.npy")
+            continue
         points = case.rig.cameras[j].project(marked(case.joints[0], labels))
         points = points + noise * rng.standard_normal((21, 2))
         path = directory / f"keypoints{j}.npy"
         np.save(path, np.repeat(points[None], repeat, axis=0))
         keypoints.append(path)
     return case, keypoints
+
+
+def detected(folder: Path, side: str, path: Path) -> Path:
+    """MediaPipe's keypoints of the frames in `folder` (``handvar keypoints``), `path`."""
+    cmd = [*HANDVAR, "keypoints", str(folder), "--hand", side, "--out", str(path)]
+    done = subprocess.run(cmd, capture_output=True, text=True,
+                          env=dict(os.environ, PYTHONPATH=str(ROOT / "src")))  # fmt: skip
+    if done.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)}\n{done.stderr.strip()}")
+    return path
+
+
+def points_2d(path: Path) -> np.ndarray:
+    """(T, 21, 2) pixels of a keypoint file, NaN where there is no point."""
+    if path.suffix == ".npy":
+        return np.load(path)
+    kp = read_keypoints(path)
+    return np.where(kp.present[..., None], kp.xy, np.nan)
 
 
 def run(directory: Path, side: str, keypoints: list[Path], name: str = "fit") -> Path:
@@ -129,9 +161,9 @@ def main() -> None:
     parser.add_argument("--noise", type=float, default=1.5, help="pixels per coordinate")
     parser.add_argument(
         "--labels",
-        choices=("truth", "detector"),
+        choices=("truth", "detector", "mediapipe"),
         default="truth",
-        help="where the keypoints mark the joints (function marked)",
+        help="where the keypoints mark the joints (function marked), or MediaPipe's points",
     )
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args()
@@ -142,17 +174,24 @@ def main() -> None:
     print(f"{'case':28s} {'length: true':>12s} {'fit':>6s} {'stereo fit':>10s} "
           f"{'tri.':>6s} {'ratio':>6s} {'palm: true':>10s} {'fit':>6s} {'tri.':>6s} "
           f"{'mono fit':>8s}")  # fmt: skip
-    rows = []
+    rows, joints, spread = [], [], []
     for k in range(args.cases):
         directory = base / f"case{k}"
         case, keypoints = make_case(k, args.proportions, args.repeat, args.noise, args.labels,
                                     directory)  # fmt: skip
         truth = case.joints[0]
+        xy = np.stack([points_2d(p) for p in keypoints])
+        if not np.isfinite(xy).all():
+            missed = (~np.isfinite(xy).all(axis=(2, 3))).sum(axis=1).tolist()
+            print(f"{case.name:28s} left out: frames without the hand per camera {missed}")
+            continue
         fit, length = fitted(run(directory, case.side, keypoints))
         mono, _ = fitted(run(directory, case.side, keypoints[:1], "mono"))
-        tri = triangulated(case, np.stack([np.load(p) for p in keypoints]))
+        tri = triangulated(case, xy)
         e = [float(np.linalg.norm(p - truth, axis=-1).mean()) for p in (fit, tri, mono)]
         rows.append(e)
+        joints.append([np.linalg.norm(p - truth, axis=-1).mean(axis=0) for p in (fit, tri)])
+        spread.append(float(np.nanstd(tri, axis=0).mean()))
         print(f"{case.name:28s} {case.hand_length:12.1f} {length:6.1f} {e[0]:10.1f} "
               f"{e[1]:6.1f} {e[0] / e[1]:6.2f} {palm(truth):10.1f} {palm(fit):6.1f} "
               f"{palm(tri):6.1f} {e[2]:8.1f}")  # fmt: skip
@@ -164,6 +203,13 @@ def main() -> None:
         f"the fit over triangulation: {f / t:.2f} on average, {worst:.2f} at worst; "
         f"one camera (the given 185 mm hand): {m:.1f} mm"
     )
+    print(
+        "the triangulated points' spread over the repeated frames, per case (mean "
+        "standard deviation, mm): " + " ".join(f"{v:.1f}" for v in spread)
+    )
+    for name, errors in zip(("fit", "triangulated"), np.mean(joints, axis=0), strict=True):
+        print(f"per joint (wrist, thumb CMC … little tip), {name}: "
+              + " ".join(f"{v:.0f}" for v in errors))  # fmt: skip
 
 
 if __name__ == "__main__":
