@@ -168,9 +168,10 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args()
     base = args.out or Path(tempfile.mkdtemp(prefix="stereo-shape-"))
+    points = ("MediaPipe's points" if args.labels == "mediapipe"
+              else f"keypoint noise {args.noise} px, labels {args.labels}")  # fmt: skip
     print(f"{args.cases} still hands, proportions σ {args.proportions}, {args.repeat} "
-          f"frames, keypoint noise {args.noise} px, labels {args.labels}; absolute 3D "
-          "error, mm")  # fmt: skip
+          f"frames, {points}; absolute 3D error, mm")  # fmt: skip
     print(f"{'case':28s} {'length: true':>12s} {'fit':>6s} {'stereo fit':>10s} "
           f"{'tri.':>6s} {'ratio':>6s} {'palm: true':>10s} {'fit':>6s} {'tri.':>6s} "
           f"{'mono fit':>8s}")  # fmt: skip
