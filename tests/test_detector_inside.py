@@ -274,6 +274,91 @@ def test_the_counting_clip_with_mediapipe_inside_gives_no_pose_without_a_hand():
     assert posed[found].all() and not posed[~found].any()
 
 
+# --- MediaPipe on frames far apart ---------------------------------------------------------
+
+
+class _CountingHands:
+    """A stand-in for MediaPipe's ``Hands``: counts its looks, finds `found[k]` hands
+    (one point set each) at its k-th look."""
+
+    def __init__(self, found, **options):
+        from types import SimpleNamespace as NS
+
+        self.looks, self.found = 0, found
+        point = NS(x=0.5, y=0.5, z=0.0)
+        self.hand = NS(landmark=[point] * 21)
+        self.label = NS(classification=[NS(label="Left", score=0.9)])
+        self._ns = NS
+
+    def process(self, rgb):
+        n = self.found[self.looks]
+        self.looks += 1
+        return self._ns(multi_hand_landmarks=[self.hand] * n or None,
+                        multi_hand_world_landmarks=None,
+                        multi_handedness=[self.label] * n or None)  # fmt: skip
+
+    def close(self):
+        pass
+
+
+def _counting_detector(found):
+    from types import SimpleNamespace as NS
+
+    from handvar.vision.mediapipe import MediaPipeHands
+
+    detector = MediaPipeHands()
+    hands = _CountingHands(found)
+    detector._module = NS(Hands=lambda **options: hands)
+    return detector, hands
+
+
+def test_mediapipe_looks_twice_only_at_a_frame_far_from_the_last_it_saw():
+    from handvar.vision.mediapipe import STALE_FRAMES
+
+    detector, hands = _counting_detector([1] * 10)
+    image = np.zeros((8, 8, 3), np.uint8)
+    looks = []
+    for frame in (0, 1, 1 + STALE_FRAMES, 2 + 2 * STALE_FRAMES, None):
+        before = hands.looks
+        assert len(detector(image, frame=frame)) == 1
+        looks.append(hands.looks - before)
+    # the first frame, frames 1 and STALE_FRAMES apart, and a frame without its index:
+    # one look; a frame farther on: two
+    assert looks == [1, 1, 1, 2, 1]
+
+
+def test_mediapipe_keeps_its_first_look_where_the_second_finds_fewer_hands():
+    detector, hands = _counting_detector([1, 2, 1, 2, 2])
+    image = np.zeros((8, 8, 3), np.uint8)
+    detector(image, frame=0)
+    assert len(detector(image, frame=10)) == 2  # looked twice: 2 then 1 hands, first kept
+    assert len(detector(image, frame=20)) == 2  # 2 then 2: the second kept
+    assert hands.looks == 5
+
+
+def test_looking_twice_brings_mediapipe_on_every_10th_frame_nearer_its_points_on_every_frame():
+    """MediaPipe on every 10th frame of the example video (what each of the two
+    processes sees with a detector on every 5th frame) against its own points on every
+    frame, shipped with the video: looking twice where the last frame seen is far back
+    brings the points nearer them (measured over the whole video, median distance
+    0.009 → 0.004 hand sizes; ``studies/detector_gaps.py``)."""
+    from handvar.vision.mediapipe import MediaPipeHands
+
+    shipped = read_keypoints(KEYPOINTS)
+    frames = _frames(VIDEO, 300)
+    median = {}
+    for indexed in (False, True):
+        detector, distances = MediaPipeHands(), []
+        for t in range(0, 300, 10):
+            found = detector(frames[t], frame=t if indexed else None)
+            size = np.linalg.norm(shipped.xy[t, 9] - shipped.xy[t, 0])
+            distances.append(min(np.median(np.linalg.norm(d.points[:, :2] - shipped.xy[t], axis=1))
+                                 for d in found) / size)  # fmt: skip
+        detector.close()
+        median[indexed] = np.median(distances)
+    assert median[True] < 0.75 * median[False], median
+
+
 # --- the per-frame tracker -----------------------------------------------------------------
 
 

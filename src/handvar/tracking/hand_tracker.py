@@ -332,7 +332,8 @@ class HandTracker:
         if not self.detectors:
             return None, None, False
         ran = self.frame_count % self.every == 0
-        found = [d(image) for d, image in zip(self.detectors, images, strict=True)] if ran else None
+        found = ([d(image, frame=self.frame_count) for d, image in
+                  zip(self.detectors, images, strict=True)] if ran else None)  # fmt: skip
         if found is not None and self._votes is not None and any(found):
             self._vote(found)
         side = self.side if self.labelled else None

@@ -443,7 +443,8 @@ class HandsTracker:
         n = 1 if self.rig is None else len(self.rig)
         images = _images(frames, n)
         if detections is None and self.detectors and self.frame_count % self.every == 0:
-            detections = [d(image) for d, image in zip(self.detectors, images, strict=True)]
+            detections = [d(image, frame=self.frame_count)
+                          for d, image in zip(self.detectors, images, strict=True)]  # fmt: skip
         ran = detections is not None  # the detector's frame
         if not ran:
             if self.every == 1:

@@ -52,7 +52,8 @@ def user_detector(function: Callable, name: str = "detector") -> Callable:
     """Wrap a user's ``frame -> points`` callable (module notes) as a detector.
 
     Each call's result is checked; a wrong one raises a ValueError naming `name`,
-    what was expected and what came, with the frame's count.
+    what was expected and what came, with the frame's count.  The detector takes the
+    frame's index as the pipeline gives it (``frame=``) and does not pass it on.
 
     Examples
     --------
@@ -65,7 +66,7 @@ def user_detector(function: Callable, name: str = "detector") -> Callable:
         raise TypeError(f"{name}: expected a callable frame -> points; got {function!r}")
     count = [0]
 
-    def detect(image) -> list[Detection]:
+    def detect(image, frame: int | None = None) -> list[Detection]:
         count[0] += 1
         try:
             return _as_detections(function(image))
@@ -192,7 +193,8 @@ def detect_ahead(feed: Iterable, detectors: list, *, depth: int = 4) -> Iterator
         The frames (`originals`: the full-resolution images the detectors see, one per
         camera; None on a frame the detectors skip).
     detectors : list of callable
-        Per camera, ``image -> list[Detection]``.
+        Per camera, ``(image, frame=index) -> list[Detection]`` (the frame's index in
+        the feed: MediaPipe looks twice at a frame far from the last it saw).
     depth : int, keyword-only
         Frames detected ahead at most.
 
@@ -222,7 +224,8 @@ def _detect_in_thread(feed: Iterable, detectors: list, depth: int) -> Iterator:
             for index, seconds, images, originals in feed:
                 found = None
                 if originals is not None:
-                    found = [d(image) for d, image in zip(detectors, originals, strict=True)]
+                    found = [d(image, frame=index)
+                             for d, image in zip(detectors, originals, strict=True)]  # fmt: skip
                 while not stop.is_set():
                     try:
                         items.put((index, seconds, images, found), timeout=0.1)
@@ -319,7 +322,7 @@ def _detect_in_process(
                 if originals is not None:
                     slot, spec = slots.put(originals)
                     k, sent = sent % processes, sent + 1
-                    workers[k].send(spec)
+                    workers[k].send((index, spec))
                 pending.append((index, seconds, images, slot, k))
             if not pending:
                 return
@@ -435,6 +438,7 @@ def _serve(requests, replies, options: list[dict]) -> None:
             break
         if spec is None:
             break
+        index, spec = spec
         try:
             found = []
             for detect, (name, shape) in zip(detectors, spec, strict=True):
@@ -443,7 +447,8 @@ def _serve(requests, replies, options: list[dict]) -> None:
                     shm = attached[name] = shared_memory.SharedMemory(name=name)
                     resource_tracker.unregister(shm._name, "shared_memory")
                 image = np.ndarray(shape, np.uint8, shm.buf)
-                found.append([(d.points, d.world, d.side, d.score) for d in detect(image)])
+                found.append([(d.points, d.world, d.side, d.score)
+                              for d in detect(image, frame=index)])  # fmt: skip
         except (ValueError, ImportError) as exc:
             pickle.dump(str(exc), replies)
             replies.flush()

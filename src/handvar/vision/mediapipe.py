@@ -15,6 +15,16 @@ Choices
 -------
 - Video mode (``static_image_mode=False``): the landmark model tracks the hand from the
   previous frame and the palm detector runs only when it is lost.
+- Frames far apart: MediaPipe crops the frame around where the hand was in the last
+  frame it saw.  Given the frame's index (``frame``), a frame more than `STALE_FRAMES`
+  after the last one seen (a detector on every K-th frame of a video) is looked at
+  twice, the second time cropped around the hands the first look found, and the
+  second look is kept unless it finds fewer hands: on the realistic benchmark's fast
+  gestures with the detector on every 5th frame, the crop from 10 frames before (two
+  processes detect in turn) cuts off fast fingers (docs/results/realistic-benchmark.md,
+  "fast gestures").  Frames 1 or 2 apart (every frame, the processes in turn) are
+  looked at once: a second look there gains less and would double the detector's
+  time (docs/detector.md, "frames far apart").
 - Handedness: MediaPipe labels hands as if the image were mirrored (a selfie camera).
   For an ordinary camera (``mirrored=False``, the default) its "Left" is the right hand
   (`handedness_side`); the keypoint file stores the side the image shows.  The same
@@ -51,6 +61,7 @@ import numpy as np
 
 __all__ = [
     "MEDIAPIPE_VERSION",
+    "STALE_FRAMES",
     "MediaPipeHands",
     "MissingExtraError",
     "detect_keypoints",
@@ -61,6 +72,9 @@ __all__ = [
 
 #: The MediaPipe release the adapter was written and checked against.
 MEDIAPIPE_VERSION = "0.10.21"
+#: Frames after the last one a `MediaPipeHands` saw beyond which it looks twice (module
+#: notes, "frames far apart").
+STALE_FRAMES = 2
 
 
 class MissingExtraError(ImportError):
@@ -196,11 +210,14 @@ class MediaPipeHands:
         }  # fmt: skip
         self._hands = None
         self._count = 0
+        self._last: int | None = None  # the index of the last frame seen, if given
         #: MediaPipe's relative depth (z, about the image width) of the landmarks of
         #: each hand of the last call, in its order (kept in the .npz).
         self.depths: list[np.ndarray] = []
 
-    def __call__(self, image) -> list:
+    def __call__(self, image, frame: int | None = None) -> list:
+        """The hands in `image`, the next frame; `frame`, its index in the video, makes
+        a frame far from the last one seen looked at twice (module notes)."""
         from handvar.vision.keypoints import Detection
 
         image = np.asarray(image)
@@ -220,6 +237,13 @@ class MediaPipeHands:
                 result = self._hands.process(rgb)
         else:
             result = self._hands.process(rgb)
+        stale = None not in (frame, self._last) and frame - self._last > STALE_FRAMES
+        if stale and result.multi_hand_landmarks:
+            again = self._hands.process(rgb)  # cropped around this frame's hands
+            if len(again.multi_hand_landmarks or ()) >= len(result.multi_hand_landmarks):
+                result = again
+        if frame is not None:
+            self._last = frame
         hands = result.multi_hand_landmarks or ()
         metric = getattr(result, "multi_hand_world_landmarks", None) or [None] * len(hands)
         found = []
