@@ -144,6 +144,10 @@ def test_the_fast_gestures_are_the_counting_gestures_at_their_pace(seed):
     assert np.any(np.diff(at_spread) > 1)  # reached, left, reached again
     with pytest.raises(ValueError, match="pace"):
         counting_poses(seed, pace=0.0)
+    # the faster gestures: twice the pace, as many frames (to a frame's rounding each)
+    faster, _ = motion_poses("faster", seed)
+    assert abs(len(faster) - len(fast)) <= 2 and len(faster) >= 60
+    assert 2 * 0.35 / 0.6 < fastest(faster) / fastest(fast) < 2 * 0.6 / 0.35
 
 
 def test_a_persons_hand_moves_every_bone_and_knuckle_and_nothing_else():
