@@ -40,12 +40,13 @@ frames a hand the detector misses is followed by optical flow
 (`handvar.tracking.hands.MISSED_CARRY`, to compare values); ``--same-hand X`` the
 palm lengths within which one hand's views given to two hands are merged
 (`handvar.tracking.hands.SAME_HAND`; ``inf``: wherever their rays meet).  With ``--every K`` the
-detector runs on every K-th frame only; the fit carries each hand's detection by
-optical flow over the frames between, and the detections' baseline is interpolated
-linearly between the detector's frames.  ``--landmarks lite`` runs MediaPipe with its lite landmark
-model (faster; `benchmarks/detector_options.py`).  ``--cache DIR`` keeps MediaPipe's detections
-per case in DIR and reads them back on the next run (the renders are the same for the
-same scenario, seed and size).
+detector runs on every K-th frame only (MediaPipe as the command runs it: two
+MediaPipes taking those frames in turn, each given the frame's index); the fit carries
+each hand's detection by optical flow over the frames between, and the detections'
+baseline is interpolated linearly between the detector's frames.  ``--landmarks lite``
+runs MediaPipe with its lite landmark model (faster; `benchmarks/detector_options.py`).
+``--cache DIR`` keeps MediaPipe's detections per case in DIR and reads them back on the
+next run (the renders are the same for the same scenario, seed and size).
 """
 
 from __future__ import annotations
@@ -164,27 +165,44 @@ def interpolated(tracks: dict, every: int) -> dict:
     return out
 
 
-def mediapipe_detections(case, cache=None, model: int = 1):
-    """MediaPipe Hands on every rendered frame, per camera (read from, or written to,
-    ``cache/<case>-<size>-cam<j>.json`` when a cache folder is given); `model` its
-    landmark model (1 full, 0 lite)."""
+def mediapipe_detections(case, cache=None, model: int = 1, every: int = 1):
+    """MediaPipe Hands on the rendered frames, per camera (read from, or written to,
+    ``cache/<case>-<size>-cam<j>[-lite][-everyK].json`` when a cache folder is given);
+    `model` its landmark model (1 full, 0 lite).  With `every` > 1 on every `every`-th
+    frame only, as the command runs it: `DETECTOR_PROCESSES` MediaPipes taking those
+    frames in turn, each given the frame's index (it looks twice at a frame far from
+    the last it saw); no hand on the other frames."""
     from pathlib import Path
 
+    from handvar.vision.detector import DETECTOR_PROCESSES
     from handvar.vision.keypoints import read_detections, write_detections
     from handvar.vision.mediapipe import MediaPipeHands
 
     out = []
     height, width = case.frames.shape[2:4]
     for j in range(len(case.rig)):
-        name = f"{case.name}-{width}x{height}-cam{j}{'' if model else '-lite'}.json"
+        name = (f"{case.name}-{width}x{height}-cam{j}{'' if model else '-lite'}"
+                f"{'' if every == 1 else f'-every{every}'}.json")  # fmt: skip
         path = None if cache is None else Path(cache) / name
         if path is not None and path.exists():
             out.append(read_detections(path))
             continue
-        detect = MediaPipeHands(model_complexity=model)
-        out.append([detect(cv2.cvtColor(case.frames[j, t], cv2.COLOR_RGB2BGR))
-                    for t in range(case.n_frames)])  # fmt: skip
-        detect.close()
+        if every == 1:
+            detect = MediaPipeHands(model_complexity=model)
+            out.append([detect(cv2.cvtColor(case.frames[j, t], cv2.COLOR_RGB2BGR))
+                        for t in range(case.n_frames)])  # fmt: skip
+            detect.close()
+        else:
+            detectors = [MediaPipeHands(model_complexity=model) for _ in range(DETECTOR_PROCESSES)]
+            found = []
+            for t in range(case.n_frames):
+                k = t // every
+                image = cv2.cvtColor(case.frames[j, t], cv2.COLOR_RGB2BGR)
+                found.append(detectors[k % len(detectors)](image, frame=t)
+                             if t % every == 0 else [])  # fmt: skip
+            for d in detectors:
+                d.close()
+            out.append(found)
         if path is not None:
             path.parent.mkdir(parents=True, exist_ok=True)
             write_detections(path, out[-1])
@@ -317,7 +335,8 @@ def main() -> None:
             case = two_hand_case(scenario, cameras=args.cameras, seed=seed, size=tuple(args.size))
             detections = case.detections
             if args.detector == "mediapipe":
-                detections = mediapipe_detections(case, args.cache, int(args.landmarks == "full"))
+                detections = mediapipe_detections(case, args.cache, int(args.landmarks == "full"),
+                                                  args.every)  # fmt: skip
                 case = dataclasses.replace(case, detections=detections)
             raw_tracks = detections_as_tracks(case)
             if args.every > 1:
