@@ -37,6 +37,7 @@ import numpy as np
 
 from handvar.data import example_path
 from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
+from handvar.vision.frames import open_frames
 from handvar.vision.keypoints import read_keypoints
 from handvar.vision.mediapipe import STALE_FRAMES, MediaPipeHands
 
@@ -78,15 +79,6 @@ def scores(pairs) -> tuple[float, float, int, int]:
     return pck, float(np.median(distances)) if distances else np.nan, missed, scored
 
 
-def video_frames(name: str):
-    capture = cv2.VideoCapture(str(example_path(name)))
-    while True:
-        ok, frame = capture.read()
-        if not ok:
-            return
-        yield frame
-
-
 def row(label: str, pairs: dict) -> str:
     """One line: the scores of one look and of two (`pairs[False]`, `pairs[True]`)."""
     cells = []
@@ -110,7 +102,8 @@ def main() -> None:
         reference = np.where(detected.present[..., None], detected.xy, np.nan)
         pairs = {}
         for indexed in (False, True):
-            found = looks(video_frames(name), args.every, indexed, spread)
+            frames = (image for _, image in open_frames(example_path(name)).frames())
+            found = looks(frames, args.every, indexed, spread)
             pairs[indexed] = [(hands, reference[t]) for t, hands in found.items()]
         print(row(f"{name}, against MediaPipe on every frame", pairs), flush=True)
     if args.realistic is not None:

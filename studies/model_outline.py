@@ -33,6 +33,8 @@ import numpy as np
 import handvar
 from handvar.data import example_path
 from handvar.render import silhouettes
+from handvar.tracking.tracker import silhouette_iou
+from handvar.vision.frames import open_frames
 from handvar.vision.keypoints import read_keypoints
 from handvar.vision.silhouette import EmptySilhouetteError, silhouettes_from_frames
 
@@ -44,24 +46,21 @@ def outline(model: np.ndarray, silhouette: np.ndarray) -> tuple[float, float, fl
     silhouette's share off the model, IoU."""
     m, s = model.astype(bool), silhouette.astype(bool)
     return ((m.sum() / s.sum()), (m & ~s).sum() / m.sum(), (s & ~m).sum() / s.sum(),
-            (m & s).sum() / (m | s).sum())  # fmt: skip
+            float(silhouette_iou(m[None], s[None])[0]))  # fmt: skip
 
 
 def real_video(name: str, every: int) -> np.ndarray:
     """(frames, 4) `outline` figures of one real video (module notes)."""
     video = example_path(name)
     detected = read_keypoints(example_path(f"{name}-keypoints"))
-    capture = cv2.VideoCapture(str(video))
-    size = (int(capture.get(cv2.CAP_PROP_FRAME_WIDTH)), int(capture.get(cv2.CAP_PROP_FRAME_HEIGHT)))
+    reader = open_frames(video)
+    size = reader.size
     scale = 640.0 / max(size)
     track = handvar.track(video, keypoints=detected, scale=scale)
     rig = track.rig.scaled(scale)
     keypoints = detected.scaled(scale, size)
     rows = []
-    for t in range(track.n_frames):
-        ok, frame = capture.read()
-        if not ok:
-            break
+    for t, frame in reader.frames(0, track.n_frames):
         pose = track.poses[t]
         if t % every or not np.isfinite(pose).all() or not keypoints.present[t].any():
             continue
