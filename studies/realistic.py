@@ -539,13 +539,13 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="four 30-frame cases (~1 min)")
     parser.add_argument("--out", type=Path, default=None, help="keep the cases in DIR")
     parser.add_argument("--cases", default="", help="only cases whose name contains this")
-    pace = parser.add_mutually_exclusive_group()
-    pace.add_argument(
+    motion = parser.add_mutually_exclusive_group()
+    motion.add_argument(
         "--fast", action="store_true",
         help="the fast gestures' four cases instead (counting and spread at three times "
         "the pace, the palm moving with them)",
     )  # fmt: skip
-    pace.add_argument(
+    motion.add_argument(
         "--faster", action="store_true",
         help="the fast gestures' four cases at twice their pace instead",
     )  # fmt: skip
