@@ -65,13 +65,30 @@ def test_a_point_whose_surroundings_change_is_held_or_dropped(hold):
     assert carried.present[1:, 1].all()
     np.testing.assert_allclose(carried.xy[1:, 1], [[28.0, 30.0]] * 2, atol=0.05)  # followed
     np.testing.assert_allclose(carried.confidence[1:, 1], 1.0)
-    if hold:  # held where the detection put it, at a lower confidence
+    if hold:  # held where the detection put it (one point followed: too few to move it)
         assert carried.present[1:, 0].all()
         np.testing.assert_allclose(carried.xy[1:, 0], 80.0)
         np.testing.assert_allclose(carried.confidence[1:, 0], hold)
     else:
         assert not carried.present[1:, 0].any()
     assert not carried.present[:, 2:].any()  # missing points are not invented
+
+
+def test_a_held_point_moves_as_the_followed_ones_move():
+    base, step = texture(), np.array([1.5, 1.0])
+    later = base.copy()
+    later[60:100, 60:100] = texture(seed=7)[60:100, 60:100]  # something moved in front
+    frames = [shifted(base, 0, 0)] + [shifted(later, *(t * step)) for t in range(1, 4)]
+    detected = np.full((4, 21, 3), np.nan)
+    detected[0, 0] = [80.0, 80.0, 1.0]  # lost on frame 1
+    detected[0, 1:6, :2] = [[25, 25], [30, 130], [130, 30], [130, 130], [35, 80]]
+    detected[0, 1:6, 2] = 1.0  # followed: the texture moves by `step` a frame
+    carried = carry_keypoints(frames, Keypoints2D.from_array(detected), CarrySettings())
+    moved = np.arange(1, 4)[:, None] * step  # frames 1–3
+    np.testing.assert_allclose(carried.xy[1:, 1:6], detected[0, 1:6, :2] + moved[:, None], atol=0.1)
+    np.testing.assert_allclose(carried.confidence[1:, 0], 0.5)  # held
+    # moved as the texture moved, not left where the detection put it
+    np.testing.assert_allclose(carried.xy[1:, 0], 80.0 + moved, atol=0.1)
 
 
 def test_a_lost_point_is_held_for_hold_frames_then_dropped_while_the_others_go_on():

@@ -12,13 +12,17 @@ brightness difference Σ_w (I_t(q + p' − p) − I_{t-1}(q))², coarse to fine 
 pyramid.  A point is kept only if the flow found it both ways: tracked back from p' to
 I_{t-1} it must land within `CarrySettings.max_error` pixels of p (the forward–backward
 check of Kalal, Mikolajczyk and Matas, 2010).  A point that fails it, or that OpenCV
-reports as not found, is no longer followed until the next detection: it is *held* where
-it was last followed, with its confidence times `CarrySettings.hold` (0 drops it).  A
-point the flow loses is mostly a fast one (a fingertip flicking); where it was last seen
-is a better guess of it than the motion prediction's, but a weaker one than a point
-followed.  The carried points keep the detector's confidence times
-`CarrySettings.confidence`.  Nothing is carried more than `CarrySettings.max_frames`
-frames past a detection.
+reports as not found, is no longer followed until the next detection: it is *held*,
+with its confidence times `CarrySettings.hold` (0 drops it), and moved with the hand:
+each frame by the median displacement of the points followed there (while two or more
+are).  A point the flow loses is mostly a fast one (a fingertip flicking); where it
+was last seen, moved as the rest of the hand moved, is a better guess of it than the
+motion prediction's, but a weaker one than a point followed.  Left where it was last
+followed instead, it drags the fit back to where the hand was: on the two-hand
+benchmark with the detector on every 5th frame a hand moving off the other was pulled
+onto it (docs/keypoint-fit.md, "rules").  The carried points keep the detector's
+confidence times `CarrySettings.confidence`.  Nothing is carried more than
+`CarrySettings.max_frames` frames past a detection.
 
 Carried forward it is causal (frame t uses frames t−1 and t and the detections up to
 t), so it runs online beside the tracker (`KeypointCarrier`).  Carried both ways, each
@@ -71,10 +75,10 @@ class CarrySettings:
         Frames after a detection beyond which nothing is carried; 30 (one second of
         video at 30 fps).
     hold : float
-        Factor on the detector's confidence of a point the flow lost, held where it
-        was last followed (module notes); 0 drops it.  0.5, chosen among 0, 0.5 and 1
-        on the realistic benchmark and the three real videos with keypoints every 5th
-        frame (docs/keypoint-fit.md, "rules").
+        Factor on the detector's confidence of a point the flow lost, held and moved
+        with the points still followed (module notes); 0 drops it.  0.5, chosen among
+        0, 0.5 and 1 on the realistic benchmark and the three real videos with
+        keypoints every 5th frame (docs/keypoint-fit.md, "rules").
     hold_frames : int or None
         Frames after a detection for which a lost point is held; after that it is
         dropped.  None (the default): for as long as the others are carried.
@@ -217,7 +221,8 @@ class KeypointCarrier:
         return out
 
     def _carry(self, previous: np.ndarray, grey: np.ndarray) -> None:
-        """Move the followed points from `previous` to `grey`; hold those that fail."""
+        """Move the followed points from `previous` to `grey`; hold those that fail, and
+        move the held ones by the median displacement of those followed (two or more)."""
         ok = self._followed
         if not ok.any():
             return
@@ -228,8 +233,10 @@ class KeypointCarrier:
         kept = (found[:, 0] == 1) & (found_back[:, 0] == 1) & (error <= self.settings.max_error)
         kept &= np.isfinite(p1[:, 0]).all(axis=1)
         index = np.flatnonzero(ok)
-        self._points[index[kept]] = p1[kept]  # a lost point stays where it was last followed
         self._followed[index[~kept]] = False
+        if np.count_nonzero(kept) >= 2:  # the held points move with the hand
+            self._points[~self._followed] += np.median((p1 - p0)[kept, 0], axis=0)
+        self._points[index[kept]] = p1[kept]
 
 
 class TwoWayCarrier:
