@@ -26,7 +26,8 @@ the fit:
   drawn on a true hand of the other side than it says (the detector's label, the
   track's side);
 - the fit's wrist-relative and absolute 3D error (mm), and with MediaPipe its world
-  landmarks' wrist-relative error beside it; with two cameras, the absolute error of
+  landmarks' wrist-relative error and the fit's on the same frames (those where it
+  found the hand and a track is on it); with two cameras, the absolute error of
   each hand's detections triangulated point by point (given to it by the truth: the
   baseline at its best) and the fit's on the same frames;
 - the tracker's rate (fits and assignment, frames/s);
@@ -225,17 +226,25 @@ def nearest(case, detections, j: int, k: int) -> list:
     return out
 
 
-def world_error(case, detections):
-    """Per true hand, the wrist-relative error (mm) of the detector's world landmarks on
-    the frames a detection lies within 0.5 hand sizes of it (camera 0, `nearest`)."""
+def world_error(case, detections, tracks: dict, score) -> list[tuple[float, float]]:
+    """Per true hand, the wrist-relative error (mm) of the detector's world landmarks and
+    of the fit on the same frames: those where a detection lies within 0.5 hand sizes
+    of it (camera 0, `nearest`) and a track is on it."""
     from handvar.evaluation.metrics import joint_errors
 
-    errs = [[], []]
+    out = []
     for k in range(2):
+        errs = []
         for t, d in enumerate(nearest(case, detections, 0, k)):
-            if d is not None and d.world is not None and case.in_view[0, k, t]:
-                errs[k].append(joint_errors(case.joints[k, t][None], d.world[None]).mean())
-    return [float(np.mean(e)) if e else np.nan for e in errs]
+            m = score.match[k, t]
+            if d is None or d.world is None or not case.in_view[0, k, t] or m < 0:
+                continue
+            truth = case.joints[k, t][None]
+            fit = tracks[score.ids[m]]["joints"][t][None]
+            errs.append((joint_errors(truth, d.world[None]).mean(),
+                         joint_errors(truth, fit).mean()))  # fmt: skip
+        out.append(tuple(np.mean(errs, axis=0)) if errs else (np.nan, np.nan))
+    return out
 
 
 def nearest_points(case, k: int) -> np.ndarray:
@@ -319,7 +328,7 @@ def main() -> None:
     head = (f"{'case':<18}{'hand':<6}{'switches det/fit':>17}{'PCK det':>9}{'PCK fit':>9}"
             f"{'lost det/fit':>13}{'3D rel':>8}{'abs':>7}")  # fmt: skip
     if args.detector == "mediapipe":
-        head += f"{'MP 3D':>7}"
+        head += f"{'MP 3D':>7}{'fit':>6}"
     if args.cameras == 2:
         head += f"{'tri':>7}{'fit':>7}"
     print(head + f"{'fits/s':>8}")
@@ -350,7 +359,9 @@ def main() -> None:
             totals["side_fit"] += wrong_sides(case, fit, {
                 key: [r.hands[key].side for r in results] for key in tracks
             })  # fmt: skip
-            mp = world_error(case, detections) if args.detector == "mediapipe" else None
+            mp = (
+                world_error(case, detections, tracks, fit) if args.detector == "mediapipe" else None
+            )
             for k, side in enumerate(case.sides):
                 if not case.in_view[0, k].any():
                     continue
@@ -358,7 +369,7 @@ def main() -> None:
                         f"{raw.pck[k]:>9.3f}{fit.pck[k]:>9.3f}{raw.lost[k]:>7}/{fit.lost[k]:<5}"
                         f"{fit.mpjpe_relative[k]:>8.1f}{fit.mpjpe[k]:>7.1f}")  # fmt: skip
                 if mp is not None:
-                    line += f"{mp[k]:>7.1f}"
+                    line += f"{mp[k][0]:>7.1f}{mp[k][1]:>6.1f}"
                     totals["mp"].append(mp[k])
                 if args.cameras == 2:
                     tri, same = triangulation_error(case, k, tracks, fit)
@@ -397,7 +408,9 @@ def main() -> None:
           f"{sorted(totals['runs'][False])} where wrong); "
           f"fit 3D {np.nanmean(totals['rel']):.1f} mm wrist-relative, "
           f"{np.nanmean(totals['abs']):.1f} mm absolute"
-          + (f" (MediaPipe's world landmarks {np.nanmean(totals['mp']):.1f} mm)"
+          + (f"; on the frames MediaPipe found the hand, its world landmarks "
+             f"{np.nanmean([m for m, _ in totals['mp']]):.1f} mm, the fit "
+             f"{np.nanmean([f for _, f in totals['mp']]):.1f} mm wrist-relative"
              if totals["mp"] else "")
           + (f"; absolute 3D on the frames both cameras detected the hand: triangulated "
              f"{np.nanmean(totals['tri']):.1f} mm, fit {np.nanmean(totals['same']):.1f} mm"
@@ -414,8 +427,9 @@ def print_scenarios(by_scenario, totals) -> None:
     mp = bool(totals["mp"])  # MediaPipe's world landmarks beside the fit's 3D
     tri = bool(totals["tri"])  # two cameras: the detections triangulated, the fit there
 
-    def mean(key, k) -> float:
-        return float(np.nanmean(np.asarray(totals[key])[k]))
+    def mean(key, k, column=None) -> float:
+        values = np.asarray(totals[key], dtype=float)[k]
+        return float(np.nanmean(values if column is None else values[:, column]))
 
     def line(name, sw_det, sw_fit, k) -> str:
         lost = [int(np.asarray(totals[key])[k].sum()) for key in ("lost_det", "lost_fit")]
@@ -423,15 +437,18 @@ def print_scenarios(by_scenario, totals) -> None:
             f"| {name} | {sw_det} / **{sw_fit}** | {mean('det', k):.3f} / "
             f"**{mean('fit', k):.3f}** | {lost[0]} / **{lost[1]}** | {mean('rel', k):.1f}"
         )
-        out += f" / {mean('mp', k):.1f}" if mp else ""
+        if mp:
+            out += f" | {mean('mp', k, 0):.1f} / **{mean('mp', k, 1):.1f}**"
         out += f" | {mean('abs', k):.1f} |"
         if tri:
             out += f" {mean('tri', k):.1f} / **{mean('same', k):.1f}** |"
         return out  # fmt: skip
 
-    print(f"\n| scenario | switches | PCK | lost | 3D wrist-relative{': fit / MP' if mp else ''} "
-          "| 3D absolute |" + (" triangulated / **fit**, same frames |" if tri else "")
-          + "\n|---|---:|---:|---:|---:|---:|" + ("---:|" if tri else ""))  # fmt: skip
+    print("\n| scenario | switches | PCK | lost | 3D wrist-relative |"
+          + (" the same, where MediaPipe found the hand: MP / **fit** |" if mp else "")
+          + " 3D absolute |" + (" triangulated / **fit**, same frames |" if tri else "")
+          + "\n|---|---:|---:|---:|---:|---:|" + ("---:|" if mp else "")
+          + ("---:|" if tri else ""))  # fmt: skip
     for scenario, row in by_scenario.items():
         print(line(scenario, row["sw_det"], row["sw_fit"], row["rows"]))
     print(line(f"**all** ({totals['view']} hand-frames in view)", totals["sw_det"],
