@@ -52,7 +52,8 @@ what a user has without the fit: the detector's points and 3D, its points triang
 (two cameras), the detections of the run with the detector on every 5th frame held or
 interpolated (`handvar.evaluation.metrics.thinned`; MediaPipe follows the hand from
 frame to frame, so its detections on every 5th frame are not those of every frame
-thinned), and every 3D estimate's jitter (acceleration error) and lag (the frames it
+thinned) or carried by optical flow both ways (what the fit is given between them),
+and every 3D estimate's jitter (acceleration error) and lag (the frames it
 trails the truth by, `handvar.evaluation.metrics.lag`).  The one command decides the
 side from the detector's handedness (two cameras: the hand's 3D shape); a track of
 the other side than the case's is scored as it is, as the detector's points are
@@ -412,8 +413,8 @@ def triangulated(case, xy: np.ndarray) -> np.ndarray:
     return out.reshape(xy.shape[1], -1, 3)
 
 
-RUNS = ("keypoints", "triangulated", "held every 5", "interpolated every 5", "fit every 1",
-        "fit every 5")  # fmt: skip
+RUNS = ("keypoints", "triangulated", "held every 5", "interpolated every 5", "carried every 5",
+        "fit every 1", "fit every 5")  # fmt: skip
 COLUMNS = (("pck", "PCK@0.2", "{:.3f}"), ("px", "2D px", "{:.1f}"), ("mpjpe", "MPJPE", "{:.1f}"),
            ("pa", "PA-MPJPE", "{:.1f}"), ("auc", "AUC 20-50", "{:.3f}"),
            ("abs", "abs 3D", "{:.1f}"), ("accel", "accel", "{:.2f}"),
@@ -498,6 +499,23 @@ def sparse_rows(case, xy: np.ndarray, label: str) -> list:
             for run, interpolate in runs]  # fmt: skip
 
 
+def carried_row(case_dir: Path, xy: np.ndarray, label: str, case) -> tuple:
+    """The detections (n_cams, T, 21, 2) of every 5th frame carried by optical flow to
+    the frames between, both ways (`handvar.vision.carry.carry_keypoints`): what the fit
+    is given there on a file."""
+    from handvar.vision.carry import carry_keypoints
+    from handvar.vision.keypoints import Keypoints2D
+
+    frames = read_case(case_dir, frames=True).frames
+    carried = np.full_like(xy, np.nan)
+    for j, images in enumerate(frames):
+        given = np.full((*xy.shape[1:3], 3), np.nan)
+        given[::5] = np.concatenate([xy[j, ::5], np.ones((*xy[j, ::5].shape[:2], 1))], axis=2)
+        bgr = (cv2.cvtColor(image, cv2.COLOR_RGB2BGR) for image in images)
+        carried[j] = carry_keypoints(bgr, Keypoints2D.from_array(given), both=True, every=5).xy
+    return label, "carried every 5", scores(case, carried, None, None, None)
+
+
 def inside_rows(
     case, case_dir: Path, spec: Spec, base: Path, label: str, extra: tuple[str, ...] = ()
 ) -> list:
@@ -513,6 +531,7 @@ def inside_rows(
                 rows += baseline_rows(case, detector, label, every_5th=False)
             else:  # the detections this run got: the detector's tracking sees every 5th
                 rows += sparse_rows(case, detector["xy"], label)
+                rows.append(carried_row(case_dir, detector["xy"], label, case))
             pts, lost = fit_points(out, None)  # the side it chose, scored as it is
             row = scores(case, project(case.rig, pts), pts, lost, seconds, out=out)
             row |= check(out, every)
