@@ -499,7 +499,7 @@ def sparse_rows(case, xy: np.ndarray, label: str) -> list:
             for run, interpolate in runs]  # fmt: skip
 
 
-def carried_row(case_dir: Path, xy: np.ndarray, label: str, case) -> tuple:
+def carried_row(case, case_dir: Path, xy: np.ndarray, label: str) -> tuple:
     """The detections (n_cams, T, 21, 2) of every 5th frame carried by optical flow to
     the frames between, both ways (`handvar.vision.carry.carry_keypoints`): what the fit
     is given there on a file."""
@@ -531,7 +531,7 @@ def inside_rows(
                 rows += baseline_rows(case, detector, label, every_5th=False)
             else:  # the detections this run got: the detector's tracking sees every 5th
                 rows += sparse_rows(case, detector["xy"], label)
-                rows.append(carried_row(case_dir, detector["xy"], label, case))
+                rows.append(carried_row(case, case_dir, detector["xy"], label))
             pts, lost = fit_points(out, None)  # the side it chose, scored as it is
             row = scores(case, project(case.rig, pts), pts, lost, seconds, out=out)
             row |= check(out, every)
