@@ -32,8 +32,8 @@ demo: $(STAMP)
 	$(BIN)/handvar predict examples/data/htrack-fingerfist.txt --layout htrack --reset-at 4000
 	$(BIN)/handvar experiment --quick --out demo/experiment.zarr
 	$(BIN)/handvar report demo/experiment.zarr --out demo/report
-	$(BIN)/handvar track examples/data/dex-human-hand-video.mp4 --scale 0.5 --frames 60 \
-		--out demo/video --no-video
+	$(BIN)/handvar track examples/data/dex-human-hand-video.mp4 --scale 0.5 --out demo/video \
+		--no-video
 	$(BIN)/handvar view demo/video --out demo/video/view.html
 	@echo "3D viewer of the example video's track: demo/video/view.html"
 
