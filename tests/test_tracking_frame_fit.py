@@ -97,7 +97,7 @@ def test_reinitialise_keeps_the_start_that_explains_the_keypoints_not_the_cheape
     assert np.mean(errors) < 25.0
 
 
-def test_honoured_against_hand_counted_frames():
+def test_honoured_against_hand_counted_frames(capsys):
     d = np.full((2, 1, 21), 0.1)
     r = np.zeros((2, 1, 21), dtype=bool)
     assert honoured(d, r) == (True, 1.0, 0)
@@ -120,6 +120,14 @@ def test_honoured_against_hand_counted_frames():
     )  # fmt: skip
     assert q.failing() == 1 and q.failing(frames=np.array([True, False, True])) == 0
     assert q.check()[:2] == (False, pytest.approx(20 / 21))
+    # `handvar track` says how many of the frames with a detection fail
+    from types import SimpleNamespace
+
+    from handvar.cli.track import _print_quality
+
+    result = SimpleNamespace(quality=q, detections=np.ones(n, bool), options={"carry": "none"})
+    _print_quality(result)
+    assert "keypoint check: FAILS on 1 of 3 frames" in capsys.readouterr().out
 
 
 def test_a_track_with_noisy_keypoints_holds_and_the_check_holds(mono_sequence):

@@ -349,11 +349,14 @@ def _print_quality(result) -> None:
     click.echo(text)
     if result.detections is not None:
         ok, worst, n_rejected = result.quality.check(frames=result.detections)
+        verdict = "holds"
+        if not ok:
+            failing = result.quality.failing(frames=result.detections)
+            verdict = f"FAILS on {failing} of {int(result.detections.sum())} frames"
         click.echo(
-            f"keypoint check: {'holds' if ok else 'FAILS'} (on every frame with a "
-            f"detection the joints lie within 0.2 hand sizes of at least 98 % of the "
-            f"keypoints kept; worst frame {100 * worst:.1f} %); {n_rejected} "
-            f"keypoints rejected as outliers"
+            f"keypoint check: {verdict} (on every frame with a detection the joints lie "
+            f"within 0.2 hand sizes of at least 98 % of the keypoints kept; worst frame "
+            f"{100 * worst:.1f} %); {n_rejected} keypoints rejected as outliers"
         )
 
 
