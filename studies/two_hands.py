@@ -2,7 +2,8 @@
 
 Usage: PYTHONPATH=src python studies/two_hands.py [--seeds N] [--cameras 1|2]
        [--detector simulated|mediapipe] [--every K] [--scenario NAME ...] [--size W H]
-       [--missed-carry N] [--side-run N] [--same-hand X] [--cache DIR]
+       [--missed-carry N] [--hidden-frames N] [--side-run N] [--same-hand X]
+       [--cache DIR]
        [--landmarks full|lite]
 
 For every scenario of `handvar.evaluation.two_hands.SCENARIOS` and seed, renders the
@@ -38,7 +39,9 @@ and last a Markdown table per scenario (its seeds and both hands) with the overa
 side (`handvar.tracking.hands.SIDE_RUN`); the last line gives the runs seen, on tracks
 whose side is right and on those whose side is wrong.  ``--missed-carry N`` sets the
 frames a hand the detector misses is followed by optical flow
-(`handvar.tracking.hands.MISSED_CARRY`, to compare values); ``--same-hand X`` the
+(`handvar.tracking.hands.MISSED_CARRY`, to compare values); ``--hidden-frames N`` the
+frames a hand behind the other is carried by its prediction
+(`handvar.tracking.hands.HIDDEN_FRAMES`); ``--same-hand X`` the
 palm lengths within which one hand's views given to two hands are merged
 (`handvar.tracking.hands.SAME_HAND`; ``inf``: wherever their rays meet).  With ``--every K`` the
 detector runs on every K-th frame only (MediaPipe as the command runs it: two
@@ -302,6 +305,9 @@ def main() -> None:
     parser.add_argument("--missed-carry", type=int, default=None,
                         help="frames a missed hand is followed by optical flow "
                              "(handvar.tracking.hands.MISSED_CARRY)")  # fmt: skip
+    parser.add_argument("--hidden-frames", type=int, default=None,
+                        help="frames a hand behind the other is carried by its prediction "
+                             "(handvar.tracking.hands.HIDDEN_FRAMES)")  # fmt: skip
     parser.add_argument("--same-hand", type=float, default=None,
                         help="palm lengths within which two hands' views are one hand's "
                              "(handvar.tracking.hands.SAME_HAND)")  # fmt: skip
@@ -319,6 +325,10 @@ def main() -> None:
         import handvar.tracking.hands
 
         handvar.tracking.hands.MISSED_CARRY = args.missed_carry
+    if args.hidden_frames is not None:
+        import handvar.tracking.hands
+
+        handvar.tracking.hands.HIDDEN_FRAMES = args.hidden_frames
     if args.same_hand is not None:
         import handvar.tracking.hands
 
