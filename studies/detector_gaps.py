@@ -99,7 +99,7 @@ def main() -> None:
     spread = STALE_FRAMES + 1 if args.always else 1
     for name in VIDEOS:
         detected = read_keypoints(example_path(f"{name}-keypoints"))
-        reference = np.where(detected.present[..., None], detected.xy, np.nan)
+        reference = detected.xy  # NaN where MediaPipe found no hand
         pairs = {}
         for indexed in (False, True):
             frames = (image for _, image in open_frames(example_path(name)).frames())

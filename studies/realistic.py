@@ -277,7 +277,7 @@ def run_inside(
     xy, world = [], None
     for j, path in enumerate(files):
         kp = read_keypoints(path)
-        xy.append(np.where(kp.present[..., None], kp.xy, np.nan))
+        xy.append(kp.xy)  # NaN where missing
         if j == 0 and kp.world is not None:
             world = np.where(kp.present[..., None], kp.world, np.nan)
     return seconds, out, {"xy": np.stack(xy), "world": world}
@@ -304,7 +304,7 @@ def mediapipe_keypoints(
             if done.returncode != 0:
                 raise RuntimeError(f"{' '.join(cmd)}\n{done.stderr.strip()}")
         kp = read_keypoints(npz)
-        points = np.where(kp.present[..., None], kp.xy, np.nan)
+        points = kp.xy  # NaN where missing
         np.save(case_dir / f"mediapipe{j}.npy", points)
         paths.append(npz if with_world or auto else case_dir / f"mediapipe{j}.npy")
         xy.append(points)

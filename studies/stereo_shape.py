@@ -115,8 +115,7 @@ def points_2d(path: Path) -> np.ndarray:
     """(T, 21, 2) pixels of a keypoint file, NaN where there is no point."""
     if path.suffix == ".npy":
         return np.load(path)
-    kp = read_keypoints(path)
-    return np.where(kp.present[..., None], kp.xy, np.nan)
+    return read_keypoints(path).xy  # NaN where missing
 
 
 def run(directory: Path, side: str, keypoints: list[Path], name: str = "fit") -> Path:

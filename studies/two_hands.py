@@ -317,22 +317,13 @@ def main() -> None:
         "--cache", default=None, help="a folder keeping MediaPipe's detections per case, for reruns"
     )
     args = parser.parse_args()
-    if args.side_run is not None:
-        import handvar.tracking.hands
+    import handvar.tracking.hands as rules
 
-        handvar.tracking.hands.SIDE_RUN = args.side_run
-    if args.missed_carry is not None:
-        import handvar.tracking.hands
-
-        handvar.tracking.hands.MISSED_CARRY = args.missed_carry
-    if args.hidden_frames is not None:
-        import handvar.tracking.hands
-
-        handvar.tracking.hands.HIDDEN_FRAMES = args.hidden_frames
-    if args.same_hand is not None:
-        import handvar.tracking.hands
-
-        handvar.tracking.hands.SAME_HAND = args.same_hand
+    constants = {"side_run": "SIDE_RUN", "missed_carry": "MISSED_CARRY",
+                 "hidden_frames": "HIDDEN_FRAMES", "same_hand": "SAME_HAND"}  # fmt: skip
+    for option, constant in constants.items():
+        if getattr(args, option) is not None:  # the tracker's constant, for this run
+            setattr(rules, constant, getattr(args, option))
     print(f"{args.detector} detector on every {args.every} frame(s), {args.cameras} camera(s), "
           f"{args.size[0]}x{args.size[1]}, seeds 0..{args.seeds - 1}")  # fmt: skip
     head = (f"{'case':<18}{'hand':<6}{'switches det/fit':>17}{'PCK det':>9}{'PCK fit':>9}"

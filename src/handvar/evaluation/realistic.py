@@ -839,7 +839,7 @@ def realistic_case(
 
     Parameters
     ----------
-    motion : {"benchmark", "flip", "flexion", "counting", "fast"}
+    motion : {"benchmark", "flip", "flexion", "counting", "fast", "faster"}
     cameras : {1, 2}, keyword-only
         One camera or a stereo pair (`realistic_rig`).
     side : {"right", "left"}, keyword-only
