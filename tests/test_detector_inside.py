@@ -17,6 +17,7 @@ from click.testing import CliRunner
 import handvar
 from handvar.cli import main
 from handvar.data import example_path
+from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
 from handvar.vision.detector import Detection, choose, user_detector, vote_side
 from handvar.vision.keypoints import read_keypoints
 
@@ -473,3 +474,23 @@ def test_hand_tracker_with_two_cameras_takes_the_side_from_the_hands_shape():
         tracker.process([blank] * len(seq.rig))
     assert tracker.side == "right" and tracker.hand.shape.side == "right"
     assert not tracker.labelled  # the labels the shape overrules weigh nothing
+
+
+def test_a_hand_the_detector_finds_late_is_carried_back_to_the_frames_before():
+    # the shipped detections of the example video, withheld on its first 10 frames: the
+    # first detection is carried back by optical flow there (design §14.5), near where
+    # MediaPipe found the hand on those frames
+    shipped = read_keypoints(KEYPOINTS)
+    calls = []
+
+    def detect(image):
+        calls.append(0)
+        return None if len(calls) <= 10 else shipped.frame(len(calls) - 1)
+
+    t = handvar.track(VIDEO, detector=detect, frames=20, scale=0.5)
+    assert np.isfinite(t.poses).all()  # a pose on every frame, the first 10 included
+    carried = t.keypoints[0].xy[:10]
+    truth = shipped.scaled(0.5, (1280, 720)).xy[:10]
+    size = np.linalg.norm(truth[:, MIDDLE_MCP] - truth[:, WRIST], axis=1)
+    d = np.linalg.norm(carried - truth, axis=2) / size[:, None]
+    assert np.isfinite(d).mean() > 0.9 and np.nanmedian(d) < 0.1

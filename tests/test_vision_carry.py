@@ -198,17 +198,36 @@ def test_at_the_end_only_the_frames_the_detector_did_not_look_at_keep_the_forwar
     assert ends[3] is None and ends[5] is None  # it looked at frame 3 and found no hand
 
 
-def test_before_a_run_only_the_frames_the_detector_did_not_look_at_get_the_backward_carry():
+def test_before_a_run_its_first_detection_is_carried_back_as_far_as_the_flow_follows_it():
     base, step = texture(), np.array([1.0, 0.5])
     frames = [shifted(base, *(t * step)) for t in range(7)]
     detected = np.full((7, 21, 3), np.nan)
-    detected[6] = points()  # a detector on every 3rd frame found nothing on 0 and 3
+    detected[6] = points()  # the detector found the hand only on frame 6
     kp = Keypoints2D.from_array(detected)
-    carried = carry_keypoints(frames, kp, both=True, every=3)
-    assert not carried.present[:4].any()
-    for t in (4, 5):  # it did not look at frames 4, 5: carried back from frame 6 there
+    carried = carry_keypoints(frames, kp, both=True)
+    for t in range(6):  # the texture was there all along: carried back to frame 0
         np.testing.assert_allclose(carried.xy[t], detected[6, :, :2] - (6 - t) * step, atol=0.1)
-    assert not carry_keypoints(frames, kp, both=True).present[:6].any()  # on every frame
+    # as before the rule: only the frames a detector on every 3rd frame did not look at
+    skipped = carry_keypoints(frames, kp, CarrySettings(lead_points=None), both=True, every=3)
+    assert not skipped.present[:4].any()
+    for t in (4, 5):
+        np.testing.assert_allclose(skipped.xy[t], detected[6, :, :2] - (6 - t) * step, atol=0.1)
+    assert not carry_keypoints(frames, kp, CarrySettings(lead_points=None), both=True).present[
+        :6].any()  # fmt: skip
+
+
+def test_before_a_cut_nothing_is_carried_back_but_to_the_frames_the_detector_skipped():
+    base, other, step = texture(), texture(seed=11), np.array([1.0, 0.5])
+    # frames 0-2 show another scene: the flow follows no point across the cut
+    frames = [shifted(other if t < 3 else base, *(t * step)) for t in range(7)]
+    detected = np.full((7, 21, 3), np.nan)
+    detected[6] = points()
+    kp = Keypoints2D.from_array(detected)
+    carried = carry_keypoints(frames, kp, both=True)
+    assert not carried.present[:3].any()  # no hand drawn before the cut
+    assert carried.present[3:6].all()
+    skipped = carry_keypoints(frames, kp, both=True, every=6)  # frames 1-5 not looked at
+    assert skipped.present[1:6].all() and not skipped.present[0].any()
 
 
 def test_both_ways_recovers_a_point_lost_forwards():

@@ -1503,8 +1503,9 @@ class _Stream:
         first two see one hand (their rays meet, `found_chirality`), by its shape in 3D:
         the sum of its `chirality` over those frames; else by the detector's handedness
         (`handvar.vision.detector.vote_side`; a detector that says no side: right).  The
-        frames are read ahead (those before the first hand without their images: they
-        are frames without a hand), and the detector looks at each of them for the
+        frames are read ahead (those before the first hand without their images, but
+        for the last `CarrySettings.max_frames`, which its first detection may be
+        carried back to: `TwoWayCarrier`), and the detector looks at each of them for the
         vote, whatever ``every``; the fit is given only its detections of every
         ``every``-th frame (`_detections`).
 
@@ -1522,13 +1523,19 @@ class _Stream:
         votes: list = []  # per frame with a hand and camera, the hands found
         shape: list[float] = []  # per frame two cameras see one hand, its chirality
         seen = 0  # frames with a hand
+        # the frames before the first hand keep their images only as far as its first
+        # detection may be carried back (`TwoWayCarrier`)
+        back = self.carriers[0].settings.max_frames if self.two_way and self.carriers else 0
         self.deciding = True
         for index, seconds, images, found in self._items_read():
             if found is not None and any(found):
                 seen += 1
                 votes.extend(found)
                 shape.append(found_chirality(found, self.source.rig.cameras, self._to_tracked))
-            self._ahead.append((index, seconds, images if seen else None, found))
+            self._ahead.append((index, seconds, images, found))
+            if not seen and len(self._ahead) > back:
+                index, seconds, _, found = self._ahead[-back - 1]
+                self._ahead[-back - 1] = (index, seconds, None, found)
             if seen >= SIDE_FRAMES:
                 break
         self.deciding = False

@@ -82,6 +82,14 @@ class CarrySettings:
     hold_frames : int or None
         Frames after a detection for which a lost point is held; after that it is
         dropped.  None (the default): for as long as the others are carried.
+    lead_points : int or None
+        Carried both ways (`TwoWayCarrier`), the first detection of a run is carried
+        back to the frames before it (at most `max_frames`) while the flow still follows
+        this many of its points; None carries it back only to the frames the detector
+        skipped.  6, chosen among 0, 2, 6 and 11 on the realistic benchmark with
+        MediaPipe inside and on the two-hand benchmark's MediaPipe runs (each hand's
+        detections alone): 0 put points on 51 frames without the hand, 2 misplaced a
+        stereo hand's shape (docs/keypoint-fit.md, "rules").
     """
 
     window: int = 15
@@ -91,6 +99,7 @@ class CarrySettings:
     max_frames: int = 30
     hold: float = 0.5
     hold_frames: int | None = None
+    lead_points: int | None = 6
 
     def __post_init__(self) -> None:
         as_int(self.window, "window", minimum=3)
@@ -102,6 +111,8 @@ class CarrySettings:
         as_float(self.hold, "hold", minimum=0.0, maximum=1.0)
         if self.hold_frames is not None:
             as_int(self.hold_frames, "hold_frames", minimum=0)
+        if self.lead_points is not None:
+            as_int(self.lead_points, "lead_points", minimum=0, maximum=N_KEYPOINTS)
 
 
 CARRY_SETTINGS = CarrySettings()
@@ -172,6 +183,11 @@ class KeypointCarrier:
     def age(self) -> int:
         """Frames since its last detection (0 on a detected frame)."""
         return self._age
+
+    @property
+    def followed(self) -> int:
+        """Points of the last detection the flow still follows (not held)."""
+        return int(np.count_nonzero(self._followed))
 
     def step(self, image, keypoints=None) -> np.ndarray | None:
         """This frame's keypoints: detected, else carried from the previous frame.
@@ -250,10 +266,14 @@ class TwoWayCarrier:
     and backwards from this one are blended (`_blend`).  Keypoints are carried across
     a gap between two detections of at most `CarrySettings.max_frames` frames, not
     across a longer one.  Before a run of detections (the first, or the first after a
-    longer gap) and after its last, there is no hand as far as the detector knows,
-    except on the frames it did not look at: with a detector on every (`reach` + 1)-th
-    frame, the `reach` frames before the run's first detection get its points carried
-    backwards, and the `reach` frames after its last keep the points carried forward.
+    longer gap) the run's first detection is carried backwards as far as the flow
+    follows at least `CarrySettings.lead_points` of its points (a hand the detector
+    found late: the flow still follows it; a hand that came into view or a cut: the
+    flow loses it), at most `CarrySettings.max_frames` frames.  After a run's last
+    detection there is no hand as far as the detector knows, except on the frames it
+    did not look at: with a detector on every (`reach` + 1)-th frame, the `reach`
+    frames after its last detection keep the points carried forward (and the `reach`
+    frames before its first get them carried backwards whatever the flow follows).
     A frame is held back until the next detection, or until
     `CarrySettings.max_frames` frames have passed: the delay is at most that many
     frames, and as many frames are kept.  `flush` gives out the frames still held
@@ -324,11 +344,15 @@ class TwoWayCarrier:
         back.step(grey, detection)
         out = []
         going = True  # the backward carry still has points
+        lead = self.settings.lead_points
         for t, g, f in reversed(self._gap):
-            if not self._across:  # before a run: its first detection's `reach` frames
-                going = going and self._t - t <= self.reach
+            skipped = self._t - t <= self.reach  # a frame the detector did not look at
+            if not self._across:  # before a run: carried back while the flow follows
+                going = going and (skipped or lead is not None)
                 f = None
             b = back.step(g) if going else None
+            if b is not None and not (self._across or skipped) and back.followed < lead:
+                b = None
             going = b is not None
             if b is None:
                 out.append((t, f))
