@@ -4,7 +4,7 @@ Usage: PYTHONPATH=src python studies/two_hands.py [--seeds N] [--cameras 1|2]
        [--detector simulated|mediapipe] [--every K] [--scenario NAME ...] [--size W H]
        [--missed-carry N] [--hidden-frames N] [--side-run N] [--same-hand X]
        [--cache DIR]
-       [--landmarks full|lite]
+       [--landmarks full|lite] [--confidence C]
 
 For every scenario of `handvar.evaluation.two_hands.SCENARIOS` and seed, renders the
 case (640×360 by default) and tracks it with `handvar.tracking.hands.HandsTracker`, the
@@ -48,7 +48,8 @@ detector runs on every K-th frame only (MediaPipe as the command runs it: two
 MediaPipes taking those frames in turn, each given the frame's index); the fit carries
 each hand's detection by optical flow over the frames between, and the detections'
 baseline is interpolated linearly between the detector's frames.  ``--landmarks lite``
-runs MediaPipe with its lite landmark model (faster; `benchmarks/detector_options.py`).
+runs MediaPipe with its lite landmark model (faster; `benchmarks/detector_options.py`),
+``--confidence C`` with detection and tracking thresholds C (the pipeline's: 0.5).
 ``--cache DIR`` keeps MediaPipe's detections per case in DIR and reads them back on the
 next run (the renders are the same for the same scenario, seed and size).
 """
@@ -169,10 +170,12 @@ def interpolated(tracks: dict, every: int) -> dict:
     return out
 
 
-def mediapipe_detections(case, cache=None, model: int = 1, every: int = 1):
+def mediapipe_detections(case, cache=None, model: int = 1, every: int = 1,
+                         confidence: float = 0.5):  # fmt: skip
     """MediaPipe Hands on the rendered frames, per camera (read from, or written to,
-    ``cache/<case>-<size>-cam<j>[-lite][-everyK].json`` when a cache folder is given);
-    `model` its landmark model (1 full, 0 lite).  With `every` > 1 on every `every`-th
+    ``cache/<case>-<size>-cam<j>[-lite][-everyK][-confC].json`` when a cache folder is
+    given); `model` its landmark model (1 full, 0 lite), `confidence` its detection and
+    tracking thresholds (the pipeline's: 0.5).  With `every` > 1 on every `every`-th
     frame only, as the command runs it: `DETECTOR_PROCESSES` MediaPipes taking those
     frames in turn, each given the frame's index (it looks twice at a frame far from
     the last it saw); no hand on the other frames."""
@@ -186,18 +189,21 @@ def mediapipe_detections(case, cache=None, model: int = 1, every: int = 1):
     height, width = case.frames.shape[2:4]
     for j in range(len(case.rig)):
         name = (f"{case.name}-{width}x{height}-cam{j}{'' if model else '-lite'}"
-                f"{'' if every == 1 else f'-every{every}'}.json")  # fmt: skip
+                f"{'' if every == 1 else f'-every{every}'}"
+                f"{'' if confidence == 0.5 else f'-conf{confidence:g}'}.json")  # fmt: skip
+        options = {"model_complexity": model, "min_detection_confidence": confidence,
+                   "min_tracking_confidence": confidence}  # fmt: skip
         path = None if cache is None else Path(cache) / name
         if path is not None and path.exists():
             out.append(read_detections(path))
             continue
         if every == 1:
-            detect = MediaPipeHands(model_complexity=model)
+            detect = MediaPipeHands(**options)
             out.append([detect(cv2.cvtColor(case.frames[j, t], cv2.COLOR_RGB2BGR))
                         for t in range(case.n_frames)])  # fmt: skip
             detect.close()
         else:
-            detectors = [MediaPipeHands(model_complexity=model) for _ in range(DETECTOR_PROCESSES)]
+            detectors = [MediaPipeHands(**options) for _ in range(DETECTOR_PROCESSES)]
             found = []
             for t in range(case.n_frames):
                 k = t // every
@@ -313,6 +319,9 @@ def main() -> None:
                              "(handvar.tracking.hands.SAME_HAND)")  # fmt: skip
     parser.add_argument("--landmarks", default="full", choices=("full", "lite"),
                         help="MediaPipe's landmark model (the pipeline's: full)")  # fmt: skip
+    parser.add_argument("--confidence", type=float, default=0.5,
+                        help="MediaPipe's detection and tracking thresholds (the "
+                             "pipeline's: 0.5)")  # fmt: skip
     parser.add_argument(
         "--cache", default=None, help="a folder keeping MediaPipe's detections per case, for reruns"
     )
@@ -346,7 +355,7 @@ def main() -> None:
             detections = case.detections
             if args.detector == "mediapipe":
                 detections = mediapipe_detections(case, args.cache, int(args.landmarks == "full"),
-                                                  args.every)  # fmt: skip
+                                                  args.every, args.confidence)  # fmt: skip
                 case = dataclasses.replace(case, detections=detections)
             raw_tracks = detections_as_tracks(case)
             if args.every > 1:
