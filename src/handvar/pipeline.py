@@ -1533,9 +1533,9 @@ class _Stream:
                 votes.extend(found)
                 shape.append(found_chirality(found, self.source.rig.cameras, self._to_tracked))
             self._ahead.append((index, seconds, images, found))
-            if not seen and len(self._ahead) > back:
-                index, seconds, _, found = self._ahead[-back - 1]
-                self._ahead[-back - 1] = (index, seconds, None, found)
+            if not seen and len(self._ahead) > back:  # beyond reach: its images dropped
+                i, s, _, f = self._ahead[-back - 1]
+                self._ahead[-back - 1] = (i, s, None, f)
             if seen >= SIDE_FRAMES:
                 break
         self.deciding = False
