@@ -4,7 +4,7 @@ Usage: PYTHONPATH=src python studies/two_hands.py [--seeds N] [--cameras 1|2]
        [--detector simulated|mediapipe] [--every K] [--scenario NAME ...] [--size W H]
        [--missed-carry N] [--hidden-frames N] [--side-run N] [--same-hand X]
        [--cache DIR]
-       [--landmarks full|lite] [--confidence C]
+       [--landmarks full|lite] [--confidence C] [--forward-only]
 
 For every scenario of `handvar.evaluation.two_hands.SCENARIOS` and seed, renders the
 case (640×360 by default) and tracks it with `handvar.tracking.hands.HandsTracker`, the
@@ -50,6 +50,9 @@ each hand's detection by optical flow over the frames between, and the detection
 baseline is interpolated linearly between the detector's frames.  ``--landmarks lite``
 runs MediaPipe with its lite landmark model (faster; `benchmarks/detector_options.py`),
 ``--confidence C`` with detection and tracking thresholds C (the pipeline's: 0.5).
+The tracker fits a hand found late back on the frames before (`HandsTracker.back_fill`),
+as ``handvar track --hands 2`` does on a recording; ``--forward-only`` leaves it frame
+by frame, as from a live camera.
 ``--cache DIR`` keeps MediaPipe's detections per case in DIR and reads them back on the
 next run (the renders are the same for the same scenario, seed and size).
 """
@@ -65,13 +68,14 @@ import cv2
 import numpy as np
 
 
-def fitted_tracks(case, detections, every: int = 1):
+def fitted_tracks(case, detections, every: int = 1, back: bool = True):
     """Track `case` with the given detections per frame; the tracks as `score_two_hands`
-    takes them (camera 0), and the frames/s of the tracker."""
+    takes them (camera 0), and the frames/s of the tracker.  `back`: as on a recording,
+    a hand found late is carried back (`HandsTracker.back_fill`)."""
     from handvar.tracking.hands import HandsTracker
     from handvar.tracking.keypoint_cost import keypoint_points
 
-    tracker = HandsTracker(case.rig, detector=None, keypoint_every=every)
+    tracker = HandsTracker(case.rig, detector=None, keypoint_every=every, back=back)
     T = case.n_frames
     n = len(case.rig)
     results = []
@@ -91,6 +95,13 @@ def fitted_tracks(case, detections, every: int = 1):
             if np.isfinite(x).all():
                 joints[h.id, t] = keypoint_points(h.tracker.hand, x, "pad")
                 points[h.id, t] = camera.project(joints[h.id, t])
+    if back:
+        t0 = time.perf_counter()
+        for t, poses in tracker.back_fill().items():
+            for i, x in poses.items():
+                joints[i, t] = keypoint_points(tracker.hands[i].tracker.hand, x, "pad")
+                points[i, t] = camera.project(joints[i, t])
+        seconds += time.perf_counter() - t0
     tracks = {h.id: {"points_2d": points[h.id], "joints": joints[h.id]}
               for h in tracker.hands if h.tracker.hand is not None}  # fmt: skip
     return tracks, T / seconds, results
@@ -319,6 +330,9 @@ def main() -> None:
                              "(handvar.tracking.hands.SAME_HAND)")  # fmt: skip
     parser.add_argument("--landmarks", default="full", choices=("full", "lite"),
                         help="MediaPipe's landmark model (the pipeline's: full)")  # fmt: skip
+    parser.add_argument("--forward-only", action="store_true",
+                        help="no hand found late carried back (HandsTracker.back_fill), "
+                             "as live")  # fmt: skip
     parser.add_argument("--confidence", type=float, default=0.5,
                         help="MediaPipe's detection and tracking thresholds (the "
                              "pipeline's: 0.5)")  # fmt: skip
@@ -361,7 +375,8 @@ def main() -> None:
             if args.every > 1:
                 raw_tracks = interpolated(raw_tracks, args.every)
             raw = score_two_hands(case, raw_tracks)
-            tracks, fps, results = fitted_tracks(case, detections, args.every)
+            tracks, fps, results = fitted_tracks(case, detections, args.every,
+                                                 not args.forward_only)  # fmt: skip
             fit = score_two_hands(case, tracks)
             totals["side_det"] += wrong_sides(case, raw, {side: side for side in raw_tracks})
             for right, found in label_runs(case, fit, tracks, results).items():

@@ -629,3 +629,48 @@ def test_a_hand_seen_in_one_camera_gets_the_other_cameras_view_whose_rays_meet_i
     given = {left.id: [None, None], right.id: [None, view(1, joints)]}
     tracker._complete(given, [[other], [given[right.id][1]]])
     assert given[right.id][0] is None
+
+
+@pytest.mark.parametrize("cut", [None, 4])
+def test_a_hand_found_late_is_carried_back_on_a_recording_but_not_across_a_cut(cut):
+    """The textured frames of the test above; the detector finds the left hand only from
+    frame 8.  On a recording (``back=True``) `back_fill` fits it on frames 0-7 to its
+    first detection carried back by the flow, within 0.15 hand sizes of its true
+    points; with another scene before frame `cut` the flow loses it there, and those
+    frames stay without it.  Frame by frame (``back=False``) it has none."""
+    import cv2
+
+    T, first_found = 12, 8
+    rig, first = _truth(1, swap=False)
+    rng = np.random.default_rng(0)
+    scenes = [cv2.normalize(cv2.GaussianBlur(rng.integers(0, 256, (360, 640), dtype=np.uint8),
+                                             (0, 0), 2.0), None, 0, 255, cv2.NORM_MINMAX)
+              for _ in range(2)]  # fmt: skip
+    shift = np.array([3.0, 1.0])
+    truth = {s: np.stack([first[s][0] + t * shift for t in range(T)]) for s in SIDES}
+    trackers = {back: HandsTracker(rig, detector=None, back=back) for back in (True, False)}
+    results = {back: [] for back in trackers}
+    for t in range(T):
+        scene = scenes[1 if cut is not None and t < cut else 0]
+        image = cv2.cvtColor(np.roll(scene, (t, 3 * t), axis=(0, 1)), cv2.COLOR_GRAY2BGR)
+        found = _detections(truth, t, rng, 0.0)
+        if t < first_found:
+            found = [d for d in found if np.linalg.norm(d.points[0, :2] - truth["left"][t, 0]) > 20]
+        for back, tracker in trackers.items():
+            results[back].append(tracker.process(image, detections=[list(found)]))
+    matched = _matched(results[True], truth)
+    left = next(k for k in (0, 1) if {s for s, _ in matched[k]} - {None} == {"left"})
+    assert all(results[True][t].hands[left].no_hand for t in range(first_found))
+    filled = trackers[True].back_fill()
+    assert trackers[False].back_fill() == {}
+    model = trackers[True].hands[left].tracker.hand
+    size = np.linalg.norm(truth["left"][0, 9] - truth["left"][0, 0])
+    start = 0 if cut is None else cut
+    assert sorted(filled) == list(range(start, first_found))
+    for t in range(start, first_found):
+        projected = rig.cameras[0].project(keypoint_points(model, filled[t][left], "pad"))
+        error = np.linalg.norm(projected - truth["left"][t], axis=1).mean()
+        assert error < 0.15 * size, (t, error / size)
+    track = trackers[True].hands[left].tracker.recovered(keypoints=True).track
+    assert np.isfinite(track.poses[start:first_found]).all()
+    assert np.isnan(track.poses[:start]).all()

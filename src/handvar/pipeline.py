@@ -2101,7 +2101,7 @@ def track_hands(
     opened, live = played.opened, played.live
     tracker = HandsTracker(opened.rig, hands=hands, detector=None, predictor=predictor,
                            hand_length=hand_length, model=model, seed=seed,
-                           keypoint_every=every)  # fmt: skip
+                           keypoint_every=every, back=not (realtime or live))  # fmt: skip
     reading, detectors, outside = _hands_found(played, keypoints, detector, mirrored, realtime)
     items = reading
     if progress and not realtime:
@@ -2123,6 +2123,7 @@ def track_hands(
             seconds.append(time.perf_counter() - t0)
             rows.append(index)
             latency.append(time.perf_counter() - clock0 - captured)
+    tracker.back_fill()  # a recording's hand found late, on the frames before (rule 7)
     name = opened.names[0] if opened.names else "recording"
     if all(h.tracker.recovery is None for h in tracker.hands):
         where = "the detector found" if keypoints is None else "the keypoint file has"

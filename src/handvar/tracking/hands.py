@@ -73,6 +73,13 @@ detector's label:
    on the detector's frame is followed on as above: carried by its prediction alone
    there, a hand half hidden by the other drifted onto it and the two swapped on the
    two-hand benchmark (docs/results/two-hands.md).
+7. **A hand found late** (a recording, ``HandsTracker(back=True)``, `back_fill`).  A
+   hand's first detection after frames without it is carried back by optical flow to
+   those frames, at most `CarrySettings.max_frames`, while the flow follows at least
+   `CarrySettings.lead_points` of its points in some camera and they do not lie on
+   the other hand's fit (within `DUPLICATE` hand sizes), as one hand's track on a
+   recording is (design §14.5); once every frame is tracked, those frames are fitted
+   to them, backwards from the detection, with the hand's final shape.
 
 A frame's `HandsResult` holds one `FrameResult` per hand, under its id (0, 1: the order
 in which the hands were first seen) with its side.  With ``hands=1`` it tracks the
@@ -91,7 +98,9 @@ Examples
 
 from __future__ import annotations
 
+import collections
 import dataclasses
+import functools
 import itertools
 import time
 from dataclasses import dataclass
@@ -392,13 +401,17 @@ class HandsTracker:
     keypoint_every : int, keyword-only
         Run the detector on every K-th frame only; on the frames between, each hand's
         last detection is carried forward by optical flow (module notes, rule 6).
+    back : bool, keyword-only
+        Keep the last `CarrySettings.max_frames` frames, so that `back_fill` can carry
+        a hand found late back to them (module notes, rule 7): a recording's way, not
+        a live camera's.
     **options
         For each hand's `HandTracker`: ``predictor``, ``hand_length``, ``model``,
         ``keypoint_tips``, ``recovery``, ``seed``, ``fov``.
     """
 
     def __init__(self, rig=None, *, hands: int = 2, detector="auto", mirrored: bool = False,
-                 keypoint_every: int = 1, **options) -> None:  # fmt: skip
+                 keypoint_every: int = 1, back: bool = False, **options) -> None:  # fmt: skip
         from handvar.camera import Rig
         from handvar.tracking.hand_tracker import HandTracker
         from handvar.vision.detector import make_detectors
@@ -417,6 +430,13 @@ class HandsTracker:
         self.hands = [_Hand(k, "", HandTracker(rig, hand="right", detector=None, **options))
                       for k in range(n_hands)]  # fmt: skip
         self.frame_count = 0
+        # rule 7: the last frames (images, greys) and, per hand found late, what to carry
+        self._recent = None
+        if back:
+            from handvar.vision.carry import CARRY_SETTINGS
+
+            self._recent = collections.deque(maxlen=CARRY_SETTINGS.max_frames)
+        self._late: list[tuple] = []  # (hand id, frame, keypoints, greys, frames before)
 
     # -- one frame ----------------------------------------------------------------------
 
@@ -479,6 +499,7 @@ class HandsTracker:
             followed = [c if k is None else None for c, k in zip(carried, kps, strict=True)]
             self._down_weighted(h, followed)  # rule 5 on them too, in place
             results.append(self._fit(h, images, carried, world))
+        self._note_late(results, images, greys)
         for h, r in zip(self.hands, results, strict=True):
             if not r.no_hand and not r.hidden:
                 h.before, h.last, h.missing = h.last, r, 0
@@ -489,6 +510,79 @@ class HandsTracker:
                 h.missing += 1
         index, self.frame_count = self.frame_count, self.frame_count + 1
         return HandsResult(index, tuple(results), time.perf_counter() - t0)
+
+    def _note_late(self, results, images, greys) -> None:
+        """Rule 7: note each hand fitted to a detection after a frame without it, with
+        the frames kept before this one; keep this frame (with ``back`` only)."""
+        if self._recent is None:
+            return
+        for h, r in zip(self.hands, results, strict=True):
+            frames = h.tracker.frames
+            found = not r.no_hand and not r.hidden and r.keypoints is not None
+            if found and self._recent and len(frames) > 1 and frames[-2].no_hand:
+                self._late.append((h.id, r.index, r.keypoints, greys, list(self._recent)))
+        self._recent.append((images, greys))
+
+    def back_fill(self) -> dict[int, dict[int, np.ndarray]]:
+        """Rule 7 (module notes): each hand found late fitted, with its shape now, on
+        the frames kept before that detection that it was not on, backwards from it.
+        Replaces those frames in the hand's track (`HandTracker.recovered`); returns
+        their poses, per frame index and hand id (none without ``back``).  Once,
+        after the last frame."""
+        from handvar.predictors.catalogue import make_predictor
+        from handvar.tracking import Tracker
+        from handvar.tracking.recovery import Recovery, _frame_quality
+        from handvar.vision.carry import CARRY_SETTINGS, KeypointCarrier
+
+        lead, out = CARRY_SETTINGS.lead_points, {}
+        late, self._late = self._late, []
+        if lead is None:
+            return out
+        for hid, t0, kps, greys0, before in late:
+            h = self.hands[hid]
+            other = next((o for o in self.hands if o is not h), None)
+            carriers = [KeypointCarrier(CARRY_SETTINGS) for _ in greys0]
+            for c, g, k in zip(carriers, greys0, kps, strict=True):
+                c.step(g, k)
+            fit = h.tracker.recovery.tracker
+            recovery = Recovery(
+                Tracker(self.rig, h.tracker.hand, make_predictor(h.tracker.predictor),
+                        np.random.default_rng(h.tracker.seed), fit.settings),
+                settings=dataclasses.replace(h.tracker.settings, shape=None), cut_wrist=True,
+            )  # fmt: skip
+            recovery.start(h.tracker.frames[t0].pose)
+            silhouettes = h.tracker._silhouettes
+            for back, (images, greys) in enumerate(reversed(before), start=1):
+                t = t0 - back  # the frames kept end with the one before t0
+                if not h.tracker.frames[t].no_hand:
+                    break
+                carried = []
+                for c, g in zip(carriers, greys, strict=True):
+                    k = c.step(g)
+                    carried.append(k if k is not None and c.followed >= lead else None)
+                if all(k is None for k in carried) or self._on_fit(other, t, carried):
+                    break
+                f, seconds = recovery.step(
+                    functools.partial(silhouettes, images),
+                    carried, None, with_keypoints=True,
+                )  # fmt: skip
+                if f.no_hand or _frame_quality(f.result, f.empty).lost:
+                    break
+                h.tracker.frames[t], h.tracker.seconds[t] = f, h.tracker.seconds[t] + seconds
+                out.setdefault(t, {})[hid] = f.pose
+        return out
+
+    def _on_fit(self, other: _Hand | None, t: int, kps: list) -> bool:
+        """Rule 7: points `kps` per camera lie on `other`'s fit of frame t (within
+        `DUPLICATE` hand sizes in some camera)."""
+        if other is None or other.tracker.hand is None:
+            return False
+        pose = other.tracker.frames[t].pose
+        if not np.isfinite(pose).all():
+            return False
+        joints = other.tracker.hand.joints(pose)
+        return any(k is not None and _distance(cam.project(joints), k) < DUPLICATE
+                   for cam, k in zip(self.rig.cameras, kps, strict=True))  # fmt: skip
 
     def _given(self, detections) -> dict[int, tuple]:
         """Per hand id, its keypoints per camera and the first camera's world points."""
