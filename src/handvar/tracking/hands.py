@@ -540,6 +540,8 @@ class HandsTracker:
             return out
         for hid, t0, kps, greys0, before in late:
             h = self.hands[hid]
+            if h.tracker.recovery is None:  # its side turned at the end: no model yet
+                continue
             other = next((o for o in self.hands if o is not h), None)
             carriers = [KeypointCarrier(CARRY_SETTINGS) for _ in greys0]
             for c, g, k in zip(carriers, greys0, kps, strict=True):
