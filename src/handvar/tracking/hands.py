@@ -76,10 +76,13 @@ detector's label:
 7. **A hand found late** (a recording, ``HandsTracker(back=True)``, `back_fill`).  A
    hand's first detection after frames without it is carried back by optical flow to
    those frames, at most `CarrySettings.max_frames`, while the flow follows at least
-   `CarrySettings.lead_points` of its points in some camera and they do not lie on
-   the other hand's fit (within `DUPLICATE` hand sizes), as one hand's track on a
-   recording is (design §14.5); once every frame is tracked, those frames are fitted
-   to them, backwards from the detection, with the hand's final shape.
+   `BACK_POINTS` of its points in some camera and they do not lie on the other hand's
+   fit (within `DUPLICATE` hand sizes), as one hand's track on a recording is (design
+   §14.5); once every frame is tracked, those frames are fitted to them, backwards
+   from the detection, with the hand's final shape.  One hand's track wants 6 points
+   (`CarrySettings.lead_points`): there the frames carried back are among the first
+   that shape the hand; here the shape is fitted before.  2 was chosen among 2, 6
+   and 11 on the two-hand benchmark with MediaPipe (docs/results/two-hands.md).
 
 A frame's `HandsResult` holds one `FrameResult` per hand, under its id (0, 1: the order
 in which the hands were first seen) with its side.  With ``hands=1`` it tracks the
@@ -178,6 +181,9 @@ MISSED_CARRY = 60
 BEHIND_CARRY = 10
 #: Frames without a detection after which a hand is no longer expected anywhere.
 GONE_FRAMES = 10
+#: Points of a hand found late that the optical flow must still follow for its first
+#: detection to be carried back to a frame (rule 7).
+BACK_POINTS = 2
 
 
 @dataclass(frozen=True, eq=False)
@@ -534,10 +540,7 @@ class HandsTracker:
         from handvar.tracking.recovery import Recovery, _frame_quality
         from handvar.vision.carry import CARRY_SETTINGS, KeypointCarrier
 
-        lead, out = CARRY_SETTINGS.lead_points, {}
-        late, self._late = self._late, []
-        if lead is None:
-            return out
+        out, late, self._late = {}, self._late, []
         for hid, t0, kps, greys0, before in late:
             h = self.hands[hid]
             if h.tracker.recovery is None:  # its side turned at the end: no model yet
@@ -561,7 +564,7 @@ class HandsTracker:
                 carried = []
                 for c, g in zip(carriers, greys, strict=True):
                     k = c.step(g)
-                    carried.append(k if k is not None and c.followed >= lead else None)
+                    carried.append(k if k is not None and c.followed >= BACK_POINTS else None)
                 if all(k is None for k in carried) or self._on_fit(other, t, carried):
                     break
                 f, seconds = recovery.step(
