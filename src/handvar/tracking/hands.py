@@ -77,9 +77,9 @@ detector's label:
    hand's first detection after frames without it is carried back by optical flow to
    those frames, at most `CarrySettings.max_frames`, while the flow follows at least
    `BACK_POINTS` of its points in some camera and they do not lie on the other hand's
-   fit (within `DUPLICATE` hand sizes), as one hand's track on a recording is (design
-   §14.5); once every frame is tracked, those frames are fitted to them, backwards
-   from the detection, with the hand's final shape.  One hand's track wants 6 points
+   fit (within `DUPLICATE` hand sizes), as one hand's track on a recording is
+   (design §14.5); once every frame is tracked, those frames are fitted to them,
+   backwards from the detection, with the hand's final shape.  One hand's track wants 6 points
    (`CarrySettings.lead_points`): there the frames carried back are among the first
    that shape the hand; here the shape is fitted before.  2 was chosen among 2, 6
    and 11 on the two-hand benchmark with MediaPipe (docs/results/two-hands.md).
