@@ -300,17 +300,24 @@ class HandTracker:
     def _start(self) -> None:
         """Build the model, predictor and recovery once the side is known."""
         from handvar.hand.kinematics import HandModel
+
+        side = self.side or "right"
+        hand = HandModel(HandShape.from_size(self.hand_length, side=side), surface=self.model)
+        self.recovery = self.recovery_for(hand)
+
+    def recovery_for(self, hand, settings=None):
+        """A new `handvar.tracking.recovery.Recovery` of this tracker's kind (rig,
+        predictor, seed, keypoint tips) for `hand`; `settings`: its `RecoverySettings`
+        (default: this tracker's)."""
         from handvar.predictors.catalogue import make_predictor
         from handvar.tracking import CostSettings, Tracker, TrackerSettings
         from handvar.tracking.recovery import Recovery
 
-        side = self.side or "right"
-        hand = HandModel(HandShape.from_size(self.hand_length, side=side), surface=self.model)
-        settings = TrackerSettings(cost=CostSettings(keypoint_tips=self.tips))
         tracker = Tracker(self.rig, hand, make_predictor(self.predictor),
-                          np.random.default_rng(self.seed), settings)  # fmt: skip
-        self.recovery = Recovery(tracker, settings=self.settings,
-                                 cut_wrist=self.detectors is not None)  # fmt: skip
+                          np.random.default_rng(self.seed),
+                          TrackerSettings(cost=CostSettings(keypoint_tips=self.tips)))  # fmt: skip
+        return Recovery(tracker, settings=self.settings if settings is None else settings,
+                        cut_wrist=self.detectors is not None)  # fmt: skip
 
     def _keypoints(self, images, given):
         """Per camera the frame's keypoints, the detector's 3D, whether it looked."""

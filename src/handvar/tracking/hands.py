@@ -79,10 +79,10 @@ detector's label:
    `BACK_POINTS` of its points in some camera and they do not lie on the other hand's
    fit (within `DUPLICATE` hand sizes), as one hand's track on a recording is
    (design §14.5); once every frame is tracked, those frames are fitted to them,
-   backwards from the detection, with the hand's final shape.  One hand's track wants 6 points
-   (`CarrySettings.lead_points`): there the frames carried back are among the first
-   that shape the hand; here the shape is fitted before.  2 was chosen among 2, 6
-   and 11 on the two-hand benchmark with MediaPipe (docs/results/two-hands.md).
+   backwards from the detection, with the hand's final shape.  One hand's track wants
+   6 points (`CarrySettings.lead_points`): there the frames carried back are among the
+   first that shape the hand; here the shape is fitted before.  2 was chosen among 2,
+   6 and 11 on the two-hand benchmark with MediaPipe (docs/results/two-hands.md).
 
 A frame's `HandsResult` holds one `FrameResult` per hand, under its id (0, 1: the order
 in which the hands were first seen) with its side.  With ``hands=1`` it tracks the
@@ -535,9 +535,7 @@ class HandsTracker:
         Replaces those frames in the hand's track (`HandTracker.recovered`); returns
         their poses, per frame index and hand id (none without ``back``).  Once,
         after the last frame."""
-        from handvar.predictors.catalogue import make_predictor
-        from handvar.tracking import Tracker
-        from handvar.tracking.recovery import Recovery, _frame_quality
+        from handvar.tracking.recovery import _frame_quality
         from handvar.vision.carry import CARRY_SETTINGS, KeypointCarrier
 
         out, late, self._late = {}, self._late, []
@@ -549,12 +547,8 @@ class HandsTracker:
             carriers = [KeypointCarrier(CARRY_SETTINGS) for _ in greys0]
             for c, g, k in zip(carriers, greys0, kps, strict=True):
                 c.step(g, k)
-            fit = h.tracker.recovery.tracker
-            recovery = Recovery(
-                Tracker(self.rig, h.tracker.hand, make_predictor(h.tracker.predictor),
-                        np.random.default_rng(h.tracker.seed), fit.settings),
-                settings=dataclasses.replace(h.tracker.settings, shape=None), cut_wrist=True,
-            )  # fmt: skip
+            held = dataclasses.replace(h.tracker.settings, shape=None)  # its shape as now
+            recovery = h.tracker.recovery_for(h.tracker.hand, held)
             recovery.start(h.tracker.frames[t0].pose)
             silhouettes = h.tracker._silhouettes
             for back, (images, greys) in enumerate(reversed(before), start=1):
