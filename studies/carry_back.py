@@ -21,7 +21,9 @@ setting ``none`` leaves without:
 - frames added, and of them the frames where the hand is not in view (points drawn on
   no hand);
 - PCK@0.2 of the added points against the truth (true wrist → middle-MCP length),
-  where the hand is in view;
+  where the hand is in view, beside what a user has without the flow: the run's first
+  detection held back to those frames (as interpolating the detections does before
+  the first one, `handvar.evaluation.metrics.thinned`);
 - frames whose added points lie more than 0.5 hand sizes off the hand on average.
 """
 
@@ -38,8 +40,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 
-def carried_back(case, detections, k: int, settings) -> np.ndarray:
-    """(T, 21, 2) true hand k's nearest detections carried both ways with `settings`."""
+def carried_back(case, detections, k: int, settings) -> tuple[np.ndarray, np.ndarray]:
+    """(T, 21, 2) true hand k's nearest detections carried both ways with `settings`,
+    and those detections (NaN where none)."""
     from handvar.vision.carry import carry_keypoints
     from handvar.vision.keypoints import Keypoints2D
     from two_hands import nearest
@@ -50,7 +53,8 @@ def carried_back(case, detections, k: int, settings) -> np.ndarray:
             given[t, :, :2] = d.points[:, :2]
             given[t, :, 2] = 1.0
     grey = [cv2.cvtColor(f, cv2.COLOR_RGB2GRAY) for f in case.frames[0]]
-    return carry_keypoints(grey, Keypoints2D.from_array(given), settings, both=True).xy
+    carried = carry_keypoints(grey, Keypoints2D.from_array(given), settings, both=True).xy
+    return carried, given[..., :2]
 
 
 def main() -> None:
@@ -65,7 +69,8 @@ def main() -> None:
     parser.add_argument("--lead-points", default="none,0,2,6,11")
     args = parser.parse_args()
     leads = [None if v == "none" else int(v) for v in args.lead_points.split(",")]
-    totals = {lead: np.zeros(5) for lead in leads}  # added, no hand, kept, scored, off
+    # added, no hand, kept, scored, off, kept held
+    totals = {lead: np.zeros(6) for lead in leads}
     for scenario in SCENARIOS:
         for seed in range(args.seeds):
             case = two_hand_case(scenario, cameras=1, seed=seed, size=(640, 360))
@@ -75,7 +80,8 @@ def main() -> None:
                 before = None
                 for lead in leads:
                     settings = dataclasses.replace(CARRY_SETTINGS, lead_points=lead)
-                    xy = carried_back(case, detections, k, settings)
+                    xy, found = carried_back(case, detections, k, settings)
+                    detected = np.flatnonzero(np.isfinite(found).any(axis=(1, 2)))
                     has = np.isfinite(xy).any(axis=(1, 2))
                     if before is None:  # the rule before, or the first setting asked
                         before = has if lead is None else np.zeros_like(has)
@@ -88,15 +94,20 @@ def main() -> None:
                         d = np.linalg.norm(xy[t] - case.truth_2d[0, k, t], axis=1) / size[t]
                         row[2] += np.sum(d <= 0.2)
                         row[3] += 21
+                        held = found[detected[detected > t][0]]  # the next detection
+                        row[5] += np.sum(np.linalg.norm(held - case.truth_2d[0, k, t], axis=1)
+                                         <= 0.2 * size[t])  # fmt: skip
                         row[4] += np.nanmean(d) > 0.5
             print(f"{case.name}: done", flush=True)
     print("| lead_points | frames added | of them without the hand | PCK@0.2 of the added, "
-          "hand in view | added > 0.5 hand sizes off |")  # fmt: skip
-    print("|---|---:|---:|---:|---:|")
-    for lead, (added, gone, kept, scored, off) in totals.items():
+          "hand in view | the first detection held there | added > 0.5 hand sizes off "
+          "|")  # fmt: skip
+    print("|---|---:|---:|---:|---:|---:|")
+    for lead, (added, gone, kept, scored, off, held) in totals.items():
         pck = f"{kept / scored:.3f}" if scored else "–"
+        hold = f"{held / scored:.3f}" if scored else "–"
         print(f"| {'none' if lead is None else lead} | {added:.0f} | {gone:.0f} | {pck} | "
-              f"{off:.0f} |")  # fmt: skip
+              f"{hold} | {off:.0f} |")  # fmt: skip
 
 
 if __name__ == "__main__":
