@@ -141,6 +141,27 @@ def test_a_hand_found_twice_is_one_hand():
         assert r.hands[1].no_hand
 
 
+def test_a_hand_found_twice_is_not_given_to_the_other_hand_near_it():
+    """MediaPipe finds the right hand twice and misses the left one, expected within
+    its gate of both: the left hand gets neither (fitted to one in one camera, it would
+    be drawn there at a depth no other camera checks); the right hand keeps the one
+    nearer where it is expected, in each camera."""
+    rig, joints, tracker = _two_cameras()
+    left, right = tracker.hands
+    left.side, right.side = "left", "right"
+    right.last = right.before = _placed(rig, joints)
+    left.last = left.before = _placed(rig, joints + np.array([60.0, 0.0, 0.0]))  # mm
+    views = [cam.project(joints) for cam in rig.cameras]
+    size = np.linalg.norm(views[0][9] - views[0][0])
+    twice = [[Detection(np.c_[v + np.r_[0.02 * size, 0.0], np.ones(21)], side="right", score=0.9),
+              Detection(np.c_[v + np.r_[0.25 * size, 0.0], np.ones(21)], side="right", score=0.6)]
+             for v in views]  # fmt: skip
+    given = tracker._given(twice)
+    for j in range(len(rig)):
+        assert given[left.id][0][j] is None
+        np.testing.assert_allclose(given[right.id][0][j][:, :2], twice[j][0].points[:, :2])
+
+
 def test_a_hand_found_twice_with_its_label_is_one_hand_and_a_far_one_is_new():
     """A second detection labelled the tracked hand's side (MediaPipe's duplicate while
     hands touch) starts no hand within `NEW_HAND` hand sizes of that hand's detection,

@@ -15,7 +15,11 @@ detector's label:
    (`least_cost_pairs`) keeps the pairs under `GATE` hand sizes
    (wider by `GATE_GROWTH` for each frame since the hand was last fitted, or for each
    of the detector's frames since it was last given a detection if more: a hand
-   followed by optical flow is less sure of its place than a detected one).  The label is
+   followed by optical flow is less sure of its place than a detected one).  Two
+   detections so given that lie within `DUPLICATE` hand sizes of each other are one
+   hand found twice (MediaPipe does so): only the one nearer where its hand is expected
+   is kept, else the other hand, fitted to it in one camera, is drawn on it at a depth
+   no other camera checks.  The label is
    one vote among others: a hand that crosses the other keeps its identity when the
    detector's labels swap.  With two cameras or more (`_agree`), a hand given views
    whose rays do not meet within `RAY_GAP` (two hands) keeps the one nearer where it
@@ -591,6 +595,7 @@ class HandsTracker:
             expected = [h.places(j) for h in self.hands]
             pairs = assign(expected, [h.side for h in self.hands], found,
                            [h.gate for h in self.hands])  # fmt: skip
+            pairs = _found_once(pairs, expected, found)
             for hand, k in pairs.items():
                 given[self.hands[hand].id][j] = found[k]
         self._agree(given)
@@ -867,3 +872,16 @@ def _has_view(given: dict, h: _Hand) -> bool:
 def _given_values(given: dict, j: int) -> list:
     """The detections of camera `j` already given to a hand."""
     return [g[j] for g in given.values() if g[j] is not None]
+
+
+def _found_once(pairs: dict[int, int], expected: list, found: list) -> dict[int, int]:
+    """Rule 2: of two detections given to two hands in one camera that lie within
+    `DUPLICATE` hand sizes of each other (one hand found twice), only the one nearer
+    where its hand is expected is kept."""
+    if len(pairs) < 2:
+        return pairs
+    (a, i), (b, k) = list(pairs.items())[:2]
+    if _distance(found[i].points[:, :2], found[k].points) >= DUPLICATE:
+        return pairs
+    far = max((a, i), (b, k), key=lambda p: _distance(expected[p[0]], found[p[1]].points))
+    return {h: d for h, d in pairs.items() if h != far[0]}
