@@ -485,6 +485,55 @@ def test_a_hand_the_detector_misses_is_followed_by_optical_flow(T, missed, every
         assert error < 0.15 * size, (t, error / size)
 
 
+def test_a_hand_followed_by_a_few_points_in_one_camera_of_two_is_not_fitted_to_them():
+    """Two cameras, textured frames sliding as above; from frame 6 the detector misses
+    the left hand in both, camera 0 goes blank (the flow follows none of its points) and
+    camera 1 keeps texture only around 2 of them.  Fitted to those, the hand would lie
+    anywhere along camera 1's rays; it is carried by its prediction for
+    `MISSED_FRAMES` frames and then drawn nowhere, while the right hand stays on its
+    true points in both cameras."""
+    import cv2
+
+    from handvar.tracking.hands import ONE_VIEW_POINTS
+
+    assert ONE_VIEW_POINTS > 2
+    rig = realistic_rig(2)
+    poses, _ = motion_poses("counting", 0)
+    T, shift = 14, np.array([3.0, 1.0])
+    truth = []  # per camera, per side, (T, 21, 2)
+    for cam in rig.cameras:
+        views = {}
+        for s, sign in (("left", -1.0), ("right", 1.0)):
+            x = poses[0].copy()
+            x[0] += sign * 130.0
+            model = HandModel(HandShape.from_size(185.0, side=s))
+            p = cam.project(keypoint_points(model, x, "pad"))
+            views[s] = np.stack([p + t * shift for t in range(T)])
+        truth.append(views)
+    rng = np.random.default_rng(0)
+    texture = cv2.GaussianBlur(rng.integers(0, 256, (360, 640), dtype=np.uint8), (0, 0), 2.0)
+    texture = cv2.normalize(texture, None, 0, 255, cv2.NORM_MINMAX)
+    tracker = HandsTracker(rig, detector=None)
+    for t in range(T):
+        image = np.roll(texture, (t, 3 * t), axis=(0, 1))
+        images = [image.copy(), image.copy()]
+        if t >= 6:
+            images[0][:] = 128
+            patch = np.zeros_like(image)
+            for q in truth[1]["left"][t, :2]:
+                cv2.circle(patch, tuple(int(v) for v in q), 10, 1, -1)
+            images[1] = np.where(patch > 0, image, 128).astype(np.uint8)
+        found = [[Detection(np.c_[truth[j][s][t], np.ones(21)], side=s, score=0.9)
+                  for s in SIDES if t < 6 or s == "right"] for j in range(2)]  # fmt: skip
+        r = tracker.process([cv2.cvtColor(i, cv2.COLOR_GRAY2BGR) for i in images],
+                            detections=found)  # fmt: skip
+    left = next(h for h in r.hands if h.side == "left")
+    right = next(h for h in r.hands if h.side == "right")
+    assert left.no_hand
+    for j in range(2):
+        assert np.linalg.norm(right.projected[j] - truth[j]["right"][T - 1], axis=1).mean() < 5.0
+
+
 @pytest.mark.slow
 def test_a_real_video_beside_its_mirror_keeps_each_hand_on_its_half(tmp_path):
     """Real pixels with MediaPipe inside: the fingerspelling clip beside its mirror image

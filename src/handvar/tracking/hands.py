@@ -66,7 +66,11 @@ detector's label:
    dropped) for up to `MISSED_CARRY` frames, and the hand is fitted to them (rule 5
    applied to them too); after `BEHIND_CARRY` frames, only while no hand in front of
    it (rule 5's) overlaps it by `BEHIND_SHARE` of its expected points: in the open
-   the flow sees the hand it follows, behind another it follows the front one.  Once
+   the flow sees the hand it follows, behind another it follows the front one.  With
+   two cameras or more, a hand the flow follows in one camera only needs
+   `ONE_VIEW_POINTS` points there: fitted to fewer, it drifted along that camera's
+   rays, off the hand in the other (4 chosen among 2, 4 and 6 on the two-hand
+   benchmark with MediaPipe, docs/results/two-hands.md).  Once
    no point is followed, a hand fitted until a frame ago is carried by its motion
    prediction (``hidden``, its quality ``empty``): for up to `HIDDEN_FRAMES` frames
    while `BEHIND_SHARE` of its expected points or more lie inside the other hand's
@@ -132,6 +136,7 @@ __all__ = [
     "MISSED_CARRY",
     "MISSED_FRAMES",
     "NEW_HAND",
+    "ONE_VIEW_POINTS",
     "RAY_GAP",
     "SAME_HAND",
     "SIDE_FRAMES",
@@ -183,6 +188,9 @@ MISSED_FRAMES = 2
 MISSED_CARRY = 60
 #: Of those, the frames it is followed while a hand in front of it overlaps it.
 BEHIND_CARRY = 10
+#: Points the optical flow must follow of a hand given no detection, carried in one
+#: camera only of two or more, for it to be fitted to them (rule 6).
+ONE_VIEW_POINTS = 4
 #: Frames without a detection after which a hand is no longer expected anywhere.
 GONE_FRAMES = 10
 #: Points of a hand found late that the optical flow must still follow for its first
@@ -506,6 +514,7 @@ class HandsTracker:
             for j, carrier in enumerate(h.carriers):  # the flow would follow the hand in front
                 if kps[j] is None and carrier.age > BEHIND_CARRY and self._behind(h, j):
                     carried[j] = None
+            _one_view(h, kps, carried)
             followed = [c if k is None else None for c, k in zip(carried, kps, strict=True)]
             self._down_weighted(h, followed)  # rule 5 on them too, in place
             results.append(self._fit(h, images, carried, world))
@@ -885,3 +894,14 @@ def _found_once(pairs: dict[int, int], expected: list, found: list) -> dict[int,
         return pairs
     far = max((a, i), (b, k), key=lambda p: _distance(expected[p[0]], found[p[1]].points))
     return {h: d for h, d in pairs.items() if h != far[0]}
+
+
+def _one_view(h: _Hand, kps: list, carried: list) -> None:
+    """Rule 6, two cameras or more: a hand given no detection and carried by the flow in
+    one camera only is not fitted to fewer than `ONE_VIEW_POINTS` points followed there
+    (in place): so few points in one view tell no depth, and the hand fitted to them
+    drifts along that camera's rays, off the hand in the others."""
+    views = [j for j, c in enumerate(carried) if c is not None]
+    if len(carried) > 1 and len(views) == 1 and all(k is None for k in kps):
+        if h.carriers[views[0]].followed < ONE_VIEW_POINTS:
+            carried[views[0]] = None
