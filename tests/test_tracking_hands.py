@@ -534,6 +534,49 @@ def test_a_hand_followed_by_a_few_points_in_one_camera_of_two_is_not_fitted_to_t
         assert np.linalg.norm(right.projected[j] - truth[j]["right"][T - 1], axis=1).mean() < 5.0
 
 
+def _one_camera_first(seed: int, size: float = 225.0, T: int = 30, one: int = 8):
+    """A right hand of `size` mm found in camera 1 alone on the first `one` frames, then
+    in both (1 px of noise); its mean 3D joint error (mm) on those frames as tracked
+    and after `back_fill`, and the frames back-filled."""
+    rig = realistic_rig(2)
+    poses, _ = motion_poses("counting", 0)
+    model = HandModel(HandShape.from_size(size, side="right"))
+    joints = np.stack([keypoint_points(model, x, "pad") for x in poses[:T]])
+    tracker = HandsTracker(rig, detector=None, back=True)
+    rng = np.random.default_rng(seed)
+    for t in range(T):
+        views = [[Detection(np.c_[cam.project(joints[t]) + rng.normal(0, 1.0, (21, 2)),
+                                  np.ones(21)], side="right", score=0.9)]
+                 for cam in rig.cameras]  # fmt: skip
+        if t < one:
+            views[0] = []
+        tracker.process([IMAGE, IMAGE], detections=views)
+    hand = next(h for h in tracker.hands if h.side == "right")
+
+    def error():
+        fitted = [keypoint_points(hand.tracker.hand, hand.tracker.frames[t].pose, "pad")
+                  for t in range(one)]  # fmt: skip
+        return np.linalg.norm(np.stack(fitted) - joints[:one], axis=-1).mean()
+
+    before = error()
+    refitted = tracker.back_fill()
+    return before, error(), sorted(t for t in refitted if hand.id in refitted[t])
+
+
+def test_a_hand_seen_in_one_camera_first_is_fitted_again_with_the_shape_two_give():
+    """Two cameras; a 225 mm right hand (the model starts at 185) found in camera 1
+    alone on the first 8 frames, then in both.  From one view its depth is its assumed
+    shape's; on a recording (`back_fill`) those frames are fitted again backwards with
+    the shape the two views gave, and land nearer the truth in 3D: over four noise
+    draws, at most 0.7 times the error as tracked (measured: about 0.5), and never
+    worse by more than 1 mm on one."""
+    runs = [_one_camera_first(seed) for seed in range(4)]
+    for before, after, frames in runs:
+        assert frames == list(range(8))
+        assert after < before + 1.0, runs
+    assert np.mean([a for _, a, _ in runs]) < 0.7 * np.mean([b for b, _, _ in runs]), runs
+
+
 @pytest.mark.slow
 def test_a_real_video_beside_its_mirror_keeps_each_hand_on_its_half(tmp_path):
     """Real pixels with MediaPipe inside: the fingerspelling clip beside its mirror image

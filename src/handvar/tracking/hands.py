@@ -91,6 +91,10 @@ detector's label:
    6 points (`CarrySettings.lead_points`): there the frames carried back are among the
    first that shape the hand; here the shape is fitted before.  2 was chosen among 2,
    6 and 11 on the two-hand benchmark with MediaPipe (docs/results/two-hands.md).
+   With two cameras or more, a hand fitted to one camera's keypoints on the frames
+   before it is first fitted to two (at most 30) is fitted to them again, backwards
+   from that frame, with its final shape: from one view its depth is its shape's, and
+   only two views tell the shape.
 
 A frame's `HandsResult` holds one `FrameResult` per hand, under its id (0, 1: the order
 in which the hands were first seen) with its side.  With ``hands=1`` it tracks the
@@ -362,6 +366,8 @@ class _Hand:
     against: int = 0  # labelled detections in a row sure of the other side
     carriers: list | None = None  # per camera: its detections carried by optical flow
     undetected: int = 0  # the detector's frames since it was last given a detection
+    single: list = dataclasses.field(default_factory=list)  # (t, kps, images) in one view
+    seen_two: bool = False  # fitted to two views or more
 
     @property
     def expected(self):
@@ -455,6 +461,7 @@ class HandsTracker:
 
             self._recent = collections.deque(maxlen=CARRY_SETTINGS.max_frames)
         self._late: list[tuple] = []  # (hand id, frame, keypoints, greys, frames before)
+        self._views: list[tuple] = []  # (hand id, frame, its frames in one view before)
 
     # -- one frame ----------------------------------------------------------------------
 
@@ -532,7 +539,8 @@ class HandsTracker:
 
     def _note_late(self, results, images, greys) -> None:
         """Rule 7: note each hand fitted to a detection after a frame without it, with
-        the frames kept before this one; keep this frame (with ``back`` only)."""
+        the frames kept before this one, and each first fitted to two views after frames
+        in one, with those frames; keep this frame (with ``back`` only)."""
         if self._recent is None:
             return
         for h, r in zip(self.hands, results, strict=True):
@@ -540,11 +548,22 @@ class HandsTracker:
             found = not r.no_hand and not r.hidden and r.keypoints is not None
             if found and self._recent and len(frames) > 1 and frames[-2].no_hand:
                 self._late.append((h.id, r.index, r.keypoints, greys, list(self._recent)))
+            if len(images) > 1 and not h.seen_two:
+                views = 0 if not found else sum(k is not None for k in r.keypoints)
+                if views == 1:
+                    h.single = [*h.single[-29:], (r.index, r.keypoints, images)]
+                elif views > 1:
+                    h.seen_two = True
+                    if h.single and h.single[-1][0] == r.index - 1:
+                        self._views.append((h.id, r.index, h.single))
+                if views != 1:
+                    h.single = []
         self._recent.append((images, greys))
 
     def back_fill(self) -> dict[int, dict[int, np.ndarray]]:
         """Rule 7 (module notes): each hand found late fitted, with its shape now, on
-        the frames kept before that detection that it was not on, backwards from it.
+        the frames kept before that detection that it was not on, backwards from it;
+        each first seen in two views, on its frames in one before, the same way.
         Replaces those frames in the hand's track (`HandTracker.recovered`); returns
         their poses, per frame index and hand id (none without ``back``).  Once,
         after the last frame."""
@@ -582,7 +601,34 @@ class HandsTracker:
                     break
                 h.tracker.frames[t], h.tracker.seconds[t] = f, h.tracker.seconds[t] + seconds
                 out.setdefault(t, {})[hid] = f.pose
+        self._refit_views(out)
         return out
+
+    def _refit_views(self, out: dict) -> None:
+        """Rule 7, two cameras or more: each hand's frames in one view before it was
+        first fitted to two, fitted again backwards from there with its shape now;
+        their poses added to `out` (frame → hand id → pose)."""
+        from handvar.tracking.recovery import _frame_quality
+
+        views, self._views = self._views, []
+        for hid, t1, run in views:
+            h = self.hands[hid]
+            if h.tracker.recovery is None:  # its side turned at the end: no model yet
+                continue
+            held = dataclasses.replace(h.tracker.settings, shape=None)  # its shape as now
+            recovery = h.tracker.recovery_for(h.tracker.hand, held)
+            recovery.start(h.tracker.frames[t1].pose)
+            for t, kps, images in reversed(run):
+                if h.tracker.frames[t].no_hand:
+                    break
+                f, seconds = recovery.step(
+                    functools.partial(h.tracker._silhouettes, images), kps, None,
+                    with_keypoints=True,
+                )  # fmt: skip
+                if f.no_hand or _frame_quality(f.result, f.empty).lost:
+                    break
+                h.tracker.frames[t], h.tracker.seconds[t] = f, h.tracker.seconds[t] + seconds
+                out.setdefault(t, {})[hid] = f.pose
 
     def _on_fit(self, other: _Hand | None, t: int, kps: list) -> bool:
         """Rule 7: points `kps` per camera lie on `other`'s fit of frame t (within
