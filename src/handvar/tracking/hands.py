@@ -567,7 +567,6 @@ class HandsTracker:
         Replaces those frames in the hand's track (`HandTracker.recovered`); returns
         their poses, per frame index and hand id (none without ``back``).  Once,
         after the last frame."""
-        from handvar.tracking.recovery import _frame_quality
         from handvar.vision.carry import CARRY_SETTINGS, KeypointCarrier
 
         out, late, self._late = {}, self._late, []
@@ -579,10 +578,7 @@ class HandsTracker:
             carriers = [KeypointCarrier(CARRY_SETTINGS) for _ in greys0]
             for c, g, k in zip(carriers, greys0, kps, strict=True):
                 c.step(g, k)
-            held = dataclasses.replace(h.tracker.settings, shape=None)  # its shape as now
-            recovery = h.tracker.recovery_for(h.tracker.hand, held)
-            recovery.start(h.tracker.frames[t0].pose)
-            silhouettes = h.tracker._silhouettes
+            recovery = _recovery_from(h, t0)
             for back, (images, greys) in enumerate(reversed(before), start=1):
                 t = t0 - back  # the frames kept end with the one before t0
                 if not h.tracker.frames[t].no_hand:
@@ -593,14 +589,8 @@ class HandsTracker:
                     carried.append(k if k is not None and c.followed >= BACK_POINTS else None)
                 if all(k is None for k in carried) or self._on_fit(other, t, carried):
                     break
-                f, seconds = recovery.step(
-                    functools.partial(silhouettes, images),
-                    carried, None, with_keypoints=True,
-                )  # fmt: skip
-                if f.no_hand or _frame_quality(f.result, f.empty).lost:
+                if not _refit(h, recovery, t, images, carried, out):
                     break
-                h.tracker.frames[t], h.tracker.seconds[t] = f, h.tracker.seconds[t] + seconds
-                out.setdefault(t, {})[hid] = f.pose
         self._refit_views(out)
         return out
 
@@ -608,27 +598,15 @@ class HandsTracker:
         """Rule 7, two cameras or more: each hand's frames in one view before it was
         first fitted to two, fitted again backwards from there with its shape now;
         their poses added to `out` (frame → hand id → pose)."""
-        from handvar.tracking.recovery import _frame_quality
-
         views, self._views = self._views, []
         for hid, t1, run in views:
             h = self.hands[hid]
             if h.tracker.recovery is None:  # its side turned at the end: no model yet
                 continue
-            held = dataclasses.replace(h.tracker.settings, shape=None)  # its shape as now
-            recovery = h.tracker.recovery_for(h.tracker.hand, held)
-            recovery.start(h.tracker.frames[t1].pose)
+            recovery = _recovery_from(h, t1)
             for t, kps, images in reversed(run):
-                if h.tracker.frames[t].no_hand:
+                if h.tracker.frames[t].no_hand or not _refit(h, recovery, t, images, kps, out):
                     break
-                f, seconds = recovery.step(
-                    functools.partial(h.tracker._silhouettes, images), kps, None,
-                    with_keypoints=True,
-                )  # fmt: skip
-                if f.no_hand or _frame_quality(f.result, f.empty).lost:
-                    break
-                h.tracker.frames[t], h.tracker.seconds[t] = f, h.tracker.seconds[t] + seconds
-                out.setdefault(t, {})[hid] = f.pose
 
     def _on_fit(self, other: _Hand | None, t: int, kps: list) -> bool:
         """Rule 7: points `kps` per camera lie on `other`'s fit of frame t (within
@@ -951,3 +929,26 @@ def _one_view(h: _Hand, kps: list, carried: list) -> None:
     if len(carried) > 1 and len(views) == 1 and all(k is None for k in kps):
         if h.carriers[views[0]].followed < ONE_VIEW_POINTS:
             carried[views[0]] = None
+
+
+def _recovery_from(h: _Hand, t: int):
+    """Rule 7: a recovery for `h` with its shape now, started at its pose of frame t."""
+    held = dataclasses.replace(h.tracker.settings, shape=None)  # its shape as now
+    recovery = h.tracker.recovery_for(h.tracker.hand, held)
+    recovery.start(h.tracker.frames[t].pose)
+    return recovery
+
+
+def _refit(h: _Hand, recovery, t: int, images, kps: list, out: dict) -> bool:
+    """Rule 7: frame t of `h` fitted again by `recovery` to `kps` (per camera) and put in
+    its track and in `out` (frame → hand id → pose); False, and nothing put, where the
+    fit finds no hand or is lost."""
+    from handvar.tracking.recovery import _frame_quality
+
+    f, seconds = recovery.step(functools.partial(h.tracker._silhouettes, images), kps, None,
+                               with_keypoints=True)  # fmt: skip
+    if f.no_hand or _frame_quality(f.result, f.empty).lost:
+        return False
+    h.tracker.frames[t], h.tracker.seconds[t] = f, h.tracker.seconds[t] + seconds
+    out.setdefault(t, {})[h.id] = f.pose
+    return True
