@@ -92,9 +92,10 @@ detector's label:
    first that shape the hand; here the shape is fitted before.  2 was chosen among 2,
    6 and 11 on the two-hand benchmark with MediaPipe (docs/results/two-hands.md).
    With two cameras or more, a hand fitted to one camera's keypoints on the frames
-   before it is first fitted to two (at most 30) is fitted to them again, backwards
-   from that frame, with its final shape: from one view its depth is its shape's, and
-   only two views tell the shape.
+   before it is first fitted to two is fitted to them again (at most 30 frames back),
+   backwards from its `SETTLE_FRAMES`-th frame in two, with its final shape: from one
+   view its depth is its shape's, and only two views tell the shape, over some frames
+   (10 chosen among 1, 5, 10, 20 and 30 on the two-hand benchmark with MediaPipe).
 
 A frame's `HandsResult` holds one `FrameResult` per hand, under its id (0, 1: the order
 in which the hands were first seen) with its side.  With ``hands=1`` it tracks the
@@ -143,6 +144,7 @@ __all__ = [
     "ONE_VIEW_POINTS",
     "RAY_GAP",
     "SAME_HAND",
+    "SETTLE_FRAMES",
     "SIDE_FRAMES",
     "SIDE_RUN",
     "SIDE_SURE",
@@ -197,6 +199,9 @@ BEHIND_CARRY = 10
 ONE_VIEW_POINTS = 4
 #: Frames without a detection after which a hand is no longer expected anywhere.
 GONE_FRAMES = 10
+#: Frames in two views or more after which a hand first fitted to one is fitted again,
+#: backwards from there, on those frames and the ones before (rule 7).
+SETTLE_FRAMES = 10
 #: Points of a hand found late that the optical flow must still follow for its first
 #: detection to be carried back to a frame (rule 7).
 BACK_POINTS = 2
@@ -367,7 +372,7 @@ class _Hand:
     carriers: list | None = None  # per camera: its detections carried by optical flow
     undetected: int = 0  # the detector's frames since it was last given a detection
     single: list = dataclasses.field(default_factory=list)  # (t, kps, images) in one view
-    seen_two: bool = False  # fitted to two views or more
+    settled: int = -1  # frames since first fitted to two views or more (-1: not yet)
 
     @property
     def expected(self):
@@ -548,17 +553,25 @@ class HandsTracker:
             found = not r.no_hand and not r.hidden and r.keypoints is not None
             if found and self._recent and len(frames) > 1 and frames[-2].no_hand:
                 self._late.append((h.id, r.index, r.keypoints, greys, list(self._recent)))
-            if len(images) > 1 and not h.seen_two:
-                views = 0 if not found else sum(k is not None for k in r.keypoints)
-                if views == 1:
-                    h.single = [*h.single[-29:], (r.index, r.keypoints, images)]
-                elif views > 1:
-                    h.seen_two = True
-                    if h.single and h.single[-1][0] == r.index - 1:
-                        self._views.append((h.id, r.index, h.single))
-                if views != 1:
-                    h.single = []
+            if len(images) > 1 and h.settled < SETTLE_FRAMES:
+                self._note_views(h, r, images, found)
         self._recent.append((images, greys))
+
+    def _note_views(self, h: _Hand, r, images, found: bool) -> None:
+        """Rule 7, two cameras or more: keep h's frames in one view before its first in
+        two, and the next ones up to its `SETTLE_FRAMES`-th in two; then note them to be
+        fitted again from that frame."""
+        views = 0 if not found else sum(k is not None for k in r.keypoints)
+        if views == 0 or (h.settled < 0 and views > 1 and not h.single):
+            h.single, h.settled = [], (-1 if h.settled < 0 and views == 0 else SETTLE_FRAMES)
+            return
+        if h.settled >= 0 or views > 1:
+            h.settled += 2 if h.settled < 0 else 1
+        if h.settled >= SETTLE_FRAMES:
+            self._views.append((h.id, r.index, h.single))
+            h.single = []
+            return
+        h.single = [*h.single[-29:], (r.index, r.keypoints, images)]
 
     def back_fill(self) -> dict[int, dict[int, np.ndarray]]:
         """Rule 7 (module notes): each hand found late fitted, with its shape now, on
