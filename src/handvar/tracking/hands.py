@@ -559,19 +559,29 @@ class HandsTracker:
 
     def _note_views(self, h: _Hand, r, images, found: bool) -> None:
         """Rule 7, two cameras or more: keep h's frames in one view before its first in
-        two, and the next ones up to its `SETTLE_FRAMES`-th in two; then note them to be
-        fitted again from that frame."""
+        two (at most `CarrySettings.max_frames`), and the next ones up to its
+        `SETTLE_FRAMES`-th in two; then note them to be fitted again from that frame."""
+        from handvar.vision.carry import CARRY_SETTINGS
+
         views = 0 if not found else sum(k is not None for k in r.keypoints)
-        if views == 0 or (h.settled < 0 and views > 1 and not h.single):
-            h.single, h.settled = [], (-1 if h.settled < 0 and views == 0 else SETTLE_FRAMES)
-            return
-        if h.settled >= 0 or views > 1:
-            h.settled += 2 if h.settled < 0 else 1
-        if h.settled >= SETTLE_FRAMES:
-            self._views.append((h.id, r.index, h.single))
+        if views == 0:  # the run is broken: what was kept is not fitted again
             h.single = []
+            if h.settled >= 0:
+                h.settled = SETTLE_FRAMES
             return
-        h.single = [*h.single[-29:], (r.index, r.keypoints, images)]
+        if h.settled < 0 and views > 1:  # its first frame in two views
+            if not h.single:  # seen in two from the start: nothing to fit again
+                h.settled = SETTLE_FRAMES
+                return
+            h.settled = 0
+        if h.settled >= 0:
+            h.settled += 1
+            if h.settled == SETTLE_FRAMES:
+                self._views.append((h.id, r.index, h.single))
+                h.single = []
+                return
+        keep = CARRY_SETTINGS.max_frames - 1
+        h.single = [*h.single[-keep:], (r.index, r.keypoints, images)]
 
     def back_fill(self) -> dict[int, dict[int, np.ndarray]]:
         """Rule 7 (module notes): each hand found late fitted, with its shape now, on
