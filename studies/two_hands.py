@@ -4,7 +4,7 @@ Usage: PYTHONPATH=src python studies/two_hands.py [--seeds N] [--cameras 1|2]
        [--detector simulated|mediapipe] [--every K] [--scenario NAME ...] [--size W H]
        [--missed-carry N] [--hidden-frames N] [--side-run N] [--same-hand X]
        [--cache DIR]
-       [--landmarks full|lite] [--confidence C] [--forward-only]
+       [--landmarks full|lite] [--confidence C] [--forward-only] [--no-look]
 
 For every scenario of `handvar.evaluation.two_hands.SCENARIOS` and seed, renders the
 case (640×360 by default) and tracks it with `handvar.tracking.hands.HandsTracker`, the
@@ -52,7 +52,10 @@ runs MediaPipe with its lite landmark model (faster; `benchmarks/detector_option
 ``--confidence C`` with detection and tracking thresholds C (the pipeline's: 0.5).
 The tracker fits a hand found late back on the frames before (`HandsTracker.back_fill`),
 as ``handvar track --hands 2`` does on a recording; ``--forward-only`` leaves it frame
-by frame, as from a live camera.
+by frame, as from a live camera.  With MediaPipe the tracker looks again, as the command
+does, where a hand it expects was missed (a second MediaPipe on a box of the frame,
+`handvar.tracking.hands.LOOK_PAD`, rule 6); ``--no-look`` leaves it to the detections
+(this second look is not cached: each run runs it).
 ``--cache DIR`` keeps MediaPipe's detections per case in DIR and reads them back on the
 next run (the renders are the same for the same scenario, seed and size).
 """
@@ -68,14 +71,15 @@ import cv2
 import numpy as np
 
 
-def fitted_tracks(case, detections, every: int = 1, back: bool = True):
+def fitted_tracks(case, detections, every: int = 1, back: bool = True, look=None):
     """Track `case` with the given detections per frame; the tracks as `score_two_hands`
     takes them (camera 0), and the frames/s of the tracker.  `back`: as on a recording,
-    a hand found late is carried back (`HandsTracker.back_fill`)."""
+    a hand found late is carried back (`HandsTracker.back_fill`); `look`: the tracker's
+    second look where a hand expected was missed (`HandsTracker`'s)."""
     from handvar.tracking.hands import HandsTracker
     from handvar.tracking.keypoint_cost import keypoint_points
 
-    tracker = HandsTracker(case.rig, detector=None, keypoint_every=every, back=back)
+    tracker = HandsTracker(case.rig, detector=None, keypoint_every=every, back=back, look=look)
     T = case.n_frames
     n = len(case.rig)
     results = []
@@ -330,6 +334,9 @@ def main() -> None:
                              "(handvar.tracking.hands.SAME_HAND)")  # fmt: skip
     parser.add_argument("--landmarks", default="full", choices=("full", "lite"),
                         help="MediaPipe's landmark model (the pipeline's: full)")  # fmt: skip
+    parser.add_argument("--no-look", action="store_true",
+                        help="with MediaPipe, no second look where a hand expected was "
+                             "missed (HandsTracker's look)")  # fmt: skip
     parser.add_argument("--forward-only", action="store_true",
                         help="no hand found late carried back (HandsTracker.back_fill), "
                              "as live")  # fmt: skip
@@ -375,8 +382,9 @@ def main() -> None:
             if args.every > 1:
                 raw_tracks = interpolated(raw_tracks, args.every)
             raw = score_two_hands(case, raw_tracks)
+            look = "mediapipe" if args.detector == "mediapipe" and not args.no_look else None
             tracks, fps, results = fitted_tracks(case, detections, args.every,
-                                                 not args.forward_only)  # fmt: skip
+                                                 not args.forward_only, look)  # fmt: skip
             fit = score_two_hands(case, tracks)
             totals["side_det"] += wrong_sides(case, raw, {side: side for side in raw_tracks})
             for right, found in label_runs(case, fit, tracks, results).items():

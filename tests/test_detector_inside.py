@@ -360,6 +360,28 @@ def test_looking_twice_brings_mediapipe_on_every_10th_frame_nearer_its_points_on
     assert median[True] < 0.75 * median[False], median
 
 
+def test_mediapipe_on_a_box_of_the_frame_gives_its_points_in_the_frames_pixels():
+    """MediaPipe looking at a box around the hand (2 hand sizes about its points, the
+    box clipped where it leaves the frame) finds the points it finds on the whole frame,
+    shipped with the video: a wrong scale or offset back to the frame's pixels would
+    put them hand sizes away."""
+    from handvar.vision.mediapipe import MediaPipeCrop
+
+    shipped = read_keypoints(KEYPOINTS)
+    frames = _frames(VIDEO, 200)
+    look, distances = MediaPipeCrop(), []
+    for t in range(0, 200, 20):
+        xy = shipped.xy[t]
+        size = np.linalg.norm(xy[9] - xy[0])
+        low, high = xy.min(axis=0) - 2 * size, xy.max(axis=0) + 2 * size
+        found = look(frames[t], (*low, *high))
+        assert found, t
+        distances.append(min(np.median(np.linalg.norm(d.points[:, :2] - xy, axis=1))
+                             for d in found) / size)  # fmt: skip
+    look.close()
+    assert np.median(distances) < 0.1, distances
+
+
 # --- the per-frame tracker -----------------------------------------------------------------
 
 

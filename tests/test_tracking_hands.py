@@ -534,6 +534,87 @@ def test_a_hand_followed_by_a_few_points_in_one_camera_of_two_is_not_fitted_to_t
         assert np.linalg.norm(right.projected[j] - truth[j]["right"][T - 1], axis=1).mean() < 5.0
 
 
+def _box_sees(points_of, boxes):
+    """A second look (`HandsTracker`'s ``look``) that finds the hands whose true points
+    (``points_of(box)``: per side, (21, 2) or NaN) lie wholly in the box, as a detector
+    would on that part of the frame; the boxes asked are noted in `boxes`."""
+
+    def look(image, box):
+        x0, y0, x1, y1 = box
+        boxes.append(box)
+        found = []
+        for s, p in points_of(box).items():
+            if np.isfinite(p).all() and (p >= (x0, y0)).all() and (p <= (x1, y1)).all():
+                found.append(Detection(np.c_[p, np.ones(21)], side=s, score=0.9))
+        return found
+
+    return look
+
+
+def test_a_hand_the_detector_misses_is_found_in_a_box_around_where_it_is_expected():
+    """Blank frames (the optical flow follows nothing); the detector misses the left
+    hand on frames 8–19.  Looked for in a box around where it is expected, which holds
+    its true points, it is fitted to what is found there, within 0.15 hand sizes of
+    them; without the look it is drawn nowhere after `MISSED_FRAMES`.  Only the missed
+    hand is looked for."""
+    T, missed = 24, range(8, 20)
+    rig, truth = _truth(T, swap=False)
+    size = np.linalg.norm(truth["left"][0, 9] - truth["left"][0, 0])
+    runs = {}
+    for looking in (True, False):
+        rng, boxes, frame = np.random.default_rng(0), [], [0]
+        look = _box_sees(lambda _, now=frame: {s: truth[s][now[0]] for s in SIDES}, boxes)
+        tracker = HandsTracker(rig, detector=None, look=look if looking else None)
+        results = []
+        for t in range(T):
+            frame[0] = t
+            found = _detections(truth, t, rng, 0.0)
+            if t in missed:
+                found = [d for d in found if d.side != "left"]
+            results.append(tracker.process(IMAGE, detections=[found]))
+        runs[looking] = results
+        if looking:
+            assert len(boxes) == len(missed)  # only where the left hand was missed
+    matched = _matched(runs[True], truth)
+    left = next(k for k in (0, 1) if {s for s, _ in matched[k]} - {None} == {"left"})
+    for t in missed:
+        h = runs[True][t].hands[left]
+        assert not h.no_hand and not h.hidden, t
+        error = np.linalg.norm(h.projected[0] - truth["left"][t], axis=1).mean()
+        assert error < 0.15 * size, (t, error / size)
+    assert runs[False][missed[-1]].hands[left].no_hand
+
+
+def test_a_hand_found_again_in_one_camera_only_is_not_fitted_to_that_view_alone():
+    """Two cameras, blank frames; from frame 5 the detector misses the left hand in both.
+    The second look in camera 0 finds a hand where it is expected, drawn as the left
+    hand 80 mm farther along camera 0's rays would be (smaller: a detector's error of
+    scale); camera 1's finds nothing.  Fitted to that one view, the hand would be drawn
+    tens of mm deep of its true joints; it is not: on every frame it is drawn within
+    20 mm of them or not at all."""
+    rig = realistic_rig(2)
+    x = motion_poses("counting", 0)[0][0].copy()
+    joints = {}
+    for s, sign in (("left", -1.0), ("right", 1.0)):
+        y = x.copy()
+        y[0] += sign * 130.0
+        joints[s] = keypoint_points(HandModel(HandShape.from_size(185.0, side=s)), y, "pad")
+    views = [{s: cam.project(j) for s, j in joints.items()} for cam in rig.cameras]
+    ray = joints["left"].mean(axis=0) - rig.cameras[0].center
+    deeper = rig.cameras[0].project(joints["left"] + 80.0 * ray / np.linalg.norm(ray))
+    nothing = np.full((21, 2), np.nan)
+    look = [_box_sees(lambda _: {"left": deeper}, []), _box_sees(lambda _: {"left": nothing}, [])]
+    tracker = HandsTracker(rig, detector=None, look=look)
+    for t in range(12):
+        found = [[Detection(np.c_[views[j][s], np.ones(21)], side=s, score=0.9)
+                  for s in SIDES if s == "right" or t < 5] for j in range(2)]  # fmt: skip
+        r = tracker.process([IMAGE, IMAGE], detections=found)
+        left = next(h for h in r.hands if h.side == "left")
+        if not left.no_hand:
+            error = np.linalg.norm(left.joints - joints["left"], axis=1).mean()
+            assert error < 20.0, (t, error)
+
+
 def _one_camera_first(seed: int, size: float = 225.0, T: int = 30, one: int = 8):
     """A right hand of `size` mm found in camera 1 alone on the first `one` frames, then
     in both (1 px of noise); its mean 3D joint error (mm) on those frames as tracked

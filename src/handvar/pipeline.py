@@ -2099,9 +2099,6 @@ def track_hands(
                          "right hand); got mesh")  # fmt: skip
     played = _HandsFeed(source, calib, fov, scale, frames, every, realtime, allow_short)
     opened, live = played.opened, played.live
-    tracker = HandsTracker(opened.rig, hands=hands, detector=None, predictor=predictor,
-                           hand_length=hand_length, model=model, seed=seed,
-                           keypoint_every=every, back=not (realtime or live))  # fmt: skip
     reading, detectors, outside = _hands_found(played, keypoints, detector, mirrored, realtime)
     items = reading
     if progress and not realtime:
@@ -2111,19 +2108,26 @@ def track_hands(
     seconds, rows, latency = [], [], []
     clock0 = None
     with contextlib.closing(reading):  # an error in the fit stops what reads ahead
-        for index, captured, images, found in items:
-            given = None if found is None else [
-                [_scaled(d, played.scale, size) for d in ds]
-                for ds, size in zip(found, played.sizes, strict=True)
-            ]  # fmt: skip
-            t0 = time.perf_counter()
-            if clock0 is None:  # the zero of the capture times
-                clock0 = played.origin[0] if played.origin else t0 - captured
-            tracker.process(images, detections=given)
-            seconds.append(time.perf_counter() - t0)
-            rows.append(index)
-            latency.append(time.perf_counter() - clock0 - captured)
-    tracker.back_fill()  # a recording's hand found late, on the frames before (rule 7)
+        # MediaPipe as the detector looks again where it missed a hand (rule 6)
+        look = "mediapipe" if _detector_name(detector, detectors) == "mediapipe" else None
+        tracker = HandsTracker(opened.rig, hands=hands, detector=None, predictor=predictor,
+                               hand_length=hand_length, model=model, seed=seed,
+                               keypoint_every=every, back=not (realtime or live), look=look,
+                               mirrored=mirrored)  # fmt: skip
+        with tracker:
+            for index, captured, images, found in items:
+                given = None if found is None else [
+                    [_scaled(d, played.scale, size) for d in ds]
+                    for ds, size in zip(found, played.sizes, strict=True)
+                ]  # fmt: skip
+                t0 = time.perf_counter()
+                if clock0 is None:  # the zero of the capture times
+                    clock0 = played.origin[0] if played.origin else t0 - captured
+                tracker.process(images, detections=given)
+                seconds.append(time.perf_counter() - t0)
+                rows.append(index)
+                latency.append(time.perf_counter() - clock0 - captured)
+            tracker.back_fill()  # a recording's hand found late, on the frames before (rule 7)
     name = opened.names[0] if opened.names else "recording"
     if all(h.tracker.recovery is None for h in tracker.hands):
         where = "the detector found" if keypoints is None else "the keypoint file has"

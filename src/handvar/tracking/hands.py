@@ -61,7 +61,18 @@ detector's label:
    inside the other hand's expected outline (the convex hull of its points, widened
    by 0.15 of its size) while the other is nearer the camera by `FRONT` mm or more
    get their confidence times `HIDDEN_WEIGHT`.
-6. **A hand the detector misses.**  Its last detection's points are followed by
+6. **A hand the detector misses.**  With a detector that can look at part of a frame
+   (``look``: MediaPipe's, `handvar.vision.mediapipe.MediaPipeCrop`), a tracked hand
+   in the open (not behind the other, rule 5) that no detection lies near in a camera
+   is looked for again in a box `LOOK_PAD` hand sizes around where it is expected: a
+   hand small in the frame, or beside the other, that the detector's look at the
+   whole frame missed is often found there.  What is found joins that camera's
+   detections if it lies within the hand's gate, nearer it than the other hand, is
+   not one of them found again (`DUPLICATE`), and, with two cameras or more, its
+   rays meet those of the hand's detection in another camera (`RAY_GAP`): found in
+   one view only it would be fitted along that camera's rays (3 hand sizes chosen
+   among 2 and 3, and the two conditions, on the two-hand benchmark with MediaPipe:
+   without them, identity switches).  Otherwise its last detection's points are followed by
    optical flow (`handvar.vision.carry.KeypointCarrier`, the points the flow loses
    dropped) for up to `MISSED_CARRY` frames, and the hand is fitted to them (rule 5
    applied to them too); after `BEHIND_CARRY` frames, only while no hand in front of
@@ -138,6 +149,7 @@ __all__ = [
     "HIDDEN_FRAMES",
     "HIDDEN_WEIGHT",
     "LABEL_COST",
+    "LOOK_PAD",
     "MISSED_CARRY",
     "MISSED_FRAMES",
     "NEW_HAND",
@@ -197,6 +209,9 @@ BEHIND_CARRY = 10
 #: Points the optical flow must follow of a hand given no detection, carried in one
 #: camera only of two or more, for it to be fitted to them (rule 6).
 ONE_VIEW_POINTS = 4
+#: Hand sizes around a missed hand's expected points of the box the detector looks at
+#: again (rule 6).
+LOOK_PAD = 3.0
 #: Frames without a detection after which a hand is no longer expected anywhere.
 GONE_FRAMES = 10
 #: Frames in two views or more after which a hand first fitted to one is fitted again,
@@ -434,13 +449,21 @@ class HandsTracker:
         Keep the last `CarrySettings.max_frames` frames, so that `back_fill` can carry
         a hand found late back to them (module notes, rule 7): a recording's way, not
         a live camera's.
+    look : {"auto", "mediapipe", None} or callable, keyword-only
+        Where a hand expected was missed, look for it again (module notes, rule 6):
+        "mediapipe", MediaPipe on a box of the frame (`MediaPipeCrop`, one per
+        camera); "auto", so when the detector is MediaPipe; a callable
+        ``(image, (x0, y0, x1, y1)) -> list[Detection]`` (the hands found in that box
+        of the BGR image, in the image's pixels), or a list of one per camera; None:
+        not.
     **options
         For each hand's `HandTracker`: ``predictor``, ``hand_length``, ``model``,
         ``keypoint_tips``, ``recovery``, ``seed``, ``fov``.
     """
 
     def __init__(self, rig=None, *, hands: int = 2, detector="auto", mirrored: bool = False,
-                 keypoint_every: int = 1, back: bool = False, **options) -> None:  # fmt: skip
+                 keypoint_every: int = 1, back: bool = False, look="auto",
+                 **options) -> None:  # fmt: skip
         from handvar.camera import Rig
         from handvar.tracking.hand_tracker import HandTracker
         from handvar.vision.detector import make_detectors
@@ -455,6 +478,21 @@ class HandsTracker:
         self.rig = rig
         n = 1 if rig is None else len(rig)
         self.detectors = make_detectors(detector, n, mirrored=mirrored) if detector else None
+        if isinstance(look, str) and look == "auto":  # MediaPipe's if it is the detector
+            look = "mediapipe" if self.detectors and not callable(detector) else None
+        if isinstance(look, str) and look == "mediapipe":
+            from handvar.vision.mediapipe import MediaPipeCrop
+
+            look = [MediaPipeCrop(mirrored=mirrored) for _ in range(n)]
+        elif callable(look):
+            look = [look] * n
+        elif look is not None and (
+            isinstance(look, str) or len(look) != n or not all(map(callable, look))
+        ):
+            raise ValueError(f"look: expected auto, mediapipe, None, a callable (image, box) "
+                             f"-> hands or one per camera ({n}); got {look!r}")  # fmt: skip
+        self.look = look
+        self.looks = 0  # boxes looked at again (rule 6)
         # each hand fitted from the detections given to it (its side set at its birth)
         self.hands = [_Hand(k, "", HandTracker(rig, hand="right", detector=None, **options))
                       for k in range(n_hands)]  # fmt: skip
@@ -515,6 +553,8 @@ class HandsTracker:
             self.rig = Rig([assumed_camera((width, height), fov=fov)])
             for h in self.hands:
                 h.tracker.rig = self.rig
+        if ran and self.look is not None:
+            detections = self._look_again(images, detections)
         given = self._given(detections) if ran else {}
         greys = [cv2.cvtColor(np.ascontiguousarray(i), cv2.COLOR_BGR2GRAY) for i in images]
         results = []
@@ -541,6 +581,60 @@ class HandsTracker:
                 h.missing += 1
         index, self.frame_count = self.frame_count, self.frame_count + 1
         return HandsResult(index, tuple(results), time.perf_counter() - t0)
+
+    def _look_again(self, images, detections) -> list:
+        """Rule 6: per camera, a tracked hand in the open that no detection lies near
+        (within its gate) looked for again in a box around where it is expected; what
+        is found there, nearer it than the other hand, joins the camera's detections
+        unless it is one of them found again, and with two cameras or more only if its
+        rays meet those of the hand's detection in another camera."""
+        out = []
+        for j, found in enumerate(detections):
+            found = list(found)
+            for h in self.hands:
+                places = h.places(j)
+                if places is None or self._behind(h, j) \
+                        or any(_distance(places, d.points) <= h.gate for d in found):  # fmt: skip
+                    continue
+                others = [o.places(j) for o in self.hands if o is not h and o.expected is not None]
+                for d in self._look_around(images[j], places, j):
+                    near = _distance(places, d.points)
+                    if (
+                        near <= h.gate
+                        and all(_distance(o, d.points) > near for o in others)
+                        and all(_distance(e.points[:, :2], d.points) >= DUPLICATE for e in found)
+                        and (len(detections) == 1 or self._seen_elsewhere(h, d, j, detections))
+                    ):
+                        found.append(d)
+            out.append(found)
+        return out
+
+    def _seen_elsewhere(self, h: _Hand, d, j: int, detections) -> bool:
+        """Detection d of camera j meets, within `RAY_GAP`, the rays of a detection of
+        another camera that lies within `h`'s gate there."""
+        cameras = self.rig.cameras
+        for k, found in enumerate(detections):
+            for e in found if k != j else ():
+                gap = ray_points(cameras[j], d.points, cameras[k], e.points)[1]
+                if gap <= RAY_GAP and _distance(h.places(k), e.points) <= h.gate:
+                    return True
+        return False
+
+    def _look_around(self, image, places, j: int) -> list:
+        """The detector's hands in the box `LOOK_PAD` hand sizes around `places` (the
+        points a hand is expected at in camera j), none where its centre is off the
+        image."""
+        p = places[np.isfinite(places).all(axis=-1)]
+        if not len(p):
+            return []
+        low, high = p.min(axis=0), p.max(axis=0)
+        centre = (low + high) / 2
+        half = (high - low).max() / 2 + LOOK_PAD * _size(places[0])
+        height, width = image.shape[:2]
+        if not (0 <= centre[0] < width and 0 <= centre[1] < height):
+            return []
+        self.looks += 1
+        return self.look[j](image, (*(centre - half), *(centre + half)))
 
     def _note_late(self, results, images, greys) -> None:
         """Rule 7: note each hand fitted to a detection after a frame without it, with
@@ -904,7 +998,7 @@ class HandsTracker:
 
     def close(self) -> None:
         """Release the detectors."""
-        for d in self.detectors or ():
+        for d in (*(self.detectors or ()), *(self.look or ())):
             if hasattr(d, "close"):
                 d.close()
 

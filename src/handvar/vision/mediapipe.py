@@ -62,6 +62,7 @@ import numpy as np
 __all__ = [
     "MEDIAPIPE_VERSION",
     "STALE_FRAMES",
+    "MediaPipeCrop",
     "MediaPipeHands",
     "MissingExtraError",
     "detect_keypoints",
@@ -218,14 +219,7 @@ class MediaPipeHands:
     def __call__(self, image, frame: int | None = None) -> list:
         """The hands in `image`, the next frame; `frame`, its index in the video, makes
         a frame far from the last one seen looked at twice (module notes)."""
-        from handvar.vision.keypoints import Detection
-
-        image = np.asarray(image)
-        if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:
-            raise ValueError(
-                f"frames: expected (H, W, 3) uint8 BGR images; got {image.shape} "
-                f"{image.dtype} at frame {self._count}"
-            )
+        image = _checked(image, self._count)
         self._count += 1
         h, w = image.shape[:2]
         rgb = cv2.cvtColor(image, cv2.COLOR_BGR2RGB)
@@ -244,21 +238,71 @@ class MediaPipeHands:
                 result = again
         if frame is not None:
             self._last = frame
-        hands = result.multi_hand_landmarks or ()
-        metric = getattr(result, "multi_hand_world_landmarks", None) or [None] * len(hands)
-        found = []
-        for landmarks, side, world_lm in zip(hands, result.multi_handedness or (), metric,
-                                             strict=True):  # fmt: skip
-            label = side.classification[0]
-            pts = np.array([(lm.x, lm.y, 1.0) for lm in landmarks.landmark])
-            pts[:, 0] = pts[:, 0] * w - 0.5
-            pts[:, 1] = pts[:, 1] * h - 0.5
-            world = None
-            if world_lm is not None:
-                world = 1000.0 * np.array([(lm.x, lm.y, lm.z) for lm in world_lm.landmark])
-            found.append(Detection(pts, world, side=handedness_side(label.label, self.mirrored),
-                                   score=float(label.score)))  # fmt: skip
-        self.depths = [np.array([lm.z for lm in lms.landmark]) for lms in hands]
+        self.depths = [np.array([lm.z for lm in lms.landmark])
+                       for lms in result.multi_hand_landmarks or ()]  # fmt: skip
+        return _found(result, (w, h), self.mirrored)
+
+    def close(self) -> None:
+        """Release MediaPipe's graph."""
+        if self._hands is not None:
+            self._hands.close()
+            self._hands = None
+
+
+class MediaPipeCrop:
+    """MediaPipe Hands looking again at part of a frame: where a tracker expects a hand
+    the detector missed (`handvar.tracking.hands`, rule 6).
+
+    The part (a box of the frame) is scaled so that its longer side is `size` pixels,
+    and MediaPipe looks at it alone, as a still image (its palm detector runs on every
+    call: no hand is carried from the call before), asked for two hands.  Its
+    palm detector looks at the whole image at a fixed resolution, so a hand that is a
+    small part of the frame, or half hidden, is missed there and may be found in a box
+    around it.
+
+    Parameters
+    ----------
+    mirrored : bool, keyword-only
+        The frames are mirrored (a selfie camera): MediaPipe's labels are then literal.
+    size : int, keyword-only
+        Pixels of the box's longer side as MediaPipe is given it.
+    model_complexity : {0, 1}, keyword-only
+    min_detection_confidence : float, keyword-only
+    """
+
+    def __init__(self, *, mirrored: bool = False, size: int = 256, model_complexity: int = 1,
+                 min_detection_confidence: float = 0.5) -> None:  # fmt: skip
+        _installed()
+        self.mirrored = mirrored
+        self.size = size
+        self._options = {
+            "static_image_mode": True, "max_num_hands": 2, "model_complexity": model_complexity,
+            "min_detection_confidence": min_detection_confidence,
+        }  # fmt: skip
+        self._hands = None
+
+    def __call__(self, image, box) -> list:
+        """The hands found in `box` (x0, y0, x1, y1 pixels, clipped to the image) of
+        `image`, a BGR frame, as `Detection` in the pixels of the whole frame."""
+        image = _checked(image)
+        height, width = image.shape[:2]
+        x0, y0 = (max(0, int(np.floor(v))) for v in box[:2])
+        x1, y1 = min(width, int(np.ceil(box[2]))), min(height, int(np.ceil(box[3])))
+        if x1 - x0 < 2 or y1 - y0 < 2:
+            return []
+        factor = self.size / max(x1 - x0, y1 - y0)
+        part = cv2.resize(image[y0:y1, x0:x1], None, fx=factor, fy=factor,
+                          interpolation=cv2.INTER_LINEAR)  # fmt: skip
+        rgb = cv2.cvtColor(part, cv2.COLOR_BGR2RGB)
+        if self._hands is None:
+            with _quiet_stderr():
+                self._hands = _hands_module().Hands(**self._options)
+                result = self._hands.process(rgb)
+        else:
+            result = self._hands.process(rgb)
+        found = _found(result, part.shape[1::-1], self.mirrored)
+        for d in found:  # the box's pixels (centres at integers) to the frame's
+            d.points[:, :2] = (d.points[:, :2] + 0.5) / factor - 0.5 + (x0, y0)
         return found
 
     def close(self) -> None:
@@ -266,6 +310,41 @@ class MediaPipeHands:
         if self._hands is not None:
             self._hands.close()
             self._hands = None
+
+
+def _checked(image, count: int | None = None) -> np.ndarray:
+    """`image` as an (H, W, 3) uint8 array, else a ValueError naming the frame."""
+    image = np.asarray(image)
+    if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:
+        at = "" if count is None else f" at frame {count}"
+        raise ValueError(
+            f"frames: expected (H, W, 3) uint8 BGR images; got {image.shape} {image.dtype}{at}"
+        )
+    return image
+
+
+def _found(result, size: tuple[int, int], mirrored: bool) -> list:
+    """MediaPipe's `result` on an image of `size` (width, height) as `Detection`: the
+    points in its pixels (centres at integers, confidence 1), the world landmarks in
+    mm, the side and its score (module notes)."""
+    from handvar.vision.keypoints import Detection
+
+    w, h = size
+    hands = result.multi_hand_landmarks or ()
+    metric = getattr(result, "multi_hand_world_landmarks", None) or [None] * len(hands)
+    found = []
+    for landmarks, side, world_lm in zip(hands, result.multi_handedness or (), metric,
+                                         strict=True):  # fmt: skip
+        label = side.classification[0]
+        pts = np.array([(lm.x, lm.y, 1.0) for lm in landmarks.landmark])
+        pts[:, 0] = pts[:, 0] * w - 0.5
+        pts[:, 1] = pts[:, 1] * h - 0.5
+        world = None
+        if world_lm is not None:
+            world = 1000.0 * np.array([(lm.x, lm.y, lm.z) for lm in world_lm.landmark])
+        found.append(Detection(pts, world, side=handedness_side(label.label, mirrored),
+                               score=float(label.score)))  # fmt: skip
+    return found
 
 
 def detect_keypoints(
