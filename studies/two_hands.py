@@ -108,6 +108,7 @@ def fitted_tracks(case, detections, every: int = 1, back: bool = True, look=None
         seconds += time.perf_counter() - t0
     tracks = {h.id: {"points_2d": points[h.id], "joints": joints[h.id]}
               for h in tracker.hands if h.tracker.hand is not None}  # fmt: skip
+    tracker.close()  # the second look's MediaPipe graphs
     return tracks, T / seconds, results
 
 

@@ -378,6 +378,8 @@ def test_mediapipe_on_a_box_of_the_frame_gives_its_points_in_the_frames_pixels()
         assert found, t
         distances.append(min(np.median(np.linalg.norm(d.points[:, :2] - xy, axis=1))
                              for d in found) / size)  # fmt: skip
+    with pytest.raises(ValueError, match=r"box: expected four finite numbers"):
+        look(frames[0], (0.0, np.nan, 10.0, 10.0))
     look.close()
     assert np.median(distances) < 0.1, distances
 

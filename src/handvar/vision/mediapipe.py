@@ -255,10 +255,10 @@ class MediaPipeCrop:
 
     The part (a box of the frame) is scaled so that its longer side is `size` pixels,
     and MediaPipe looks at it alone, as a still image (its palm detector runs on every
-    call: no hand is carried from the call before), asked for two hands.  Its
-    palm detector looks at the whole image at a fixed resolution, so a hand that is a
-    small part of the frame, or half hidden, is missed there and may be found in a box
-    around it.
+    call: no hand is carried from the call before), asked for two hands.  The palm
+    detector sees a whole frame at a fixed resolution, so a hand that is a small part
+    of the frame, or beside another, is missed there and may be found in a box around
+    it.
 
     Parameters
     ----------
@@ -285,6 +285,10 @@ class MediaPipeCrop:
         """The hands found in `box` (x0, y0, x1, y1 pixels, clipped to the image) of
         `image`, a BGR frame, as `Detection` in the pixels of the whole frame."""
         image = _checked(image)
+        box = np.asarray(box, dtype=float)
+        if box.shape != (4,) or not np.isfinite(box).all():
+            raise ValueError(f"box: expected four finite numbers x0, y0, x1, y1 (pixels); "
+                             f"got {box.tolist()}")  # fmt: skip
         height, width = image.shape[:2]
         x0, y0 = (max(0, int(np.floor(v))) for v in box[:2])
         x1, y1 = min(width, int(np.ceil(box[2]))), min(height, int(np.ceil(box[3])))
