@@ -451,8 +451,8 @@ class HandsTracker:
         a live camera's.
     look : {"auto", "mediapipe", None} or callable, keyword-only
         Where a hand expected was missed, look for it again (module notes, rule 6):
-        "mediapipe", MediaPipe on a box of the frame (`MediaPipeCrop`, one per
-        camera); "auto", so when the detector is MediaPipe; a callable
+        "mediapipe", MediaPipe on a box of the frame (`MediaPipeCrop`, its graph
+        built now); "auto", so when the detector is MediaPipe; a callable
         ``(image, (x0, y0, x1, y1)) -> list[Detection]`` (the hands found in that box
         of the BGR image, in the image's pixels), or a list of one per camera; None:
         not.
@@ -483,7 +483,9 @@ class HandsTracker:
         if isinstance(look, str) and look == "mediapipe":
             from handvar.vision.mediapipe import MediaPipeCrop
 
-            look = [MediaPipeCrop(mirrored=mirrored) for _ in range(n)]
+            crop = MediaPipeCrop(mirrored=mirrored)  # a still image: one serves every camera
+            crop.load()  # before the first frame, not at the first miss
+            look = [crop] * n
         elif callable(look):
             look = [look] * n
         elif look is not None and (
@@ -998,7 +1000,7 @@ class HandsTracker:
 
     def close(self) -> None:
         """Release the detectors."""
-        for d in (*(self.detectors or ()), *(self.look or ())):
+        for d in {id(d): d for d in (*(self.detectors or ()), *(self.look or ()))}.values():
             if hasattr(d, "close"):
                 d.close()
 

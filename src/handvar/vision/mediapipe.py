@@ -281,6 +281,16 @@ class MediaPipeCrop:
         }  # fmt: skip
         self._hands = None
 
+    def load(self):
+        """MediaPipe's graph, built at the first call (MediaPipe imported, its logging
+        not shown): a tracker builds it before its first frame, not at its first miss
+        (a live camera's frames would wait for it)."""
+        if self._hands is None:
+            with _quiet_stderr():
+                self._hands = _hands_module().Hands(**self._options)
+                self._hands.process(np.zeros((self.size, self.size, 3), np.uint8))
+        return self._hands
+
     def __call__(self, image, box) -> list:
         """The hands found in `box` (x0, y0, x1, y1 pixels, clipped to the image) of
         `image`, a BGR frame, as `Detection` in the pixels of the whole frame."""
@@ -297,13 +307,7 @@ class MediaPipeCrop:
         factor = self.size / max(x1 - x0, y1 - y0)
         part = cv2.resize(image[y0:y1, x0:x1], None, fx=factor, fy=factor,
                           interpolation=cv2.INTER_LINEAR)  # fmt: skip
-        rgb = cv2.cvtColor(part, cv2.COLOR_BGR2RGB)
-        if self._hands is None:
-            with _quiet_stderr():
-                self._hands = _hands_module().Hands(**self._options)
-                result = self._hands.process(rgb)
-        else:
-            result = self._hands.process(rgb)
+        result = self.load().process(cv2.cvtColor(part, cv2.COLOR_BGR2RGB))
         found = _found(result, part.shape[1::-1], self.mirrored)
         for d in found:  # the box's pixels (centres at integers) to the frame's
             d.points[:, :2] = (d.points[:, :2] + 0.5) / factor - 0.5 + (x0, y0)
