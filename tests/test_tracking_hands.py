@@ -271,6 +271,10 @@ def test_wrong_input_names_the_argument():
     tracker = HandsTracker(detector=None)
     with pytest.raises(ValueError, match="detections"):
         tracker.process(IMAGE)
+    with pytest.raises(ValueError, match=r"look: expected auto, mediapipe, None, .*got 'crops'"):
+        HandsTracker(detector=None, look="crops")
+    with pytest.raises(ValueError, match=r"one per camera \(2\)"):
+        HandsTracker(realistic_rig(2), detector=None, look=[lambda image, box: []])
 
 
 def test_track_hands_keeps_each_true_hand_under_one_id_through_a_crossing(tmp_path):
