@@ -71,7 +71,7 @@ detector's label:
    not one of them found again (`DUPLICATE`), and, with two cameras or more, its
    rays meet those of the hand's detection in another camera (`RAY_GAP`): found in
    one view only it would be fitted along that camera's rays (3 hand sizes chosen
-   among 2 and 3, and the two conditions, on the two-hand benchmark with MediaPipe:
+   among 2, 3 and 4, and the two conditions, on the two-hand benchmark with MediaPipe:
    without them, identity switches).  Otherwise its last detection's points are followed by
    optical flow (`handvar.vision.carry.KeypointCarrier`, the points the flow loses
    dropped) for up to `MISSED_CARRY` frames, and the hand is fitted to them (rule 5
