@@ -95,6 +95,26 @@ def _matched(results, truth):
     return out
 
 
+def _texture(rng) -> np.ndarray:
+    """A 360 × 640 grey frame of blurred noise, which the optical flow can follow."""
+    import cv2
+
+    noise = cv2.GaussianBlur(rng.integers(0, 256, (360, 640), dtype=np.uint8), (0, 0), 2.0)
+    return cv2.normalize(noise, None, 0, 255, cv2.NORM_MINMAX)
+
+
+def _apart() -> dict:
+    """Per side the 21 points (mm) of a 185 mm hand at the counting motion's first pose,
+    the left one 130 mm to the left and the right one 130 mm to the right of it."""
+    x = motion_poses("counting", 0)[0][0]
+    joints = {}
+    for s, sign in (("left", -1.0), ("right", 1.0)):
+        y = x.copy()
+        y[0] += sign * 130.0
+        joints[s] = keypoint_points(HandModel(HandShape.from_size(185.0, side=s)), y, "pad")
+    return joints
+
+
 def test_crossing_hands_keep_their_identity_when_the_labels_lie():
     T = 40
     rig, truth = _truth(T)
@@ -467,8 +487,7 @@ def test_a_hand_the_detector_misses_is_followed_by_optical_flow(T, missed, every
     assert len(missed) < MISSED_CARRY and (len(missed) < 10 or len(missed) > BEHIND_CARRY)
     rig, first = _truth(1, swap=False)
     rng = np.random.default_rng(0)
-    texture = cv2.GaussianBlur(rng.integers(0, 256, (360, 640), dtype=np.uint8), (0, 0), 2.0)
-    texture = cv2.normalize(texture, None, 0, 255, cv2.NORM_MINMAX)
+    texture = _texture(rng)
     shift = np.array([3.0, 1.0])
     truth = {s: np.stack([first[s][0] + t * shift for t in range(T)]) for s in SIDES}
     tracker = HandsTracker(rig, detector=None, keypoint_every=every)
@@ -502,21 +521,12 @@ def test_a_hand_followed_by_a_few_points_in_one_camera_of_two_is_not_fitted_to_t
 
     assert ONE_VIEW_POINTS > 2
     rig = realistic_rig(2)
-    poses, _ = motion_poses("counting", 0)
     T, shift = 14, np.array([3.0, 1.0])
-    truth = []  # per camera, per side, (T, 21, 2)
-    for cam in rig.cameras:
-        views = {}
-        for s, sign in (("left", -1.0), ("right", 1.0)):
-            x = poses[0].copy()
-            x[0] += sign * 130.0
-            model = HandModel(HandShape.from_size(185.0, side=s))
-            p = cam.project(keypoint_points(model, x, "pad"))
-            views[s] = np.stack([p + t * shift for t in range(T)])
-        truth.append(views)
-    rng = np.random.default_rng(0)
-    texture = cv2.GaussianBlur(rng.integers(0, 256, (360, 640), dtype=np.uint8), (0, 0), 2.0)
-    texture = cv2.normalize(texture, None, 0, 255, cv2.NORM_MINMAX)
+    truth = [
+        {s: np.stack([cam.project(j) + t * shift for t in range(T)]) for s, j in _apart().items()}
+        for cam in rig.cameras
+    ]  # per camera, per side
+    texture = _texture(np.random.default_rng(0))
     tracker = HandsTracker(rig, detector=None)
     for t in range(T):
         image = np.roll(texture, (t, 3 * t), axis=(0, 1))
@@ -597,12 +607,7 @@ def test_a_hand_found_again_in_one_camera_only_is_not_fitted_to_that_view_alone(
     tens of mm deep of its true joints; it is not: on every frame it is drawn within
     20 mm of them or not at all."""
     rig = realistic_rig(2)
-    x = motion_poses("counting", 0)[0][0].copy()
-    joints = {}
-    for s, sign in (("left", -1.0), ("right", 1.0)):
-        y = x.copy()
-        y[0] += sign * 130.0
-        joints[s] = keypoint_points(HandModel(HandShape.from_size(185.0, side=s)), y, "pad")
+    joints = _apart()
     views = [{s: cam.project(j) for s, j in joints.items()} for cam in rig.cameras]
     ray = joints["left"].mean(axis=0) - rig.cameras[0].center
     deeper = rig.cameras[0].project(joints["left"] + 80.0 * ray / np.linalg.norm(ray))
@@ -843,9 +848,7 @@ def test_a_hand_found_late_is_carried_back_on_a_recording_but_not_across_a_cut(c
     T, first_found = 12, 8
     rig, first = _truth(1, swap=False)
     rng = np.random.default_rng(0)
-    scenes = [cv2.normalize(cv2.GaussianBlur(rng.integers(0, 256, (360, 640), dtype=np.uint8),
-                                             (0, 0), 2.0), None, 0, 255, cv2.NORM_MINMAX)
-              for _ in range(2)]  # fmt: skip
+    scenes = [_texture(rng) for _ in range(2)]
     shift = np.array([3.0, 1.0])
     truth = {s: np.stack([first[s][0] + t * shift for t in range(T)]) for s in SIDES}
     trackers = {back: HandsTracker(rig, detector=None, back=back) for back in (True, False)}

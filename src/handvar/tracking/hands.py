@@ -595,8 +595,9 @@ class HandsTracker:
             found = list(found)
             for h in self.hands:
                 places = h.places(j)
-                if places is None or self._behind(h, j) \
-                        or any(_distance(places, d.points) <= h.gate for d in found):  # fmt: skip
+                if places is None or any(_distance(places, d.points) <= h.gate for d in found):
+                    continue  # not tracked, or found
+                if self._behind(h, j):
                     continue
                 others = [o.places(j) for o in self.hands if o is not h and o.expected is not None]
                 for d in self._look_around(images[j], places, j):
@@ -999,8 +1000,9 @@ class HandsTracker:
     # -- tracks -------------------------------------------------------------------------
 
     def close(self) -> None:
-        """Release the detectors."""
-        for d in {id(d): d for d in (*(self.detectors or ()), *(self.look or ()))}.values():
+        """Release the detectors (one serving every camera is closed more than once:
+        closing is idempotent)."""
+        for d in (*(self.detectors or ()), *(self.look or ())):
             if hasattr(d, "close"):
                 d.close()
 

@@ -294,6 +294,8 @@ class MediaPipeCrop:
     def __call__(self, image, box) -> list:
         """The hands found in `box` (x0, y0, x1, y1 pixels, clipped to the image) of
         `image`, a BGR frame, as `Detection` in the pixels of the whole frame."""
+        from handvar.vision.keypoints import scaled_pixels
+
         image = _checked(image)
         box = np.asarray(box, dtype=float)
         if box.shape != (4,) or not np.isfinite(box).all():
@@ -309,8 +311,8 @@ class MediaPipeCrop:
                           interpolation=cv2.INTER_LINEAR)  # fmt: skip
         result = self.load().process(cv2.cvtColor(part, cv2.COLOR_BGR2RGB))
         found = _found(result, part.shape[1::-1], self.mirrored)
-        for d in found:  # the box's pixels (centres at integers) to the frame's
-            d.points[:, :2] = (d.points[:, :2] + 0.5) / factor - 0.5 + (x0, y0)
+        for d in found:  # the scaled box's pixels to the frame's
+            d.points[:, :2] = scaled_pixels(d.points[:, :2], 1.0 / factor) + np.array([x0, y0])
         return found
 
     def close(self) -> None:
