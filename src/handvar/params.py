@@ -41,8 +41,9 @@ ABDUCTION = slice(6, 11)
 FLEXION = slice(11, 26)
 
 # Joint limits (degrees; millimetres for the translation), anatomical ranges after
-# Lee & Kunii (1995) and Cobos et al. (2008), slightly widened for hyperextension so
-# that recorded real motion stays inside them.  Palm orientation is given two full
+# Lee & Kunii (1995) and Cobos et al. (2008), slightly widened for hyperextension.
+# Recorded real motion leaves them (the htrack recording on 47.5 % of its frames,
+# studies/joint_limits.py; its replay is clamped).  Palm orientation is given two full
 # turns so that clamping never cuts a continuous rotation.
 _LIMITS = {
     "tx": (-2000.0, 2000.0), "ty": (-2000.0, 2000.0), "tz": (-2000.0, 2000.0),
