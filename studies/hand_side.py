@@ -17,6 +17,16 @@ The mirrored video is written as Motion-JPEG at quality 100 into a temporary fol
 
 Run: ``PYTHONPATH=src .venv/bin/python studies/hand_side.py`` (``--frames N`` for the
 first N frames only).
+
+``--detector``: the one command's way instead (``handvar.track(VIDEO, scale=0.5)``,
+MediaPipe inside, keypoints on every frame, the side from its handedness), on the
+original and on the mirrored video, and on the mirrored video with the original run's
+detections mirrored (its 2D points and world landmarks, labelled left): per run the
+keypoint check (frames failing it, keypoints rejected) and the fitted hand's digit
+lengths (base joint to tip, mm); and MediaPipe's own points on the mirrored video
+against the original's mirrored (hand sizes; frames it labels right).  The fit is the
+same on a mirrored hand if the third run matches the first; MediaPipe is if its points
+match.  ``--shape-stride S``: every run with `ShapeFitSettings.stride` S.
 """
 
 from __future__ import annotations
@@ -30,6 +40,7 @@ import numpy as np
 
 import handvar
 from handvar.data import example_path
+from handvar.tracking.frame_fit import CHECK_THRESHOLD
 from handvar.vision.keypoints import Keypoints2D, read_keypoints
 
 VIDEO = example_path("video")
@@ -72,10 +83,62 @@ def relative_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.linalg.norm((a - a[:, :1]) - (b - b[:, :1]), axis=2)
 
 
+def detector_runs(frames: int | None, stride: int) -> None:
+    """The `--detector` comparison (module notes)."""
+    from dataclasses import replace
+
+    from handvar.tracking.recovery import RECOVERY_DEFAULTS
+    from handvar.tracking.shape_fit import SHAPE_FIT_DEFAULTS
+
+    recovery = replace(RECOVERY_DEFAULTS, shape=replace(SHAPE_FIT_DEFAULTS, stride=stride))
+
+    def run(label: str, video, **given):
+        track = handvar.track(video, scale=0.5, frames=frames, recovery=recovery, **given)
+        q = track.quality
+        far = np.nan_to_num(q.distances, nan=0.0).max(axis=(1, 2)) > CHECK_THRESHOLD
+        failing = np.flatnonzero(q.keypoints & far)
+        digits = track.shape.segments.sum(axis=1)
+        print(f"{label}: {track.shape.side} hand; keypoint check fails on {len(failing)} of "
+              f"{int(q.keypoints.sum())} frames {failing.tolist()[:12]}"
+              f"{' ...' if len(failing) > 12 else ''}; {int(q.rejected.sum())} keypoints "
+              f"rejected; digits (thumb to little, base to tip) "
+              f"{', '.join(f'{v:.0f}' for v in digits)} mm", flush=True)  # fmt: skip
+        return track
+
+    original = run("original video", VIDEO)
+    found = original.detected[0]
+    width = original.rig.cameras[0].size[0]
+    with tempfile.TemporaryDirectory() as folder:
+        video, _ = mirror(Path(folder), frames)
+        mirrored = run("mirrored video, MediaPipe on it", video)
+        xy = found.xy.copy()
+        xy[..., 0] = (width - 1) - xy[..., 0]
+        world = None if found.world is None else found.world * np.array([-1.0, 1.0, 1.0])
+        flipped = replace(
+            found,
+            xy=xy,
+            world=world,
+            handedness=np.where(found.handedness == "right", "left", "right"),
+        )
+        run("mirrored video, the original's detections mirrored", video, keypoints=flipped)
+    own = mirrored.detected[0]
+    size = np.linalg.norm(xy[:, 9] - xy[:, 0], axis=-1)
+    d = np.linalg.norm(own.xy - xy, axis=-1) / size[:, None]
+    print(f"MediaPipe on the mirrored video against the original's points mirrored: median "
+          f"{np.nanmedian(d):.3f}, 90th percentile {np.nanpercentile(d, 90):.3f}, largest "
+          f"{np.nanmax(d):.2f} hand sizes; labelled right on "
+          f"{int((own.handedness == 'right').sum())} frames")  # fmt: skip
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--frames", type=int, default=None, help="only the first N frames")
+    parser.add_argument("--detector", action="store_true", help="the one command's way")
+    parser.add_argument("--shape-stride", type=int, default=1, metavar="S")
     args = parser.parse_args()
+    if args.detector:
+        detector_runs(args.frames, args.shape_stride)
+        return
     flip = np.array([-1.0, 1.0, 1.0])
     original, q = track_side(VIDEO, read_keypoints(KEYPOINTS), "right", args.frames)
     print(f"original video, right hand model: {q.summary()}")

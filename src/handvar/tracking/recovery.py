@@ -504,6 +504,7 @@ class Recovery:
         self.init_seconds: list[float] = []
         self._refiner: Tracker | None = None
         self._shape_frames: list | None = [] if settings.shape is not None else None
+        self._shape_between: list = []  # the frames between those kept, fitted again after
         self._silhouettes: FrameData | None = None  # the frame's, for the fit's term
         self.shape_seconds = 0.0  # the shape fit's time, within its frame's
         self._frame_no = 0  # frames seen
@@ -795,12 +796,16 @@ class Recovery:
                          prior_scale=scale)  # fmt: skip
 
     def _adapt(self, frame: _Frame, kps, world) -> None:
-        """The shape fit (`RecoverySettings.shape`): keep the frame while fewer than
-        `ShapeFitSettings.frames` are kept; with that many, fit the hand's proportions
-        to them, track with that hand from now on and re-fit their poses with it."""
+        """The shape fit (`RecoverySettings.shape`): keep every `ShapeFitSettings.stride`-th
+        frame with keypoints while fewer than `ShapeFitSettings.frames` are kept; with
+        that many, fit the hand's proportions to them, track with that hand from now on
+        and re-fit their poses with it, and those of the frames between."""
         s = self.settings.shape
         kp = frame_keypoints(kps, len(self.rig))
         if int((kp[:, :, 2] > 0).sum(axis=1).max()) < s.min_points:
+            return
+        if len(self._shape_between) < len(self._shape_frames) * (s.stride - 1):
+            self._shape_between.append((frame, kps, world))
             return
         self._shape_frames.append((frame, kps, world))
         if len(self._shape_frames) < s.frames:
@@ -816,7 +821,9 @@ class Recovery:
         self.tracker.set_hand(self.hand)
         if self._refiner is not None:
             self._refiner.set_hand(self.hand)
-        for (f, k, _), x in zip(frames, fit.poses, strict=True):
+        between, self._shape_between = self._shape_between, []
+        poses = [*fit.poses, *(self._fit(k, f.pose, w).pose for f, k, w in between)]
+        for (f, k, _), x in zip([*frames, *between], poses, strict=True):
             f.pose = x
             f.result = dataclasses.replace(f.result, pose=x)
             d = joint_distances(x, self.hand, self.rig, k, tips=self.fit_settings.tips)

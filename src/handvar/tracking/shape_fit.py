@@ -81,6 +81,13 @@ class ShapeFitSettings:
     frames : int
         How many frames with keypoints the shape is fitted to; 12 (under half a second
         of a recording: the first frames, where a track starts).
+    stride : int
+        Of the first frames with keypoints, every `stride`-th is one of them, the frames
+        between fitted again with the shape found; 1 (consecutive frames).  From one
+        camera a digit shorter than the model's looks like one turned towards it, and
+        consecutive frames hardly tell them apart; a larger stride waits for poses
+        further apart (docs/keypoint-fit.md, "the hand's own proportions": measured,
+        not the default).
     spread : float
         σ_θ of the prior on the log factors; 0.08 (the spread of bone lengths between
         adults relative to hand length is about 5-8 %, Buchholz et al. 1992).
@@ -99,6 +106,7 @@ class ShapeFitSettings:
     """
 
     frames: int = 12
+    stride: int = 1
     spread: float = 0.08
     bound: float = 0.3
     iterations: int = 8
@@ -107,6 +115,7 @@ class ShapeFitSettings:
 
     def __post_init__(self) -> None:
         as_int(self.frames, "frames", minimum=1)
+        as_int(self.stride, "stride", minimum=1)
         as_float(self.spread, "spread", minimum=0.0, exclusive_minimum=True)
         as_float(self.bound, "bound", minimum=0.0, exclusive_minimum=True)
         as_int(self.iterations, "iterations", minimum=1)
