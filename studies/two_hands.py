@@ -31,6 +31,10 @@ the fit:
   found the hand and a track is on it); with two cameras, the absolute error of
   each hand's detections triangulated point by point (given to it by the truth: the
   baseline at its best) and the fit's on the same frames;
+- in the last line, how closely the fit holds the detector's points (`honoured`: per
+  true hand, camera 0, the frames with a detection on it and a track on it: every
+  point within 0.2 of the detection's hand size, as the keypoint check asks, and their
+  mean within it), and on those frames the detection's PCK@0.2 against the truth;
 - the tracker's rate (fits and assignment, frames/s);
 
 and last a Markdown table per scenario (its seeds and both hands) with the overall row.
@@ -272,6 +276,32 @@ def world_error(case, detections, tracks: dict, score) -> list[tuple[float, floa
     return out
 
 
+def honoured(case, detections, tracks: dict, score) -> np.ndarray:
+    """Per true hand, (frames, frames held, frames near, points right): the frames of
+    camera 0 where a detection lies within 0.5 hand sizes of it (`nearest`) and a track
+    is on it; of them, those where the track's points lie within 0.2 of the detection's
+    hand size (its wrist → middle MCP) of every point it found (the keypoint check), and
+    those where their mean distance does; and the detection's points within 0.2 of the
+    true hand size of the truth, summed over those frames (out of 21 a frame)."""
+    from handvar.synth.keypoints import hand_size_px
+
+    out = np.zeros((2, 4))
+    for k in range(2):
+        true_size = hand_size_px(case.rig.cameras[0], case.joints[k])
+        for t, d in enumerate(nearest(case, detections, 0, k)):
+            m = score.match[k, t]
+            if d is None or m < 0:
+                continue
+            found = d.points[:, 2] > 0
+            size = np.linalg.norm(d.points[9, :2] - d.points[0, :2])
+            dist = np.linalg.norm(tracks[score.ids[m]]["points_2d"][t] - d.points[:, :2], axis=1)
+            dist = dist[found] / size
+            right = np.linalg.norm(d.points[:, :2] - case.truth_2d[0, k, t], axis=1)
+            out[k] += (1, np.all(dist <= 0.2), np.mean(dist) <= 0.2,
+                       np.sum(right <= 0.2 * true_size[t]))  # fmt: skip
+    return out
+
+
 def nearest_points(case, k: int) -> np.ndarray:
     """(2, T, 21, 2): the points of `nearest` in the first two cameras, NaN where there
     is none (and where a point is not found)."""
@@ -396,6 +426,7 @@ def main() -> None:
             mp = (
                 world_error(case, detections, tracks, fit) if args.detector == "mediapipe" else None
             )
+            totals["held"] = totals.get("held", 0) + honoured(case, detections, tracks, fit)
             for k, side in enumerate(case.sides):
                 if not case.in_view[0, k].any():
                     continue
@@ -430,6 +461,10 @@ def main() -> None:
             row["sw_det"] += raw.switches
             row["sw_fit"] += fit.switches
             row["rows"].extend(range(first, len(totals["det"])))
+    held = totals.get("held", np.zeros((2, 4)))
+    held_all, held_mean = (" / ".join(f"{h[i] / max(h[0], 1):.1%} of {h[0]:.0f}" for h in held)
+                           for i in (1, 2))  # fmt: skip
+    held_truth = " / ".join(f"{h[3] / max(21 * h[0], 1):.3f}" for h in held)
     print(f"all: identity switches {totals['sw_det']} (detector's labels) / {totals['sw_fit']} "
           f"(fit); PCK {np.nanmean(totals['det']):.3f} / {np.nanmean(totals['fit']):.3f}; "
           f"lost {sum(totals['lost_det'])} / {sum(totals['lost_fit'])} of {totals['view']} "
@@ -449,6 +484,10 @@ def main() -> None:
           + (f"; absolute 3D on the frames both cameras detected the hand: triangulated "
              f"{np.nanmean(totals['tri']):.1f} mm, fit {np.nanmean(totals['same']):.1f} mm"
              if totals["tri"] else "")
+          + f"; keypoints held (camera 0, frames with a detection of the hand and a track"
+            f" on it; the left hand / the right): every point within 0.2 hand sizes on "
+            f"{held_all}, the mean on {held_mean}; on those frames the detection's PCK@0.2"
+            f" against the truth {held_truth}"
           + f"; {np.mean(totals['fps']):.1f} fits/s (both hands)")  # fmt: skip
     print_scenarios(by_scenario, totals)
 
