@@ -65,7 +65,7 @@ def mirror(folder: Path, frames: int | None) -> tuple[Path, Keypoints2D]:
         n += 1
     cap.release()
     writer.release()
-    detected = read_keypoints(KEYPOINTS).to_array()
+    detected = read_keypoints(KEYPOINTS).to_array()[:frames]
     detected[..., 0] = (width - 1) - detected[..., 0]  # pixel centres at integers
     return path, Keypoints2D.from_array(detected)
 
