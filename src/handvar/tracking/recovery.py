@@ -822,7 +822,11 @@ class Recovery:
         if self._refiner is not None:
             self._refiner.set_hand(self.hand)
         between, self._shape_between = self._shape_between, []
-        poses = [*fit.poses, *(self._fit(k, f.pose, w).pose for f, k, w in between)]
+        again = [  # without silhouettes: the frame's own are not kept
+            fit_frame(k, self.rig, self.hand, f.pose, world=w, settings=self.fit_settings).pose
+            for f, k, w in between
+        ]
+        poses = [*fit.poses, *again]
         for (f, k, _), x in zip([*frames, *between], poses, strict=True):
             f.pose = x
             f.result = dataclasses.replace(f.result, pose=x)
