@@ -39,6 +39,10 @@ the fit:
 
 and last a Markdown table per scenario (its seeds and both hands) with the overall row.
 
+``--mirror`` prints only MediaPipe's PCK@0.2 against the truth per true hand on the
+frames as rendered and flipped left to right (camera 0): whether a hand's side or
+its poses and place make it harder for the detector.
+
 ``--side-run N`` sets the run of sure labels for the other side that turns a hand's
 side (`handvar.tracking.hands.SIDE_RUN`); the last line gives the runs seen, on tracks
 whose side is right and on those whose side is wrong.  ``--missed-carry N`` sets the
@@ -302,6 +306,41 @@ def honoured(case, detections, tracks: dict, score) -> np.ndarray:
     return out
 
 
+def mirrored_pck(args) -> None:
+    """``--mirror``: MediaPipe on every case's frames (camera 0) and on the same frames
+    flipped left to right (its points flipped back), each true hand's nearest detection
+    (`nearest`) scored against the truth: PCK@0.2 per true hand, original / mirrored."""
+    from handvar.evaluation.two_hands import two_hand_case
+    from handvar.synth.keypoints import hand_size_px
+    from handvar.vision.mediapipe import MediaPipeHands
+
+    right = np.zeros((2, 2, 2))  # hand, original / mirrored, (points right, points)
+    for scenario in args.scenario:
+        for seed in range(args.seeds):
+            case = two_hand_case(scenario, cameras=1, seed=seed, size=tuple(args.size))
+            width = case.frames.shape[3]
+            found = mediapipe_detections(case, args.cache)[0]
+            detect = MediaPipeHands()
+            flipped = []
+            for t in range(case.n_frames):
+                image = cv2.flip(cv2.cvtColor(case.frames[0, t], cv2.COLOR_RGB2BGR), 1)
+                flipped.append(detect(image))
+                for d in flipped[-1]:
+                    d.points[:, 0] = (width - 1) - d.points[:, 0]
+            detect.close()
+            for m, detections in enumerate((found, flipped)):
+                for k in range(2):
+                    size = hand_size_px(case.rig.cameras[0], case.joints[k])
+                    for t, d in enumerate(nearest(case, [detections], 0, k)):
+                        if d is not None and case.in_view[0, k, t]:
+                            e = np.linalg.norm(d.points[:, :2] - case.truth_2d[0, k, t], axis=1)
+                            right[k, m] += (np.sum(e <= 0.2 * size[t]), 21)
+    pck = right[..., 0] / np.maximum(right[..., 1], 1)
+    print(f"MediaPipe's PCK@0.2 against the truth, the frames as rendered / mirrored: left "
+          f"hand {pck[0, 0]:.3f} / {pck[0, 1]:.3f}, right hand {pck[1, 0]:.3f} / "
+          f"{pck[1, 1]:.3f}")  # fmt: skip
+
+
 def nearest_points(case, k: int) -> np.ndarray:
     """(2, T, 21, 2): the points of `nearest` in the first two cameras, NaN where there
     is none (and where a point is not found)."""
@@ -365,6 +404,9 @@ def main() -> None:
                              "(handvar.tracking.hands.SAME_HAND)")  # fmt: skip
     parser.add_argument("--landmarks", default="full", choices=("full", "lite"),
                         help="MediaPipe's landmark model (the pipeline's: full)")  # fmt: skip
+    parser.add_argument("--mirror", action="store_true",
+                        help="only MediaPipe's PCK per hand on the frames as rendered and "
+                             "mirrored (camera 0)")  # fmt: skip
     parser.add_argument("--no-look", action="store_true",
                         help="with MediaPipe, no second look where a hand expected was "
                              "missed (HandsTracker's look)")  # fmt: skip
@@ -378,6 +420,9 @@ def main() -> None:
         "--cache", default=None, help="a folder keeping MediaPipe's detections per case, for reruns"
     )
     args = parser.parse_args()
+    if args.mirror:
+        mirrored_pck(args)
+        return
     import handvar.tracking.hands as rules
 
     constants = {"side_run": "SIDE_RUN", "missed_carry": "MISSED_CARRY",
