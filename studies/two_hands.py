@@ -4,7 +4,7 @@ Usage: PYTHONPATH=src python studies/two_hands.py [--seeds N] [--cameras 1|2]
        [--detector simulated|mediapipe] [--every K] [--scenario NAME ...] [--size W H]
        [--missed-carry N] [--hidden-frames N] [--side-run N] [--same-hand X]
        [--cache DIR]
-       [--landmarks full|lite] [--confidence C] [--forward-only] [--no-look]
+       [--landmarks full|lite] [--confidence C] [--forward-only] [--no-look] [--mirror]
 
 For every scenario of `handvar.evaluation.two_hands.SCENARIOS` and seed, renders the
 case (640×360 by default) and tracks it with `handvar.tracking.hands.HandsTracker`, the
@@ -280,6 +280,13 @@ def world_error(case, detections, tracks: dict, score) -> list[tuple[float, floa
     return out
 
 
+def truth_hits(case, k: int, t: int, d, size: np.ndarray) -> int:
+    """How many of detection d's points lie within 0.2 of true hand k's size (`size`,
+    per frame, pixels) of its true points in camera 0 at frame t."""
+    return int(np.sum(np.linalg.norm(d.points[:, :2] - case.truth_2d[0, k, t], axis=1)
+                      <= 0.2 * size[t]))  # fmt: skip
+
+
 def honoured(case, detections, tracks: dict, score) -> np.ndarray:
     """Per true hand, (frames, frames held, frames near, points right): the frames of
     camera 0 where a detection lies within 0.5 hand sizes of it (`nearest`) and a track
@@ -300,9 +307,8 @@ def honoured(case, detections, tracks: dict, score) -> np.ndarray:
             size = np.linalg.norm(d.points[9, :2] - d.points[0, :2])
             dist = np.linalg.norm(tracks[score.ids[m]]["points_2d"][t] - d.points[:, :2], axis=1)
             dist = dist[found] / size
-            right = np.linalg.norm(d.points[:, :2] - case.truth_2d[0, k, t], axis=1)
             out[k] += (1, np.all(dist <= 0.2), np.mean(dist) <= 0.2,
-                       np.sum(right <= 0.2 * true_size[t]))  # fmt: skip
+                       truth_hits(case, k, t, d, true_size))  # fmt: skip
     return out
 
 
@@ -333,8 +339,7 @@ def mirrored_pck(args) -> None:
                     size = hand_size_px(case.rig.cameras[0], case.joints[k])
                     for t, d in enumerate(nearest(case, [detections], 0, k)):
                         if d is not None and case.in_view[0, k, t]:
-                            e = np.linalg.norm(d.points[:, :2] - case.truth_2d[0, k, t], axis=1)
-                            right[k, m] += (np.sum(e <= 0.2 * size[t]), 21)
+                            right[k, m] += (truth_hits(case, k, t, d, size), 21)
     pck = right[..., 0] / np.maximum(right[..., 1], 1)
     print(f"MediaPipe's PCK@0.2 against the truth, the frames as rendered / mirrored: left "
           f"hand {pck[0, 0]:.3f} / {pck[0, 1]:.3f}, right hand {pck[1, 0]:.3f} / "

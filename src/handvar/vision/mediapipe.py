@@ -315,11 +315,7 @@ class MediaPipeCrop:
             d.points[:, :2] = scaled_pixels(d.points[:, :2], 1.0 / factor) + np.array([x0, y0])
         return found
 
-    def close(self) -> None:
-        """Release MediaPipe's graph."""
-        if self._hands is not None:
-            self._hands.close()
-            self._hands = None
+    close = MediaPipeHands.close
 
 
 def _checked(image, count: int | None = None) -> np.ndarray:
