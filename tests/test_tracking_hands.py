@@ -17,11 +17,13 @@ from handvar.hand.anthropometry import HandShape
 from handvar.hand.kinematics import HandModel
 from handvar.tracking.hands import (
     BEHIND_CARRY,
+    GONE_FRAMES,
     MISSED_CARRY,
     MISSED_FRAMES,
     NEW_HAND,
     SIDE_FRAMES,
     SIDE_RUN,
+    SIDE_SURE,
     HandsTracker,
     assign,
     least_cost_pairs,
@@ -199,6 +201,34 @@ def test_a_hand_found_twice_with_its_label_is_one_hand_and_a_far_one_is_new():
             r = tracker.process(IMAGE, detections=[[hand, twin] if t else [hand]])
         assert r.hands[1].no_hand is not born
         assert r.hands[0].side == "right"
+
+
+@pytest.mark.parametrize("score", [0.97, 0.6])
+def test_a_hand_coming_back_sure_of_its_side_beside_the_other_is_taken_by_its_track(score):
+    """The left hand leaves for longer than `GONE_FRAMES` and comes back 130 mm beside
+    the right one on a frame the detector misses the right hand: its detection lies
+    within `NEW_HAND` of the right hand's place. Labelled left with a score of
+    `SIDE_SURE` or more it is the free left hand's; less sure, the right hand's off by
+    a gross error, given to no hand (the clap of the two-hand benchmark, seed 1)."""
+    rig = realistic_rig(1)
+    joints = _apart()
+    joints["left"] = joints["left"] + np.array([130.0, 0.0, 0.0])  # mm: 130 apart
+    views = {s: rig.cameras[0].project(j) for s, j in joints.items()}
+    hand = {s: Detection(np.c_[views[s], np.ones(21)], side=s, score=0.95) for s in SIDES}
+    tracker = HandsTracker(rig, detector=None)
+    frames = [[hand["left"], hand["right"]]] * 3 + [[hand["right"]]] * (GONE_FRAMES + 2)
+    back = Detection(hand["left"].points, side="left", score=score)
+    for found in [*frames, [back]]:
+        r = tracker.process(IMAGE, detections=[found])
+    size = np.linalg.norm(views["left"][9] - views["left"][0])  # pixels
+
+    def off(h, s):  # mean distance of a hand's fit from side s's true points, hand sizes
+        return np.linalg.norm(h.projected[0] - views[s], axis=1).mean() / size
+
+    left, right = (next(h for h in r.hands if h.side == s) for s in SIDES)
+    assert (score >= SIDE_SURE) is not left.no_hand
+    assert left.no_hand or off(left, "left") < 0.1
+    assert right.no_hand or off(right, "right") < 0.1
 
 
 def _labelled(truth, t, labels):

@@ -38,8 +38,9 @@ detector's label:
    not within `DUPLICATE` hand sizes of a tracked hand's detection (MediaPipe
    sometimes finds one hand twice), nor within `NEW_HAND` of the detection of a
    tracked hand of the side it is labelled (found twice, labelled alike), nor within
-   `NEW_HAND` of a tracked hand given none (that hand's, off by a gross error), starts
-   the free hand (in the other cameras, the detection whose rays pass nearest its
+   `NEW_HAND` of a tracked hand given none (that hand's, off by a gross error, unless
+   it is labelled at least `SIDE_SURE` sure the side of a free hand: that hand coming
+   back), starts the free hand (in the other cameras, the detection whose rays pass nearest its
    own, within `RAY_GAP` mm).  A hand is free where it is expected nowhere, or, given
    no detection, where it lies on the other hand's detections (within `DUPLICATE`)
    in two cameras or more: the flow followed it onto the other hand (on one camera's
@@ -854,9 +855,19 @@ class HandsTracker:
             ):
                 return False  # the same hand found twice (labelled as it: farther apart)
             if (h.expected is not None and g is None and not self._on_other(h, given)
+                    and not self._comes_back(h, d, given)
                     and _distance(h.places(j), d.points) < NEW_HAND):  # fmt: skip
                 return False  # a tracked hand's detection off by more than the gate
         return True
+
+    def _comes_back(self, h: _Hand, d, given) -> bool:
+        """Detection d is labelled, `SIDE_SURE` sure or more, the side of another hand
+        than `h`, one that is free (expected nowhere and given no detection): that
+        hand coming back, not `h`'s detection off by a gross error."""
+        if not d.side or d.side == h.side or d.score < SIDE_SURE:
+            return False
+        return any(o is not h and o.side == d.side and o.expected is None
+                   and not _has_view(given, o) for o in self.hands)  # fmt: skip
 
     def _on_other(self, h: _Hand, given) -> bool:
         """`h`, given no view, is expected on the other hand's detections (within
