@@ -61,13 +61,16 @@ MOTIONS = ("counting", "benchmark", "flexion", "flip")
 
 
 def marked(joints: np.ndarray, labels: str) -> np.ndarray:
-    """(21, 3) points a detector marks on a hand whose true points are `joints`:
-    ``"truth"`` the same; ``"detector"`` the thumb's base 0.3 of the way to its MCP, as
-    MediaPipe marks it on real video (+0.22 to +0.33, docs/keypoint-fit.md)."""
+    """(21, 3) points a detector marks on a hand whose true points are `joints` (the
+    thumb's base `THUMB_BASE` up its metacarpal, where MediaPipe marks it): ``"truth"``
+    the same; ``"joint"`` the thumb's base at its carpometacarpal joint, as a labelling
+    by the bones would mark it."""
+    from handvar.tracking.keypoint_cost import THUMB_BASE
+
     out = joints.copy()
-    if labels == "detector":
+    if labels == "joint":
         cmc, mcp = HandLandmark.THUMB_CMC, HandLandmark.THUMB_MCP
-        out[cmc] += 0.3 * (joints[mcp] - joints[cmc])
+        out[cmc] = (joints[cmc] - THUMB_BASE * joints[mcp]) / (1.0 - THUMB_BASE)
     return out
 
 
@@ -160,7 +163,7 @@ def main() -> None:
     parser.add_argument("--noise", type=float, default=1.5, help="pixels per coordinate")
     parser.add_argument(
         "--labels",
-        choices=("truth", "detector", "mediapipe"),
+        choices=("truth", "joint", "mediapipe"),
         default="truth",
         help="where the keypoints mark the joints (function marked), or MediaPipe's points",
     )

@@ -13,6 +13,7 @@ from handvar.render import silhouettes
 from handvar.synth import make_sequence, synthetic_keypoints
 from handvar.tracking import CostSettings, SilhouetteCost
 from handvar.tracking.keypoint_cost import (
+    THUMB_BASE,
     frame_keypoints,
     hand_length,
     keypoint_attachment,
@@ -179,7 +180,7 @@ TIPS_AT = [4, 8, 12, 16, 20]
 
 
 def pad_keypoints(hand, rig, x):
-    """Exact keypoints with the fingertips at the pads' centres, as MediaPipe marks them."""
+    """Exact keypoints where MediaPipe marks them (`keypoint_points` with "pad")."""
     P = keypoint_points(hand, x, "pad")
     return np.stack([np.column_stack([cam.project(P), np.ones(21)]) for cam in rig])
 
@@ -190,8 +191,10 @@ def test_pad_points_lie_one_tip_radius_inside_the_fingertips_on_the_distal_bones
     for _ in range(5):
         x = named_pose("open") + rng.normal(0.0, 10.0, 26)
         G, P = hand.joints(x), keypoint_points(hand, x, "pad")
-        others = np.setdiff1d(np.arange(21), TIPS_AT)
-        np.testing.assert_array_equal(P[others], G[others])  # the other 16: G(x)'s
+        others = np.setdiff1d(np.arange(21), [1, *TIPS_AT])
+        np.testing.assert_array_equal(P[others], G[others])  # the other 15: G(x)'s
+        # the thumb's base THUMB_BASE of the way from G(x)'s CMC to its MCP
+        np.testing.assert_allclose(P[1], G[1] + THUMB_BASE * (G[2] - G[1]), atol=1e-9)
         along = G[TIPS_AT] - P[TIPS_AT]
         np.testing.assert_allclose(np.linalg.norm(along, axis=1), hand.shape.radii[:, 3])
         dip = G[[t - 1 for t in TIPS_AT]]
@@ -235,13 +238,13 @@ def test_the_keypoint_term_compares_the_tips_chosen(setup):
     at_pad = pad.evaluate(x, frame, pad.draw(frame, rng), keypoints=kp).keypoints
     at_end = end.evaluate(x, frame, end.draw(frame, rng), keypoints=kp).keypoints
     assert at_pad < 1e-20
-    # reference: G(x)'s five tips one tip radius off the keypoints, Huber's loss
+    # reference: G(x)'s five tips and thumb base off the keypoints, Huber's loss
     G, L = hand.joints(x), hand_length(hand)
     total = 0.0
     for j, cam in enumerate(rig):
         z = cam.camera_from_world(0.5 * (G[0] + G[9])[None])[0, 2]
         d = np.linalg.norm(cam.project(G) - kp[j, :, :2], axis=1) / (cam.fx * L / z)
-        assert np.count_nonzero(d) == 5
+        assert np.count_nonzero(d) == 6
         total += np.sum(huber(d, 0.1))
     assert at_end == pytest.approx(total / (21 * 2), rel=1e-10)
     assert at_end > 1e-6

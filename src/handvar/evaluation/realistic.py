@@ -25,9 +25,9 @@ A test for the real-video path that a user's recording would be, with the truth 
   of camera 0 for one camera), their projections, and the hand's mask per camera.
 
 The 21 points everything is scored on are the detector's: G(x) with each fingertip at the
-centre of its pad, one tip radius short of G(x)'s tip (design §14.6,
-`handvar.tracking.keypoint_cost.keypoint_points` with ``tips="pad"``); the simulated
-detector marks the fingertip there, as MediaPipe does.
+centre of its pad, one tip radius short of G(x)'s tip, and the thumb's base up its
+metacarpal (design §14.6, `handvar.tracking.keypoint_cost.keypoint_points` with
+``tips="pad"``); the simulated detector marks them there, as MediaPipe does.
 
 Everything is seeded: the same arguments give the same frames, bit for bit.
 
@@ -596,7 +596,7 @@ class RealisticCase:
     poses : (T, 26) ndarray
         True poses, mm and degrees, of a hand of `hand_length` and `side`.
     joints : (T, 21, 3) ndarray
-        The 21 scored points (G(x), fingertips at the pad centres), world frame, mm.
+        The 21 scored points (a detector's: `keypoint_points` with "pad"), world, mm.
     truth_2d : (n_cams, T, 21, 2) ndarray
         Their projections, pixels.
     keypoints : (n_cams, T, 21, 2) ndarray

@@ -19,7 +19,7 @@ whose scene, look and single-hand detector errors it reuses):
   the optional distractor drawn in one depth buffer per camera, so the nearer surface
   hides the farther;
 - **the truth** per hand (0 = left, 1 = right, `TwoHandCase.sides`): poses, the 21 scored
-  points (G(x) with the fingertips at the pad centres, as the one-hand benchmark), their
+  points (where a detector marks them, as the one-hand benchmark), their
   projections, the hand's visible pixels, which points the OTHER hand (or its forearm)
   hides, and whether the hand is in view;
 - **the detector**: per hand the one-hand detector's noise, gross errors and missed frames
@@ -360,7 +360,7 @@ class TwoHandCase:
     poses : (2, T, 26) ndarray
         True poses, mm and degrees.
     joints : (2, T, 21, 3) ndarray
-        The 21 scored points (G(x), fingertips at the pad centres), world frame, mm.
+        The 21 scored points (a detector's: `keypoint_points` with "pad"), world, mm.
     truth_2d : (n_cams, 2, T, 21, 2) ndarray
         Their projections, pixels.
     visible : (n_cams, 2, T, 21) bool ndarray

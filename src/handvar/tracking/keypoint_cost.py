@@ -32,15 +32,18 @@ Points behind a camera project nowhere, so the silhouette terms ignore them; wit
 a hand behind every camera fits perfectly (zero cost). C_z does not depend on the
 frame and is always on.
 
-Where a detector's fingertip sits (design §14.6)
-------------------------------------------------
-G(x)'s fingertips are the ends of the distal bones, where the finger's surface ends.
-A detector need not mark that point: MediaPipe marks the fingertip about one pad
-radius inside it.  ``tips="pad"`` (`CostSettings.keypoint_tips`) compares the detected
-tips with the centre of each distal cone-sphere's last sphere instead, one tip radius
-(`HandShape.radii`) short of G(x)'s tip on the distal bone (`HandShape.tip_offsets`);
-the other 16 points are G(x)'s.  `keypoint_attachment` and `keypoint_points` give these
-points; ``tips="end"`` (the default) gives G(x) itself.
+Where a detector marks a fingertip and the thumb's base (design §14.6)
+---------------------------------------------------------------------
+G(x)'s fingertips are the ends of the distal bones, where the finger's surface ends,
+and its thumb base is the carpometacarpal joint, deep in the palm.  A detector marks
+neither there: MediaPipe marks a fingertip about one pad radius inside the end, and
+the thumb's base `THUMB_BASE` of the metacarpal up from the joint.  ``tips="pad"``
+(`CostSettings.keypoint_tips`) compares the detected tips with the centre of each
+distal cone-sphere's last sphere, one tip radius (`HandShape.radii`) short of G(x)'s
+tip on the distal bone (`HandShape.tip_offsets`), and the detected thumb base with
+that point of the thumb's metacarpal; the other 15 points are G(x)'s.
+`keypoint_attachment` and `keypoint_points` give these points; ``tips="end"`` (the
+default) gives G(x) itself.
 """
 
 from __future__ import annotations
@@ -54,6 +57,7 @@ from handvar.validate import as_array, one_of
 
 __all__ = [
     "LOSSES",
+    "THUMB_BASE",
     "TIPS",
     "frame_keypoints",
     "hand_length",
@@ -72,8 +76,14 @@ def hand_length(hand) -> float:
 
 
 #: Where the detected fingertips are compared with the model (module notes): the end of
-#: the distal bone, G(x)'s tip ("end"), or the centre of the fingertip's pad ("pad").
+#: the distal bone, G(x)'s tip ("end"), or the centre of the fingertip's pad with the
+#: thumb's base up its metacarpal ("pad").
 TIPS = ("end", "pad")
+#: Where a detector marks the thumb's base with ``tips="pad"``: this share of the thumb
+#: metacarpal's length from the carpometacarpal joint towards the MCP.  MediaPipe's
+#: median on the realistic benchmark's renders, against the true joints (quartiles 0.31
+#: and 0.43; `studies/detector_joints.py --cases DIR`).
+THUMB_BASE = 0.36
 
 
 def keypoint_attachment(hand, tips: str = "end") -> tuple[np.ndarray, np.ndarray]:
@@ -83,9 +93,10 @@ def keypoint_attachment(hand, tips: str = "end") -> tuple[np.ndarray, np.ndarray
     ----------
     hand : HandModel
     tips : {"end", "pad"}
-        The fingertips at the end of the distal bones (G(x), `HandModel.joint_attachment`)
-        or one tip radius short of it, at the centre of the fingertip's last sphere
-        (``HandShape.tip_offsets``; module notes).
+        G(x)'s points (`HandModel.joint_attachment`), or the points a detector marks:
+        each fingertip one tip radius short of the end, at the centre of its pad
+        (``HandShape.tip_offsets``), and the thumb's base `THUMB_BASE` up its
+        metacarpal (module notes).
 
     Returns
     -------
@@ -107,6 +118,7 @@ def keypoint_attachment(hand, tips: str = "end") -> tuple[np.ndarray, np.ndarray
     bone, local = hand.joint_attachment()
     if tips == "pad":
         local[4::4, 1] = hand.shape.tip_offsets  # fingertips: the thumb's and each finger's
+        local[1, 1] = THUMB_BASE * hand.shape.segments[0, 0]  # on the thumb's metacarpal
     return bone, local
 
 
@@ -114,7 +126,8 @@ def keypoint_points(hand, x, tips: str = "end", *, jacobian: bool = False):
     """The 21 points of pose `x` compared with keypoints, (21, 3) mm, world.
 
     ``tips="end"``: G(x) (`HandModel.joints`); ``"pad"``: the same with the fingertips
-    at the centres of their pads (`keypoint_attachment`).  With `jacobian`, also their
+    at the centres of their pads and the thumb's base up its metacarpal
+    (`keypoint_attachment`).  With `jacobian`, also their
     Jacobian (21, 3, 26), as ``(points, jacobian)``.
     """
     one_of(tips, TIPS, "tips")
