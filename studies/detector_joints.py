@@ -82,7 +82,7 @@ def benchmark_offsets(directory: Path) -> tuple[np.ndarray, np.ndarray]:
     return np.concatenate(rows), np.concatenate(thumb)
 
 
-def video_offsets(name: str, without: tuple[int, ...] = ()) -> np.ndarray:
+def video_offsets(name: str, without: tuple[int, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
     """Offsets of the shipped MediaPipe keypoints against the track fitted to them (the
     points `without` left out of the fit), and the thumb base along its metacarpal."""
     from handvar.data import example_path

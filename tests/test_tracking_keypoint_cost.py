@@ -185,7 +185,7 @@ def pad_keypoints(hand, rig, x):
     return np.stack([np.column_stack([cam.project(P), np.ones(21)]) for cam in rig])
 
 
-def test_pad_points_lie_one_tip_radius_inside_the_fingertips_on_the_distal_bones():
+def test_pad_points_are_the_pads_centres_and_the_thumb_base_up_its_metacarpal():
     hand = HandModel()
     rng = np.random.default_rng(11)
     for _ in range(5):

@@ -40,8 +40,8 @@ detector's label:
    tracked hand of the side it is labelled (found twice, labelled alike), nor within
    `NEW_HAND` of a tracked hand given none (that hand's, off by a gross error, unless
    it is labelled at least `SIDE_SURE` sure the side of a free hand: that hand coming
-   back), starts the free hand (in the other cameras, the detection whose rays pass nearest its
-   own, within `RAY_GAP` mm).  A hand is free where it is expected nowhere, or, given
+   back), starts the free hand (in the other cameras, the detection whose rays pass
+   nearest its own, within `RAY_GAP` mm).  A hand is free where it is expected nowhere, or, given
    no detection, where it lies on the other hand's detections (within `DUPLICATE`)
    in two cameras or more: the flow followed it onto the other hand (on one camera's
    alone it may be hidden behind it).  Its side: the other side than that of the

@@ -127,8 +127,8 @@ def keypoint_points(hand, x, tips: str = "end", *, jacobian: bool = False):
 
     ``tips="end"``: G(x) (`HandModel.joints`); ``"pad"``: the same with the fingertips
     at the centres of their pads and the thumb's base up its metacarpal
-    (`keypoint_attachment`).  With `jacobian`, also their
-    Jacobian (21, 3, 26), as ``(points, jacobian)``.
+    (`keypoint_attachment`).  With `jacobian`, also their Jacobian (21, 3, 26), as
+    ``(points, jacobian)``.
     """
     one_of(tips, TIPS, "tips")
     if tips == "end":
