@@ -40,7 +40,6 @@ import numpy as np
 
 import handvar
 from handvar.data import example_path
-from handvar.tracking.frame_fit import CHECK_THRESHOLD
 from handvar.vision.keypoints import Keypoints2D, read_keypoints
 
 VIDEO = example_path("video")
@@ -95,8 +94,7 @@ def detector_runs(frames: int | None, stride: int) -> None:
     def run(label: str, video, **given):
         track = handvar.track(video, scale=0.5, frames=frames, recovery=recovery, **given)
         q = track.quality
-        far = np.nan_to_num(q.distances, nan=0.0).max(axis=(1, 2)) > CHECK_THRESHOLD
-        failing = np.flatnonzero(q.keypoints & far)
+        failing = np.flatnonzero(q.failing_frames(frames=q.keypoints))
         digits = track.shape.segments.sum(axis=1)
         print(f"{label}: {track.shape.side} hand; keypoint check fails on {len(failing)} of "
               f"{int(q.keypoints.sum())} frames {failing.tolist()[:12]}"

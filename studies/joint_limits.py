@@ -38,7 +38,6 @@ from handvar.data import example_path
 from handvar.params import LOWER, NAMES, UPPER
 from handvar.pipeline import HandsTrack
 from handvar.synth.motion import htrack_to_handvar
-from handvar.tracking.frame_fit import CHECK_THRESHOLD
 
 VIDEOS = ("video", "fingerspelling", "counting")
 FINGER_FLEXIONS = np.array([NAMES.index(f"{d}_{j}") for d in ("index", "middle", "ring", "little")
@@ -62,13 +61,12 @@ def at_limits(name: str, track) -> None:
     """Print `track`'s failing frames and the finger flexions at their upper limits."""
     q = track.quality
     frames = q.keypoints
-    d = np.nan_to_num(q.distances, nan=0.0).max(axis=(1, 2))
-    failing = frames & (d > CHECK_THRESHOLD)
+    failing = q.failing_frames(frames=frames)
     poses = track.poses[:, FINGER_FLEXIONS]
     limited = (poses >= UPPER[FINGER_FLEXIONS] - AT_LIMIT).any(axis=1)
     n_fail = int(failing.sum())
     print(f"  {name}: fails the check on {n_fail} of {int(frames.sum())} frames with "
-          f"keypoints (a joint beyond 0.2 hand sizes of a kept keypoint: "
+          f"keypoints (under 98 % of its kept keypoints within 0.2 hand sizes: "
           f"{np.flatnonzero(failing).tolist()}); a finger flexion at its upper limit on "
           f"{int((failing & limited).sum())} of them, on "
           f"{np.mean(limited[frames]):.1%} of all frames with keypoints")  # fmt: skip

@@ -119,6 +119,7 @@ def test_honoured_against_hand_counted_frames(capsys):
         keypoints=np.ones(n, bool), distances=d,
     )  # fmt: skip
     assert q.failing() == 1 and q.failing(frames=np.array([True, False, True])) == 0
+    assert q.failing_frames().tolist() == [False, True, False]
     assert q.check()[:2] == (False, pytest.approx(20 / 21))
     # `handvar track` says how many of the frames with a detection fail
     from types import SimpleNamespace

@@ -41,13 +41,13 @@ detector's label:
    `NEW_HAND` of a tracked hand given none (that hand's, off by a gross error, unless
    it is labelled at least `SIDE_SURE` sure the side of a free hand: that hand coming
    back), starts the free hand (in the other cameras, the detection whose rays pass
-   nearest its own, within `RAY_GAP` mm).  A hand is free where it is expected nowhere, or, given
-   no detection, where it lies on the other hand's detections (within `DUPLICATE`)
-   in two cameras or more: the flow followed it onto the other hand (on one camera's
-   alone it may be hidden behind it).  Its side: the other side than that of the
-   hand tracked or found on this frame if there is one (two hands of one person), else
-   the detector's label.  So a hand that leaves and comes back is re-acquired with its
-   side.
+   nearest its own, within `RAY_GAP` mm).  A hand is free where it is expected
+   nowhere, or, given no detection, where it lies on the other hand's detections
+   (within `DUPLICATE`) in two cameras or more: the flow followed it onto the other
+   hand (on one camera's alone it may be hidden behind it).  Its side: the other side
+   than that of the hand tracked or found on this frame if there is one (two hands of
+   one person), else the detector's label.  So a hand that leaves and comes back is
+   re-acquired with its side.
 4. **The side of a hand** never changes within a track, except on overwhelming
    evidence: after `SIDE_FRAMES` labelled detections given to a new hand, a weighted
    share `SIDE_SWAP` or more of them for the other side; or, at any time, `SIDE_RUN`

@@ -179,9 +179,18 @@ class TrackQuality:
     def failing(self, threshold: float = CHECK_THRESHOLD, share: float = 0.98, frames=None) -> int:
         """How many frames (of the (T,) bool mask `frames`, default all) fail the keypoint
         check: they have kept keypoints, fewer than `share` of them within `threshold`."""
-        _, d = self._checked(frames)
+        return int(self.failing_frames(threshold, share, frames).sum())
+
+    def failing_frames(
+        self, threshold: float = CHECK_THRESHOLD, share: float = 0.98, frames=None
+    ) -> np.ndarray:
+        """(T,) bool: the frames (of the mask `frames`, default all) failing the keypoint
+        check, as `failing` counts them."""
+        keep, d = self._checked(frames)
         shares = honoured_shares(d, np.zeros(d.shape, dtype=bool), threshold=threshold)
-        return int(np.sum(~np.isnan(shares) & (np.nan_to_num(shares, nan=1.0) < share)))
+        out = np.zeros(len(keep), dtype=bool)
+        out[keep] = ~np.isnan(shares) & (np.nan_to_num(shares, nan=1.0) < share)
+        return out
 
     def _checked(self, frames) -> tuple[np.ndarray, np.ndarray]:
         """The mask of the frames checked (`frames`, default all) and their distances."""
