@@ -2,7 +2,7 @@
 
 Usage: PYTHONPATH=src python studies/two_hands.py [--seeds N] [--cameras 1|2]
        [--detector simulated|mediapipe] [--every K] [--scenario NAME ...] [--size W H]
-       [--missed-carry N] [--hidden-frames N] [--side-run N] [--same-hand X]
+       [--missed-carry N] [--hidden-frames N] [--side-run N] [--same-hand X] [--held-view C]
        [--cache DIR]
        [--landmarks full|lite] [--confidence C] [--forward-only] [--no-look] [--mirror]
 
@@ -51,7 +51,9 @@ frames a hand the detector misses is followed by optical flow
 frames a hand behind the other is carried by its prediction
 (`handvar.tracking.hands.HIDDEN_FRAMES`); ``--same-hand X`` the
 palm lengths within which one hand's views given to two hands are merged
-(`handvar.tracking.hands.SAME_HAND`; ``inf``: wherever their rays meet).  With ``--every K`` the
+(`handvar.tracking.hands.SAME_HAND`; ``inf``: wherever their rays meet); ``--held-view
+C`` the confidence of the points a missed hand followed in one camera only is held at
+in the others (`handvar.tracking.hands.HELD_VIEW`).  With ``--every K`` the
 detector runs on every K-th frame only (MediaPipe as the command runs it: two
 MediaPipes taking those frames in turn, each given the frame's index); the fit carries
 each hand's detection by optical flow over the frames between, and the detections'
@@ -404,6 +406,10 @@ def main() -> None:
     parser.add_argument("--hidden-frames", type=int, default=None,
                         help="frames a hand behind the other is carried by its prediction "
                              "(handvar.tracking.hands.HIDDEN_FRAMES)")  # fmt: skip
+    parser.add_argument("--held-view", type=float, default=None,
+                        help="confidence of the points a missed hand followed in one "
+                             "camera only is held at in the others "
+                             "(handvar.tracking.hands.HELD_VIEW)")  # fmt: skip
     parser.add_argument("--same-hand", type=float, default=None,
                         help="palm lengths within which two hands' views are one hand's "
                              "(handvar.tracking.hands.SAME_HAND)")  # fmt: skip
@@ -431,7 +437,8 @@ def main() -> None:
     import handvar.tracking.hands as rules
 
     constants = {"side_run": "SIDE_RUN", "missed_carry": "MISSED_CARRY",
-                 "hidden_frames": "HIDDEN_FRAMES", "same_hand": "SAME_HAND"}  # fmt: skip
+                 "hidden_frames": "HIDDEN_FRAMES", "same_hand": "SAME_HAND",
+                 "held_view": "HELD_VIEW"}  # fmt: skip
     for option, constant in constants.items():
         if getattr(args, option) is not None:  # the tracker's constant, for this run
             setattr(rules, constant, getattr(args, option))

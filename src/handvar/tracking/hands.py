@@ -82,7 +82,10 @@ detector's label:
    two cameras or more, a hand the flow follows in one camera only needs
    `ONE_VIEW_POINTS` points there: fitted to fewer, it drifted along that camera's
    rays, off the hand in the other (4 chosen among 2, 4 and 6 on the two-hand
-   benchmark with MediaPipe, docs/results/two-hands.md).  Once
+   benchmark with MediaPipe, docs/results/two-hands.md); with that many, a hand the
+   detector missed is held in the other cameras at its last fit's points, with
+   confidence `HELD_VIEW`: one view tells its depth only by its size, which the flow's
+   points do not keep (0.5 chosen among 0.2, 0.5 and 1 there).  Once
    no point is followed, a hand fitted until a frame ago is carried by its motion
    prediction (``hidden``, its quality ``empty``): for up to `HIDDEN_FRAMES` frames
    while `BEHIND_SHARE` of its expected points or more lie inside the other hand's
@@ -147,6 +150,7 @@ __all__ = [
     "FRONT",
     "GATE",
     "GATE_GROWTH",
+    "HELD_VIEW",
     "HIDDEN_FRAMES",
     "HIDDEN_WEIGHT",
     "LABEL_COST",
@@ -210,6 +214,9 @@ BEHIND_CARRY = 10
 #: Points the optical flow must follow of a hand given no detection, carried in one
 #: camera only of two or more, for it to be fitted to them (rule 6).
 ONE_VIEW_POINTS = 4
+#: Confidence of the points a hand followed in one camera only is held at in the others,
+#: its last fit's (rule 6).
+HELD_VIEW = 0.5
 #: Hand sizes around a missed hand's expected points of the box the detector looks at
 #: again (rule 6).
 LOOK_PAD = 3.0
@@ -1053,14 +1060,22 @@ def _found_once(pairs: dict[int, int], expected: list, found: list) -> dict[int,
 
 
 def _one_view(h: _Hand, kps: list, carried: list) -> None:
-    """Rule 6, two cameras or more: a hand given no detection and carried by the flow in
-    one camera only is not fitted to fewer than `ONE_VIEW_POINTS` points followed there
-    (in place): so few points in one view tell no depth, and the hand fitted to them
-    drifts along that camera's rays, off the hand in the others."""
+    """Rule 6, two cameras or more, in place: a hand given no detection and carried by
+    the flow in one camera only is not fitted to fewer than `ONE_VIEW_POINTS` points
+    followed there (so few points in one view tell no depth); followed by that many in
+    one camera only and missed by the detector (not between its frames), it is held in
+    the others at its last fit's points, with confidence `HELD_VIEW`: fitted to one view
+    alone, it drifted along that camera's rays, off the hand in the others."""
+    if len(carried) < 2 or any(k is not None for k in kps):
+        return
     views = [j for j, c in enumerate(carried) if c is not None]
-    if len(carried) > 1 and len(views) == 1 and all(k is None for k in kps):
-        if h.carriers[views[0]].followed < ONE_VIEW_POINTS:
-            carried[views[0]] = None
+    enough = [j for j in views if h.carriers[j].followed >= ONE_VIEW_POINTS]
+    if len(views) == 1 and not enough:
+        carried[views[0]] = None
+    elif len(enough) == 1 and h.last is not None and h.undetected:
+        for j in range(len(carried)):
+            if j != enough[0]:
+                carried[j] = np.c_[h.last.projected[j], np.full(21, HELD_VIEW)]
 
 
 def _recovery_from(h: _Hand, t: int):
