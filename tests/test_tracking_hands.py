@@ -290,6 +290,49 @@ def test_a_side_turns_on_a_run_of_sure_labels_against_it_and_not_on_a_shorter_on
         assert (sides[-1] == SIDES[::-1]) is turned
 
 
+def test_a_label_sure_of_a_free_hands_side_counts_twice_against_the_other_hand():
+    """A detection 0.75 hand sizes from where the right hand is expected, labelled left
+    with a score of 0.92: its cost for the right hand is 0.75 + 0.25 · 0.84 = 0.96,
+    under the gate of 1; while the left hand is free (expected nowhere) the label
+    counts twice, 1.17, and it is not given (the left hand's coming back)."""
+    a = np.zeros((21, 2))
+    a[9] = (0.0, 40.0)  # a hand 40 pixels long
+    d = Detection(np.c_[a + np.array([30.0, 0.0]), np.ones(21)], side="left", score=0.92)
+    assert assign([a, a + 400.0], ["right", "left"], [d], [1.0, 1.0]) == {0: 0}
+    assert assign([a, None], ["right", "left"], [d], [1.0, 1.0]) == {}
+    unsure = Detection(d.points, side="left", score=SIDE_SURE - 0.05)
+    assert assign([a, None], ["right", "left"], [unsure], [1.0, 1.0]) == {0: 0}
+
+
+def test_a_hand_carried_off_takes_its_own_sure_detection_not_the_free_hands():
+    """The left hand has left for longer than `GONE_FRAMES`; the right hand's last
+    detections lie 1.4 of its sizes towards where the left one comes back (as the
+    optical flow carried a hand off between a slower detector's frames: the two-hand
+    benchmark's occlusion, seed 1, MediaPipe on every 5th frame).  Then both are found,
+    each labelled sure of its side, the left one 0.7 sizes from the right track: the
+    right track takes its own detection (beyond its gate, within `NEW_HAND`) and the
+    left hand comes back on the other; the right track took the left one's before."""
+    rig = realistic_rig(1)
+    right = rig.cameras[0].project(_apart()["right"])
+    size = np.linalg.norm(right[9] - right[0])  # pixels
+    off = right - (1.4 * size, 0.0)  # where the flow carried the right hand
+    left = right - (2.1 * size, 0.0)  # the left hand back beside it
+
+    def found(p, side):
+        return Detection(np.c_[p, np.ones(21)], side=side, score=0.92)
+
+    tracker = HandsTracker(rig, detector=None)
+    far_left = right - (6.0 * size, 0.0)
+    frames = [[found(far_left, "left"), found(right, "right")]] * 3
+    frames += [[found(off, "right")]] * (GONE_FRAMES + 3)
+    for f in [*frames, [found(left, "left"), found(right, "right")]]:
+        r = tracker.process(IMAGE, detections=[f])
+    hands = {h.side: h for h in r.hands if not h.no_hand}
+    assert set(hands) == {"left", "right"}
+    for side, p in (("left", left), ("right", right)):
+        assert np.linalg.norm(hands[side].projected[0] - p, axis=1).mean() < 0.3 * size
+
+
 def test_assign_keeps_identities_by_place_and_leaves_far_detections_out():
     a = np.zeros((21, 2))
     a[9] = (0.0, 40.0)

@@ -11,7 +11,9 @@ detector's label:
    size s the wrist → middle-MCP distance there.
 2. **Assignment.**  Per camera, the cost of giving detection d to hand h is the median
    over their common points of |p_h − p_d| / s_h, plus `LABEL_COST` · (2 score − 1)
-   when the detector labels d with the other side; the assignment of least total cost
+   when the detector labels d with the other side (twice when d is labelled at least
+   `SIDE_SURE` sure the side of a free hand, one expected nowhere: given to h it would
+   be taken from that hand too); the assignment of least total cost
    (`least_cost_pairs`) keeps the pairs under `GATE` hand sizes
    (wider by `GATE_GROWTH` for each frame since the hand was last fitted, or for each
    of the detector's frames since it was last given a detection if more: a hand
@@ -19,7 +21,13 @@ detector's label:
    detections so given that lie within `DUPLICATE` hand sizes of each other are one
    hand found twice (MediaPipe does so): only the one nearer where its hand is expected
    is kept, else the other hand, fitted to it in one camera, is drawn on it at a depth
-   no other camera checks.  The label is
+   no other camera checks.  A hand given none takes the nearest detection left over
+   within `NEW_HAND` hand sizes labelled at least `SIDE_SURE` sure its side
+   (`_labelled_back`): the flow may have carried it off its hand, beyond the gate.  On
+   the two-hand benchmark with MediaPipe on every 5th frame, a hand the flow had
+   carried off between two of its frames took the other hand's detection, sure of
+   the other side, and the two swapped; with the label counted twice it took none, and
+   its own detection brought it back (docs/results/two-hands.md).  The label is
    one vote among others: a hand that crosses the other keeps its identity when the
    detector's labels swap.  With two cameras or more (`_agree`), a hand given views
    whose rays do not meet within `RAY_GAP` (two hands) keeps the one nearer where it
@@ -185,7 +193,8 @@ DUPLICATE = 0.35
 #: points two hands' views triangulate must lie for the views to be that one hand's.
 SAME_HAND = 0.5
 #: Hand sizes from a tracked hand given no detection within which a detection left over
-#: is that hand's, off by a detector's gross error, not a new hand.
+#: is that hand's, off by a detector's gross error, not a new hand (given to it if
+#: labelled at least `SIDE_SURE` sure its side).
 NEW_HAND = 2.0
 #: Labelled detections of a new hand after which its side may turn.
 SIDE_FRAMES = 30
@@ -324,12 +333,14 @@ def assign(expected: list, sides: list, found: list, gates: list) -> dict[int, i
     rows = [h for h, e in enumerate(expected) if e is not None]
     if not rows or not found:
         return {}
+    free = {side for e, side in zip(expected, sides, strict=True) if e is None}
     cost = np.full((len(rows), len(found)), np.inf)
     for r, h in enumerate(rows):
         for k, d in enumerate(found):
             c = _distance(expected[h], d.points)
             if d.side and d.side != sides[h]:
-                c += LABEL_COST * (2.0 * d.score - 1.0)
+                claimed = d.score >= SIDE_SURE and d.side in free
+                c += LABEL_COST * (2.0 * d.score - 1.0) * (2 if claimed else 1)
             cost[r, k] = c
     pairs = least_cost_pairs(np.where(np.isfinite(cost), cost, 1e6))
     return {rows[r]: k for r, k in pairs if cost[r, k] <= gates[rows[r]]}
@@ -757,6 +768,7 @@ class HandsTracker:
             pairs = assign(expected, [h.side for h in self.hands], found,
                            [h.gate for h in self.hands])  # fmt: skip
             pairs = _found_once(pairs, expected, found)
+            _labelled_back(pairs, expected, [h.side for h in self.hands], found)
             for hand, k in pairs.items():
                 given[self.hands[hand].id][j] = found[k]
         self._agree(given)
@@ -1057,6 +1069,20 @@ def _found_once(pairs: dict[int, int], expected: list, found: list) -> dict[int,
         return pairs
     far = max((a, i), (b, k), key=lambda p: _distance(expected[p[0]], found[p[1]].points))
     return {h: d for h, d in pairs.items() if h != far[0]}
+
+
+def _labelled_back(pairs: dict[int, int], expected: list, sides: list, found: list) -> None:
+    """Rule 2, in place: each hand expected and given no detection takes the nearest
+    left over within `NEW_HAND` hand sizes labelled at least `SIDE_SURE` sure its side."""
+    for h, e in enumerate(expected):
+        if h in pairs or e is None:
+            continue
+        sure = [k for k, d in enumerate(found) if k not in pairs.values()
+                and d.side == sides[h] and d.score >= SIDE_SURE]  # fmt: skip
+        near = {k: _distance(e, found[k].points) for k in sure}
+        k = min(near, key=near.get, default=None)
+        if k is not None and near[k] < NEW_HAND:
+            pairs[h] = k
 
 
 def _one_view(h: _Hand, kps: list, carried: list) -> None:
