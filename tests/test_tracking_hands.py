@@ -333,6 +333,29 @@ def test_a_hand_carried_off_takes_its_own_sure_detection_not_the_free_hands():
         assert np.linalg.norm(hands[side].projected[0] - p, axis=1).mean() < 0.3 * size
 
 
+def test_a_hand_found_twice_is_not_taken_back_by_the_other_hand_for_its_label():
+    """The left hand, 1.5 hand sizes beside the right one, is missed; the right one is
+    found twice, the second detection labelled left and sure: within `NEW_HAND` of the
+    left hand, but the right hand found again (within `DUPLICATE` of its detection),
+    so the left track is not drawn on it."""
+    rig = realistic_rig(1)
+    right = rig.cameras[0].project(_apart()["right"])
+    size = np.linalg.norm(right[9] - right[0])  # pixels
+    left = right - (1.5 * size, 0.0)
+
+    def found(p, side):
+        return Detection(np.c_[p, np.ones(21)], side=side, score=0.95)
+
+    tracker = HandsTracker(rig, detector=None)
+    for _ in range(3):
+        tracker.process(IMAGE, detections=[[found(left, "left"), found(right, "right")]])
+    twice = [found(right, "right"), found(right + np.array([0.1 * size, 0.0]), "left")]
+    r = tracker.process(IMAGE, detections=[twice])
+    for h in r.hands:
+        on_right = bool(np.linalg.norm(h.projected[0] - right, axis=1).mean() < 0.5 * size)
+        assert h.no_hand or on_right is (h.side == "right"), h.side
+
+
 def test_assign_keeps_identities_by_place_and_leaves_far_detections_out():
     a = np.zeros((21, 2))
     a[9] = (0.0, 40.0)

@@ -22,12 +22,13 @@ detector's label:
    hand found twice (MediaPipe does so): only the one nearer where its hand is expected
    is kept, else the other hand, fitted to it in one camera, is drawn on it at a depth
    no other camera checks.  A hand given none takes the nearest detection left over
-   within `NEW_HAND` hand sizes labelled at least `SIDE_SURE` sure its side
-   (`_labelled_back`): the flow may have carried it off its hand, beyond the gate.  On
-   the two-hand benchmark with MediaPipe on every 5th frame, a hand the flow had
-   carried off between two of its frames took the other hand's detection, sure of
-   the other side, and the two swapped; with the label counted twice it took none, and
-   its own detection brought it back (docs/results/two-hands.md).  The label is
+   within `NEW_HAND` hand sizes labelled at least `SIDE_SURE` sure its side, not one
+   given found again (`_labelled_back`): the flow may have carried it off its hand,
+   beyond the gate.  On the two-hand benchmark with MediaPipe on every 5th frame, a
+   hand the flow had carried off between two of its frames took the other hand's
+   detection, sure of the other side, and the two swapped; with the label counted
+   twice it took none, and its own detection brought it back
+   (docs/results/two-hands.md).  The label is
    one vote among others: a hand that crosses the other keeps its identity when the
    detector's labels swap.  With two cameras or more (`_agree`), a hand given views
    whose rays do not meet within `RAY_GAP` (two hands) keeps the one nearer where it
@@ -1073,12 +1074,15 @@ def _found_once(pairs: dict[int, int], expected: list, found: list) -> dict[int,
 
 def _labelled_back(pairs: dict[int, int], expected: list, sides: list, found: list) -> None:
     """Rule 2, in place: each hand expected and given no detection takes the nearest
-    left over within `NEW_HAND` hand sizes labelled at least `SIDE_SURE` sure its side."""
+    left over within `NEW_HAND` hand sizes labelled at least `SIDE_SURE` sure its side,
+    unless it lies within `DUPLICATE` of a detection given (that hand found twice)."""
     for h, e in enumerate(expected):
         if h in pairs or e is None:
             continue
+        given = [found[k].points[:, :2] for k in pairs.values()]
         sure = [k for k, d in enumerate(found) if k not in pairs.values()
-                and d.side == sides[h] and d.score >= SIDE_SURE]  # fmt: skip
+                and d.side == sides[h] and d.score >= SIDE_SURE
+                and all(_distance(g, d.points) >= DUPLICATE for g in given)]  # fmt: skip
         near = {k: _distance(e, found[k].points) for k in sure}
         k = min(near, key=near.get, default=None)
         if k is not None and near[k] < NEW_HAND:
