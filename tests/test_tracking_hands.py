@@ -17,6 +17,7 @@ from handvar.hand.anthropometry import HandShape
 from handvar.hand.kinematics import HandModel
 from handvar.tracking.hands import (
     BEHIND_CARRY,
+    FOUND_SHARE,
     GONE_FRAMES,
     MISSED_CARRY,
     MISSED_FRAMES,
@@ -567,12 +568,14 @@ def test_a_slower_detector_carries_each_hand_to_the_frames_it_skips():
 
 
 @pytest.mark.parametrize(
-    ("T", "missed", "every"), [(20, range(8, 14), 1), (40, range(8, 33), 1), (40, range(8, 33), 3)]
+    ("T", "missed", "every"),
+    [(20, range(8, 14), 1), (48, range(20, 45), 1), (48, range(20, 45), 3)],
 )
 def test_a_hand_the_detector_misses_is_followed_by_optical_flow(T, missed, every):
     """Textured frames sliding 3 px right and 1 down a frame, the hands' true points with
     them; the detector misses the left hand on 6 frames, or on 25 (more than
-    `BEHIND_CARRY`, the hands apart: in the open), fewer than `MISSED_CARRY`.  There it
+    `BEHIND_CARRY`, the hands apart: in the open), fewer than `MISSED_CARRY`, after
+    finding it on 20 (so on `FOUND_SHARE` of its frames or more throughout).  There it
     is fitted to its last detection followed by the flow, within 0.15 hand sizes of its
     true points, where its prediction alone was carried only `MISSED_FRAMES` frames
     (and, before a hand in the open was followed longer, the flow only 10).  With the
@@ -581,6 +584,7 @@ def test_a_hand_the_detector_misses_is_followed_by_optical_flow(T, missed, every
     import cv2
 
     assert len(missed) < MISSED_CARRY and (len(missed) < 10 or len(missed) > BEHIND_CARRY)
+    assert missed[0] >= FOUND_SHARE * (missed[-1] + 1)  # found often enough to be followed
     rig, first = _truth(1, swap=False)
     rng = np.random.default_rng(0)
     texture = _texture(rng)
@@ -602,6 +606,37 @@ def test_a_hand_the_detector_misses_is_followed_by_optical_flow(T, missed, every
         assert not h.no_hand and not h.hidden, t
         error = np.linalg.norm(h.projected[0] - truth["left"][t], axis=1).mean()
         assert error < 0.15 * size, (t, error / size)
+
+
+def test_a_hand_the_detector_finds_now_and_then_is_neither_followed_nor_carried_back():
+    """Textured frames sliding as above, which the optical flow follows anywhere; the
+    right hand found on every frame, a left hand only on frames 6 and 26 (a detector's
+    false hand, found now and then).  Followed through its misses and
+    carried back from its finds (as a hand found on a third of the frames or more is),
+    it would be drawn on nearly every frame; it is drawn only on the frames it is found
+    and the few after (`FOUND_SHARE`, then `MISSED_FRAMES` by its prediction), and a
+    recording's back-fill carries none back (`BACK_SHARE`).  The right hand is drawn on
+    every frame."""
+    import cv2
+
+    T, finds = 46, (6, 26)
+    rig, first = _truth(1, swap=False)
+    rng = np.random.default_rng(0)
+    texture = _texture(rng)
+    shift = np.array([3.0, 1.0])
+    truth = {s: np.stack([first[s][0] + t * shift for t in range(T)]) for s in SIDES}
+    tracker = HandsTracker(rig, detector=None, back=True)
+    results = []
+    for t in range(T):
+        image = cv2.cvtColor(np.roll(texture, (t, 3 * t), axis=(0, 1)), cv2.COLOR_GRAY2BGR)
+        found = [d for d in _detections(truth, t, rng, 0.0) if d.side == "right" or t in finds]
+        results.append(tracker.process(image, detections=[found]))
+    left = next(h.id for h in results[finds[0]].hands if h.side == "left")
+    drawn = [t for t, r in enumerate(results) if not r.hands[left].no_hand]
+    followed = int(1 / FOUND_SHARE)  # frames since a find it is still followed
+    assert set(drawn) <= {t + k for t in finds for k in range(followed + MISSED_FRAMES)}, drawn
+    assert left not in {i for poses in tracker.back_fill().values() for i in poses}
+    assert not any(r.hands[1 - left].no_hand for r in results)
 
 
 def test_a_hand_followed_by_a_few_points_in_one_camera_of_two_is_not_fitted_to_them():

@@ -85,10 +85,12 @@ detector's label:
    without them, identity switches).  Otherwise its last detection's points are followed by
    optical flow (`handvar.vision.carry.KeypointCarrier`, the points the flow loses
    dropped) for up to `MISSED_CARRY` frames, and the hand is fitted to them (rule 5
-   applied to them too); after `BEHIND_CARRY` frames, only while no hand in front of
-   it (rule 5's) overlaps it by `BEHIND_SHARE` of its expected points: in the open
-   the flow sees the hand it follows, behind another it follows the front one.  With
-   two cameras or more, a hand the flow follows in one camera only needs
+   applied to them too), while the detector has found it on `FOUND_SHARE` of its
+   frames or more since its track began (a detector's false hand, found now and then,
+   is not carried between its finds); after `BEHIND_CARRY` frames, only while no hand
+   in front of it (rule 5's) overlaps it by `BEHIND_SHARE` of its expected points: in
+   the open the flow sees the hand it follows, behind another it follows the front
+   one.  With two cameras or more, a hand the flow follows in one camera only needs
    `ONE_VIEW_POINTS` points there: fitted to fewer, it drifted along that camera's
    rays, off the hand in the other (4 chosen among 2, 4 and 6 on the two-hand
    benchmark with MediaPipe, docs/results/two-hands.md); with that many, a hand the
@@ -109,7 +111,9 @@ detector's label:
    hand's first detection after frames without it is carried back by optical flow to
    those frames, at most `CarrySettings.max_frames`, while the flow follows at least
    `BACK_POINTS` of its points in some camera and they do not lie on the other hand's
-   fit (within `DUPLICATE` hand sizes), as one hand's track on a recording is
+   fit (within `DUPLICATE` hand sizes), and only if the detector finds it on
+   `BACK_SHARE` of its frames or more from that detection over as many frames on, as
+   one hand's track on a recording is
    (design §14.5); once every frame is tracked, those frames are fitted to them,
    backwards from the detection, with the hand's final shape.  One hand's track wants
    6 points (`CarrySettings.lead_points`): there the frames carried back are among the
@@ -238,6 +242,15 @@ SETTLE_FRAMES = 10
 #: Points of a hand found late that the optical flow must still follow for its first
 #: detection to be carried back to a frame (rule 7).
 BACK_POINTS = 2
+#: Share of the detector's frames since its track began that a hand must have been
+#: found on to be followed through a miss (rule 6).  On the two-hand benchmark it
+#: changes no run with MediaPipe (docs/results/two-hands.md).
+FOUND_SHARE = 1 / 3
+#: Share of the detector's frames over the `CarrySettings.max_frames` from a hand's first
+#: detection after frames without it that it must be found on to be carried back from
+#: it (rule 7).  `FOUND_SHARE` here lost a real hand MediaPipe finds on few frames
+#: there; 0.1 changes no run with MediaPipe.
+BACK_SHARE = 0.1
 
 
 @dataclass(frozen=True, eq=False)
@@ -408,6 +421,35 @@ class _Hand:
     undetected: int = 0  # the detector's frames since it was last given a detection
     single: list = dataclasses.field(default_factory=list)  # (t, kps, images) in one view
     settled: int = -1  # frames since first fitted to two views or more (-1: not yet)
+    looked: int = 0  # the detector's frames since its track began
+    found: int = 0  # of them, those it was given a detection on
+    windows: list = dataclasses.field(default_factory=list)  # rule 7's, its track's
+
+    def count(self, t: int, ran: bool) -> None:
+        """Note frame t: the detector's frame or not, the hand given a detection there or
+        not (`undetected` as now): its found share since its track began, and over each
+        of its windows open at t (rule 7: [the frame it ends at, looked, found])."""
+        if not ran:
+            return
+        found = self.undetected == 0
+        self.looked, self.found = self.looked + 1, self.found + found
+        for w in self.windows:
+            if t < w[0]:
+                w[1], w[2] = w[1] + 1, w[2] + found
+
+    def begin(self) -> None:
+        """A new track: the counts of `count` start again; the last one's windows close."""
+        self.last = self.before = None
+        self.looked = self.found = 0
+        for w in self.windows:
+            w[0] = -1
+        self.windows = []
+
+    @property
+    def followed(self) -> bool:
+        """Found on `FOUND_SHARE` of the detector's frames or more since its track began
+        (rule 6)."""
+        return self.found >= FOUND_SHARE * self.looked
 
     @property
     def expected(self):
@@ -584,7 +626,10 @@ class HandsTracker:
             kps, world = given.get(h.id, ([None] * n, None))
             if ran:
                 h.undetected = 0 if any(k is not None for k in kps) else h.undetected + 1
+            h.count(self.frame_count, ran)
             carried = self._carry(h, greys, kps)
+            if h.undetected and not h.followed:  # rule 6: a detector's false hand
+                carried = [None] * n
             for j, carrier in enumerate(h.carriers):  # the flow would follow the hand in front
                 if kps[j] is None and carrier.age > BEHIND_CARRY and self._behind(h, j):
                     carried[j] = None
@@ -592,7 +637,7 @@ class HandsTracker:
             followed = [c if k is None else None for c, k in zip(carried, kps, strict=True)]
             self._down_weighted(h, followed)  # rule 5 on them too, in place
             results.append(self._fit(h, images, carried, world))
-        self._note_late(results, images, greys)
+        self._note_late(results, images, greys, ran)
         for h, r in zip(self.hands, results, strict=True):
             if not r.no_hand and not r.hidden:
                 h.before, h.last, h.missing = h.last, r, 0
@@ -659,17 +704,24 @@ class HandsTracker:
         self.looks += 1
         return self.look[j](image, (*(centre - half), *(centre + half)))
 
-    def _note_late(self, results, images, greys) -> None:
+    def _note_late(self, results, images, greys, ran: bool) -> None:
         """Rule 7: note each hand fitted to a detection after a frame without it, with
-        the frames kept before this one, and each first fitted to two views after frames
-        in one, with those frames; keep this frame (with ``back`` only)."""
+        the frames kept before this one and the window its found share is counted over
+        from there, and each first fitted to two views after frames in one, with those
+        frames; keep this frame (with ``back`` only).  `ran`: the detector's frame."""
+        from handvar.vision.carry import CARRY_SETTINGS
+
         if self._recent is None:
             return
         for h, r in zip(self.hands, results, strict=True):
             frames = h.tracker.frames
             found = not r.no_hand and not r.hidden and r.keypoints is not None
             if found and self._recent and len(frames) > 1 and frames[-2].no_hand:
-                self._late.append((h.id, r.index, r.keypoints, greys, list(self._recent)))
+                window = [r.index + CARRY_SETTINGS.max_frames, int(ran),
+                          int(ran and h.undetected == 0)]  # fmt: skip
+                h.windows.append(window)
+                self._late.append((h.id, r.index, r.keypoints, greys, list(self._recent),
+                                   window))  # fmt: skip
             if len(images) > 1 and h.settled < SETTLE_FRAMES:
                 self._note_views(h, r, images, found)
         self._recent.append((images, greys))
@@ -710,9 +762,11 @@ class HandsTracker:
         from handvar.vision.carry import CARRY_SETTINGS, KeypointCarrier
 
         out, late, self._late = {}, self._late, []
-        for hid, t0, kps, greys0, before in late:
+        for hid, t0, kps, greys0, before, (_, looked, found) in late:
             h = self.hands[hid]
             if h.tracker.recovery is None:  # its side turned at the end: no model yet
+                continue
+            if found < BACK_SHARE * looked:  # the detector did not keep finding it
                 continue
             other = next((o for o in self.hands if o is not h), None)
             carriers = [KeypointCarrier(CARRY_SETTINGS) for _ in greys0]
@@ -856,7 +910,7 @@ class HandsTracker:
                 hand = next((h for h in free if h.side == side), free[0])
                 if hand.side != side:
                     self._set_side(hand, side)
-                hand.last = hand.before = None  # a new track
+                hand.begin()  # a new track
                 other = next((h for h in self.hands if h is not hand), None)
                 if other is not None and not other.side:
                     other.side = other_side(side)
