@@ -34,6 +34,7 @@ from handvar.vision.keypoints import Detection
 
 SIDES = ("left", "right")
 IMAGE = np.zeros((360, 640, 3), np.uint8)
+SLIDE = np.array([3.0, 1.0])  # px a frame the sliding textures and points move (x, y)
 
 
 def _truth(T: int, *, swap: bool = True, leave=None):
@@ -104,6 +105,40 @@ def _texture(rng) -> np.ndarray:
 
     noise = cv2.GaussianBlur(rng.integers(0, 256, (360, 640), dtype=np.uint8), (0, 0), 2.0)
     return cv2.normalize(noise, None, 0, 255, cv2.NORM_MINMAX)
+
+
+def _sliding(T: int):
+    """The rig and per side the true points of `_truth`'s first frame sliding 3 px right
+    and 1 down a frame over `T` frames, as `_slid` slides a texture."""
+    rig, first = _truth(1, swap=False)
+    truth = {s: np.stack([first[s][0] + t * SLIDE for t in range(T)]) for s in SIDES}
+    return rig, truth
+
+
+def _slid(texture: np.ndarray, t: int) -> np.ndarray:
+    """`texture` slid as `_sliding`'s points are at frame `t`, as a BGR frame."""
+    import cv2
+
+    return cv2.cvtColor(np.roll(texture, (t, 3 * t), axis=(0, 1)), cv2.COLOR_GRAY2BGR)
+
+
+def _track_sliding(T: int, found, **options):
+    """Track `_sliding(T)`'s hands over a texture slid with them, the detector given each
+    hand's true points (2 px noise, its true side) on the frames ``found(t, side)``
+    says, and only on every ``options["keypoint_every"]``-th frame; returns the truth,
+    the tracker and its results."""
+    rig, truth = _sliding(T)
+    rng = np.random.default_rng(0)
+    texture = _texture(rng)
+    tracker = HandsTracker(rig, detector=None, **options)
+    every = options.get("keypoint_every", 1)
+    results = []
+    for t in range(T):
+        given = [d for d in _detections(truth, t, rng, 0.0) if found(t, d.side)]
+        results.append(
+            tracker.process(_slid(texture, t), detections=[given] if t % every == 0 else None)
+        )
+    return truth, tracker, results
 
 
 def _apart() -> dict:
@@ -581,23 +616,11 @@ def test_a_hand_the_detector_misses_is_followed_by_optical_flow(T, missed, every
     (and, before a hand in the open was followed longer, the flow only 10).  With the
     detector on every 3rd frame the same holds beyond its next frame (before, the flow
     carried a detection only up to it)."""
-    import cv2
-
     assert len(missed) < MISSED_CARRY and (len(missed) < 10 or len(missed) > BEHIND_CARRY)
     assert missed[0] >= FOUND_SHARE * (missed[-1] + 1)  # found often enough to be followed
-    rig, first = _truth(1, swap=False)
-    rng = np.random.default_rng(0)
-    texture = _texture(rng)
-    shift = np.array([3.0, 1.0])
-    truth = {s: np.stack([first[s][0] + t * shift for t in range(T)]) for s in SIDES}
-    tracker = HandsTracker(rig, detector=None, keypoint_every=every)
-    results = []
-    for t in range(T):
-        image = cv2.cvtColor(np.roll(texture, (t, 3 * t), axis=(0, 1)), cv2.COLOR_GRAY2BGR)
-        found = _detections(truth, t, rng, 0.0)
-        if t in missed:
-            found = [d for d in found if np.linalg.norm(d.points[0, :2] - truth["left"][t, 0]) > 20]
-        results.append(tracker.process(image, detections=[found] if t % every == 0 else None))
+    truth, _, results = _track_sliding(
+        T, lambda t, side: side == "right" or t not in missed, keypoint_every=every
+    )
     matched = _matched(results, truth)
     left = next(k for k in (0, 1) if {s for s, _ in matched[k]} - {None} == {"left"})
     size = np.linalg.norm(truth["left"][0, 9] - truth["left"][0, 0])
@@ -617,20 +640,10 @@ def test_a_hand_the_detector_finds_now_and_then_is_neither_followed_nor_carried_
     and the few after (`FOUND_SHARE`, then `MISSED_FRAMES` by its prediction), and a
     recording's back-fill carries none back (`BACK_SHARE`).  The right hand is drawn on
     every frame."""
-    import cv2
-
     T, finds = 46, (6, 26)
-    rig, first = _truth(1, swap=False)
-    rng = np.random.default_rng(0)
-    texture = _texture(rng)
-    shift = np.array([3.0, 1.0])
-    truth = {s: np.stack([first[s][0] + t * shift for t in range(T)]) for s in SIDES}
-    tracker = HandsTracker(rig, detector=None, back=True)
-    results = []
-    for t in range(T):
-        image = cv2.cvtColor(np.roll(texture, (t, 3 * t), axis=(0, 1)), cv2.COLOR_GRAY2BGR)
-        found = [d for d in _detections(truth, t, rng, 0.0) if d.side == "right" or t in finds]
-        results.append(tracker.process(image, detections=[found]))
+    _, tracker, results = _track_sliding(
+        T, lambda t, side: side == "right" or t in finds, back=True
+    )
     left = next(h.id for h in results[finds[0]].hands if h.side == "left")
     drawn = [t for t, r in enumerate(results) if not r.hands[left].no_hand]
     followed = int(1 / FOUND_SHARE)  # frames since a find it is still followed
@@ -652,9 +665,9 @@ def test_a_hand_followed_by_a_few_points_in_one_camera_of_two_is_not_fitted_to_t
 
     assert ONE_VIEW_POINTS > 2
     rig = realistic_rig(2)
-    T, shift = 14, np.array([3.0, 1.0])
+    T = 14
     truth = [
-        {s: np.stack([cam.project(j) + t * shift for t in range(T)]) for s, j in _apart().items()}
+        {s: np.stack([cam.project(j) + t * SLIDE for t in range(T)]) for s, j in _apart().items()}
         for cam in rig.cameras
     ]  # per camera, per side
     texture = _texture(np.random.default_rng(0))
@@ -1013,19 +1026,15 @@ def test_a_hand_found_late_is_carried_back_on_a_recording_but_not_across_a_cut(c
     first detection carried back by the flow, within 0.15 hand sizes of its true
     points; with another scene before frame `cut` the flow loses it there, and those
     frames stay without it.  Frame by frame (``back=False``) it has none."""
-    import cv2
-
     T, first_found = 12, 8
-    rig, first = _truth(1, swap=False)
+    rig, truth = _sliding(T)
     rng = np.random.default_rng(0)
     scenes = [_texture(rng) for _ in range(2)]
-    shift = np.array([3.0, 1.0])
-    truth = {s: np.stack([first[s][0] + t * shift for t in range(T)]) for s in SIDES}
     trackers = {back: HandsTracker(rig, detector=None, back=back) for back in (True, False)}
     results = {back: [] for back in trackers}
     for t in range(T):
         scene = scenes[1 if cut is not None and t < cut else 0]
-        image = cv2.cvtColor(np.roll(scene, (t, 3 * t), axis=(0, 1)), cv2.COLOR_GRAY2BGR)
+        image = _slid(scene, t)
         found = _detections(truth, t, rng, 0.0)
         if t < first_found:
             found = [d for d in found if np.linalg.norm(d.points[0, :2] - truth["left"][t, 0]) > 20]
