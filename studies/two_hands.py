@@ -20,7 +20,9 @@ the fit:
   as wrong);
 - lost: frames in view without a track within 0.5 hand sizes (and, in the last line,
   those where at least 11 of the hand's 21 points are visible: inside the image and
-  not hidden by the other hand);
+  not hidden by the other hand; of the fit's, those where a detection lay within 0.5
+  hand sizes of it, camera 0 (perhaps the other hand's), and those where none had for
+  up to 10 frames in a row or longer: `lost_causes`);
 - in the last line, the frames a hand is drawn on no true hand (`drawn_off`: a
   detection's or a track's frames matched to neither hand; of the fit's, those it
   was carried hidden behind the other hand), and those a hand is
@@ -282,6 +284,26 @@ def world_error(case, detections, tracks: dict, score) -> list[tuple[float, floa
     return out
 
 
+def lost_causes(case, detections, score, run: int = 10) -> np.ndarray:
+    """Of each true hand's frames lost while visible (`TwoHandScore.lost_visible`, camera
+    0), those where a detection lay within 0.5 hand sizes of it (`nearest`: perhaps the
+    other hand's, where they overlap), where none had for up to `run` frames in a row
+    (the frames a detector on every K-th frame skips count), and for longer: (near,
+    missed briefly, missed long), summed over both hands."""
+    from handvar.evaluation.two_hands import VISIBLE_POINTS
+
+    out = np.zeros(3, np.int64)
+    for k in range(2):
+        near = nearest(case, detections, 0, k)
+        seen = case.visible[0, k].sum(axis=1) >= VISIBLE_POINTS
+        missed = 0  # frames since a detection last lay near the hand (0: at t)
+        for t in range(case.n_frames):
+            missed = 0 if near[t] is not None else missed + 1
+            if case.in_view[0, k, t] and seen[t] and score.match[k, t] < 0:
+                out[0 if not missed else 1 if missed <= run else 2] += 1
+    return out
+
+
 def truth_hits(case, k: int, t: int, d, size: np.ndarray) -> int:
     """How many of detection d's points lie within 0.2 of true hand k's size (`size`,
     per frame, pixels) of its true points in camera 0 at frame t."""
@@ -484,6 +506,7 @@ def main() -> None:
                 world_error(case, detections, tracks, fit) if args.detector == "mediapipe" else None
             )
             totals["held"] = totals.get("held", 0) + honoured(case, detections, tracks, fit)
+            totals["causes"] = totals.get("causes", 0) + lost_causes(case, detections, fit)
             for k, side in enumerate(case.sides):
                 if not case.in_view[0, k].any():
                     continue
@@ -519,6 +542,7 @@ def main() -> None:
             row["sw_fit"] += fit.switches
             row["rows"].extend(range(first, len(totals["det"])))
     held = totals.get("held", np.zeros((2, 4)))
+    causes = totals.get("causes", np.zeros(3, np.int64))
     held_all, held_mean = (" / ".join(f"{h[i] / max(h[0], 1):.1%} of {h[0]:.0f}" for h in held)
                            for i in (1, 2))  # fmt: skip
     held_truth = " / ".join(f"{h[3] / max(21 * h[0], 1):.3f}" for h in held)
@@ -526,7 +550,9 @@ def main() -> None:
           f"(fit); PCK {np.nanmean(totals['det']):.3f} / {np.nanmean(totals['fit']):.3f}; "
           f"lost {sum(totals['lost_det'])} / {sum(totals['lost_fit'])} of {totals['view']} "
           f"hand-frames in view ({totals['seen_det']} / {totals['seen_fit']} with at least "
-          f"half the hand visible); drawn on no hand {totals['off_det']} / {totals['off_fit']} "
+          f"half the hand visible; of the fit's, a detection within 0.5 hand sizes of "
+          f"it on {causes[0]}, none for up to 10 frames in a row on {causes[1]}, longer "
+          f"on {causes[2]}); drawn on no hand {totals['off_det']} / {totals['off_fit']} "
           f"({totals['off_hidden']} of them carried hidden); on a "
           f"hand of the other side {totals['side_det']} / {totals['side_fit']} (labels "
           f"sure of the other side in a row on a track: at most "
