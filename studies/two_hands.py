@@ -5,6 +5,7 @@ Usage: PYTHONPATH=src python studies/two_hands.py [--seeds N] [--cameras 1|2]
        [--missed-carry N] [--hidden-frames N] [--side-run N] [--same-hand X] [--held-view C]
        [--cache DIR]
        [--landmarks full|lite] [--confidence C] [--forward-only] [--no-look] [--mirror]
+       [--lost-frames]
 
 For every scenario of `handvar.evaluation.two_hands.SCENARIOS` and seed, renders the
 case (640×360 by default) and tracks it with `handvar.tracking.hands.HandsTracker`, the
@@ -22,7 +23,7 @@ the fit:
   those where at least 11 of the hand's 21 points are visible: inside the image and
   not hidden by the other hand; of the fit's, those where a detection lay within 0.5
   hand sizes of it, camera 0 (perhaps the other hand's), and those where none had for
-  up to 10 frames in a row or longer: `lost_causes`);
+  up to 10 frames in a row or longer: `lost_causes`; ``--lost-frames`` prints each);
 - in the last line, the frames a hand is drawn on no true hand (`drawn_off`: a
   detection's or a track's frames matched to neither hand; of the fit's, those it
   was carried hidden behind the other hand), and those a hand is
@@ -284,23 +285,44 @@ def world_error(case, detections, tracks: dict, score) -> list[tuple[float, floa
     return out
 
 
-def lost_causes(case, detections, score, run: int = 10) -> np.ndarray:
+def lost_causes(case, detections, score, tracks: dict, run: int = 10,
+                show: bool = False) -> np.ndarray:  # fmt: skip
     """Of each true hand's frames lost while visible (`TwoHandScore.lost_visible`, camera
     0), those where a detection lay within 0.5 hand sizes of it (`nearest`: perhaps the
     other hand's, where they overlap), where none had for up to `run` frames in a row
     (the frames a detector on every K-th frame skips count), and for longer: (near,
-    missed briefly, missed long), summed over both hands."""
+    missed briefly, missed long), summed over both hands.  `show`: print each such
+    frame with camera 0's detections there and the nearest one's mean distance (hand
+    sizes), for how many frames none had lain near, and the nearest track's distance."""
     from handvar.evaluation.two_hands import VISIBLE_POINTS
+    from handvar.synth.keypoints import hand_size_px
 
     out = np.zeros(3, np.int64)
     for k in range(2):
         near = nearest(case, detections, 0, k)
         seen = case.visible[0, k].sum(axis=1) >= VISIBLE_POINTS
+        size = hand_size_px(case.rig.cameras[0], case.joints[k])
         missed = 0  # frames since a detection last lay near the hand (0: at t)
         for t in range(case.n_frames):
             missed = 0 if near[t] is not None else missed + 1
-            if case.in_view[0, k, t] and seen[t] and score.match[k, t] < 0:
-                out[0 if not missed else 1 if missed <= run else 2] += 1
+            if not (case.in_view[0, k, t] and seen[t] and score.match[k, t] < 0):
+                continue
+            out[0 if not missed else 1 if missed <= run else 2] += 1
+            if show:
+
+                def off(points, t=t, k=k, size=size):  # mean distance to the truth, hand sizes
+                    with np.errstate(invalid="ignore"):
+                        d = np.linalg.norm(points[:, :2] - case.truth_2d[0, k, t], axis=1)
+                        return np.nanmean(d) / size[t]
+
+                found = [off(d.points) for d in detections[0][t]]
+                tracked = [off(tr["points_2d"][t]) for tr in tracks.values()]
+                near_text = f"none near for {missed} frame(s)" if missed else "one near"
+                print(
+                    f"  lost {case.name} {case.sides[k]} frame {t}: {len(found)} "
+                    f"detection(s), the nearest {min(found, default=np.nan):.2f} hand sizes "
+                    f"off ({near_text}), the nearest track {np.nanmin([*tracked, np.inf]):.2f}"
+                )
     return out
 
 
@@ -443,6 +465,8 @@ def main() -> None:
     parser.add_argument("--no-look", action="store_true",
                         help="with MediaPipe, no second look where a hand expected was "
                              "missed (HandsTracker's look)")  # fmt: skip
+    parser.add_argument("--lost-frames", action="store_true",
+                        help="print each frame the fit lost a visible hand on")  # fmt: skip
     parser.add_argument("--forward-only", action="store_true",
                         help="no hand found late carried back (HandsTracker.back_fill), "
                              "as live")  # fmt: skip
@@ -506,7 +530,9 @@ def main() -> None:
                 world_error(case, detections, tracks, fit) if args.detector == "mediapipe" else None
             )
             totals["held"] = totals.get("held", 0) + honoured(case, detections, tracks, fit)
-            totals["causes"] = totals.get("causes", 0) + lost_causes(case, detections, fit)
+            totals["causes"] = totals.get("causes", 0) + lost_causes(
+                case, detections, fit, tracks, show=args.lost_frames
+            )
             for k, side in enumerate(case.sides):
                 if not case.in_view[0, k].any():
                     continue
