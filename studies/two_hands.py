@@ -115,9 +115,11 @@ def fitted_tracks(case, detections, every: int = 1, back: bool = True, look=None
     if back:
         t0 = time.perf_counter()
         for t, poses in tracker.back_fill().items():
-            for i, x in poses.items():
-                joints[i, t] = keypoint_points(tracker.hands[i].tracker.hand, x, "pad")
-                points[i, t] = camera.project(joints[i, t])
+            for i, x in poses.items():  # NaN: a track taken off
+                joints[i, t] = points[i, t] = np.nan
+                if np.isfinite(x).all():
+                    joints[i, t] = keypoint_points(tracker.hands[i].tracker.hand, x, "pad")
+                    points[i, t] = camera.project(joints[i, t])
         seconds += time.perf_counter() - t0
     tracks = {h.id: {"points_2d": points[h.id], "joints": joints[h.id]}
               for h in tracker.hands if h.tracker.hand is not None}  # fmt: skip

@@ -17,6 +17,7 @@ from handvar.hand.anthropometry import HandShape
 from handvar.hand.kinematics import HandModel
 from handvar.tracking.hands import (
     BEHIND_CARRY,
+    CONFIRM_FOUND,
     FOUND_SHARE,
     GONE_FRAMES,
     MISSED_CARRY,
@@ -631,15 +632,19 @@ def test_a_hand_the_detector_misses_is_followed_by_optical_flow(T, missed, every
         assert error < 0.15 * size, (t, error / size)
 
 
-def test_a_hand_the_detector_finds_now_and_then_is_neither_followed_nor_carried_back():
+def test_a_hand_the_detector_finds_now_and_then_is_neither_followed_nor_carried_back(
+    monkeypatch,
+):
     """Textured frames sliding as above, which the optical flow follows anywhere; the
     right hand found on every frame, a left hand only on frames 6 and 26 (a detector's
     false hand, found now and then).  Followed through its misses and
     carried back from its finds (as a hand found on a third of the frames or more is),
     it would be drawn on nearly every frame; it is drawn only on the frames it is found
     and the few after (`FOUND_SHARE`, then `MISSED_FRAMES` by its prediction), and a
-    recording's back-fill carries none back (`BACK_SHARE`).  The right hand is drawn on
-    every frame."""
+    recording's back-fill carries none back (`BACK_SHARE`; with `CONFIRM_FOUND` at 1,
+    which would take each of its two tracks off).  The right hand is drawn on every
+    frame."""
+    monkeypatch.setattr("handvar.tracking.hands.CONFIRM_FOUND", 1)
     T, finds = 46, (6, 26)
     _, tracker, results = _track_sliding(
         T, lambda t, side: side == "right" or t in finds, back=True
@@ -1017,6 +1022,32 @@ def test_a_hand_seen_in_one_camera_gets_the_other_cameras_view_whose_rays_meet_i
     given = {left.id: [None, None], right.id: [None, view(1, joints)]}
     tracker._complete(given, [[other], [given[right.id][1]]])
     assert given[right.id][0] is None
+
+
+@pytest.mark.parametrize(
+    ("finds", "back", "kept"),
+    [((6,), True, False), ((6, 8), True, True), ((6,), False, True)],
+)
+def test_a_track_the_detector_found_once_is_taken_off_a_recording(finds, back, kept):
+    """The sliding frames; the right hand found on every frame, a left hand only on the
+    frames `finds` (a detector's false hand).  Found once, it is drawn there and on the
+    frames after it is followed; on a recording (``back=True``) `back_fill` takes the
+    track off all of them (its frames no hand, NaN poses returned); found on
+    `CONFIRM_FOUND` frames it stays, and frame by frame nothing is taken off after the
+    fact.  The right hand stays on every frame."""
+    assert CONFIRM_FOUND == 2  # the cases' finds: once, and twice
+    _, tracker, results = _track_sliding(
+        24, lambda t, side: side == "right" or t in finds, back=back
+    )
+    left = next(h.id for h in results[finds[0]].hands if h.side == "left")
+    drawn = [t for t, r in enumerate(results) if not r.hands[left].no_hand]
+    assert finds[0] in drawn
+    poses = tracker.back_fill()
+    frames = tracker.hands[left].tracker.frames
+    assert [t for t in drawn if not frames[t].no_hand] == (drawn if kept else [])
+    if not kept:
+        assert all(np.isnan(poses[t][left]).all() for t in drawn)
+    assert not any(f.no_hand for f in tracker.hands[1 - left].tracker.frames)
 
 
 @pytest.mark.parametrize("cut", [None, 4])

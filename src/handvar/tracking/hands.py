@@ -124,6 +124,9 @@ detector's label:
    backwards from its `SETTLE_FRAMES`-th frame in two, with its final shape: from one
    view its depth is its shape's, and only two views tell the shape, over some frames
    (10 chosen among 1, 5, 10, 20 and 30 on the two-hand benchmark with MediaPipe).
+   Once every frame is tracked, a track the detector found on fewer than
+   `CONFIRM_FOUND` of its frames is taken off its frames: a detector's false hand
+   found once, then followed and carried by its prediction for a few frames.
 
 A frame's `HandsResult` holds one `FrameResult` per hand, under its id (0, 1: the order
 in which the hands were first seen) with its side.  With ``hands=1`` it tracks the
@@ -251,6 +254,9 @@ FOUND_SHARE = 1 / 3
 #: it (rule 7).  `FOUND_SHARE` here lost a real hand MediaPipe finds on few frames
 #: there; 0.1 changes no run with MediaPipe.
 BACK_SHARE = 0.1
+#: The detector's frames a track must be found on for a recording to keep it (rule 7):
+#: 2, by reason; it loses no frame on the two-hand benchmark (docs/results/two-hands.md).
+CONFIRM_FOUND = 2
 
 
 @dataclass(frozen=True, eq=False)
@@ -424,6 +430,7 @@ class _Hand:
     looked: int = 0  # the detector's frames since its track began
     found: int = 0  # of them, those it was given a detection on
     windows: list = dataclasses.field(default_factory=list)  # rule 7's, its track's
+    tracks: list = dataclasses.field(default_factory=list)  # [first frame, found] each
 
     def count(self, t: int, ran: bool) -> None:
         """Note frame t: the detector's frame or not, the hand given a detection there or
@@ -433,12 +440,16 @@ class _Hand:
             return
         found = self.undetected == 0
         self.looked, self.found = self.looked + 1, self.found + found
+        if self.tracks:
+            self.tracks[-1][1] = self.found
         for w in self.windows:
             if t < w[0]:
                 w[1], w[2] = w[1] + 1, w[2] + found
 
-    def begin(self) -> None:
-        """A new track: the counts of `count` start again; the last one's windows close."""
+    def begin(self, t: int) -> None:
+        """A new track from frame t: the counts of `count` start again; the last one's
+        windows close."""
+        self.tracks.append([t, 0])
         self.last = self.before = None
         self.looked = self.found = 0
         for w in self.windows:
@@ -628,8 +639,6 @@ class HandsTracker:
                 h.undetected = 0 if any(k is not None for k in kps) else h.undetected + 1
             h.count(self.frame_count, ran)
             carried = self._carry(h, greys, kps)
-            if h.undetected and not h.followed:  # rule 6: a detector's false hand
-                carried = [None] * n
             for j, carrier in enumerate(h.carriers):  # the flow would follow the hand in front
                 if kps[j] is None and carrier.age > BEHIND_CARRY and self._behind(h, j):
                     carried[j] = None
@@ -755,16 +764,19 @@ class HandsTracker:
     def back_fill(self) -> dict[int, dict[int, np.ndarray]]:
         """Rule 7 (module notes): each hand found late fitted, with its shape now, on
         the frames kept before that detection that it was not on, backwards from it;
-        each first seen in two views, on its frames in one before, the same way.
+        each first seen in two views, on its frames in one before, the same way; each
+        track found on fewer than `CONFIRM_FOUND` of the detector's frames taken off.
         Replaces those frames in the hand's track (`HandTracker.recovered`); returns
-        their poses, per frame index and hand id (none without ``back``).  Once,
-        after the last frame."""
+        their poses (NaN where taken off), per frame index and hand id (none without
+        ``back``).  Once, after the last frame."""
         from handvar.vision.carry import CARRY_SETTINGS, KeypointCarrier
 
         out, late, self._late = {}, self._late, []
+        unfound = self._unconfirmed()
         for hid, t0, kps, greys0, before, (_, looked, found) in late:
             h = self.hands[hid]
-            if h.tracker.recovery is None:  # its side turned at the end: no model yet
+            # its side turned at the end (no model yet), or a track to be taken off
+            if h.tracker.recovery is None or t0 in unfound.get(hid, ()):
                 continue
             if found < BACK_SHARE * looked:  # the detector did not keep finding it
                 continue
@@ -786,6 +798,31 @@ class HandsTracker:
                 if not _refit(h, recovery, t, images, carried, out):
                     break
         self._refit_views(out)
+        self._take_off(unfound, out)
+        return out
+
+    def _take_off(self, unfound: dict, out: dict) -> None:
+        """Rule 7: the frames `_unconfirmed` gives made frames without the hand, their
+        NaN poses added to `out` (frame → hand id → pose)."""
+        from handvar.tracking.recovery import _Frame
+
+        for hid, frames in unfound.items():
+            for t in frames:
+                self.hands[hid].tracker.frames[t] = _Frame.without_hand()
+                out.setdefault(t, {})[hid] = self.hands[hid].tracker.frames[t].pose
+
+    def _unconfirmed(self) -> dict[int, list[int]]:
+        """Rule 7: per hand, the frames drawn by its tracks the detector found on fewer
+        than `CONFIRM_FOUND` of its frames (a track's frames run to the next one's
+        first), before any is carried back; none without ``back``."""
+        out = {}
+        for h in self.hands if self._recent is not None else ():
+            frames = h.tracker.frames
+            ends = [first for first, _ in h.tracks] + [len(frames)]
+            for (first, found), end in zip(h.tracks, ends[1:], strict=True):
+                if found < CONFIRM_FOUND:
+                    drawn = [t for t in range(first, end) if not frames[t].no_hand]
+                    out.setdefault(h.id, []).extend(drawn)
         return out
 
     def _refit_views(self, out: dict) -> None:
@@ -910,7 +947,7 @@ class HandsTracker:
                 hand = next((h for h in free if h.side == side), free[0])
                 if hand.side != side:
                     self._set_side(hand, side)
-                hand.begin()  # a new track
+                hand.begin(self.frame_count)  # a new track
                 other = next((h for h in self.hands if h is not hand), None)
                 if other is not None and not other.side:
                     other.side = other_side(side)
@@ -983,8 +1020,9 @@ class HandsTracker:
     def _carry(self, h: _Hand, greys, kps: list) -> list:
         """Per camera, the hand's last detection carried forward by optical flow
         (`handvar.vision.carry.KeypointCarrier`) where it has none: through a
-        detector's miss for `MISSED_CARRY` frames, the points the flow loses dropped
-        (rule 6); with a slower detector, held up to its next frame."""
+        detector's miss for `MISSED_CARRY` frames, the points the flow loses dropped,
+        while the hand is `_Hand.followed` (rule 6); with a slower detector, held up to
+        its next frame."""
         from handvar.vision.carry import CARRY_SETTINGS, KeypointCarrier
 
         if h.carriers is None:
@@ -992,7 +1030,10 @@ class HandsTracker:
             held = {"hold": 0.0} if self.every == 1 else {"hold_frames": self.every - 1}
             settings = dataclasses.replace(CARRY_SETTINGS, max_frames=MISSED_CARRY, **held)
             h.carriers = [KeypointCarrier(settings) for _ in greys]
-        return [c.step(grey, k) for c, grey, k in zip(h.carriers, greys, kps, strict=True)]
+        carried = [c.step(grey, k) for c, grey, k in zip(h.carriers, greys, kps, strict=True)]
+        if h.undetected and not h.followed:  # a detector's false hand, found now and then
+            return [None] * len(carried)
+        return carried
 
     def _vote(self, h: _Hand, d) -> None:
         """Rule 4: a hand's side turned by overwhelming labels (module notes)."""
