@@ -250,6 +250,13 @@ def mediapipe_detections(case, cache=None, model: int = 1, every: int = 1,
     return out
 
 
+def mean_off(points: np.ndarray, truth: np.ndarray) -> float:
+    """Mean distance (pixels) of `points`' (x, y) to `truth`, (21, 2), NaN points left
+    out."""
+    with np.errstate(invalid="ignore"):
+        return float(np.nanmean(np.linalg.norm(points[:, :2] - truth, axis=1)))
+
+
 def nearest(case, detections, j: int, k: int) -> list:
     """Per frame, the detection of camera j nearest true hand k (mean distance under
     0.5 of its size), or None: each hand's detection given it by the truth, whatever
@@ -259,8 +266,7 @@ def nearest(case, detections, j: int, k: int) -> list:
     size = hand_size_px(case.rig.cameras[j], case.joints[k])
     out = []
     for t, found in enumerate(detections[j]):
-        dist = [np.nanmean(np.linalg.norm(d.points[:, :2] - case.truth_2d[j, k, t], axis=1))
-                for d in found]  # fmt: skip
+        dist = [mean_off(d.points, case.truth_2d[j, k, t]) for d in found]
         near = bool(dist) and min(dist) < 0.5 * size[t]
         out.append(found[int(np.argmin(dist))] if near else None)
     return out
@@ -287,7 +293,12 @@ def world_error(case, detections, tracks: dict, score) -> list[tuple[float, floa
     return out
 
 
-def lost_causes(case, detections, score, tracks: dict, run: int = 10,
+#: Frames in a row without a detection near a hand up to which `lost_causes` counts a
+#: miss as brief.
+BRIEF_MISS = 10
+
+
+def lost_causes(case, detections, score, tracks: dict, run: int = BRIEF_MISS,
                 show: bool = False) -> np.ndarray:  # fmt: skip
     """Of each true hand's frames lost while visible (`TwoHandScore.lost_visible`, camera
     0), those where a detection lay within 0.5 hand sizes of it (`nearest`: perhaps the
@@ -310,15 +321,10 @@ def lost_causes(case, detections, score, tracks: dict, run: int = 10,
             if not (case.in_view[0, k, t] and seen[t] and score.match[k, t] < 0):
                 continue
             out[0 if not missed else 1 if missed <= run else 2] += 1
-            if show:
-
-                def off(points, t=t, k=k, size=size):  # mean distance to the truth, hand sizes
-                    with np.errstate(invalid="ignore"):
-                        d = np.linalg.norm(points[:, :2] - case.truth_2d[0, k, t], axis=1)
-                        return np.nanmean(d) / size[t]
-
-                found = [off(d.points) for d in detections[0][t]]
-                tracked = [off(tr["points_2d"][t]) for tr in tracks.values()]
+            if show:  # distances in hand sizes
+                truth = case.truth_2d[0, k, t]
+                found = [mean_off(d.points, truth) / size[t] for d in detections[0][t]]
+                tracked = [mean_off(tr["points_2d"][t], truth) / size[t] for tr in tracks.values()]
                 near_text = f"none near for {missed} frame(s)" if missed else "one near"
                 print(
                     f"  lost {case.name} {case.sides[k]} frame {t}: {len(found)} "
@@ -579,8 +585,8 @@ def main() -> None:
           f"lost {sum(totals['lost_det'])} / {sum(totals['lost_fit'])} of {totals['view']} "
           f"hand-frames in view ({totals['seen_det']} / {totals['seen_fit']} with at least "
           f"half the hand visible; of the fit's, a detection within 0.5 hand sizes of "
-          f"it on {causes[0]}, none for up to 10 frames in a row on {causes[1]}, longer "
-          f"on {causes[2]}); drawn on no hand {totals['off_det']} / {totals['off_fit']} "
+          f"it on {causes[0]}, none for up to {BRIEF_MISS} frames in a row on {causes[1]}, "
+          f"longer on {causes[2]}); drawn on no hand {totals['off_det']} / {totals['off_fit']} "
           f"({totals['off_hidden']} of them carried hidden); on a "
           f"hand of the other side {totals['side_det']} / {totals['side_fit']} (labels "
           f"sure of the other side in a row on a track: at most "

@@ -429,32 +429,33 @@ class _Hand:
     settled: int = -1  # frames since first fitted to two views or more (-1: not yet)
     looked: int = 0  # the detector's frames since its track began
     found: int = 0  # of them, those it was given a detection on
-    windows: list = dataclasses.field(default_factory=list)  # rule 7's, its track's
-    tracks: list = dataclasses.field(default_factory=list)  # [first frame, found] each
+    detected: dict = dataclasses.field(default_factory=dict)  # detector's frame → given one
+    firsts: list = dataclasses.field(default_factory=list)  # each track's first frame
 
     def count(self, t: int, ran: bool) -> None:
         """Note frame t: the detector's frame or not, the hand given a detection there or
-        not (`undetected` as now): its found share since its track began, and over each
-        of its windows open at t (rule 7: [the frame it ends at, looked, found])."""
-        if not ran:
-            return
-        found = self.undetected == 0
-        self.looked, self.found = self.looked + 1, self.found + found
-        if self.tracks:
-            self.tracks[-1][1] = self.found
-        for w in self.windows:
-            if t < w[0]:
-                w[1], w[2] = w[1] + 1, w[2] + found
+        not (`undetected` as now)."""
+        if ran:
+            found = self.undetected == 0
+            self.looked, self.found = self.looked + 1, self.found + found
+            self.detected[t] = found
 
     def begin(self, t: int) -> None:
-        """A new track from frame t: the counts of `count` start again; the last one's
-        windows close."""
-        self.tracks.append([t, 0])
+        """A new track from frame t: the counts of `count` start again."""
+        self.firsts.append(t)
         self.last = self.before = None
         self.looked = self.found = 0
-        for w in self.windows:
-            w[0] = -1
-        self.windows = []
+
+    def track_end(self, t: int, stop: int) -> int:
+        """`stop`, or the first frame of the hand's next track after frame t if sooner."""
+        return min([stop] + [first for first in self.firsts if first > t])
+
+    def finds(self, start: int, stop: int) -> tuple[int, int]:
+        """The detector's frames in [start, stop) within the track of frame `start`, and
+        those of them the hand was given a detection on."""
+        stop = self.track_end(start, stop)
+        ran = [self.detected[t] for t in range(start, stop) if t in self.detected]
+        return len(ran), sum(ran)
 
     @property
     def followed(self) -> bool:
@@ -646,7 +647,7 @@ class HandsTracker:
             followed = [c if k is None else None for c, k in zip(carried, kps, strict=True)]
             self._down_weighted(h, followed)  # rule 5 on them too, in place
             results.append(self._fit(h, images, carried, world))
-        self._note_late(results, images, greys, ran)
+        self._note_late(results, images, greys)
         for h, r in zip(self.hands, results, strict=True):
             if not r.no_hand and not r.hidden:
                 h.before, h.last, h.missing = h.last, r, 0
@@ -713,24 +714,17 @@ class HandsTracker:
         self.looks += 1
         return self.look[j](image, (*(centre - half), *(centre + half)))
 
-    def _note_late(self, results, images, greys, ran: bool) -> None:
+    def _note_late(self, results, images, greys) -> None:
         """Rule 7: note each hand fitted to a detection after a frame without it, with
-        the frames kept before this one and the window its found share is counted over
-        from there, and each first fitted to two views after frames in one, with those
-        frames; keep this frame (with ``back`` only).  `ran`: the detector's frame."""
-        from handvar.vision.carry import CARRY_SETTINGS
-
+        the frames kept before this one, and each first fitted to two views after frames
+        in one, with those frames; keep this frame (with ``back`` only)."""
         if self._recent is None:
             return
         for h, r in zip(self.hands, results, strict=True):
             frames = h.tracker.frames
             found = not r.no_hand and not r.hidden and r.keypoints is not None
             if found and self._recent and len(frames) > 1 and frames[-2].no_hand:
-                window = [r.index + CARRY_SETTINGS.max_frames, int(ran),
-                          int(ran and h.undetected == 0)]  # fmt: skip
-                h.windows.append(window)
-                self._late.append((h.id, r.index, r.keypoints, greys, list(self._recent),
-                                   window))  # fmt: skip
+                self._late.append((h.id, r.index, r.keypoints, greys, list(self._recent)))
             if len(images) > 1 and h.settled < SETTLE_FRAMES:
                 self._note_views(h, r, images, found)
         self._recent.append((images, greys))
@@ -773,11 +767,12 @@ class HandsTracker:
 
         out, late, self._late = {}, self._late, []
         unfound = self._unconfirmed()
-        for hid, t0, kps, greys0, before, (_, looked, found) in late:
+        for hid, t0, kps, greys0, before in late:
             h = self.hands[hid]
             # its side turned at the end (no model yet), or a track to be taken off
             if h.tracker.recovery is None or t0 in unfound.get(hid, ()):
                 continue
+            looked, found = h.finds(t0, t0 + CARRY_SETTINGS.max_frames)
             if found < BACK_SHARE * looked:  # the detector did not keep finding it
                 continue
             other = next((o for o in self.hands if o is not h), None)
@@ -811,18 +806,20 @@ class HandsTracker:
                 self.hands[hid].tracker.frames[t] = _Frame.without_hand()
                 out.setdefault(t, {})[hid] = self.hands[hid].tracker.frames[t].pose
 
-    def _unconfirmed(self) -> dict[int, list[int]]:
+    def _unconfirmed(self) -> dict[int, set[int]]:
         """Rule 7: per hand, the frames drawn by its tracks the detector found on fewer
         than `CONFIRM_FOUND` of its frames (a track's frames run to the next one's
         first), before any is carried back; none without ``back``."""
         out = {}
-        for h in self.hands if self._recent is not None else ():
+        if self._recent is None:
+            return out
+        for h in self.hands:
             frames = h.tracker.frames
-            ends = [first for first, _ in h.tracks] + [len(frames)]
-            for (first, found), end in zip(h.tracks, ends[1:], strict=True):
-                if found < CONFIRM_FOUND:
-                    drawn = [t for t in range(first, end) if not frames[t].no_hand]
-                    out.setdefault(h.id, []).extend(drawn)
+            for first in h.firsts:
+                if h.finds(first, len(frames))[1] < CONFIRM_FOUND:
+                    end = h.track_end(first, len(frames))
+                    drawn = {t for t in range(first, end) if not frames[t].no_hand}
+                    out.setdefault(h.id, set()).update(drawn)
         return out
 
     def _refit_views(self, out: dict) -> None:
