@@ -20,6 +20,7 @@ from handvar.tracking.hands import (
     CONFIRM_FOUND,
     FOUND_SHARE,
     GONE_FRAMES,
+    HIDDEN_FRAMES,
     MISSED_CARRY,
     MISSED_FRAMES,
     NEW_HAND,
@@ -630,6 +631,39 @@ def test_a_hand_the_detector_misses_is_followed_by_optical_flow(T, missed, every
         assert not h.no_hand and not h.hidden, t
         error = np.linalg.norm(h.projected[0] - truth["left"][t], axis=1).mean()
         assert error < 0.15 * size, (t, error / size)
+
+
+def test_a_hand_hidden_against_the_other_is_held_where_it_was_last_fitted():
+    """Two cameras; the left hand slides 8 mm a frame towards the right one for 25
+    frames and stops against it (43 % of its points within the right hand's outline in
+    camera 0); from there the detector finds only the right hand (blank frames: no flow
+    to follow).  The left hand is carried hidden for `HIDDEN_FRAMES`, held where it was
+    last fitted: within 0.1 hand sizes of its true points on every one, where its motion
+    prediction carried it on towards the right hand, up to 0.26 hand sizes off.  The
+    right hand is drawn on every frame."""
+    T, stop = 40, 25
+    rig = realistic_rig(2)
+    joints = _apart()
+    slid = [min(t, stop) * np.array([8.0, 0.0, 0.0]) for t in range(T)]
+    truths = [{"left": np.stack([camera.project(joints["left"] + d) for d in slid]),
+               "right": np.stack([camera.project(joints["right"])] * T)}
+              for camera in rig.cameras]  # fmt: skip
+    rng = np.random.default_rng(0)
+    tracker = HandsTracker(rig, detector=None)
+    results = []
+    for t in range(T):
+        given = [[d for d in _detections(truth, t, rng, 0.0) if d.side == "right" or t <= stop]
+                 for truth in truths]  # fmt: skip
+        results.append(tracker.process([IMAGE, IMAGE], detections=given))
+    left = next(h.id for h in results[0].hands if h.side == "left")
+    carried = [t for t in range(stop + 1, T) if results[t].hands[left].hidden]
+    assert carried == list(range(stop + 1, stop + 1 + HIDDEN_FRAMES))  # then no hand
+    truth = truths[0]["left"]
+    size = np.linalg.norm(truth[0, 9] - truth[0, 0])
+    for t in carried:
+        error = np.linalg.norm(results[t].hands[left].projected[0] - truth[t], axis=1)
+        assert error.mean() < 0.1 * size, (t, error.mean() / size)
+    assert not any(r.hands[1 - left].no_hand for r in results)
 
 
 def test_a_hand_the_detector_finds_now_and_then_is_neither_followed_nor_carried_back(

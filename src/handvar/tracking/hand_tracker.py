@@ -72,7 +72,7 @@ class FrameResult:
     id : int
         The hand's identity (`handvar.tracking.hands.HandsTracker`; 0 for one hand).
     hidden : bool
-        The hand was hidden and its pose carried by the motion prediction (`carried`).
+        The hand was hidden and its pose held where it was last (`carried`).
     """
 
     index: int
@@ -239,14 +239,16 @@ class HandTracker:
         return self._kept(f, s, kps, quality)
 
     def carried(self) -> FrameResult:
-        """The next frame with the hand hidden from every camera: its pose carried by the
-        motion prediction, which learns it (a frame ``empty`` and ``hidden``)."""
-        if self.recovery is None:
+        """The next frame with the hand hidden from every camera: its pose held where it
+        was last, which the motion predictor learns (a frame ``empty`` and ``hidden``).
+
+        Held, not carried on by the prediction: on the two-hand benchmark the
+        prediction carried a hand that had stopped against the other one on, off it
+        (`handvar.tracking.hands`, rule 6; docs/results/two-hands.md)."""
+        if self.recovery is None or self.recovery.previous is None:
             raise ValueError("carried: expected a hand tracked before; got none yet")
-        tracker = self.recovery.tracker
-        pose = tracker.prediction()
-        tracker.accept(pose)
-        self.recovery.previous = pose
+        pose = self.recovery.previous.copy()
+        self.recovery.tracker.accept(pose)
         f = _Frame(None, pose, empty=True)
         r = self._kept(f, 0.0, None, _frame_quality(None, True))
         return dataclasses.replace(r, hidden=True)

@@ -97,16 +97,20 @@ detector's label:
    detector missed is held in the other cameras at its last fit's points, with
    confidence `HELD_VIEW`: one view tells its depth only by its size, which the flow's
    points do not keep (0.5 chosen among 0.2, 0.5 and 1 there).  Once
-   no point is followed, a hand fitted until a frame ago is carried by its motion
-   prediction (``hidden``, its quality ``empty``): for up to `HIDDEN_FRAMES` frames
-   while `BEHIND_SHARE` of its expected points or more lie inside the other hand's
-   outline (behind it, or touching it), for up to `MISSED_FRAMES` in the open; after
-   that it is a frame without that hand.  With a detector on every K-th frame
-   (``keypoint_every``) the flow carries each detection to the frames it skips, the
-   points it loses held there as one hand's (`CarrySettings.hold`), and a hand missed
-   on the detector's frame is followed on as above: carried by its prediction alone
-   there, a hand half hidden by the other drifted onto it and the two swapped on the
-   two-hand benchmark (docs/results/two-hands.md).
+   no point is followed, a hand fitted until a frame ago is carried, held where it was
+   last fitted (``hidden``, its quality ``empty``; `HandTracker.carried`): for up to
+   `HIDDEN_FRAMES` frames while `BEHIND_SHARE` of its expected points or more lie
+   inside the other hand's outline (behind it, or touching it), for up to
+   `MISSED_FRAMES` in the open; after that it is a frame without that hand.  Carried on
+   by its motion prediction instead, a hand that had stopped against the other one
+   drifted off it (on the two-hand benchmark with MediaPipe, one camera: 51 frames
+   lost while visible against 44 held; docs/results/two-hands.md).  With a detector
+   on every K-th frame (``keypoint_every``) the flow carries each detection to the
+   frames it skips, the points it loses held there as one hand's
+   (`CarrySettings.hold`), and a hand missed on the detector's frame is followed on
+   as above: carried by its prediction alone there, a hand half hidden by the other
+   drifted onto it and the two swapped on the two-hand benchmark
+   (docs/results/two-hands.md).
 7. **A hand found late** (a recording, ``HandsTracker(back=True)``, `back_fill`).  A
    hand's first detection after frames without it is carried back by optical flow to
    those frames, at most `CarrySettings.max_frames`, while the flow follows at least
@@ -126,7 +130,7 @@ detector's label:
    (10 chosen among 1, 5, 10, 20 and 30 on the two-hand benchmark with MediaPipe).
    Once every frame is tracked, a track the detector found on fewer than
    `CONFIRM_FOUND` of its frames is taken off its frames: a detector's false hand
-   found once, then followed and carried by its prediction for a few frames.
+   found once, then followed and carried for a few frames.
 
 A frame's `HandsResult` holds one `FrameResult` per hand, under its id (0, 1: the order
 in which the hands were first seen) with its side.  With ``hands=1`` it tracks the
@@ -217,11 +221,13 @@ SIDE_RUN = 10
 FRONT = 30.0
 #: Confidence factor of a keypoint inside the outline of the hand in front.
 HIDDEN_WEIGHT = 0.2
-#: Frames a hidden hand is carried by its motion prediction.
-HIDDEN_FRAMES = 15
+#: Frames a hand hidden behind the other, or against it, is carried (held).  At most
+#: `GONE_FRAMES` + 1, after which the hand is no longer expected; 10 lost more on the
+#: two-hand benchmark with MediaPipe.
+HIDDEN_FRAMES = 11
 #: Share of a hand's expected points inside the nearer hand's outline that makes it hidden.
 BEHIND_SHARE = 0.2
-#: Frames a hand given no detection in the open is carried by its prediction once the
+#: Frames a hand given no detection in the open is carried (held) once the
 #: optical flow follows none of its points (a detector's miss).
 MISSED_FRAMES = 2
 #: Frames a hand the detector misses is followed by optical flow from its last detection.
