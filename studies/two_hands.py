@@ -51,8 +51,9 @@ side (`handvar.tracking.hands.SIDE_RUN`); the last line gives the runs seen, on 
 whose side is right and on those whose side is wrong.  ``--missed-carry N`` sets the
 frames a hand the detector misses is followed by optical flow
 (`handvar.tracking.hands.MISSED_CARRY`, to compare values); ``--hidden-frames N`` the
-frames a hand behind the other is carried by its prediction
-(`handvar.tracking.hands.HIDDEN_FRAMES`); ``--same-hand X`` the
+frames a hand behind or against the other is carried, held (at most `GONE_FRAMES` + 1,
+after which it is no longer expected; `handvar.tracking.hands.HIDDEN_FRAMES`);
+``--same-hand X`` the
 palm lengths within which one hand's views given to two hands are merged
 (`handvar.tracking.hands.SAME_HAND`; ``inf``: wherever their rays meet); ``--held-view
 C`` the confidence of the points a missed hand followed in one camera only is held at
@@ -456,7 +457,8 @@ def main() -> None:
                         help="frames a missed hand is followed by optical flow "
                              "(handvar.tracking.hands.MISSED_CARRY)")  # fmt: skip
     parser.add_argument("--hidden-frames", type=int, default=None,
-                        help="frames a hand behind the other is carried by its prediction "
+                        help="frames a hand behind or against the other is carried, "
+                             "held, at most GONE_FRAMES + 1 "
                              "(handvar.tracking.hands.HIDDEN_FRAMES)")  # fmt: skip
     parser.add_argument("--held-view", type=float, default=None,
                         help="confidence of the points a missed hand followed in one "
