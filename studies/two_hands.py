@@ -2,7 +2,8 @@
 
 Usage: PYTHONPATH=src python studies/two_hands.py [--seeds N] [--cameras 1|2]
        [--detector simulated|mediapipe] [--every K] [--scenario NAME ...] [--size W H]
-       [--missed-carry N] [--hidden-frames N] [--side-run N] [--same-hand X] [--held-view C]
+       [--missed-carry N] [--hidden-frames N] [--missed-frames N] [--side-run N]
+       [--same-hand X] [--held-view C]
        [--cache DIR]
        [--landmarks full|lite] [--confidence C] [--forward-only] [--no-look] [--mirror]
        [--lost-frames]
@@ -53,6 +54,8 @@ frames a hand the detector misses is followed by optical flow
 (`handvar.tracking.hands.MISSED_CARRY`, to compare values); ``--hidden-frames N`` the
 frames a hand behind or against the other is carried, held (at most `GONE_FRAMES` + 1,
 after which it is no longer expected; `handvar.tracking.hands.HIDDEN_FRAMES`);
+``--missed-frames N`` the frames a hand missed in the open is carried, held, once the
+flow follows none of its points (`handvar.tracking.hands.MISSED_FRAMES`);
 ``--same-hand X`` the
 palm lengths within which one hand's views given to two hands are merged
 (`handvar.tracking.hands.SAME_HAND`; ``inf``: wherever their rays meet); ``--held-view
@@ -460,6 +463,9 @@ def main() -> None:
                         help="frames a hand behind or against the other is carried, "
                              "held, at most GONE_FRAMES + 1 "
                              "(handvar.tracking.hands.HIDDEN_FRAMES)")  # fmt: skip
+    parser.add_argument("--missed-frames", type=int, default=None,
+                        help="frames a hand missed in the open is carried, held "
+                             "(handvar.tracking.hands.MISSED_FRAMES)")  # fmt: skip
     parser.add_argument("--held-view", type=float, default=None,
                         help="confidence of the points a missed hand followed in one "
                              "camera only is held at in the others "
@@ -493,8 +499,8 @@ def main() -> None:
     import handvar.tracking.hands as rules
 
     constants = {"side_run": "SIDE_RUN", "missed_carry": "MISSED_CARRY",
-                 "hidden_frames": "HIDDEN_FRAMES", "same_hand": "SAME_HAND",
-                 "held_view": "HELD_VIEW"}  # fmt: skip
+                 "hidden_frames": "HIDDEN_FRAMES", "missed_frames": "MISSED_FRAMES",
+                 "same_hand": "SAME_HAND", "held_view": "HELD_VIEW"}  # fmt: skip
     for option, constant in constants.items():
         if getattr(args, option) is not None:  # the tracker's constant, for this run
             setattr(rules, constant, getattr(args, option))
