@@ -27,7 +27,8 @@ the fit:
   up to 10 frames in a row or longer: `lost_causes`; ``--lost-frames`` prints each);
 - in the last line, the frames a hand is drawn on no true hand (`drawn_off`: a
   detection's or a track's frames matched to neither hand; of the fit's, those it
-  was carried hidden behind the other hand), and those a hand is
+  was carried hidden behind the other hand; of both, those farther than a hand size
+  from both hands, `drawn_away`: where there is none), and those a hand is
   drawn on a true hand of the other side than it says (the detector's label, the
   track's side);
 - the fit's wrist-relative and absolute 3D error (mm), and with MediaPipe its world
@@ -42,6 +43,11 @@ the fit:
 - the tracker's rate (fits and assignment, frames/s);
 
 and last a Markdown table per scenario (its seeds and both hands) with the overall row.
+
+``--palms`` prints only, with two cameras, the palm lengths (wrist → middle MCP) the
+detections' rays make for one hand's two views and for the two hands' views whose rays
+meet by chance (`palm_pairs`): whether `handvar.vision.keypoints.PALM_MM` tells them
+apart.
 
 ``--mirror`` prints only MediaPipe's PCK@0.2 against the truth per true hand on the
 frames as rendered and flipped left to right (camera 0): whether a hand's side or
@@ -404,6 +410,53 @@ def mirrored_pck(args) -> None:
           f"{pck[1, 1]:.3f}")  # fmt: skip
 
 
+def palm_pairs(args) -> None:
+    """``--palms``: with two cameras, the wrist → middle-MCP length the detections'
+    rays make (`handvar.vision.keypoints.ray_points` without its `PALM_MM` test) for
+    each true hand's pair of views (`nearest` in both cameras) and for each pair of
+    the two hands' views (one hand's in camera 0, the other's in camera 1) whose rays
+    meet within `RAY_GAP` all the same: whether the palm test can tell one hand seen
+    twice from two hands meeting by chance.  Prints the true pairs under the test's
+    lower bound (case, hand, frame, palm)."""
+    from handvar.evaluation.two_hands import two_hand_case
+    from handvar.vision import keypoints
+
+    bounds, keypoints.PALM_MM = keypoints.PALM_MM, (0.0, np.inf)  # every pair's palm
+    wrist, mcp = 0, 9
+    one, two, short = [], [], []
+    for scenario in args.scenario:
+        for seed in range(args.seeds):
+            case = two_hand_case(scenario, cameras=2, seed=seed, size=tuple(args.size))
+            detections = case.detections
+            if args.detector == "mediapipe":
+                detections = mediapipe_detections(case, args.cache, every=args.every)
+            near = [[nearest(case, detections, j, k) for k in range(2)] for j in range(2)]
+            a, b = case.rig.cameras[:2]
+            for t in range(0, case.n_frames, args.every):
+                for k in range(2):
+                    for other, found in ((k, one), (1 - k, two)):
+                        d0, d1 = near[0][k][t], near[1][other][t]
+                        if d0 is None or d1 is None or (other != k and (
+                                d0 is near[0][other][t] or d1 is near[1][k][t])):  # fmt: skip
+                            continue  # a view missing, or one detection for both hands
+                        mid, gap = keypoints.ray_points(a, d0.points, b, d1.points)
+                        if gap <= keypoints.RAY_GAP:
+                            found.append(float(np.linalg.norm(mid[mcp] - mid[wrist])))
+                            if other == k and found[-1] < bounds[0]:
+                                short.append(f"{case.name} {case.sides[k]} frame {t}: "
+                                             f"{found[-1]:.0f} mm")  # fmt: skip
+    keypoints.PALM_MM = bounds
+    for name, palms in (("one hand's views", one), ("two hands' views", two)):
+        palms = np.asarray(palms)
+        low, high = (np.count_nonzero(palms < bounds[0]), np.count_nonzero(palms > bounds[1]))
+        print(f"{name}: {len(palms)} pairs whose rays meet within {keypoints.RAY_GAP:g} mm; "
+              f"palm {np.min(palms, initial=np.inf):.0f}–{np.max(palms, initial=0):.0f} mm, "
+              f"median {np.median(palms) if len(palms) else np.nan:.0f}; under "
+              f"{bounds[0]:g} mm {low}, over {bounds[1]:g} mm {high}")  # fmt: skip
+    for line in short:
+        print(f"  one hand's views under {bounds[0]:g} mm: {line}")
+
+
 def nearest_points(case, k: int) -> np.ndarray:
     """(2, T, 21, 2): the points of `nearest` in the first two cameras, NaN where there
     is none (and where a point is not found)."""
@@ -478,6 +531,9 @@ def main() -> None:
     parser.add_argument("--mirror", action="store_true",
                         help="only MediaPipe's PCK per hand on the frames as rendered and "
                              "mirrored (camera 0)")  # fmt: skip
+    parser.add_argument("--palms", action="store_true",
+                        help="only the palm lengths two cameras' views triangulate to, "
+                             "one hand's and two hands' (the test of PALM_MM)")  # fmt: skip
     parser.add_argument("--no-look", action="store_true",
                         help="with MediaPipe, no second look where a hand expected was "
                              "missed (HandsTracker's look)")  # fmt: skip
@@ -495,6 +551,9 @@ def main() -> None:
     args = parser.parse_args()
     if args.mirror:
         mirrored_pck(args)
+        return
+    if args.palms:
+        palm_pairs(args)
         return
     import handvar.tracking.hands as rules
 
@@ -515,6 +574,7 @@ def main() -> None:
     print(head + f"{'fits/s':>8}")
     totals = {"det": [], "fit": [], "sw_det": 0, "sw_fit": 0, "lost_det": [], "lost_fit": [],
               "seen_det": 0, "seen_fit": 0, "off_det": 0, "off_fit": 0, "off_hidden": 0,
+              "away_det": 0, "away_fit": 0,
               "side_det": 0, "side_fit": 0, "runs": {True: [], False: []},
               "rel": [], "abs": [], "mp": [], "tri": [], "same": [], "fps": [],
               "view": 0}  # fmt: skip
@@ -576,6 +636,8 @@ def main() -> None:
             totals["off_det"] += raw.drawn_off
             totals["off_fit"] += fit.drawn_off
             totals["off_hidden"] += drawn_off_hidden(fit, results)
+            totals["away_det"] += raw.drawn_away
+            totals["away_fit"] += fit.drawn_away
             totals["sw_det"] += raw.switches
             totals["sw_fit"] += fit.switches
             totals["fps"].append(fps)
@@ -595,7 +657,8 @@ def main() -> None:
           f"half the hand visible; of the fit's, a detection within 0.5 hand sizes of "
           f"it on {causes[0]}, none for up to {BRIEF_MISS} frames in a row on {causes[1]}, "
           f"longer on {causes[2]}); drawn on no hand {totals['off_det']} / {totals['off_fit']} "
-          f"({totals['off_hidden']} of them carried hidden); on a "
+          f"({totals['off_hidden']} of them carried hidden; farther than a hand size "
+          f"from both hands {totals['away_det']} / {totals['away_fit']}); on a "
           f"hand of the other side {totals['side_det']} / {totals['side_fit']} (labels "
           f"sure of the other side in a row on a track: at most "
           f"{max(totals['runs'][True], default=0)} where its side is right, "

@@ -22,6 +22,7 @@ from handvar.evaluation.two_hands import (
     score_two_hands,
     two_hand_case,
 )
+from handvar.synth.keypoints import hand_size_px
 
 SMALL = (160, 90)
 
@@ -224,17 +225,34 @@ def test_lost_while_visible_counts_the_frames_most_of_the_hand_is_seen(cases):
 
 def test_a_hand_drawn_where_there_is_none_counts_as_drawn_off(cases):
     """A third track on the truth's frames shifted by 2 hand sizes is on no hand: each
-    of its frames counts; the true tracks count none."""
+    of its frames counts, as drawn away from both hands too; the true tracks count
+    none."""
     c = cases["apart"]
     true = _true_tracks(c)
-    assert score_two_hands(c, true).drawn_off == 0
+    s = score_two_hands(c, true)
+    assert (s.drawn_off, s.drawn_away) == (0, 0)
     p = c.truth_2d[0, 0]
     size = np.linalg.norm(p[:, 9] - p[:, 0], axis=1)[:, None, None]
     ghost = p + 2.0 * size * np.array([0.0, 1.0])
     ghost[: c.n_frames // 2] = np.nan  # drawn on the second half only
     s = score_two_hands(c, {**true, "ghost": {"points_2d": ghost, "joints": None}})
-    assert s.drawn_off == c.n_frames - c.n_frames // 2
+    assert s.drawn_off == s.drawn_away == c.n_frames - c.n_frames // 2
     assert s.lost.tolist() == [0, 0]
+
+
+def test_a_hand_drawn_off_its_hand_but_overlapping_it_is_not_drawn_away(cases):
+    """The left hand's track shifted by 0.7 hand sizes is off its hand (unmatched:
+    lost and drawn off on every frame in view) but still over it: not drawn away."""
+    c = cases["apart"]
+    true = _true_tracks(c)
+    p = c.truth_2d[0, 0]
+    size = hand_size_px(c.rig.cameras[0], c.joints[0])[:, None, None]
+    left = c.sides[0]
+    off = {**true[left], "points_2d": p + 0.7 * size * np.array([0.0, 1.0])}
+    s = score_two_hands(c, {**true, left: off})
+    assert s.lost[0] == c.in_view[0, 0].sum() > 0
+    assert s.drawn_off == c.n_frames
+    assert s.drawn_away == 0
 
 
 def test_detections_as_tracks_take_the_label_as_identity(cases):

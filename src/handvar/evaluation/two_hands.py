@@ -721,8 +721,12 @@ class TwoHandScore:
         visible (inside the image, not hidden by the other hand).
     frames_in_view : (2,) int ndarray
     drawn_off : int
-        Track-frames drawn on no true hand: a track present (a finite point) on a frame
-        where it is matched to neither (a hand drawn where there is none).
+        Track-frames matched to no true hand: a track present (a finite point) on a frame
+        where it is matched to neither (off its hand by more than the gate, or where
+        there is none).
+    drawn_away : int
+        Of those, the track-frames farther than `away` hand sizes from both true hands:
+        a hand drawn where there is none.
     """
 
     ids: tuple
@@ -736,6 +740,7 @@ class TwoHandScore:
     lost_visible: np.ndarray
     frames_in_view: np.ndarray
     drawn_off: int = 0
+    drawn_away: int = 0
 
     @property
     def switches(self) -> int:
@@ -750,7 +755,8 @@ def _changes(labels: np.ndarray) -> int:
 
 
 def score_two_hands(case: TwoHandCase, tracks: dict, *, camera: int = 0,
-                    threshold: float = 0.2, gate: float = 0.5) -> TwoHandScore:  # fmt: skip
+                    threshold: float = 0.2, gate: float = 0.5,
+                    away: float = 1.0) -> TwoHandScore:  # fmt: skip
     """Score tracks of two hands against `case`'s truth on one camera.
 
     Each frame, as CLEAR MOT does, the previous frame's pairs whose track is present (a
@@ -775,6 +781,10 @@ def score_two_hands(case: TwoHandCase, tracks: dict, *, camera: int = 0,
         (`handvar.evaluation.metrics.pck_2d`).
     gate : float, keyword-only
         Largest mean distance of a match, hand sizes.
+    away : float, keyword-only
+        Least mean distance from both true hands, hand sizes, of a track drawn where
+        there is no hand (`TwoHandScore.drawn_away`): one hand size, so that a track
+        off its hand but still overlapping it is not counted.
 
     Returns
     -------
@@ -806,7 +816,7 @@ def score_two_hands(case: TwoHandCase, tracks: dict, *, camera: int = 0,
     truth = case.truth_2d[camera]  # (2, T, 21, 2)
     size = np.stack([hand_size_px(case.rig[camera], case.joints[k]) for k in range(2)])
     match = np.full((2, T), -1, dtype=np.int64)
-    drawn = 0  # track-frames present
+    drawn = away_count = 0  # track-frames present; of them, away from both hands
     for t in range(T):
         present = [i for i, p in enumerate(points) if np.isfinite(p[t]).any()]
         drawn += len(present)
@@ -817,6 +827,7 @@ def score_two_hands(case: TwoHandCase, tracks: dict, *, camera: int = 0,
             with np.errstate(invalid="ignore"):
                 d = np.linalg.norm(points[i][t][None] - truth[:, t], axis=-1)  # (2, 21)
             cost[a] = np.nanmean(d, axis=1) / size[:, t]
+        away_count += int(np.count_nonzero(cost.min(axis=1) > away))
         kept = {}  # CLEAR MOT: last frame's pairs still within the gate are kept
         for k in range(2):
             i = match[k, t - 1] if t else -1
@@ -864,7 +875,8 @@ def score_two_hands(case: TwoHandCase, tracks: dict, *, camera: int = 0,
                         hand_switches=hand_switches, pck=pck, mpjpe=abs_err,
                         mpjpe_relative=rel_err, lost=lost, lost_visible=lost_visible,
                         frames_in_view=n_view,
-                        drawn_off=drawn - int(np.count_nonzero(match >= 0)))  # fmt: skip
+                        drawn_off=drawn - int(np.count_nonzero(match >= 0)),
+                        drawn_away=away_count)  # fmt: skip
 
 
 def detections_as_tracks(case: TwoHandCase, *, camera: int = 0) -> dict:
