@@ -308,6 +308,28 @@ def test_two_hands_found_on_one_frame_with_one_label_get_opposite_sides_then_the
         assert sides[-1] == SIDES
 
 
+def test_with_a_detector_on_every_kth_frame_a_new_hands_side_is_voted_over_side_frames():
+    """The detector on every 5th frame, both hands labelled the wrong sides on the
+    first, then their own, never `SIDE_SURE` sure (no run turns them): the new hands'
+    vote takes the labels of `SIDE_FRAMES` frames, not `SIDE_FRAMES` labels (which
+    would need 5 × as many frames), and turns both sides by then."""
+    every = 5
+    T = SIDE_FRAMES + 1
+    rig, truth = _truth(T, swap=False)
+    tracker = HandsTracker(rig, detector=None, keypoint_every=every)
+    results = []
+    for t in range(T):
+        found = None
+        if t % every == 0:
+            labels = SIDES[::-1] if t == 0 else SIDES
+            found = [[Detection(np.c_[truth[s][t], np.ones(21)], side=label, score=0.7)
+                      for s, label in zip(SIDES, labels, strict=True)]]  # fmt: skip
+        results.append(tracker.process(IMAGE, detections=found))
+    sides = [s for s in _sides(results, truth) if None not in s]
+    assert sides[0] == SIDES[::-1]  # as labelled on the first frame
+    assert sides[-1] == SIDES
+
+
 def test_a_side_turns_on_a_run_of_sure_labels_against_it_and_not_on_a_shorter_one():
     """Sides decided by true labels; then both hands labelled the other side for a run
     of frames: a run shorter than `SIDE_RUN` (as a detector's label flips are) leaves

@@ -58,8 +58,9 @@ detector's label:
    one person), else the detector's label.  So a hand that leaves and comes back is
    re-acquired with its side.
 4. **The side of a hand** never changes within a track, except on overwhelming
-   evidence: after `SIDE_FRAMES` labelled detections given to a new hand, a weighted
-   share `SIDE_SWAP` or more of them for the other side; or, at any time, `SIDE_RUN`
+   evidence: of the labels given to a new hand over its first `SIDE_FRAMES` frames
+   (with the detector on every K-th frame, `SIDE_FRAMES` / K of them), a weighted
+   share `SIDE_SWAP` or more for the other side; or, at any time, `SIDE_RUN`
    labelled detections in a row each for the other side with a score of `SIDE_SURE`
    or more.  Either turns it and the other hand's with it (the two staying opposite,
    their sides then decided); the model is built again on the new side at the next
@@ -208,7 +209,8 @@ SAME_HAND = 0.5
 #: is that hand's, off by a detector's gross error, not a new hand (given to it if
 #: labelled at least `SIDE_SURE` sure its side).
 NEW_HAND = 2.0
-#: Labelled detections of a new hand after which its side may turn.
+#: Frames of a new hand's labelled detections after which its side may turn (with
+#: the detector on every K-th frame, the labels of as many frames: 30 / K).
 SIDE_FRAMES = 30
 #: Weighted share of labels for the other side that turns a new hand's side.
 SIDE_SWAP = 0.8
@@ -1051,7 +1053,7 @@ class HandsTracker:
         if h.votes is None:
             return
         h.votes.append(d.score if d.side == h.side else -d.score)
-        if len(h.votes) < SIDE_FRAMES:
+        if len(h.votes) < -(-SIDE_FRAMES // self.every):  # the labels of SIDE_FRAMES frames
             return
         against = -sum(v for v in h.votes if v < 0) / sum(abs(v) for v in h.votes)
         h.votes = None  # decided
