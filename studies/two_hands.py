@@ -421,31 +421,33 @@ def palm_pairs(args) -> None:
     from handvar.evaluation.two_hands import two_hand_case
     from handvar.vision import keypoints
 
-    bounds, keypoints.PALM_MM = keypoints.PALM_MM, (0.0, np.inf)  # every pair's palm
     wrist, mcp = 0, 9
     one, two, short = [], [], []
-    for scenario in args.scenario:
-        for seed in range(args.seeds):
-            case = two_hand_case(scenario, cameras=2, seed=seed, size=tuple(args.size))
-            detections = case.detections
-            if args.detector == "mediapipe":
-                detections = mediapipe_detections(case, args.cache, every=args.every)
-            near = [[nearest(case, detections, j, k) for k in range(2)] for j in range(2)]
-            a, b = case.rig.cameras[:2]
-            for t in range(0, case.n_frames, args.every):
-                for k in range(2):
-                    for other, found in ((k, one), (1 - k, two)):
-                        d0, d1 = near[0][k][t], near[1][other][t]
-                        if d0 is None or d1 is None or (other != k and (
-                                d0 is near[0][other][t] or d1 is near[1][k][t])):  # fmt: skip
-                            continue  # a view missing, or one detection for both hands
-                        mid, gap = keypoints.ray_points(a, d0.points, b, d1.points)
-                        if gap <= keypoints.RAY_GAP:
-                            found.append(float(np.linalg.norm(mid[mcp] - mid[wrist])))
-                            if other == k and found[-1] < bounds[0]:
-                                short.append(f"{case.name} {case.sides[k]} frame {t}: "
-                                             f"{found[-1]:.0f} mm")  # fmt: skip
-    keypoints.PALM_MM = bounds
+    bounds, keypoints.PALM_MM = keypoints.PALM_MM, (0.0, np.inf)  # every pair's palm
+    try:
+        for scenario in args.scenario:
+            for seed in range(args.seeds):
+                case = two_hand_case(scenario, cameras=2, seed=seed, size=tuple(args.size))
+                detections = case.detections
+                if args.detector == "mediapipe":
+                    detections = mediapipe_detections(case, args.cache, every=args.every)
+                near = [[nearest(case, detections, j, k) for k in range(2)] for j in range(2)]
+                a, b = case.rig.cameras[:2]
+                for t in range(0, case.n_frames, args.every):
+                    for k in range(2):
+                        for other, found in ((k, one), (1 - k, two)):
+                            d0, d1 = near[0][k][t], near[1][other][t]
+                            if d0 is None or d1 is None or (other != k and (
+                                    d0 is near[0][other][t] or d1 is near[1][k][t])):  # fmt: skip
+                                continue  # a view missing, or one detection for both hands
+                            mid, gap = keypoints.ray_points(a, d0.points, b, d1.points)
+                            if gap <= keypoints.RAY_GAP:
+                                found.append(float(np.linalg.norm(mid[mcp] - mid[wrist])))
+                                if other == k and found[-1] < bounds[0]:
+                                    short.append(f"{case.name} {case.sides[k]} frame {t}: "
+                                                 f"{found[-1]:.0f} mm")  # fmt: skip
+    finally:
+        keypoints.PALM_MM = bounds
     for name, palms in (("one hand's views", one), ("two hands' views", two)):
         palms = np.asarray(palms)
         low, high = (np.count_nonzero(palms < bounds[0]), np.count_nonzero(palms > bounds[1]))
