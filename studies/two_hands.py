@@ -410,6 +410,29 @@ def mirrored_pck(args) -> None:
           f"{pck[1, 1]:.3f}")  # fmt: skip
 
 
+def palm_lengths(case, detections, every: int = 1):
+    """`palm_pairs` on one case: the palm lengths (mm) of its true hands' pairs of views
+    and of its two hands' pairs whose rays meet within `RAY_GAP`, and per true pair
+    (hand, frame, palm)."""
+    from handvar.vision.keypoints import RAY_GAP, ray_points
+
+    near = [[nearest(case, detections, j, k) for k in range(2)] for j in range(2)]
+    a, b = case.rig.cameras[:2]
+    one, two, frames = [], [], []
+    for t, k in itertools.product(range(0, case.n_frames, every), range(2)):
+        for other, found in ((k, one), (1 - k, two)):
+            d0, d1 = near[0][k][t], near[1][other][t]
+            if d0 is None or d1 is None or (other != k and (
+                    d0 is near[0][other][t] or d1 is near[1][k][t])):  # fmt: skip
+                continue  # a view missing, or one detection for both hands
+            mid, gap = ray_points(a, d0.points, b, d1.points, palm=(0.0, np.inf))
+            if gap <= RAY_GAP:
+                found.append(float(np.linalg.norm(mid[9] - mid[0])))  # wrist → middle MCP
+                if other == k:
+                    frames.append((k, t, found[-1]))
+    return one, two, frames
+
+
 def palm_pairs(args) -> None:
     """``--palms``: with two cameras, the wrist → middle-MCP length the detections'
     rays make (`handvar.vision.keypoints.ray_points` without its `PALM_MM` test) for
@@ -419,44 +442,29 @@ def palm_pairs(args) -> None:
     twice from two hands meeting by chance.  Prints the true pairs under the test's
     lower bound (case, hand, frame, palm)."""
     from handvar.evaluation.two_hands import two_hand_case
-    from handvar.vision import keypoints
+    from handvar.vision.keypoints import PALM_MM, RAY_GAP
 
-    wrist, mcp = 0, 9
     one, two, short = [], [], []
-    bounds, keypoints.PALM_MM = keypoints.PALM_MM, (0.0, np.inf)  # every pair's palm
-    try:
-        for scenario in args.scenario:
-            for seed in range(args.seeds):
-                case = two_hand_case(scenario, cameras=2, seed=seed, size=tuple(args.size))
-                detections = case.detections
-                if args.detector == "mediapipe":
-                    detections = mediapipe_detections(case, args.cache, every=args.every)
-                near = [[nearest(case, detections, j, k) for k in range(2)] for j in range(2)]
-                a, b = case.rig.cameras[:2]
-                for t in range(0, case.n_frames, args.every):
-                    for k in range(2):
-                        for other, found in ((k, one), (1 - k, two)):
-                            d0, d1 = near[0][k][t], near[1][other][t]
-                            if d0 is None or d1 is None or (other != k and (
-                                    d0 is near[0][other][t] or d1 is near[1][k][t])):  # fmt: skip
-                                continue  # a view missing, or one detection for both hands
-                            mid, gap = keypoints.ray_points(a, d0.points, b, d1.points)
-                            if gap <= keypoints.RAY_GAP:
-                                found.append(float(np.linalg.norm(mid[mcp] - mid[wrist])))
-                                if other == k and found[-1] < bounds[0]:
-                                    short.append(f"{case.name} {case.sides[k]} frame {t}: "
-                                                 f"{found[-1]:.0f} mm")  # fmt: skip
-    finally:
-        keypoints.PALM_MM = bounds
+    for scenario in args.scenario:
+        for seed in range(args.seeds):
+            case = two_hand_case(scenario, cameras=2, seed=seed, size=tuple(args.size))
+            detections = case.detections
+            if args.detector == "mediapipe":
+                detections = mediapipe_detections(case, args.cache, every=args.every)
+            ones, twos, frames = palm_lengths(case, detections, args.every)
+            one += ones
+            two += twos
+            short += [f"{case.name} {case.sides[k]} frame {t}: {palm:.0f} mm"
+                      for k, t, palm in frames if palm < PALM_MM[0]]  # fmt: skip
     for name, palms in (("one hand's views", one), ("two hands' views", two)):
         palms = np.asarray(palms)
-        low, high = (np.count_nonzero(palms < bounds[0]), np.count_nonzero(palms > bounds[1]))
-        print(f"{name}: {len(palms)} pairs whose rays meet within {keypoints.RAY_GAP:g} mm; "
+        low, high = (np.count_nonzero(palms < PALM_MM[0]), np.count_nonzero(palms > PALM_MM[1]))
+        print(f"{name}: {len(palms)} pairs whose rays meet within {RAY_GAP:g} mm; "
               f"palm {np.min(palms, initial=np.inf):.0f}–{np.max(palms, initial=0):.0f} mm, "
               f"median {np.median(palms) if len(palms) else np.nan:.0f}; under "
-              f"{bounds[0]:g} mm {low}, over {bounds[1]:g} mm {high}")  # fmt: skip
+              f"{PALM_MM[0]:g} mm {low}, over {PALM_MM[1]:g} mm {high}")  # fmt: skip
     for line in short:
-        print(f"  one hand's views under {bounds[0]:g} mm: {line}")
+        print(f"  one hand's views under {PALM_MM[0]:g} mm: {line}")
 
 
 def nearest_points(case, k: int) -> np.ndarray:

@@ -154,6 +154,7 @@ import collections
 import dataclasses
 import functools
 import itertools
+import math
 import time
 from dataclasses import dataclass
 
@@ -1053,7 +1054,7 @@ class HandsTracker:
         if h.votes is None:
             return
         h.votes.append(d.score if d.side == h.side else -d.score)
-        if len(h.votes) < -(-SIDE_FRAMES // self.every):  # the labels of SIDE_FRAMES frames
+        if len(h.votes) < math.ceil(SIDE_FRAMES / self.every):  # SIDE_FRAMES frames' labels
             return
         against = -sum(v for v in h.votes if v < 0) / sum(abs(v) for v in h.votes)
         h.votes = None  # decided

@@ -252,14 +252,15 @@ RAY_GAP = 20.0
 PALM_MM = (50.0, 130.0)
 
 
-def ray_points(camera_a, points_a: np.ndarray, camera_b, points_b: np.ndarray):
+def ray_points(camera_a, points_a: np.ndarray, camera_b, points_b: np.ndarray,
+               palm: tuple[float, float] = PALM_MM):  # fmt: skip
     """The hand two cameras see, from their (21, 3) points (pixels, confidence): per
     point the middle of the closest approach of its two rays, (21, 3) mm (NaN where a
     camera lacks it), and the median distance between the rays (mm): small when the
     points are one hand's (each point's two rays meet), inf when fewer than three points
     are seen in both or the points where the rays meet do not make a hand (wrist →
-    middle MCP outside `PALM_MM`, as two hands at one height in a side-by-side rig
-    would pair)."""
+    middle MCP outside `palm`, mm: `PALM_MM`, as two hands at one height in a
+    side-by-side rig would pair)."""
     mid = np.full((len(points_a), 3), np.nan)
     seen = (points_a[:, 2] > 0) & (points_b[:, 2] > 0)
     if seen.sum() < 3:
@@ -274,8 +275,8 @@ def ray_points(camera_a, points_a: np.ndarray, camera_b, points_b: np.ndarray):
     pb = ob + ((a * e - b * d) / den)[:, None] * db
     mid[seen] = 0.5 * (pa + pb)
     wrist, mcp = HandLandmark.WRIST, HandLandmark.MIDDLE_FINGER_MCP
-    palm = np.linalg.norm(mid[mcp] - mid[wrist])  # NaN (no test) without both
-    if palm < PALM_MM[0] or palm > PALM_MM[1]:
+    length = np.linalg.norm(mid[mcp] - mid[wrist])  # NaN (no test) without both
+    if length < palm[0] or length > palm[1]:
         return mid, np.inf
     return mid, float(np.median(np.linalg.norm(pa - pb, axis=1)))
 
