@@ -3,7 +3,7 @@
 Usage: PYTHONPATH=src python studies/two_hands.py [--seeds N] [--cameras 1|2]
        [--detector simulated|mediapipe] [--every K] [--scenario NAME ...] [--size W H]
        [--missed-carry N] [--hidden-frames N] [--missed-frames N] [--side-run N]
-       [--same-hand X] [--held-view C]
+       [--same-hand X] [--held-view C] [--alone-palm MM]
        [--cache DIR]
        [--landmarks full|lite] [--confidence C] [--forward-only] [--no-look] [--mirror]
        [--lost-frames]
@@ -66,8 +66,10 @@ flow follows none of its points (`handvar.tracking.hands.MISSED_FRAMES`);
 palm lengths within which one hand's views given to two hands are merged
 (`handvar.tracking.hands.SAME_HAND`; ``inf``: wherever their rays meet); ``--held-view
 C`` the confidence of the points a missed hand followed in one camera only is held at
-in the others (`handvar.tracking.hands.HELD_VIEW`).  With ``--every K`` the
-detector runs on every K-th frame only (MediaPipe as the command runs it: two
+in the others (`handvar.tracking.hands.HELD_VIEW`); ``--alone-palm MM`` the shortest
+palm a hand's views in two cameras may make where no other hand's view is left over
+(`handvar.tracking.hands.ALONE_PALM`; 50, `PALM_MM`'s, bounds them as any two views).
+With ``--every K`` the detector runs on every K-th frame only (MediaPipe as the command runs it: two
 MediaPipes taking those frames in turn, each given the frame's index); the fit carries
 each hand's detection by optical flow over the frames between, and the detections'
 baseline is interpolated linearly between the detector's frames.  ``--landmarks lite``
@@ -536,6 +538,10 @@ def main() -> None:
     parser.add_argument("--same-hand", type=float, default=None,
                         help="palm lengths within which two hands' views are one hand's "
                              "(handvar.tracking.hands.SAME_HAND)")  # fmt: skip
+    parser.add_argument("--alone-palm", type=float, default=None,
+                        help="mm: the shortest palm a hand's views may make where no "
+                             "other hand's view is left over "
+                             "(handvar.tracking.hands.ALONE_PALM)")  # fmt: skip
     parser.add_argument("--landmarks", default="full", choices=("full", "lite"),
                         help="MediaPipe's landmark model (the pipeline's: full)")  # fmt: skip
     parser.add_argument("--mirror", action="store_true",
@@ -569,7 +575,8 @@ def main() -> None:
 
     constants = {"side_run": "SIDE_RUN", "missed_carry": "MISSED_CARRY",
                  "hidden_frames": "HIDDEN_FRAMES", "missed_frames": "MISSED_FRAMES",
-                 "same_hand": "SAME_HAND", "held_view": "HELD_VIEW"}  # fmt: skip
+                 "same_hand": "SAME_HAND", "held_view": "HELD_VIEW",
+                 "alone_palm": "ALONE_PALM"}  # fmt: skip
     for option, constant in constants.items():
         if getattr(args, option) is not None:  # the tracker's constant, for this run
             setattr(rules, constant, getattr(args, option))

@@ -1080,6 +1080,34 @@ def test_a_hand_seen_in_one_camera_gets_the_other_cameras_view_whose_rays_meet_i
     assert given[right.id][0] is None
 
 
+def test_a_hands_views_that_make_a_short_palm_are_paired_where_no_other_hands_are_left():
+    # a hand whose points triangulate to a 32 mm palm (under PALM_MM's 50 mm, as
+    # MediaPipe's points of a rendered hand did), given camera 0's view, the other hand
+    # (200 mm aside) given its views in both: the one detection left over in camera 1
+    # is the hand's (before, it was never paired: the hand was fitted to one view, off
+    # in depth). Without the other hand's view in camera 1, the palm stays bounded:
+    # the view left over may be that hand's, its rays meeting the first's by chance.
+    from handvar.vision.keypoints import PALM_MM
+
+    rig, joints, tracker = _two_cameras()
+    small = joints[0] + 0.4 * (joints - joints[0])
+    assert np.linalg.norm(small[9] - small[0]) < PALM_MM[0]
+    aside = joints + np.array([200.0, 0.0, 0.0])
+    left, right = tracker.hands
+
+    def view(j, points):
+        return Detection(np.c_[rig.cameras[j].project(points), np.ones(21)])
+
+    mine, theirs = [view(0, small), view(1, small)], [view(0, aside), view(1, aside)]
+    detections = [[mine[0], theirs[0]], [mine[1], theirs[1]]]
+    given = {left.id: list(theirs), right.id: [mine[0], None]}
+    tracker._complete(given, detections)
+    assert given == {left.id: theirs, right.id: mine}
+    given = {left.id: [None, None], right.id: [mine[0], None]}  # the other hand unseen
+    tracker._complete(given, [[mine[0]], [mine[1]]])
+    assert given[right.id] == [mine[0], None]
+
+
 @pytest.mark.parametrize(
     ("finds", "back", "kept"),
     [((6,), True, False), ((6, 8), True, True), ((6,), False, True)],

@@ -42,7 +42,13 @@ detector's label:
    (a ghost).  A hand given a view in some camera and none in another gets the
    detection left over there whose rays meet its view's within `RAY_GAP`, the
    nearest (`_complete`): where it is expected in that camera, the flow may have
-   followed the other hand.
+   followed the other hand.  The points two views triangulate must make a palm
+   (wrist → middle MCP) within `PALM_MM`, lest two hands' views whose rays meet by
+   chance be paired; not bounded below (`ALONE_PALM`) where camera j's detections are
+   all given, one is left over in the other camera and every other hand has its view
+   there (`_alone`): it can be no other hand's.  MediaPipe's points of one rendered
+   hand made a palm of 28–35 mm, and that hand was fitted to one view, off in depth
+   (docs/results/two-hands.md).
 3. **A new hand.**  A detection left over in any camera (the first camera's first),
    not within `DUPLICATE` hand sizes of a tracked hand's detection (MediaPipe
    sometimes finds one hand twice), nor within `NEW_HAND` of the detection of a
@@ -163,9 +169,10 @@ import numpy as np
 
 from handvar.hand.anthropometry import other_side
 from handvar.validate import as_int
-from handvar.vision.keypoints import RAY_GAP, ray_points
+from handvar.vision.keypoints import PALM_MM, RAY_GAP, ray_points
 
 __all__ = [
+    "ALONE_PALM",
     "BEHIND_CARRY",
     "BEHIND_SHARE",
     "DUPLICATE",
@@ -206,6 +213,10 @@ DUPLICATE = 0.35
 #: Palm lengths (its wrist → middle MCP) from a hand's last joints within which the
 #: points two hands' views triangulate must lie for the views to be that one hand's.
 SAME_HAND = 0.5
+#: mm: the shortest palm (wrist → middle MCP) a hand's views in two cameras may
+#: triangulate to where no other hand's view is left over to pair with (`PALM_MM`'s
+#: lower bound keeps two hands' views whose rays meet by chance apart): none.
+ALONE_PALM = 0.0
 #: Hand sizes from a tracked hand given no detection within which a detection left over
 #: is that hand's, off by a detector's gross error, not a new hand (given to it if
 #: labelled at least `SIDE_SURE` sure its side).
@@ -1013,16 +1024,35 @@ class HandsTracker:
 
     def _match_cameras(self, hand: _Hand, given, detections, j: int = 0) -> None:
         """A hand's detections in the other cameras than j where it has none: the one
-        left over whose rays meet its camera j's (`RAY_GAP`), the nearest."""
+        left over whose rays meet its camera j's (`RAY_GAP`), the nearest; the palm
+        they make not bounded below where no other hand's view is left over
+        (`_alone`)."""
         cameras, d = self.rig.cameras, given[hand.id][j]
         for k in range(len(detections)):
             if k == j or given[hand.id][k] is not None:
                 continue
             rest = [e for e in detections[k] if e not in _given_values(given, k)]
-            gaps = [ray_points(cameras[j], d.points, cameras[k], e.points)[1] for e in rest]
+            alone = self._alone(hand, given, detections, j, k)
+            palm = (ALONE_PALM, PALM_MM[1]) if alone else PALM_MM
+            gaps = [ray_points(cameras[j], d.points, cameras[k], e.points, palm)[1]
+                    for e in rest]  # fmt: skip
             near = [e for e, g in zip(rest, gaps, strict=True) if g <= RAY_GAP]
             if near:
                 given[hand.id][k] = min(near, key=lambda e: gaps[rest.index(e)])
+
+    def _alone(self, hand: _Hand, given, detections, j: int, k: int) -> bool:
+        """Rule 2: camera j's detections are all given and one of camera k's is left
+        over, while every other hand has been given its view in k: that detection is
+        no other hand's view, so the palm the views make is bounded below
+        by `ALONE_PALM`, not `PALM_MM` (which keeps two hands' views whose rays meet by
+        chance apart)."""
+        left_j = [e for e in detections[j] if e not in _given_values(given, j)]
+        left_k = [e for e in detections[k] if e not in _given_values(given, k)]
+        return (
+            not left_j
+            and len(left_k) == 1
+            and all(o is hand or given[o.id][k] is not None for o in self.hands)
+        )
 
     def _carry(self, h: _Hand, greys, kps: list) -> list:
         """Per camera, the hand's last detection carried forward by optical flow
