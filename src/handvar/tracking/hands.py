@@ -1042,15 +1042,16 @@ class HandsTracker:
 
     def _alone(self, hand: _Hand, given, detections, j: int, k: int) -> bool:
         """Rule 2: camera j's detections are all given and one of camera k's is left
-        over, while every other hand has been given its view in k: that detection is
-        no other hand's view, so the palm the views make is bounded below
+        over, while the other hand (tracking two) has been given its view in k: that
+        detection is no other hand's view, so the palm the views make is bounded below
         by `ALONE_PALM`, not `PALM_MM` (which keeps two hands' views whose rays meet by
-        chance apart)."""
+        chance apart).  Tracking one hand, a second one may be in view, untracked."""
         left_j = [e for e in detections[j] if e not in _given_values(given, j)]
         left_k = [e for e in detections[k] if e not in _given_values(given, k)]
         return (
             not left_j
             and len(left_k) == 1
+            and len(self.hands) > 1
             and all(o is hand or given[o.id][k] is not None for o in self.hands)
         )
 
