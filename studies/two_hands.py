@@ -69,8 +69,9 @@ C`` the confidence of the points a missed hand followed in one camera only is he
 in the others (`handvar.tracking.hands.HELD_VIEW`); ``--alone-palm MM`` the shortest
 palm a hand's views in two cameras may make where no other hand's view is left over
 (`handvar.tracking.hands.ALONE_PALM`; 50, `PALM_MM`'s, bounds them as any two views).
-With ``--every K`` the detector runs on every K-th frame only (MediaPipe as the command runs it: two
-MediaPipes taking those frames in turn, each given the frame's index); the fit carries
+With ``--every K`` the detector runs on every K-th frame only (MediaPipe as the
+command runs it: two MediaPipes taking those frames in turn, each given the frame's
+index); the fit carries
 each hand's detection by optical flow over the frames between, and the detections'
 baseline is interpolated linearly between the detector's frames.  ``--landmarks lite``
 runs MediaPipe with its lite landmark model (faster; `benchmarks/detector_options.py`),
