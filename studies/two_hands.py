@@ -3,7 +3,7 @@
 Usage: PYTHONPATH=src python studies/two_hands.py [--seeds N] [--cameras 1|2]
        [--detector simulated|mediapipe] [--every K] [--scenario NAME ...] [--size W H]
        [--missed-carry N] [--hidden-frames N] [--missed-frames N] [--side-run N]
-       [--same-hand X] [--held-view C] [--alone-palm MM]
+       [--same-hand X] [--held-view C] [--alone-palm MM] [--hidden-weight W]
        [--cache DIR]
        [--landmarks full|lite] [--confidence C] [--forward-only] [--no-look] [--mirror]
        [--lost-frames]
@@ -68,7 +68,9 @@ palm lengths within which one hand's views given to two hands are merged
 C`` the confidence of the points a missed hand followed in one camera only is held at
 in the others (`handvar.tracking.hands.HELD_VIEW`); ``--alone-palm MM`` the shortest
 palm a hand's views in two cameras may make where no other hand's view is left over
-(`handvar.tracking.hands.ALONE_PALM`; 50, `PALM_MM`'s, bounds them as any two views).
+(`handvar.tracking.hands.ALONE_PALM`; 50, `PALM_MM`'s, bounds them as any two views);
+``--hidden-weight W`` the confidence factor of a keypoint inside the outline of the
+hand in front (`handvar.tracking.hands.HIDDEN_WEIGHT`).
 With ``--every K`` the detector runs on every K-th frame only (MediaPipe as the
 command runs it: two MediaPipes taking those frames in turn, each given the frame's
 index); the fit carries
@@ -539,6 +541,9 @@ def main() -> None:
     parser.add_argument("--same-hand", type=float, default=None,
                         help="palm lengths within which two hands' views are one hand's "
                              "(handvar.tracking.hands.SAME_HAND)")  # fmt: skip
+    parser.add_argument("--hidden-weight", type=float, default=None,
+                        help="confidence factor of a keypoint inside the outline of the "
+                             "hand in front (handvar.tracking.hands.HIDDEN_WEIGHT)")  # fmt: skip
     parser.add_argument("--alone-palm", type=float, default=None,
                         help="mm: the shortest palm a hand's views may make where no "
                              "other hand's view is left over "
@@ -577,7 +582,7 @@ def main() -> None:
     constants = {"side_run": "SIDE_RUN", "missed_carry": "MISSED_CARRY",
                  "hidden_frames": "HIDDEN_FRAMES", "missed_frames": "MISSED_FRAMES",
                  "same_hand": "SAME_HAND", "held_view": "HELD_VIEW",
-                 "alone_palm": "ALONE_PALM"}  # fmt: skip
+                 "alone_palm": "ALONE_PALM", "hidden_weight": "HIDDEN_WEIGHT"}  # fmt: skip
     for option, constant in constants.items():
         if getattr(args, option) is not None:  # the tracker's constant, for this run
             setattr(rules, constant, getattr(args, option))
