@@ -504,6 +504,26 @@ def triangulation_error(case, k: int, tracks: dict, score) -> tuple[float, float
             float(joint_errors(truth, fit[both], alignment="none").mean()))  # fmt: skip
 
 
+#: The study's options that set a constant of `handvar.tracking.hands` for the run:
+#: (option, type, constant, what it is).
+RULE_OPTIONS = (
+    ("--side-run", int, "SIDE_RUN", "sure labels in a row that turn a hand's side"),
+    ("--missed-carry", int, "MISSED_CARRY", "frames a missed hand is followed by optical flow"),
+    ("--hidden-frames", int, "HIDDEN_FRAMES",
+     "frames a hand behind or against the other is carried, held, at most GONE_FRAMES + 1"),
+    ("--missed-frames", int, "MISSED_FRAMES", "frames a hand missed in the open is carried, held"),
+    ("--held-view", float, "HELD_VIEW",
+     "confidence of the points a missed hand followed in one camera only is held at in the "
+     "others"),
+    ("--same-hand", float, "SAME_HAND",
+     "palm lengths within which two hands' views are one hand's"),
+    ("--hidden-weight", float, "HIDDEN_WEIGHT",
+     "confidence factor of a keypoint inside the outline of the hand in front"),
+    ("--alone-palm", float, "ALONE_PALM",
+     "mm: the shortest palm a hand's views may make where no other hand's view is left over"),
+)  # fmt: skip
+
+
 def main() -> None:
     from handvar.evaluation.two_hands import (
         SCENARIOS,
@@ -521,33 +541,9 @@ def main() -> None:
     parser.add_argument("--every", type=int, default=1,
                         help="the detector on every K-th frame (the detections' baseline: "
                              "interpolated between them)")  # fmt: skip
-    parser.add_argument("--side-run", type=int, default=None,
-                        help="sure labels in a row that turn a hand's side "
-                             "(handvar.tracking.hands.SIDE_RUN)")  # fmt: skip
-    parser.add_argument("--missed-carry", type=int, default=None,
-                        help="frames a missed hand is followed by optical flow "
-                             "(handvar.tracking.hands.MISSED_CARRY)")  # fmt: skip
-    parser.add_argument("--hidden-frames", type=int, default=None,
-                        help="frames a hand behind or against the other is carried, "
-                             "held, at most GONE_FRAMES + 1 "
-                             "(handvar.tracking.hands.HIDDEN_FRAMES)")  # fmt: skip
-    parser.add_argument("--missed-frames", type=int, default=None,
-                        help="frames a hand missed in the open is carried, held "
-                             "(handvar.tracking.hands.MISSED_FRAMES)")  # fmt: skip
-    parser.add_argument("--held-view", type=float, default=None,
-                        help="confidence of the points a missed hand followed in one "
-                             "camera only is held at in the others "
-                             "(handvar.tracking.hands.HELD_VIEW)")  # fmt: skip
-    parser.add_argument("--same-hand", type=float, default=None,
-                        help="palm lengths within which two hands' views are one hand's "
-                             "(handvar.tracking.hands.SAME_HAND)")  # fmt: skip
-    parser.add_argument("--hidden-weight", type=float, default=None,
-                        help="confidence factor of a keypoint inside the outline of the "
-                             "hand in front (handvar.tracking.hands.HIDDEN_WEIGHT)")  # fmt: skip
-    parser.add_argument("--alone-palm", type=float, default=None,
-                        help="mm: the shortest palm a hand's views may make where no "
-                             "other hand's view is left over "
-                             "(handvar.tracking.hands.ALONE_PALM)")  # fmt: skip
+    for option, kind, constant, what in RULE_OPTIONS:  # the tracker's constants, per run
+        parser.add_argument(option, type=kind, default=None,
+                            help=f"{what} (handvar.tracking.hands.{constant})")  # fmt: skip
     parser.add_argument("--landmarks", default="full", choices=("full", "lite"),
                         help="MediaPipe's landmark model (the pipeline's: full)")  # fmt: skip
     parser.add_argument("--mirror", action="store_true",
@@ -579,13 +575,10 @@ def main() -> None:
         return
     import handvar.tracking.hands as rules
 
-    constants = {"side_run": "SIDE_RUN", "missed_carry": "MISSED_CARRY",
-                 "hidden_frames": "HIDDEN_FRAMES", "missed_frames": "MISSED_FRAMES",
-                 "same_hand": "SAME_HAND", "held_view": "HELD_VIEW",
-                 "alone_palm": "ALONE_PALM", "hidden_weight": "HIDDEN_WEIGHT"}  # fmt: skip
-    for option, constant in constants.items():
-        if getattr(args, option) is not None:  # the tracker's constant, for this run
-            setattr(rules, constant, getattr(args, option))
+    for option, _, constant, _ in RULE_OPTIONS:
+        value = getattr(args, option[2:].replace("-", "_"))
+        if value is not None:  # the tracker's constant, for this run
+            setattr(rules, constant, value)
     print(f"{args.detector} detector on every {args.every} frame(s), {args.cameras} camera(s), "
           f"{args.size[0]}x{args.size[1]}, seeds 0..{args.seeds - 1}")  # fmt: skip
     head = (f"{'case':<18}{'hand':<6}{'switches det/fit':>17}{'PCK det':>9}{'PCK fit':>9}"
