@@ -1033,7 +1033,7 @@ class HandsTracker:
             if k == j or given[hand.id][k] is not None:
                 continue
             rest = [e for e in detections[k] if e not in _given_values(given, k)]
-            alone = self._alone(hand, given, detections, j, k)
+            alone = len(rest) == 1 and self._alone(hand, given, detections[j], j, k)
             palm = (ALONE_PALM, PALM_MM[1]) if alone else PALM_MM
             gaps = [ray_points(cameras[j], d.points, cameras[k], e.points, palm)[1]
                     for e in rest]  # fmt: skip
@@ -1041,20 +1041,18 @@ class HandsTracker:
             if near:
                 given[hand.id][k] = min(near, key=lambda e: gaps[rest.index(e)])
 
-    def _alone(self, hand: _Hand, given, detections, j: int, k: int) -> bool:
-        """Rule 2: camera j's detections are all given and one of camera k's is left
-        over, while the other hand (tracking two) has been given its view in k: that
-        detection is no other hand's view, so the palm the views make is bounded below
-        by `ALONE_PALM`, not `PALM_MM` (which keeps two hands' views whose rays meet by
-        chance apart).  Tracking one hand, a second one may be in view, untracked."""
-        left_j = [e for e in detections[j] if e not in _given_values(given, j)]
-        left_k = [e for e in detections[k] if e not in _given_values(given, k)]
-        return (
-            not left_j
-            and len(left_k) == 1
-            and len(self.hands) > 1
-            and all(o is hand or given[o.id][k] is not None for o in self.hands)
-        )
+    def _alone(self, hand: _Hand, given, found_j: list, j: int, k: int) -> bool:
+        """Rule 2, for the one detection left over in camera k: camera j's detections
+        (`found_j`) are all given and the other hand (tracking two) has been given its
+        view in k, so that detection is no other hand's view and the palm the views make
+        is bounded below by `ALONE_PALM`, not `PALM_MM` (which keeps two hands' views
+        whose rays meet by chance apart).  Tracking one hand, a second one may be in
+        view, untracked."""
+        if len(self.hands) < 2 or any(o is not hand and given[o.id][k] is None
+                                      for o in self.hands):  # fmt: skip
+            return False
+        taken = _given_values(given, j)
+        return all(e in taken for e in found_j)
 
     def _carry(self, h: _Hand, greys, kps: list) -> list:
         """Per camera, the hand's last detection carried forward by optical flow
