@@ -101,13 +101,13 @@ def test_bank_experts_equal_the_standalone_predictors():
             np.testing.assert_allclose(P[EXPERTS.index(name)], p.predict(), rtol=1e-12, atol=1e-9)
 
 
-def _fast_blend_reference(X, var_blocks, gamma=0.8, var_memory=30.0, max_step=10.0, first_step=0.0):
+def _fast_blend_reference(X, var_blocks, gamma=0.8, var_memory=30.0, max_step=10.0, first_step=None):
     """The fast blend written plainly: every sum recomputed from the whole history.
 
     The block VAR's coefficients by discounted least squares on all equations so far
     (numpy's solve), the step bounds, and eq. 27's triangle fit by RVAR's exact
     ``fit_trust_weights`` on all scored frames with eq. 28's weights 2^−(T−t); until
-    a scored prediction has moved, `first_step` of the mean step.
+    a scored prediction has moved, eq. 26 with α = β = ½, or `first_step` of the mean step.
     """
     from handvar.predictors.rvar import fit_trust_weights
 
@@ -146,16 +146,16 @@ def _fast_blend_reference(X, var_blocks, gamma=0.8, var_memory=30.0, max_step=10
             moved = (np.abs(np.array(sv_hist) - prev) + np.abs(np.array(cv_hist) - prev)).sum(0) > 0
         sv_hist.append(sv)
         cv_hist.append(x + v)
-        out[n] = np.where(
-            moved,
-            x + gamma * (alpha * (sv - x) + beta * v),  # eq. 26
-            x + first_step * 0.5 * ((sv - x) + v),
-        )
+        if first_step is not None:
+            alpha[~moved] = beta[~moved] = 0.5 * first_step / gamma
+        else:
+            alpha[~moved] = beta[~moved] = 0.5
+        out[n] = x + gamma * (alpha * (sv - x) + beta * v)  # eq. 26
     return out
 
 
 @pytest.mark.parametrize(
-    ("var_blocks", "first_step"), [(None, 0.0), ([[0], [1, 2, 3], [4]], 0.0), (None, 0.8)]
+    ("var_blocks", "first_step"), [(None, None), ([[0], [1, 2, 3], [4]], None), (None, 0.0)]
 )
 def test_fast_blend_equals_a_plain_reference(var_blocks, first_step):
     rng = np.random.default_rng(12)
@@ -330,6 +330,23 @@ def test_bank_never_loses_to_the_best_baseline_on_the_shipped_recordings(experts
     assert len(ratios) == 15
     assert max(ratios.values()) <= 1.01, ratios
     assert sum(r < 1.0 for r in ratios.values()) >= len(ratios) / 2, ratios
+
+
+@pytest.mark.parametrize("clip", ["fingerspelling", "counting"])
+def test_both_banks_meet_the_rule_on_detected_landmarks_from_their_first_frame(clip):
+    # MediaPipe's image landmarks (px) over the clip's longest run of frames with a
+    # hand: short series whose hand moves fast from the start, where the second
+    # prediction (the fast blend's first step) weighs in the RMSE.
+    z = np.load(example_path(f"{clip}-mediapipe"))["landmarks_px"]
+    X = z.reshape(len(z), -1)
+    found = np.concatenate([[0], np.isfinite(X).all(1).astype(int), [0]])
+    edges = np.flatnonzero(np.diff(found))
+    start, stop = max(zip(edges[::2], edges[1::2]), key=lambda r: r[1] - r[0])
+    X = X[start:stop]
+    assert len(X) > 150
+    best = min(_baseline_rmse(X, X).values())
+    for experts in ("steering", "all"):
+        assert _bank_rmse(X, X, experts=experts) <= 1.01 * best, experts
 
 
 def test_the_whole_step_experts_join_the_steering_bank_on_slow_smooth_motion():

@@ -616,12 +616,13 @@ class AdaptiveBank:
         experts).  Chosen between the league's slow smooth rows, where that ratio's
         median is 0.04–0.15, and the benchmark tracked in closed loop, where its least
         is 0.52 (docs/predictors-notes.md).
-    first_step : float, default 0
+    first_step : float, optional
         The share of the step x̂ − x_T of ½ (x̂^SV + x̂^CV) that the fast blend carries
         until one of its scored predictions has moved (the first, made from one
-        frame, has not): at the series' second prediction.  0 predicts no motion
-        there; a step helps open loop on fast clips but lost steering the benchmark
-        (docs/predictors-notes.md).
+        frame, has not): at the series' second prediction.  Default `gamma`: the
+        fast blend with α = β = ½ before it has errors to fit them on.  0 predicts
+        no motion there, which loses open loop on clips that start fast and gains
+        nothing steering the benchmark (docs/predictors-notes.md).
 
     Notes
     -----
@@ -669,9 +670,8 @@ class AdaptiveBank:
         max_step: float | None = 10.0,
         ar_gate: float | None = 4.0,
         join: float | None = None,
-        first_step: float = 0.0,
+        first_step: float | None = None,
     ) -> None:
-        self.first_step = as_float(first_step, "first_step", minimum=0.0, maximum=1.0)
         self.ar_gate = (
             None
             if ar_gate is None
@@ -683,6 +683,11 @@ class AdaptiveBank:
             else as_float(max_step, "max_step", minimum=0.0, exclusive_minimum=True)
         )
         self.gamma = as_float(gamma, "gamma", minimum=0.0, maximum=1.0)
+        self.first_step = (
+            self.gamma
+            if first_step is None
+            else as_float(first_step, "first_step", minimum=0.0, maximum=1.0)
+        )
         self.var_memory = as_float(var_memory, "var_memory", minimum=1.0, exclusive_minimum=True)
         self.var_blocks = None if var_blocks is None else [[int(i) for i in b] for b in var_blocks]
         self.memory = as_float(memory, "memory", minimum=1.0, exclusive_minimum=True)
