@@ -10,11 +10,13 @@ prints
    for the bank of all twelve experts and for the steering bank;
 2. each expert's one-step RMSE over the finger angles (frames 31 on, degrees) measured
    against the tracker's estimates, as the bank sees them, in that closed-loop trial;
-3. the mean joint error (mm) of the tracker over trials 0..N−1 with banks of a few
-   expert sets, the fast blend alone and without its parts (a diagonal VAR instead of
-   eq. 25's blocks, no step bound), beside decelerating ρ = 0.4, 0.6, 1 and both
-   RVARs; and the same mean over frames 148–160 only, where the thumb crosses the palm
-   (``--window``; the thumb's flexion steps there are printed first);
+3. the mean joint error (mm) of the tracker over trials 0..N−1 (on an embedded Dask
+   cluster, one process per core) with banks of a few expert sets, the fast blend
+   alone and without its parts (a diagonal VAR instead of eq. 25's blocks, no step
+   bound), beside decelerating ρ = 0.4, 0.6, 1 and both RVARs; the same mean over
+   frames 148–160 only, where the thumb crosses the palm (``--window``; the thumb's
+   flexion steps there are printed first); its standard error over the trials and
+   its worst trial;
 4. with ``--join``, only the join rule's margins: for each expert of ``JOINING``, the
    ratio of its discounted squared error to the best steering expert's per hand group,
    frames 30 on (where the rule may act), as the steering bank without the rule sees it
@@ -207,13 +209,40 @@ def main() -> None:
     print(f"\nthumb flexion steps (deg/frame), frames {lo}-{hi}, the largest of the three: "
           + " ".join(f"{v:.1f}" for v in np.abs(steps).max(1)))  # fmt: skip
     print(f"\nmean joint error (mm) over trials 0..{args.trials - 1}, all frames and frames "
-          f"{lo}-{hi}; steering set: {', '.join(STEERING_EXPERTS)}")  # fmt: skip
-    print(f"{'predictor':<26}{'mean':>6}{f'{lo}-{hi}':>9}  per trial")
-    for name, make in cases.items():
-        per = [_track(sequence, make(), k) for k in range(args.trials)]
-        e = np.array(per)
-        print(f"{name:<26}{e.mean():6.2f}{e[:, lo : hi + 1].mean():9.2f}  "
-              + " ".join(f"{v:.2f}" for v in e.mean(1)), flush=True)  # fmt: skip
+          f"{lo}-{hi}, the standard error of the first over the trials, and its worst "
+          f"trial; steering set: {', '.join(STEERING_EXPERTS)}")  # fmt: skip
+    print(f"{'predictor':<26}{'mean':>6}{f'{lo}-{hi}':>9}{'s.e.':>6}{'worst':>7}  per trial")
+    for name, e in _errors(sequence, cases, args.trials):
+        per = e.mean(1)
+        listed = " ".join(f"{v:.2f}" for v in per) if len(per) <= 10 else ""
+        se = per.std(ddof=1) / np.sqrt(len(per)) if len(per) > 1 else np.nan
+        print(f"{name:<26}{e.mean():6.2f}{e[:, lo : hi + 1].mean():9.2f}{se:6.2f}"
+              f"{per.max():7.2f}  {listed}", flush=True)  # fmt: skip
+
+
+def _track_made(sequence, make, trial: int):
+    return _track(sequence, make(), trial)
+
+
+def _errors(sequence, cases: dict, trials: int):
+    """Yield (name, per-frame error (trials, frames)) per case, in order: every (case,
+    trial) a task on an embedded Dask cluster, one process per core (a trial is
+    deterministic, so the figures do not depend on where it runs)."""
+    import os
+
+    from distributed import Client, LocalCluster
+
+    with (
+        LocalCluster(n_workers=os.cpu_count() or 1, threads_per_worker=1) as cluster,
+        Client(cluster) as client,
+    ):
+        shared = client.scatter(sequence, broadcast=True)
+        futures = {
+            name: [client.submit(_track_made, shared, make, k, pure=False) for k in range(trials)]
+            for name, make in cases.items()
+        }
+        for name, fs in futures.items():
+            yield name, np.array(client.gather(fs))
 
 
 if __name__ == "__main__":

@@ -615,7 +615,7 @@ class AdaptiveBank:
         it.  Default 0.25 for ``experts="steering"``, else 0 (a list gets exactly its
         experts).  Chosen between the league's slow smooth rows, where that ratio's
         median is 0.04–0.15, and the benchmark tracked in closed loop, where its least
-        is 0.52 (docs/predictors-notes.md).
+        is 0.53 (docs/predictors-notes.md).
     first_step : float, optional
         The share of the step x̂ − x_T of ½ (x̂^SV + x̂^CV) that the fast blend carries
         until one of its scored predictions has moved (the first, made from one
