@@ -85,14 +85,14 @@ def recordings() -> list[Recording]:
     return out
 
 
-def _ratio(make, rec: Recording, blocks=None, first: int = 0) -> float:
+def _ratio(make, rec: Recording, blocks=None) -> float:
     """RMSE of a fresh predictor from `make` / the best baseline's, on `rec` (a noisy
-    copy scored against its clean series, as in the league), over rows `first` on."""
+    copy scored against its clean series, as in the league)."""
     truth = rec.X if rec.truth is None else rec.truth
 
     def rmse(p) -> float:
         P = one_step_predictions(p, rec.X, resets=rec.resets)
-        ok = np.isfinite(P).all(1) & (np.arange(len(P)) >= first)
+        ok = np.isfinite(P).all(1)
         return float(np.sqrt(np.mean((truth - P)[ok] ** 2)))
 
     preds = league_predictors(blocks, keys=())
