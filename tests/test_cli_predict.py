@@ -93,6 +93,33 @@ def test_pose_files_in_three_formats_read_the_same(tmp_path):
         np.testing.assert_allclose(read_pose_series(tmp_path / name), X, rtol=1e-15)
 
 
+def test_rows_without_values_split_the_series_as_resets_do(tmp_path):
+    # A detector's output has frames without a hand: rows of NaN.  They are left out
+    # and each run of rows with values is its own recording, exactly as the same rows
+    # without the gaps, reset where each gap ended.
+    rng = np.random.default_rng(3)
+    X = np.cumsum(rng.normal(size=(90, 6)), axis=0)
+    gappy = X.copy()
+    gappy[[0, 30, 31, 32, 60]] = np.nan
+    kept = np.delete(X, [0, 30, 31, 32, 60], axis=0)
+    np.save(tmp_path / "gappy.npy", gappy)
+    np.save(tmp_path / "kept.npy", kept)
+    runner = CliRunner()
+    a = runner.invoke(main, ["predict", str(tmp_path / "gappy.npy"), "--layout", "columns",
+                             "--csv", str(tmp_path / "a.csv")])  # fmt: skip
+    b = runner.invoke(main, ["predict", str(tmp_path / "kept.npy"), "--layout", "columns",
+                             "--reset-at", "29", "--reset-at", "56",
+                             "--csv", str(tmp_path / "b.csv")])  # fmt: skip
+    assert a.exit_code == b.exit_code == 0, a.output + b.output
+    assert "5 rows without values (NaN) left out; 3 runs" in a.output
+    assert (tmp_path / "a.csv").read_text() == (tmp_path / "b.csv").read_text()
+    partial = gappy.copy()
+    partial[10, 2] = np.nan  # a frame with some values missing is malformed, not a gap
+    np.save(tmp_path / "partial.npy", partial)
+    c = runner.invoke(main, ["predict", str(tmp_path / "partial.npy"), "--layout", "columns"])
+    assert c.exit_code == 2 and "row 10" in c.output, c.output
+
+
 def test_predict_errors_are_one_line(tmp_path):
     bad = tmp_path / "bad.txt"
     bad.write_text("1 2 3\n4 5 nan\n")

@@ -65,7 +65,9 @@ def predict_command(
     """Score every predictor one step ahead on the recorded poses in FILE(s).
 
     FILE is whitespace text, CSV or .npy; rows are frames, 26 columns (or 63 for
-    keypoints).  FILE:START:STOP takes rows START to STOP - 1.  With one FILE and no
+    keypoints).  FILE:START:STOP takes rows START to STOP - 1.  A row of NaN is a frame
+    without values (a detector that found no hand): it is left out, and each run of
+    rows with values is scored as its own recording.  With one FILE and no
     league option, prints per parameter group RMSE and mean absolute error (mm or
     degrees) and R̃² against no motion (> 0: better than no motion).  With several
     FILEs, --noise, --smooth, --train, --predictor or --figure, prints the league table: per
@@ -116,6 +118,8 @@ def _load_series(spec: str, option: str, *, layout: str, reset_at, stride: int):
     row), and its reset rows; errors name `option`."""
     import os
 
+    import numpy as np
+
     from handvar.evaluation.openloop import read_pose_series
 
     path, rows = spec, None
@@ -127,7 +131,7 @@ def _load_series(spec: str, option: str, *, layout: str, reset_at, stride: int):
             raise ValueError(
                 f"{option}: expected FILE or FILE:START:STOP with integer rows; got {spec!r}"
             ) from None
-    X = read_pose_series(path)
+    X = read_pose_series(path, missing=True)
     if layout == "htrack":
         from handvar.synth.motion import htrack_to_handvar
 
@@ -139,7 +143,7 @@ def _load_series(spec: str, option: str, *, layout: str, reset_at, stride: int):
         raise ValueError(f"{option}: expected rows within 0..{len(X)}; got {spec!r}")
     if any(r >= len(X) for r in reset_at):
         raise ValueError(f"--reset-at: expected rows below {len(X)}; got {list(reset_at)}")
-    biggest = float(max(X.max(), -X.min())) if X.size else 0.0  # no |X| copy
+    biggest = float(max(np.nanmax(X), -np.nanmin(X))) if X.size else 0.0  # no |X| copy
     if biggest > _MAX_SERIES_VALUE:  # finite, but beyond any pose: the arithmetic overflows
         raise ValueError(
             f"{path}: expected poses in mm and degrees (|value| <= {_MAX_SERIES_VALUE:g}); "
@@ -150,7 +154,26 @@ def _load_series(spec: str, option: str, *, layout: str, reset_at, stride: int):
     # Reset rows map onto the first kept frame at or after them.
     n = -(-len(X) // stride)
     resets = sorted({-(-r // stride) for r in local if -(-r // stride) < n})
-    return X[::stride], tuple(resets)
+    X = X[::stride]
+    gone = np.isnan(X).all(axis=1)
+    if gone.any():  # frames without values: each run of frames with them is a recording
+        kept = np.flatnonzero(~gone)
+        if len(kept) < 2:
+            raise ValueError(f"{path}: expected at least 2 rows with values; got {len(kept)}")
+        starts = kept[1:][np.diff(kept) > 1]  # the first row after each gap
+        # Every reset moves to the first kept row at or after it (rows of the kept series).
+        moved = {int(np.searchsorted(kept, r)) for r in (*resets, *starts)}
+        resets = sorted(moved - {0, len(kept)})
+        runs = (
+            f"{len(starts) + 1} runs of rows with values, each scored as its own recording"
+            if len(starts)
+            else "the rows with values scored as one recording"
+        )
+        click.echo(
+            f"{spec}: {int(gone.sum())} rows without values (NaN) left out; {runs}", err=True
+        )
+        X = X[kept]
+    return X, tuple(resets)
 
 
 def _print_table(file: str, load, layout: str, inner: str, csv_out) -> None:

@@ -142,8 +142,12 @@ class OpenLoopRow:
     frames: int
 
 
-def read_pose_series(path: str | os.PathLike) -> np.ndarray:
+def read_pose_series(path: str | os.PathLike, *, missing: bool = False) -> np.ndarray:
     """Read a pose series: whitespace text, CSV (header optional) or .npy; rows are frames.
+
+    With `missing`, a row that is NaN throughout is a frame without values (a detector
+    that found no hand) and is returned as it is; any other non-finite value is an
+    error.
 
     Returns
     -------
@@ -168,7 +172,14 @@ def read_pose_series(path: str | os.PathLike) -> np.ndarray:
                 X = np.loadtxt(path, ndmin=2)
     except ValueError as exc:
         raise ValueError(f"{path}: expected a table of numbers; {exc}") from None
-    return as_series(X, str(path))
+    if not missing or X.ndim != 2:
+        return as_series(X, str(path))
+    gone = np.isnan(X).all(axis=1)
+    if gone.all():
+        raise ValueError(f"{path}: expected rows with values; every row is NaN")
+    X = as_series(np.where(gone[:, None], 0.0, X), str(path))  # any other bad value
+    X[gone] = np.nan
+    return X
 
 
 def evaluate_open_loop(
