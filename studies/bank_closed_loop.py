@@ -226,16 +226,11 @@ def _track_made(sequence, make, trial: int):
 
 def _errors(sequence, cases: dict, trials: int):
     """Yield (name, per-frame error (trials, frames)) per case, in order: every (case,
-    trial) a task on an embedded Dask cluster, one process per core (a trial is
-    deterministic, so the figures do not depend on where it runs)."""
-    import os
+    trial) a task on the experiment's embedded Dask cluster, one process per core (a
+    trial is deterministic, so the figures do not depend on where it runs)."""
+    from handvar.evaluation.experiment import cluster_client
 
-    from distributed import Client, LocalCluster
-
-    with (
-        LocalCluster(n_workers=os.cpu_count() or 1, threads_per_worker=1) as cluster,
-        Client(cluster) as client,
-    ):
+    with cluster_client() as client:
         shared = client.scatter(sequence, broadcast=True)
         futures = {
             name: [client.submit(_track_made, shared, make, k, pure=False) for k in range(trials)]

@@ -1084,8 +1084,8 @@ def test_a_hands_views_that_make_a_short_palm_are_paired_where_no_other_hands_ar
     # a hand whose points triangulate to a 32 mm palm (under PALM_MM's 50 mm, as
     # MediaPipe's points of a rendered hand did), given camera 0's view, the other hand
     # (200 mm aside) given its views in both: the one detection left over in camera 1
-    # is the hand's (before, it was never paired: the hand was fitted to one view, off
-    # in depth). Without the other hand's view in camera 1, the palm stays bounded:
+    # is the hand's (unpaired, the hand would be fitted to one view, off in depth).
+    # Without the other hand's view in camera 1, the palm stays bounded:
     # the view left over may be that hand's, its rays meeting the first's by chance.
     from handvar.vision.keypoints import PALM_MM
 
