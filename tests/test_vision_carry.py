@@ -246,6 +246,31 @@ def test_both_ways_recovers_a_point_lost_forwards():
     np.testing.assert_allclose(both.xy[2:4, 0], 80.0, atol=0.05)
 
 
+def test_both_ways_a_point_followed_one_way_and_held_the_other_is_the_followed_one():
+    base, patch = texture(), texture(seed=7)[60:100, 60:100]
+    frames = []
+    for t in range(5):  # from frame 1 a patch covers the point, moving 2 px a frame
+        image = base.copy()
+        if t:
+            image[60:100, 60 + 2 * t : 100 + 2 * t] = patch
+        frames.append(shifted(image, 0, 0))
+    detected = np.full((5, 21, 3), np.nan)
+    still = [[25.0, 25.0], [30.0, 130.0], [130.0, 30.0], [130.0, 135.0]]  # off the patch
+    detected[[0, 4], 1:5, :2], detected[[0, 4], 1:5, 2] = still, 1.0
+    detected[0, 0], detected[4, 0] = [80.0, 80.0, 1.0], [88.0, 80.0, 1.0]
+    kp = Keypoints2D.from_array(detected)
+    forward = carry_keypoints(frames, kp)
+    np.testing.assert_allclose(forward.confidence[1:4, 0], 0.5)  # lost, held where it was
+    np.testing.assert_allclose(forward.xy[1:4, 0], 80.0, atol=0.05)
+    both = carry_keypoints(frames, kp, both=True)
+    # followed back from frame 4 on the patch: where it is, not a blend with the held one
+    # (which would put it 1.5, 2 and 1.5 px short on frames 1-3)
+    truth = np.column_stack([80.0 + 2 * np.arange(1, 4), np.full(3, 80.0)])
+    np.testing.assert_allclose(both.xy[1:4, 0], truth, atol=0.1)
+    np.testing.assert_allclose(both.confidence[1:4, 0], 1.0)
+    np.testing.assert_allclose(both.xy[1:4, 1:5], np.broadcast_to(still, (3, 4, 2)), atol=0.05)
+
+
 def test_a_stereo_source_carries_each_cameras_keypoints_in_its_scaled_pixels(tmp_path):
     from handvar.camera import Rig
     from tests.test_vision_sources import write_folder

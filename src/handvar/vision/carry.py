@@ -189,6 +189,11 @@ class KeypointCarrier:
         """Points of the last detection the flow still follows (not held)."""
         return int(np.count_nonzero(self._followed))
 
+    @property
+    def following(self) -> np.ndarray:
+        """(21,) bool: the points of the last detection the flow still follows (a copy)."""
+        return self._followed.copy()
+
     def step(self, image, keypoints=None) -> np.ndarray | None:
         """This frame's keypoints: detected, else carried from the previous frame.
 
@@ -300,7 +305,8 @@ class TwoWayCarrier:
         self._t = -1  # the frame given last
         self._last: int | None = None  # the frame of the last detection
         self._across = False  # the gap since it is short enough to carry across
-        self._gap: list[tuple[int, np.ndarray, np.ndarray | None]] = []  # t, grey, forward
+        # t, grey, the points carried forward and which of them the flow follows
+        self._gap: list[tuple[int, np.ndarray, np.ndarray | None, np.ndarray]] = []
 
     def step(self, image, keypoints=None) -> list[tuple[int, np.ndarray | None]]:
         """Give frame t (the next) and its detection; the frames now final, in order."""
@@ -312,7 +318,7 @@ class TwoWayCarrier:
             out = self._blend(grey, detection)
             self._last, self._across, self._gap = self._t, True, []
             return [*out, (self._t, forward)]
-        self._gap.append((self._t, grey, forward))
+        self._gap.append((self._t, grey, forward, self._forward.following))
         if len(self._gap) > self.settings.max_frames:  # a gap too long to carry across
             self._across = False  # the next detection starts a run
             return [self._after_run(*self._gap.pop(0))]
@@ -326,7 +332,7 @@ class TwoWayCarrier:
         out, self._gap = [self._after_run(*held) for held in self._gap], []
         return out
 
-    def _after_run(self, t, grey, forward) -> tuple[int, np.ndarray | None]:
+    def _after_run(self, t, grey, forward, following) -> tuple[int, np.ndarray | None]:
         """A frame given out after the last detection of a run: its points carried
         forward within `reach` frames of that detection, none beyond."""
         near = self._last is not None and t - self._last <= self.reach
@@ -335,17 +341,20 @@ class TwoWayCarrier:
     def _blend(self, grey, detection) -> list[tuple[int, np.ndarray | None]]:
         """Carry `detection` back over the held frames and blend (module notes).
 
-        A point carried both ways is the mean of the two weighted by the nearness of
-        each detection, w_f = k_b / (k_f + k_b) on the forward point, which is k_f
-        frames after its detection, and 1 − w_f on the backward one, k_b frames before
-        this detection; a point carried one way only is that one.
+        A point the flow follows both ways is the mean of the two weighted by the
+        nearness of each detection, w_f = k_b / (k_f + k_b) on the forward point, which
+        is k_f frames after its detection, and 1 − w_f on the backward one, k_b frames
+        before this detection; so is a point the flow lost both ways (held both ways).
+        A point followed one way and held the other is the followed one: a held point
+        only moves with the hand (`KeypointCarrier`), and the flow loses mostly the fast
+        points, which have moved on.  A point carried one way only is that one.
         """
         back = KeypointCarrier(self.settings)
         back.step(grey, detection)
         out = []
         going = True  # the backward carry still has points
         lead = self.settings.lead_points
-        for t, g, f in reversed(self._gap):
+        for t, g, f, f_follows in reversed(self._gap):
             skipped = self._t - t <= self.reach  # a frame the detector did not look at
             if not self._across:  # before a run: carried back while the flow follows
                 going = going and (skipped or lead is not None)
@@ -362,7 +371,11 @@ class TwoWayCarrier:
                 continue
             fwd, bwd = f[:, 2] > 0, b[:, 2] > 0
             k_b = self._t - t
-            w = k_b / ((t - self._last) + k_b)
+            w = np.full(N_KEYPOINTS, k_b / ((t - self._last) + k_b))
+            b_follows = back.following
+            w[f_follows & ~b_follows] = 1.0
+            w[b_follows & ~f_follows] = 0.0
+            w = w[:, None]
             mixed = w * np.nan_to_num(f) + (1.0 - w) * np.nan_to_num(b)
             k = np.where((fwd & bwd)[:, None], mixed, np.where(bwd[:, None], b, f))
             out.append((t, k))
