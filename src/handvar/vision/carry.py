@@ -332,7 +332,7 @@ class TwoWayCarrier:
         out, self._gap = [self._after_run(*held) for held in self._gap], []
         return out
 
-    def _after_run(self, t, grey, forward, following) -> tuple[int, np.ndarray | None]:
+    def _after_run(self, t, grey, forward, _following) -> tuple[int, np.ndarray | None]:
         """A frame given out after the last detection of a run: its points carried
         forward within `reach` frames of that detection, none beyond."""
         near = self._last is not None and t - self._last <= self.reach
