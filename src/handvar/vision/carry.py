@@ -321,7 +321,8 @@ class TwoWayCarrier:
         self._gap.append((self._t, grey, forward, self._forward.following))
         if len(self._gap) > self.settings.max_frames:  # a gap too long to carry across
             self._across = False  # the next detection starts a run
-            return [self._after_run(*self._gap.pop(0))]
+            t, _, forward, _ = self._gap.pop(0)
+            return [self._after_run(t, forward)]
         return []
 
     def flush(self) -> list[tuple[int, np.ndarray | None]]:
@@ -329,10 +330,10 @@ class TwoWayCarrier:
         there, except to the `reach` frames right after it, which keep the points
         carried forward (the detector did not look at them:
         `until_next_detection`'s online rule)."""
-        out, self._gap = [self._after_run(*held) for held in self._gap], []
+        out, self._gap = [self._after_run(t, forward) for t, _, forward, _ in self._gap], []
         return out
 
-    def _after_run(self, t, grey, forward, _following) -> tuple[int, np.ndarray | None]:
+    def _after_run(self, t, forward) -> tuple[int, np.ndarray | None]:
         """A frame given out after the last detection of a run: its points carried
         forward within `reach` frames of that detection, none beyond."""
         near = self._last is not None and t - self._last <= self.reach
