@@ -19,8 +19,9 @@ keypoints and for each fit:
   error (px), over every camera;
 - wrist-relative MPJPE, PA-MPJPE (similarity Procrustes per frame), the AUC of 3D PCK
   over 20–50 mm (of the wrist-relative errors) and the absolute 3D error (world frame,
-  the cameras are calibrated), mm; for the raw keypoints "–" (no 3D in mono; stereo
-  keypoints are not triangulated here);
+  the cameras are calibrated), mm; for the raw keypoints "–" (no 3D in mono), beside
+  them what a user has without the fit: with two cameras the keypoints triangulated
+  point by point, and their every 5th frame held or interpolated;
 - lost frames (quality.csv's ``lost``; for the raw keypoints, the missed frames of
   camera 0);
 - the keypoint check (docs/keypoint-fit.md) over the frames whose detection the fit was
@@ -628,9 +629,8 @@ def main() -> None:
                                                       args.world, args.side)  # fmt: skip
                 # the fit every 5th frame is given these detections thinned
                 rows += baseline_rows(case, detector, label)
-            else:
-                raw = scores(case, case.keypoints, None, case.missed[0], None)
-                rows.append((label, "keypoints", raw))
+            else:  # the simulated detector: its points, triangulated, every 5th frame
+                rows += baseline_rows(case, {"xy": case.keypoints, "world": None}, label)
             if not args.no_fit:
                 for every in (1, 5):
                     world = "-world" if args.world else ""
