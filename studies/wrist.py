@@ -25,7 +25,12 @@ from handvar.vision.wrist import forearm_wrist, palm_wrist, wrist_from_keypoints
 
 VIDEO = example_path("video")
 KEYPOINTS = example_path("video-keypoints")
-GROUPS = {"all": (0, 621), "fist 255-280": (255, 281), "edge-on 459-620": (459, 621)}
+GROUPS = {
+    "all": (0, 621),
+    "fist 255-280": (255, 281),
+    "edge-on 459-620": (459, 621),
+    "edge-on turn 554-567": (554, 568),
+}
 
 
 def signed_distance(cut, wrist: np.ndarray) -> float:
