@@ -10,18 +10,33 @@ the distance from the cut line to the detected wrist in hand sizes (the detected
 many frames got no cut.  A cut on the forearm side of the wrist is positive.
 
 Run: ``PYTHONPATH=src .venv/bin/python studies/wrist.py [--scale 0.5] [--step 1]``
+
+``--realistic DIR`` measures the forearm cut against the truth instead: on the realistic
+benchmark's 16 cases (``studies/realistic.py``; DIR as made by ``--out DIR``, the cases
+generated if missing), every ``--step``-th frame (2 by default) of each camera, the skin
+silhouette as the tracker makes it without keypoints (the component kept where the true
+silhouette lies, as the tracker keeps the one its prediction overlaps), on the frames
+where it holds the hand (IoU with the true silhouette ≥ 0.3) and leaves the image (where
+the forearm cut applies): the same figures against the rendered wrist, per motion, and
+the cuts that went into the hand by more than half a hand size.
 """
 
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
+import cv2
 import numpy as np
 
 from handvar.data import example_path
+from handvar.evaluation.realistic import read_case
+from handvar.tracking.tracker import silhouette_iou
 from handvar.vision.keypoints import read_keypoints
+from handvar.vision.silhouette import EmptySilhouetteError, silhouettes_from_frames
 from handvar.vision.sources import open_source
 from handvar.vision.wrist import forearm_wrist, palm_wrist, wrist_from_keypoints
+from realistic import generate, specs
 
 VIDEO = example_path("video")
 KEYPOINTS = example_path("video-keypoints")
@@ -38,11 +53,74 @@ def signed_distance(cut, wrist: np.ndarray) -> float:
     return float((cut.wrist - wrist) @ cut.direction)
 
 
+HEADER = (f"{'method':>12} {'frames':>20} {'n':>4} {'no cut':>6} {'median':>7} "
+          f"{'|d| p90':>7} {'|d|<0.25':>8} {'into >0.5':>9}")  # fmt: skip
+
+
+def print_row(name: str, group: str, v: np.ndarray) -> None:
+    """One row of signed distances `v` (hand sizes, NaN: no cut)."""
+    cut = v[~np.isnan(v)]
+    med = np.median(cut) if cut.size else np.nan
+    p90 = np.percentile(np.abs(cut), 90) if cut.size else np.nan
+    within = np.mean(np.abs(v) < 0.25)  # no cut counts as a miss
+    print(f"{name:>12} {group:>20} {len(v):>4} {int(np.isnan(v).sum()):>6} "
+          f"{med:>7.2f} {p90:>7.2f} {within:>8.0%} {int((cut < -0.5).sum()):>9}")  # fmt: skip
+
+
+def realistic(directory: Path, step: int) -> None:
+    """The forearm cut against the rendered wrists (module notes)."""
+    d: dict[str, list[float]] = {}
+    for spec in specs(quick=False):
+        generate(spec, directory / spec.name)
+        case = read_case(directory / spec.name, frames=True)
+        for j in range(len(case.rig)):
+            for t in range(0, case.n_frames, step):
+                true = case.masks[j][t]
+                image = cv2.cvtColor(case.frames[j][t], cv2.COLOR_RGB2BGR)
+                try:
+                    (m,) = silhouettes_from_frames([image], near=[true])
+                except EmptySilhouetteError:
+                    continue
+                leaves = m[0].any() or m[-1].any() or m[:, 0].any() or m[:, -1].any()
+                if not leaves or silhouette_iou(m[None], true[None])[0] < 0.3:
+                    continue
+                k = case.truth_2d[j][t]
+                size = float(np.linalg.norm(k[9, :2] - k[0, :2]))
+                cut = forearm_wrist(m)
+                x = np.nan if cut is None else signed_distance(cut, k[0, :2]) / size
+                d.setdefault(spec.name.split("-")[0], []).append(x)
+    print(
+        f"realistic benchmark, every {step} frame(s) of each camera where the skin "
+        "silhouette holds the hand and leaves the image:"
+    )
+    print("cut line - true wrist, hand sizes, + towards the forearm")
+    print(HEADER)
+    for group, v in d.items():
+        print_row("forearm", group, np.array(v))
+    print_row("forearm", "all", np.concatenate([np.array(v) for v in d.values()]))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scale", type=float, default=0.5)
-    parser.add_argument("--step", type=int, default=1)
+    parser.add_argument(
+        "--step",
+        type=int,
+        default=None,
+        help="every N-th frame (1 on the video, 2 with --realistic)",
+    )
+    parser.add_argument(
+        "--realistic",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="against the truth on the realistic benchmark in DIR",
+    )
     args = parser.parse_args()
+    if args.realistic is not None:
+        realistic(args.realistic, args.step or 2)
+        return
+    args.step = args.step or 1
     source = open_source(VIDEO, scale=args.scale)
     kp = read_keypoints(KEYPOINTS).scaled(args.scale, (1280, 720))
     methods = {
@@ -59,17 +137,10 @@ def main() -> None:
             d[name][t] = np.nan if cut is None else signed_distance(cut, k[0, :2]) / size
     print(f"example video at scale {args.scale}, every {args.step} frame(s): cut line - wrist,")
     print("hand sizes (wrist to middle MCP), + towards the forearm")
-    print(f"{'method':>12} {'frames':>16} {'n':>4} {'no cut':>6} {'median':>7} "
-          f"{'|d| p90':>7} {'|d|<0.25':>8}")  # fmt: skip
+    print(HEADER)
     for name in methods:
         for group, (a, b) in GROUPS.items():
-            v = np.array([x for t, x in d[name].items() if a <= t < b])
-            cut = v[~np.isnan(v)]
-            med = np.median(cut) if cut.size else np.nan
-            p90 = np.percentile(np.abs(cut), 90) if cut.size else np.nan
-            within = np.mean(np.abs(v) < 0.25)  # no cut counts as a miss
-            print(f"{name:>12} {group:>16} {len(v):>4} {int(np.isnan(v).sum()):>6} "
-                  f"{med:>7.2f} {p90:>7.2f} {within:>8.0%}")  # fmt: skip
+            print_row(name, group, np.array([x for t, x in d[name].items() if a <= t < b]))
 
 
 if __name__ == "__main__":
