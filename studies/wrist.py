@@ -6,8 +6,9 @@ forearm heuristic (`handvar.vision.wrist.forearm_wrist`) and by the keypoint cut
 (`handvar.vision.wrist.wrist_from_keypoints`).  The reference is the shipped MediaPipe
 wrist (``dex-human-hand-video-keypoints.npy``).  Printed per method and frame group:
 the distance from the cut line to the detected wrist in hand sizes (the detected wrist
-→ middle-MCP distance): median, 90th percentile, share of frames within 0.25, and how
-many frames got no cut.  A cut on the forearm side of the wrist is positive.
+→ middle-MCP distance): median, 90th percentile, share of frames within 0.25, how
+many frames got no cut, and how many cuts lie more than half a hand size into the hand
+("into >0.5").  A cut on the forearm side of the wrist is positive.
 
 Run: ``PYTHONPATH=src .venv/bin/python studies/wrist.py [--scale 0.5] [--step 1]``
 
