@@ -18,8 +18,9 @@ generated if missing), every ``--step``-th frame (2 by default) of each camera, 
 silhouette as the tracker makes it without keypoints (the component kept where the true
 silhouette lies, as the tracker keeps the one its prediction overlaps), on the frames
 where it holds the hand (IoU with the true silhouette ≥ 0.3) and leaves the image (where
-the forearm cut applies): the same figures against the rendered wrist, per motion, and
-the cuts that went into the hand by more than half a hand size.
+the forearm cut applies): the same figures against the rendered wrist for the three
+routes (the keypoint cut on the simulated detector's points, what a detector alone
+gives), per motion.
 """
 
 from __future__ import annotations
@@ -69,8 +70,8 @@ def print_row(name: str, group: str, v: np.ndarray) -> None:
 
 
 def realistic(directory: Path, step: int) -> None:
-    """The forearm cut against the rendered wrists (module notes)."""
-    d: dict[str, list[float]] = {}
+    """The three routes against the rendered wrists (module notes)."""
+    d: dict[str, dict[str, list[float]]] = {}
     for spec in specs(quick=False):
         generate(spec, directory / spec.name)
         case = read_case(directory / spec.name, frames=True)
@@ -87,18 +88,25 @@ def realistic(directory: Path, step: int) -> None:
                     continue
                 k = case.truth_2d[j][t]
                 size = float(np.linalg.norm(k[9, :2] - k[0, :2]))
-                cut = forearm_wrist(m)
-                x = np.nan if cut is None else signed_distance(cut, k[0, :2]) / size
-                d.setdefault(spec.name.split("-")[0], []).append(x)
+                cuts = {
+                    "palm centre": palm_wrist(m),
+                    "forearm": forearm_wrist(m),
+                    "keypoints": wrist_from_keypoints(case.keypoints[j][t], m.shape),
+                }
+                for name, cut in cuts.items():
+                    x = np.nan if cut is None else signed_distance(cut, k[0, :2]) / size
+                    d.setdefault(name, {}).setdefault(spec.name.split("-")[0], []).append(x)
     print(
         f"realistic benchmark, every {step} frame(s) of each camera where the skin "
-        "silhouette holds the hand and leaves the image:"
+        "silhouette holds the hand and leaves the image (keypoints: the simulated "
+        "detector's, no cut where it missed the hand):"
     )
     print("cut line - true wrist, hand sizes, + towards the forearm")
     print(HEADER)
-    for group, v in d.items():
-        print_row("forearm", group, np.array(v))
-    print_row("forearm", "all", np.concatenate([np.array(v) for v in d.values()]))
+    for name, groups in d.items():
+        for group, v in groups.items():
+            print_row(name, group, np.array(v))
+        print_row(name, "all", np.concatenate([np.array(v) for v in groups.values()]))
 
 
 def main() -> None:
