@@ -38,6 +38,15 @@ so that the predictor is what differs.  Printed per predictor:
   ``--largest`` tracks with the largest component instead
   (`RecoverySettings.skin_where_expected` off), to compare the two rules.
 
+``--shape``: each video tracked with the person's hand instead of the default one: the
+hand the one command fits to MediaPipe's keypoints (``handvar track VIDEO --scale 0.5
+--out DIR``, the detector inside), given to both commands (``handvar init ... --shape
+DIR`` and ``handvar track ... --detector none --shape DIR``); the fit still gets no
+keypoint.  Silhouettes do not tell where the knuckles lie along the hand, keypoints do.
+Printed beside each row: the median distance (hand sizes) along the hand (the
+keypoints' wrist → middle MCP) of the projected MCPs from MediaPipe's, negative towards
+the wrist.
+
 ``--strip DIR`` draws, per video (and for the realistic case whose predictors are off
 the hand most), the hardest stretch: six frames of the window of 12 where the
 predictors are off the hand most often, one row per predictor (the model's joints and
@@ -68,7 +77,7 @@ import handvar
 from handvar.data import example_path
 from handvar.evaluation.claims import LOSS_MM
 from handvar.evaluation.metrics import joint_errors, pck_2d
-from handvar.hand.anthropometry import MIDDLE_MCP, WRIST
+from handvar.hand.anthropometry import MIDDLE_MCP, WRIST, HandShape
 from handvar.render import draw_overlay
 from handvar.render.overlay import side_by_side
 from handvar.tracking.recovery import RecoverySettings
@@ -94,8 +103,9 @@ STRIP_FRAMES = 6
 STRIP_WIDTH = 200  # px: one tile of the strip, a square about the reference points
 
 
-def first_pose(video: Path, seed: int) -> np.ndarray | None:
-    """The first pose as ``handvar init VIDEO --scale 0.5`` finds it in frame 0's silhouette.
+def first_pose(video: Path, seed: int, shape: Path | None = None) -> np.ndarray | None:
+    """The first pose as ``handvar init VIDEO --scale 0.5 [--shape DIR]`` finds it in
+    frame 0's silhouette.
 
     None when the command finds none there (a clip without a hand in its first frame):
     `handvar.track` then searches the pose itself.
@@ -104,7 +114,8 @@ def first_pose(video: Path, seed: int) -> np.ndarray | None:
         out = Path(tmp) / "x0.txt"
         done = subprocess.run(
             [sys.executable, "-m", "handvar", "init", str(video), "--scale", str(SCALE),
-             "--seed", str(seed), "--out", str(out)],
+             "--seed", str(seed), "--out", str(out),
+             *(["--shape", str(shape)] if shape is not None else [])],
             capture_output=True, text=True, check=False,
         )  # fmt: skip
         if done.returncode != 0:
@@ -120,6 +131,19 @@ def distances(truth: np.ndarray, estimate: np.ndarray) -> np.ndarray:
     """
     size = np.linalg.norm(truth[:, MIDDLE_MCP] - truth[:, WRIST], axis=-1)
     return np.linalg.norm(estimate - truth, axis=-1).mean(axis=1) / size
+
+
+#: The four fingers' MCPs (MediaPipe's order).
+MCPS = (5, 9, 13, 17)
+
+
+def mcp_along(reference: np.ndarray, estimate: np.ndarray) -> float:
+    """Median offset of the estimate's finger MCPs from the reference's along the hand
+    (the reference's wrist → middle MCP), in its length; negative towards the wrist."""
+    axis = reference[:, MIDDLE_MCP] - reference[:, WRIST]
+    length = np.linalg.norm(axis, axis=-1)
+    along = np.einsum("tkc,tc->tk", estimate[:, MCPS] - reference[:, MCPS], axis)
+    return float(np.nanmedian(along / length[:, None] ** 2))
 
 
 def longest_run(flags: np.ndarray) -> tuple[int, int]:
@@ -159,22 +183,41 @@ def figures(track, reference: np.ndarray, estimate: np.ndarray, scored: np.ndarr
         "off_start": start,
         "off_flags": off,
         "median_d": float(np.nanmedian(d)),
+        "mcp_along": mcp_along(reference[scored], estimate[scored]),
         "iou": float(np.mean(q.iou[~q.empty])),
         "ms": 1e3 * track.stage_seconds["tracking"] / n,
     }
 
 
+def person_shape(video: Path, out: Path) -> Path:
+    """The person's hand: `video` tracked by the one command (the detector inside,
+    ``handvar track VIDEO --scale 0.5 --out OUT``), whose track holds the hand fitted
+    to its keypoints; `out`, for ``--shape``."""
+    person = handvar.track(video, scale=SCALE)
+    person.save(out, video=False, overlays=False)
+    shape = person.shape
+    default = HandShape.from_size(side=shape.side)
+    print(f"  the person's hand (the one command's track): wrist → middle MCP "
+          f"{shape.bases[2, 1]:.1f} mm, the middle finger's bones "
+          f"{', '.join(f'{b:.1f}' for b in shape.segments[2])} mm; the default hand "
+          f"{default.bases[2, 1]:.1f} and {', '.join(f'{b:.1f}' for b in default.segments[2])}",
+          flush=True)  # fmt: skip
+    return out
+
+
 def run(name: str, predictors, frames: int | None, seed: int, strip: Path | None,
-        recovery=None) -> dict:  # fmt: skip
-    """Track video `name` with each predictor from one first pose; their figures."""
+        recovery=None, shape: Path | None = None) -> dict:  # fmt: skip
+    """Track video `name` with each predictor from one first pose (the default hand, or
+    the track `shape`'s); their figures."""
     video = example_path(name)
     keypoints = read_keypoints(example_path(f"{name}-keypoints"))
-    x0 = first_pose(video, seed)
+    x0 = first_pose(video, seed, shape)
     rows, tracks = {}, {}
     for p in predictors:
         t0 = time.perf_counter()
         track = handvar.track(video, scale=SCALE, detector="none", predictor=p, init=x0,
-                              seed=seed, frames=frames, recovery=recovery)  # fmt: skip
+                              seed=seed, frames=frames, recovery=recovery,
+                              shape=shape)  # fmt: skip
         rows[p] = score(track, keypoints)
         rows[p]["wall"] = time.perf_counter() - t0
         tracks[p] = track
@@ -204,7 +247,7 @@ def _print_row(p: str, r: dict) -> None:
     print(
         f"  {p:15s} lost {r['lost']:3d}  reinit {r['reinit']:3d}  PCK {r['pck']:.3f}  "
         f"off {r['off']:3d} (longest {r['off_run']} from {r['off_start']})  "
-        f"{r['ms']:.1f} ms/frame  ({r['wall']:.0f} s){extra}",
+        f"MCPs {r['mcp_along']:+.2f}  {r['ms']:.1f} ms/frame  ({r['wall']:.0f} s){extra}",
         flush=True,
     )
 
@@ -445,15 +488,17 @@ def table(results: dict) -> str:
     """The results as a Markdown table."""
     lines = [
         "| video | predictor | lost | re-initialised | PCK@0.2 | frames > 0.5 hand sizes "
-        "(longest run, from) | median distance, hand sizes | mean IoU | ms/frame |",
-        "|---|---|---:|---:|---:|---|---:|---:|---:|",
+        "(longest run, from) | median distance, hand sizes | MCPs along the hand | mean IoU | "
+        "ms/frame |",
+        "|---|---|---:|---:|---:|---|---:|---:|---:|---:|",
     ]
     for name, rows in results.items():
         for p, r in rows.items():
             lines.append(
                 f"| {name} ({r['scored']} of {r['frames']} scored) | {p} | {r['lost']} | "
                 f"{r['reinit']} | {r['pck']:.3f} | {r['off']} ({r['off_run']}, "
-                f"{r['off_start']}) | {r['median_d']:.3f} | {r['iou']:.3f} | {r['ms']:.1f} |"
+                f"{r['off_start']}) | {r['median_d']:.3f} | {r['mcp_along']:+.2f} | "
+                f"{r['iou']:.3f} | {r['ms']:.1f} |"
             )
     return "\n".join(lines)
 
@@ -474,6 +519,8 @@ def main() -> None:
                         help="write the overlay strip of the hardest stretch into DIR")  # fmt: skip
     parser.add_argument("--spread", action="store_true",
                         help="the default example track with seeds 0, 1, 2")  # fmt: skip
+    parser.add_argument("--shape", action="store_true",
+                        help="the person's hand, as the one command's track fits it")  # fmt: skip
     parser.add_argument("--largest", action="store_true",
                         help="keep the largest skin component, not the one where the hand "
                              "is expected (RecoverySettings.skin_where_expected)")  # fmt: skip
@@ -495,9 +542,12 @@ def main() -> None:
         return
     results = {}
     names = args.video or (VIDEOS if args.videos else VIDEOS[:1])
-    for name in names:
-        print(f"{name}: {example_path(name).name}", flush=True)
-        results[name] = run(name, predictors, args.frames, args.seed, args.strip, recovery)
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in names:
+            print(f"{name}: {example_path(name).name}", flush=True)
+            shape = person_shape(example_path(name), Path(tmp) / name) if args.shape else None
+            results[name] = run(name, predictors, args.frames, args.seed, args.strip,
+                                recovery, shape)  # fmt: skip
     print()
     print(table(results))
     for name, rows in results.items():

@@ -332,6 +332,8 @@ CASES = [
     _c("track-init-nan", "track {r}/seq --init {r}/nan_pose.txt --out {r}/t1", "nan_pose"),
     _c("track-hand-length", "track {r}/seq --hand-length 10 --out {r}/t1", "--hand-length"),
     _c("track-calib-on-seq", "track {r}/seq --calib {r}/existing.txt --out {r}/t1", "--calib"),
+    _c("track-shape-no-track", "track {r}/seq --shape {r}/adir --out {r}/t1", "--shape"),
+    _c("track-shape-a-file", "track {r}/seq --shape {r}/existing.txt --out {r}/t1", "--shape"),
     _c("track-truncated-png", "track {r}/seq_trunc --out {r}/track_out", "mask_00001.png"),
     _c("track-far-truth", "track {r}/seq_far --out {r}/track_out",
        "truth.npz: poses: expected a pose within the parameter limits; tz = 1e+12 at frame 1"),
@@ -349,6 +351,7 @@ CASES = [
     # init
     _c("init-missing-source", "init {r}/nofile.mp4 --out {r}/existing.txt", "nofile.mp4"),
     _c("init-out-dir", "init {r}/seq --out {r}/adir", "adir"),
+    _c("init-shape-no-track", "init {r}/seq --shape {r}/adir --out {r}/existing.txt", "--shape"),
     _c("init-overlay-no-folder",
        "init {r}/seq --out {r}/existing.txt --overlay {r}/nodir/o.png", "--overlay"),
     _c("init-overlay-suffix",

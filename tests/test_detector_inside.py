@@ -405,6 +405,30 @@ def test_hand_tracker_in_a_users_loop_follows_the_detections():
     assert np.median(error) < 0.2 * size
 
 
+def test_hand_tracker_holds_a_shape_given():
+    """Over 14 frames with keypoints the tracker fits the hand's proportions to the first
+    12; with a shape given (a left hand of 170 mm, the side it then tracks) it keeps it."""
+    from handvar.hand.anthropometry import HandShape
+
+    shipped = read_keypoints(KEYPOINTS)
+    given = HandShape.from_size(170.0, side="left")
+    hands = {}
+    for key, options in (("fitted", {"hand": "left", "hand_length": 170.0}),
+                         ("held", {"shape": given})):  # fmt: skip
+        count = iter(range(14))
+        tracker = handvar.HandTracker(
+            detector=lambda image, count=count: shipped.frame(next(count)), **options
+        )
+        for frame in _frames(VIDEO, 14):
+            tracker.process(frame)
+        hands[key] = tracker.hand.shape
+    assert not np.allclose(hands["fitted"].segments, given.segments)
+    assert hands["held"].side == "left"
+    np.testing.assert_array_equal(hands["held"].segments, given.segments)
+    with pytest.raises(ValueError, match="hand: expected auto or left, the side of the shape"):
+        handvar.HandTracker(detector="none", hand="right", shape=given)
+
+
 def test_hand_tracker_gives_no_hand_until_the_detector_finds_one():
     found = iter([None, None, np.full((21, 2), np.nan)])
     tracker = handvar.HandTracker(detector=lambda image: next(found))

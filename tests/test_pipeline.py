@@ -14,7 +14,7 @@ from handvar.camera import Rig
 from handvar.hand import HandModel
 from handvar.hand.anthropometry import HandShape
 from handvar.params import NAMES
-from handvar.pipeline import Track, track
+from handvar.pipeline import Track, load_shape, track
 from handvar.tracking.tracker import TrackResult
 
 #: What track.npz held before the track's shape and cameras were kept.
@@ -198,6 +198,47 @@ def test_the_long_table_has_a_row_per_frame_and_joint(recovered):
     )
 
 
+def test_a_saved_track_gives_its_hand_as_a_shape(recovered, tmp_path):
+    recovered.save(tmp_path / "t")
+    for source in (tmp_path / "t", tmp_path / "t" / "track.npz", str(tmp_path / "t")):
+        shape = load_shape(source)
+        for name in ("segments", "bases", "base_rotations", "radii", "palm_centres"):
+            np.testing.assert_array_equal(getattr(shape, name), getattr(recovered.shape, name))
+    with pytest.raises(ValueError, match="shape: expected a track saved by handvar"):
+        load_shape(tmp_path)
+
+
+def test_a_given_shape_is_the_hand_tracked_and_is_held():
+    """With keypoints the track fits the hand's proportions to its first 12 frames; a
+    shape given is tracked as it is (a left hand of 170 mm here, where the default is a
+    right hand of 185 mm): the track's hand is that shape, its joints that hand's G(x)."""
+    from handvar.data import example_path
+
+    given = HandShape.from_size(170.0, side="left")
+    common = {"keypoints": example_path("video-keypoints"), "frames": 14, "scale": 0.5}
+    fitted = track(example_path("video"), hand="left", hand_length=170.0, **common)
+    held = track(example_path("video"), shape=given, **common)
+    assert not np.allclose(fitted.shape.segments, given.segments)  # the shape fit ran
+    assert held.shape.side == "left" and held.options["shape"] is True
+    for name in ("segments", "bases", "radii"):
+        np.testing.assert_array_equal(getattr(held.shape, name), getattr(given, name))
+    np.testing.assert_allclose(held.joints[13], HandModel(given).joints(held.poses[13]),
+                               atol=1e-9)  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"hand": "left"}, "hand: expected right, the side of the shape given"),
+        ({"hand_length": 170.0}, "hand_length: expected none with a shape given"),
+        ({"hands": 2}, "shape: expected none with hands=2"),
+    ],
+)
+def test_a_shape_refuses_what_contradicts_it(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        track("benchmark", frames=1, shape=HandShape.from_size(), **kwargs)
+
+
 def test_without_recovery_a_sequence_has_no_quality():
     t = track("benchmark", frames=2, predictor="decel")
     assert t.quality is None and t.options["recover"] is False
@@ -342,3 +383,24 @@ def test_the_detectors_3d_between_two_detections_is_interpolated_on_a_recording(
             np.testing.assert_allclose(got, want, atol=1e-9, err_msg=str(t))
     for t in (t0, t0 + 5, t0 + 10):
         np.testing.assert_allclose(given[t], world[t])
+
+
+def test_init_takes_the_shape_of_a_saved_track(recovered, tmp_path):
+    """`handvar init SEQ --shape DIR` fits the saved track's hand (a right one): without
+    --hand its side, with the other side refused in one line naming --hand."""
+    from click.testing import CliRunner
+
+    from handvar.cli import main
+    from handvar.io import write_sequence
+    from handvar.synth.sequences import make_sequence
+
+    recovered.save(tmp_path / "t")
+    write_sequence(make_sequence("benchmark", n_frames=1), tmp_path / "seq")
+    args = ["init", str(tmp_path / "seq"), "--shape", str(tmp_path / "t")]
+    done = CliRunner().invoke(main, [*args, "--out", str(tmp_path / "x0.txt")])
+    assert done.exit_code == 0, done.output
+    assert np.loadtxt(tmp_path / "x0.txt").shape == (26,)
+    refused = CliRunner().invoke(main, [*args, "--hand", "left", "--out", str(tmp_path / "x1.txt")])
+    assert refused.exit_code == 2 and refused.output.count("\n") == 1
+    assert refused.output.startswith("handvar: error: --hand: expected right, the side of --shape")
+    assert not (tmp_path / "x1.txt").exists()

@@ -33,7 +33,10 @@ The defaults it decides, in one function, `decide_defaults`:
 - empty silhouettes are allowed (carried by the prediction) only with recovery;
 - the first pose: ``init``, else the sequence's true first pose (a synthetic or
   rendered sequence), else searched in the first frame (with recovery); a recording
-  without recovery and without ``init`` is refused before it is opened.
+  without recovery and without ``init`` is refused before it is opened;
+- the hand: the default proportions at ``hand_length``, adapted to the first frames'
+  keypoints where there are some; or ``shape`` (a person's hand fitted before, for
+  instance from a track's keypoints), held as given.
 
 The online form.  A recording with recovery is tracked one frame at a time: each frame
 read (or, with ``realtime``, the newest frame each time the tracker is free, after
@@ -77,6 +80,7 @@ __all__ = [
     "MODELS",
     "HandsTrack",
     "Track",
+    "load_shape",
     "paced_frames",
     "project_joints",
     "track",
@@ -532,6 +536,7 @@ def track(
     realtime: bool = False,
     detector="auto",
     hands: int = 1,
+    shape=None,
 ) -> Track:
     """Track the hand through a recording or a sequence (module notes: the defaults).
 
@@ -619,7 +624,17 @@ def track(
         returns a `HandsTrack`): a recording or a camera, the detector inside or
         ``keypoints`` (every hand found, a ``.json`` per camera), ``keypoint_every``,
         ``realtime`` and ``allow_short`` as for one hand; without one hand's own
-        options (``init``, ``hand``, ``carry``, ``recover``, ...).
+        options (``init``, ``hand``, ``carry``, ``recover``, ``shape``, ...).
+    shape : HandShape or path-like, optional
+        The hand's proportions, held for the whole track: a `HandShape`, or a track
+        saved by `Track.save` (its directory or its track.npz), whose fitted hand is
+        taken (`load_shape`).  Silhouettes do not tell where the knuckles lie along
+        the hand, keypoints do: a person's hand fitted from a detector's keypoints
+        (the one command's track) given to a silhouette track of the same person
+        places its joints where the detector marks them
+        (docs/results/paper-real-video.md).  Its side is the hand tracked (``hand``,
+        if given, must agree) and its length replaces ``hand_length``; the shape fit
+        of the first frames' keypoints is then not run.
 
     Returns
     -------
@@ -642,6 +657,7 @@ def track(
             "recover": recover,
             "recovery": recovery,
             "on_frame": on_frame,
+            "shape": shape,
         }
         given = [k for k, v in alone.items() if v is not None]
         if given:
@@ -658,7 +674,7 @@ def track(
         keypoint_every=keypoint_every, carry=carry, keypoint_tips=keypoint_tips,
         recover=recover, seed=seed, frames=frames, progress=progress,
         allow_short=allow_short, recovery=recovery, on_frame=on_frame, realtime=realtime,
-        detector=detector,
+        detector=detector, shape=shape,
     )  # fmt: skip
     spec, label = _source_spec(source, options)
     detectors, notice = _detectors(options.detector, options.keypoints, spec, spec.kind == "camera")
@@ -682,9 +698,11 @@ class TrackOptions:
     """`track`'s keyword arguments, checked before the source is opened (`checked`).
 
     The attributes are `track`'s keywords as given (``hand``, ``carry``,
-    ``keypoint_tips`` and ``recover`` None where `decide_defaults` decides them), the
-    numbers as checked, and two more: ``predictor_key``, the catalogue's key of
-    ``predictor``, and ``init_pose``, ``init`` as the 26 parameters (None without it).
+    ``keypoint_tips`` and ``recover`` None where `decide_defaults` decides them; ``hand``
+    the side of ``shape`` where only that is given), the numbers as checked, ``shape``
+    as a `HandShape` (read by `load_shape`), and two more: ``predictor_key``, the
+    catalogue's key of ``predictor``, and ``init_pose``, ``init`` as the 26 parameters
+    (None without it).
     """
 
     keypoints: Any = None
@@ -708,6 +726,7 @@ class TrackOptions:
     on_frame: Callable | None = None
     realtime: bool = False
     detector: Any = "auto"
+    shape: Any = None
     predictor_key: str = "rvar"
     init_pose: np.ndarray | None = None
 
@@ -752,9 +771,23 @@ class TrackOptions:
                 "got mesh"
             )
         key = catalogue_key(as_instance(given.predictor, str, "predictor"), "predictor")
+        shape, hand = given.shape, given.hand
+        if shape is not None:
+            shape = load_shape(shape)
+            if hand not in (None, shape.side):
+                raise ValueError(f"hand: expected {shape.side}, the side of the shape given, "
+                                 f"or none; got {hand}")  # fmt: skip
+            if hand_length != TrackOptions.hand_length:
+                raise ValueError(f"hand_length: expected none with a shape given (the "
+                                 f"hand's length is the shape's); got {hand_length:g}")  # fmt: skip
+            if given.model == "mesh" and shape.side == "left":
+                raise ValueError("shape: expected a right hand with model mesh (the skinned "
+                                 "mesh is a right hand); got a left one")  # fmt: skip
+            hand = shape.side
         return dataclasses.replace(
             given, seed=seed, keypoint_every=every, frames=frames, scale=scale,
             hand_length=hand_length, predictor_key=key, init_pose=_init_pose(given.init),
+            shape=shape, hand=hand,
         )  # fmt: skip
 
 
@@ -1019,8 +1052,8 @@ def _tracker(opened: _Opened, options: TrackOptions, decided: TrackDefaults, lab
         raise ValueError(f"keypoints: expected one file per camera ({len(rig)}); got {len(used)}")
     truth = None if opened.sequence is None else opened.sequence.truth
     x0 = _first_pose(decided, options.init_pose, truth, label)
-    hand_model = HandModel(HandShape.from_size(options.hand_length, side=opened.hand),
-                           surface=options.model)  # fmt: skip
+    shape = options.shape or HandShape.from_size(options.hand_length, side=opened.hand)
+    hand_model = HandModel(shape, surface=options.model)
     if x0 is not None:
         check_in_front(hand_model.joints(x0), rig, "init" if options.init is not None else label)
     settings = TrackerSettings(cost=CostSettings(keypoint_tips=decided.keypoint_tips))
@@ -1052,6 +1085,11 @@ def _fit(tracker, x0, opened: _Opened, options: TrackOptions, decided: TrackDefa
     ``opened.stage_seconds["tracking"]``."""
     bar = _progress_bar if options.progress else None
     clock = time.perf_counter()
+    if options.shape is not None:  # held as given: no shape fit
+        from handvar.tracking.recovery import RECOVERY_DEFAULTS
+
+        options = dataclasses.replace(options, recovery=dataclasses.replace(
+            options.recovery or RECOVERY_DEFAULTS, shape=None))  # fmt: skip
     if opened.stream is not None:
         fitted = _fit_stream(tracker, x0, opened, options, bar)
         clock += sum(opened.stream.seconds.values())  # the tracking stage is the rest
@@ -1123,7 +1161,7 @@ def _assemble(fitted: _Fitted, opened: _Opened, options: TrackOptions,
         "keypoint_tips": decided.keypoint_tips, "recover": decided.recover,
         "frames": options.frames, "realtime": options.realtime or spec.kind == "camera",
         "hand": opened.hand, "outside_keypoints": opened.outside, "detector": detector,
-        "notice": notice,
+        "notice": notice, "shape": options.shape is not None,
     }  # fmt: skip
     return Track(
         poses=result.poses, joints=result.joints,
@@ -1243,6 +1281,36 @@ def _every(detected, every: int):
     if detected is None or every == 1:
         return detected
     return [None if k is None else k.every(every) for k in detected]
+
+
+def load_shape(source) -> HandShape:
+    """The hand of `source`: a `HandShape` as it is, or the fitted hand of a track saved
+    by `Track.save` (``handvar track --out``), its directory or its track.npz.
+
+    Raises
+    ------
+    ValueError
+        Naming ``shape``: `source` is neither, or holds no readable track.
+
+    Examples
+    --------
+    >>> load_shape(HandShape.from_size(170.0)).length
+    170.0
+    """
+    if isinstance(source, HandShape):
+        return source
+    if not isinstance(source, (str, os.PathLike)):
+        raise TypeError(f"shape: expected a HandShape or a track's path; got "
+                        f"{type(source).__name__}")  # fmt: skip
+    path = Path(source)
+    folder = path.parent if path.name == "track.npz" else path
+    if not (folder / "track.npz").is_file():
+        raise ValueError(f"shape: expected a track saved by handvar (a directory with "
+                         f"track.npz, `handvar track --out`); got {source}")  # fmt: skip
+    try:
+        return Track.load(folder).shape
+    except ValueError as exc:
+        raise ValueError(f"shape: {exc}") from None
 
 
 def _init_pose(init) -> np.ndarray | None:

@@ -58,12 +58,14 @@ INIT_MIN_IOU = 0.3
               help="Skin likelihood-ratio threshold [default: 0.5].")  # fmt: skip
 @click.option("--hand-length", type=_FiniteRange(min=50.0, max=400.0), default=185.0,
               show_default=True, help="Hand length (wrist to middle fingertip), mm.")  # fmt: skip
-@click.option("--hand", "side", type=click.Choice(("right", "left", "auto")), default="right",
-              show_default=True,
+@click.option("--shape", type=click.Path(), default=None,
+              help="The hand's proportions from an earlier track (its OUT directory or "
+              "track.npz), as `handvar track --shape`: give the same to both.")  # fmt: skip
+@click.option("--hand", "side", type=click.Choice(("right", "left", "auto")), default=None,
               help="Which hand is filmed; auto: with two cameras' keypoints the side of "
               "the hand's 3D shape, else of the keypoints' handedness (a .npz of `handvar "
               "keypoints`, MediaPipe's labels read for the person's hand), as `handvar "
-              "track --hand auto`.")  # fmt: skip
+              "track --hand auto` [default: the side of --shape, else right].")  # fmt: skip
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Seed of the refinement's random samples.")  # fmt: skip
 @click.option("--out", type=click.Path(dir_okay=False), default="init_pose.txt",
@@ -84,6 +86,7 @@ def init_command(
     wrist,
     threshold,
     hand_length,
+    shape,
     side,
     seed,
     out,
@@ -114,6 +117,7 @@ def init_command(
     check_output_file(out, "--out")  # before any work
     if overlay is not None:
         check_output_file(overlay, "--overlay", suffixes=(".png",))
+    shape, side = _shape_and_side(shape, side, hand_length)
     opened = _open_sources(sources, calib, fov, scale)
     if frame >= opened.n_frames:
         raise ValueError(
@@ -142,7 +146,9 @@ def init_command(
             f"neither: the keypoints begin at frame {first} (--frame {first}; `handvar "
             "track` without --init starts there); nothing written"
         )
-    hand = HandModel(HandShape.from_size(hand_length, side=side))
+    if shape is not None and shape.side != side:  # --hand auto took the other side
+        raise ValueError(f"--hand: the keypoints' side is {side}; --shape is a {shape.side} hand")
+    hand = HandModel(shape or HandShape.from_size(hand_length, side=side))
     result = initial_pose(masks, rig, hand, keypoints=kps, rng=np.random.default_rng(seed))
     if not (result.iou >= INIT_MIN_IOU or _explains_keypoints(result, kps)):
         raise ValueError(
@@ -178,6 +184,25 @@ def init_command(
         + f") -> {out}"
         + (f", {overlay}" if overlay else "")
     )
+
+
+def _shape_and_side(path, side, hand_length):
+    """The `HandShape` of --shape (None without it) and the side: --hand's, else the
+    shape's, else right; --hand and --hand-length checked against the shape."""
+    if path is None:
+        return None, side or "right"
+    from handvar.pipeline import load_shape
+
+    try:
+        shape = load_shape(path)
+    except ValueError as exc:
+        raise ValueError(str(exc).replace("shape: ", "--shape: ", 1)) from None
+    if side not in (None, "auto", shape.side):
+        raise ValueError(f"--hand: expected {shape.side}, the side of --shape, or none; got {side}")
+    if hand_length != 185.0:
+        raise ValueError(f"--hand-length: expected none with --shape (the hand's length is the "
+                         f"shape's); got {hand_length:g}")  # fmt: skip
+    return shape, side or shape.side
 
 
 def _explains_keypoints(result, kps) -> bool:

@@ -57,6 +57,11 @@ def _check_predictor(ctx, param, value: str) -> str:
               help="Also write overlay.mp4.")  # fmt: skip
 @click.option("--hand-length", type=_FiniteRange(min=50.0, max=400.0), default=185.0,
               show_default=True, help="Hand length of the model, mm (as for `init`).")  # fmt: skip
+@click.option("--shape", type=click.Path(), default=None,
+              help="The hand's proportions from an earlier track (its OUT directory or "
+              "track.npz: the person's hand, fitted to its keypoints), held for this "
+              "track instead of the default hand of --hand-length; its side is the hand "
+              "tracked.")  # fmt: skip
 @click.option("--hand", "side", type=click.Choice(("right", "left", "auto")), default=None,
               help="Which hand is tracked (as for `init`); auto: with two cameras the side "
                    "of the hand's 3D shape, else of the detector's handedness or of a .npz "
@@ -115,8 +120,8 @@ def _check_predictor(ctx, param, value: str) -> str:
 @_one_line_errors
 @_locks_out
 def track_command(
-    seq, predictor, init, seed, n_frames, out, video, hand_length, side, detector, hands, model,
-    keypoint_files, keypoint_every, carry, keypoint_tips, silhouette_term, recover, camera,
+    seq, predictor, init, seed, n_frames, out, video, hand_length, shape, side, detector, hands,
+    model, keypoint_files, keypoint_every, carry, keypoint_tips, silhouette_term, recover, camera,
     realtime, show, scheduler, workers, calib, fov, scale,
 ) -> None:  # fmt: skip
     """Track the hand through the sequence SEQ (a sequence directory or a synthetic name).
@@ -172,7 +177,7 @@ def track_command(
     _check_sources(seq, camera, realtime, show, scheduler, workers)
     if hands == 2:
         one_hands = {"--keypoint-tips": keypoint_tips is not None,
-                     "--silhouette-term": silhouette_term > 0,
+                     "--silhouette-term": silhouette_term > 0, "--shape": shape is not None,
                      "--recover" if recover else "--no-recover": recover is not None}  # fmt: skip
         _track_hands(seq, out, video, keypoint_files=keypoint_files, camera=camera,
                      realtime=realtime, show=show, side=side, init=init,
@@ -188,7 +193,7 @@ def track_command(
             predictor=predictor, init=None if init is None else load_pose(init),
             keypoint_every=keypoint_every, carry=carry, keypoint_tips=keypoint_tips,
             recover=recover, recovery=recovery, seed=seed, frames=n_frames, allow_short=allow_short,
-            detector=detector,
+            detector=detector, shape=shape,
         )  # fmt: skip
         return
     source, options = (seq[0] if seq else None), {"calib": calib, "fov": fov, "scale": scale}
@@ -206,7 +211,8 @@ def track_command(
             keypoint_every=keypoint_every, carry=carry, keypoint_tips=keypoint_tips,
             recover=recover, seed=seed, frames=n_frames, progress=not show,
             realtime=realtime and camera is None, show=show, allow_short=allow_short,
-            recovery=recovery, detector=detector if keypoints is None else "auto", **options,
+            recovery=recovery, detector=detector if keypoints is None else "auto", shape=shape,
+            **options,
         )  # fmt: skip
     written = _save_track(result, out, video, reused)
     _print_summary(result, written, out, predictor, seed)
@@ -482,8 +488,13 @@ def _track_one(source, *, show: bool, **options):
     # the side as given; with the detector's side ("auto", the default) the window draws
     # a right hand's outline (the track itself has the side the detector says)
     side = options["hand"] if options.get("hand") in ("right", "left") else "right"
-    hand = HandModel(HandShape.from_size(options["hand_length"], side=side),
-                     surface=options["model"])  # fmt: skip
+    if options.get("shape") is not None:
+        from handvar.pipeline import load_shape
+
+        shape = load_shape(options["shape"])
+    else:
+        shape = HandShape.from_size(options["hand_length"], side=side)
+    hand = HandModel(shape, surface=options["model"])
     rig = {}
 
     def draw(i, pose, quality, masks, images=None):
@@ -574,7 +585,8 @@ OPTION_NAMES = {
     "carry": "--carry", "calib": "--calib", "fov": "--fov", "model": "--model",
     "init": "--init", "realtime": "--realtime", "recordings": "SEQ", "out": "--out",
     "hand": "--hand", "recovery": "--silhouette-term", "recover": "--recover",
-    "on_frame": "--show", "detector": "--detector",
+    "on_frame": "--show", "detector": "--detector", "shape": "--shape",
+    "hand_length": "--hand-length",
 }  # fmt: skip
 #: The keywords renamed in the rest of such a message too: those that are no plain words
 #: there ("hand", "model", "source", "recordings" and "out" are: "a hand in some frame"),

@@ -111,6 +111,10 @@ class HandTracker:
         Motion predictor (`handvar.predictors.catalogue.make_predictor`).
     hand_length : float, keyword-only
         Hand length of the model before its shape is fitted, mm.
+    shape : HandShape or path-like, keyword-only, optional
+        The hand's proportions, held instead (no shape fit), as `handvar.track`'s
+        ``shape``: a `HandShape` or a saved track (`handvar.pipeline.load_shape`); its
+        side is the hand tracked (`hand` "auto" or that side).
     model : {"spheres", "mesh"}, keyword-only
         The model's surface.
     keypoint_every : int, keyword-only
@@ -143,12 +147,21 @@ class HandTracker:
         seed: int = 0,
         fov: float | None = None,
         mirrored: bool = False,
+        shape=None,
     ) -> None:
         from handvar.predictors.catalogue import catalogue_key
         from handvar.tracking.recovery import RECOVERY_DEFAULTS, RecoverySettings
         from handvar.vision.detector import make_detectors
 
         one_of(hand, (*SIDES, "auto"), "hand")
+        if shape is not None:
+            from handvar.pipeline import load_shape
+
+            shape = load_shape(shape)
+            if hand not in ("auto", shape.side):
+                raise ValueError(f"hand: expected auto or {shape.side}, the side of the shape "
+                                 f"given; got {hand}")  # fmt: skip
+            hand = shape.side
         one_of(model, ("spheres", "mesh"), "model")
         one_of(keypoint_tips, ("end", "pad"), "keypoint_tips")
         self.rig = None if rig is None else (rig if isinstance(rig, Rig) else Rig.load(rig))
@@ -166,6 +179,9 @@ class HandTracker:
         self.tips = keypoint_tips
         self.settings = as_instance(recovery if recovery is not None else RECOVERY_DEFAULTS,
                                     RecoverySettings, "recovery")  # fmt: skip
+        self.shape = shape
+        if shape is not None:  # held as given
+            self.settings = dataclasses.replace(self.settings, shape=None)
         self.seed = as_int(seed, "seed", minimum=0)
         self.fov = fov
         self.recovery = None  # built at the first frame with a hand (its side known)
@@ -188,7 +204,7 @@ class HandTracker:
         self.recovery = Recovery(tracker, settings=self.settings, cut_wrist=keyed)
         self.frames, self.seconds, self.frame_count = [], [], 0
         self._carriers, self._skin, self._votes = None, None, None  # the side is decided
-        self.side = tracker.hand.shape.side
+        self.side, self.shape = tracker.hand.shape.side, tracker.hand.shape
         return self
 
     # -- one frame ----------------------------------------------------------------------
@@ -304,7 +320,8 @@ class HandTracker:
         from handvar.hand.kinematics import HandModel
 
         side = self.side or "right"
-        hand = HandModel(HandShape.from_size(self.hand_length, side=side), surface=self.model)
+        shape = self.shape or HandShape.from_size(self.hand_length, side=side)
+        hand = HandModel(shape, surface=self.model)
         self.recovery = self.recovery_for(hand)
 
     def recovery_for(self, hand, settings=None):
