@@ -111,10 +111,10 @@ class HandTracker:
         Motion predictor (`handvar.predictors.catalogue.make_predictor`).
     hand_length : float, keyword-only
         Hand length of the model before its shape is fitted, mm.
-    shape : HandShape or path-like, keyword-only, optional
+    shape : HandShape, keyword-only, optional
         The hand's proportions, held instead (no shape fit), as `handvar.track`'s
-        ``shape``: a `HandShape` or a saved track (`handvar.pipeline.load_shape`); its
-        side is the hand tracked (`hand` "auto" or that side).
+        ``shape`` (`handvar.pipeline.load_shape` reads a saved track's); its side is
+        the hand tracked (`hand` "auto" or that side).
     model : {"spheres", "mesh"}, keyword-only
         The model's surface.
     keypoint_every : int, keyword-only
@@ -155,9 +155,7 @@ class HandTracker:
 
         one_of(hand, (*SIDES, "auto"), "hand")
         if shape is not None:
-            from handvar.pipeline import load_shape
-
-            shape = load_shape(shape)
+            as_instance(shape, HandShape, "shape")
             if hand not in ("auto", shape.side):
                 raise ValueError(f"hand: expected auto or {shape.side}, the side of the shape "
                                  f"given; got {hand}")  # fmt: skip
