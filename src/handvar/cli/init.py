@@ -147,7 +147,8 @@ def init_command(
             "track` without --init starts there); nothing written"
         )
     if shape is not None and shape.side != side:  # --hand auto took the other side
-        raise ValueError(f"--hand: the keypoints' side is {side}; --shape is a {shape.side} hand")
+        raise ValueError(f"--hand: expected the keypoints' side to be {shape.side}, the side "
+                         f"of --shape; got {side}")  # fmt: skip
     hand = HandModel(shape or HandShape.from_size(hand_length, side=side))
     result = initial_pose(masks, rig, hand, keypoints=kps, rng=np.random.default_rng(seed))
     if not (result.iou >= INIT_MIN_IOU or _explains_keypoints(result, kps)):
