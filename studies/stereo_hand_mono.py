@@ -13,8 +13,9 @@ a person's hand measured once before two cameras, then tracked with one.
 Printed per case and over the 8, against the truth (the scored points are the
 detector's, as `studies/realistic.py` scores them): the absolute 3D error (mm, the
 camera's frame), the wrist-relative one, 2D PCK@0.2, and beside them what the
-detector alone gives with one camera: its world landmarks' wrist-relative error (it has
-no absolute 3D); the true hand length and the stereo track's.
+detector alone gives with one camera: its points' PCK and its world landmarks'
+wrist-relative error (it has no absolute 3D); the true hand length and the stereo
+track's.
 
 Run: ``PYTHONPATH=src .venv/bin/python studies/stereo_hand_mono.py --out DIR`` (DIR as
 ``studies/realistic.py --out DIR`` makes it; the cases are generated if missing; about 5
@@ -36,7 +37,7 @@ from handvar.evaluation.realistic import read_case
 from handvar.pipeline import Track
 from handvar.tracking.shape_fit import _wrist_to_tip
 from handvar.vision.keypoints import read_keypoints
-from realistic import HANDVAR, ROOT, generate, project, scored_points, specs
+from realistic import HANDVAR, ROOT, generate, project, run_inside, scored_points, specs
 
 
 def mono(case_dir: Path, out: Path, extra: tuple[str, ...] = ()) -> Track:
@@ -70,13 +71,15 @@ def figures(case, track: Track) -> dict[str, float]:
     }
 
 
-def detector_3d(case, track_dir: Path) -> float:
-    """The wrist-relative error (mm) of the detector's world landmarks the one command
-    kept (keypoints.npz), in camera 0's axes, over the frames it found the hand."""
+def detector_alone(case, track_dir: Path) -> tuple[float, float]:
+    """The detector the one command ran (its keypoints.npz): its points' 2D PCK@0.2 (a
+    frame it missed counts as wrong) and its world landmarks' wrist-relative error (mm,
+    in camera 0's axes, over the frames it found the hand)."""
     kp = read_keypoints(track_dir / "keypoints.npz")
     found = kp.present.all(axis=1)
     truth = case.joints[found] @ case.rig.cameras[0].R.T  # in camera 0's axes
-    return float(joint_errors(truth, kp.world[found], alignment="wrist").mean())
+    rel = float(joint_errors(truth, kp.world[found], alignment="wrist").mean())
+    return pck_2d(case.truth_2d[0], kp.xy), rel
 
 
 def main() -> None:
@@ -86,7 +89,7 @@ def main() -> None:
     rows = []
     print(f"{'case':28s} {'abs default':>11s} {'abs person':>10s} {'rel default':>11s} "
           f"{'rel person':>10s} {'MP rel':>6s} {'PCK default':>11s} {'PCK person':>10s} "
-          f"{'length true / stereo':>20s}")  # fmt: skip
+          f"{'MP PCK':>6s} {'length true / stereo':>20s}")  # fmt: skip
     for spec in (s for s in specs(False) if s.cameras == 2):
         case_dir = args.out / spec.name
         if not (case_dir / "truth.npz").exists():
@@ -94,21 +97,20 @@ def main() -> None:
         case = read_case(case_dir)
         work = args.out / "stereo-hand" / spec.name
         stereo = work / "stereo"
-        run(["track", f"{case_dir / 'cam0'},{case_dir / 'cam1'}", "--calib",
-             str(case_dir / "calib.yml"), "--out", str(stereo), "--no-video"])  # fmt: skip
+        run_inside(case_dir, spec, 1, stereo)  # the one command with both cameras
         default = mono(case_dir, work / "default")
         person = mono(case_dir, work / "person", ("--shape", str(stereo)))
         d, p = figures(case, default), figures(case, person)
-        mp = detector_3d(case, work / "default" / "track")
+        mp_pck, mp = detector_alone(case, work / "default" / "track")
         length = _wrist_to_tip(Track.load(stereo).shape)
-        rows.append((d["abs"], p["abs"], d["rel"], p["rel"], mp, d["pck"], p["pck"]))
+        rows.append((d["abs"], p["abs"], d["rel"], p["rel"], mp, d["pck"], p["pck"], mp_pck))
         print(f"{spec.name:28s} {d['abs']:11.1f} {p['abs']:10.1f} {d['rel']:11.1f} "
-              f"{p['rel']:10.1f} {mp:6.1f} {d['pck']:11.3f} {p['pck']:10.3f} "
+              f"{p['rel']:10.1f} {mp:6.1f} {d['pck']:11.3f} {p['pck']:10.3f} {mp_pck:6.3f} "
               f"{case.hand_length:9.1f} / {length:.1f}", flush=True)  # fmt: skip
     m = np.mean(rows, axis=0)
     better = sum(r[1] < r[0] for r in rows)
     print(f"{'mean':28s} {m[0]:11.1f} {m[1]:10.1f} {m[2]:11.1f} {m[3]:10.1f} {m[4]:6.1f} "
-          f"{m[5]:11.3f} {m[6]:10.3f}")  # fmt: skip
+          f"{m[5]:11.3f} {m[6]:10.3f} {m[7]:6.3f}")  # fmt: skip
     print(f"the person's hand lowers the absolute error on {better} of {len(rows)} cases")
 
 

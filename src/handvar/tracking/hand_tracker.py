@@ -202,7 +202,7 @@ class HandTracker:
         self.recovery = Recovery(tracker, settings=self.settings, cut_wrist=keyed)
         self.frames, self.seconds, self.frame_count = [], [], 0
         self._carriers, self._skin, self._votes = None, None, None  # the side is decided
-        self.side, self.shape = tracker.hand.shape.side, tracker.hand.shape
+        self.side = tracker.hand.shape.side
         return self
 
     # -- one frame ----------------------------------------------------------------------
