@@ -16,8 +16,10 @@ optical flow between (K = 5; both ways, a recording's default).  Printed per vid
   joints within 0.2 hand sizes of at least 98 % of the keypoints kept), the frames that
   fail it and the keypoints rejected; with K > 1, the same check's worst frame on the
   frames with carried keypoints;
-- PCK@0.2 against the detector's keypoints (its own hand size; a frame with a detection
-  and no pose, or no point, counts as wrong) over the frames whose
+- PCK@0.2 of the track's points (the fingertips and the thumb's base where a detector
+  marks them, as the track reports them) against the detector's keypoints (its own hand
+  size; a frame with a detection and no pose, or no point, counts as wrong) over the
+  frames whose
   detections were withheld (K > 1), beside it that of the keypoints the fit was given
   there (the detections carried by optical flow) and that of the given detections
   interpolated linearly between the two around (which needs the next one: a user's
@@ -96,7 +98,8 @@ def run(name: str, every: int, seed: int = 0, world: bool = False, silhouette: f
     n = tr.n_frames
     seen = detected.present[:n].any(axis=1)
     scores = np.array(
-        [pck(tr.poses[t], hand, tr.rig, [detected.frame(t)]) if seen[t] else np.nan
+        [pck(tr.poses[t], hand, tr.rig, [detected.frame(t)], tips=hand.tips) if seen[t]
+         else np.nan
          for t in range(n)]
     )  # fmt: skip
     scores[seen & ~np.isfinite(tr.poses).all(axis=1)] = 0.0  # no pose where a hand is seen

@@ -5,9 +5,11 @@ exported with `handvar export` at its defaults (BVH: metres, y up). Blender, sta
 from its factory settings in the background, imports each file as File › Import does
 with nothing changed, and reports what a user sees: the armature's bones in world space
 at some frames, the scene's frame range and rate, the animation's keys. The checks are
-against the track itself: its joints (mm, camera frame: x right, y down, z forward)
-turned into Blender's metres and axes (z up, the camera looking along +y, as Blender's
-front view does) are where the bones are.
+against the track itself: its skeleton's joints G(x) (mm, camera frame: x right, y
+down, z forward; the track's reported points put the fingertips and the thumb's base
+where a detector marks them, the skeleton at the bones' ends) turned into Blender's
+metres and axes (z up, the camera looking along +y, as Blender's front view does) are
+where the bones are.
 
 Blender's importers at their defaults (Blender 3.4, io_anim_bvh and io_scene_gltf2):
 
@@ -221,13 +223,14 @@ READERS = {  # case: how the 21 joints are read off its bones
 
 @pytest.mark.parametrize("case", READERS)
 def test_bones_are_the_tracks_joints(opened, case):
-    """At the sampled frames every joint is where the track has it, in metres, z up."""
+    """At the sampled frames every joint is where the track's skeleton has it, in metres,
+    z up."""
     track, report, _ = opened
     seen = report[case]
     assert seen["armatures"] == 1
     for t, pose in zip(SAMPLED, seen["poses"], strict=True):
         got = joints_from_bones(pose, **READERS[case])
-        want = blender_from_camera(track.joints[t])
+        want = blender_from_camera(track.hand.joints(track.poses[t]))
         err = np.linalg.norm(got - want, axis=1)
         assert err.max() < TOL, (case, t, JOINTS[int(err.argmax())], err.max())
 
@@ -240,7 +243,7 @@ def test_the_hand_stands_upright_at_its_size(opened, case):
     track, report, _ = opened
     pose = report[case]["poses"][0]
     got = joints_from_bones(pose, **READERS[case])
-    want = blender_from_camera(track.joints[SAMPLED[0]])
+    want = blender_from_camera(track.hand.joints(track.poses[SAMPLED[0]]))
     tip, wrist = HandLandmark.MIDDLE_FINGER_TIP, WRIST
     for joints in (got, want):
         reach = joints[tip] - joints[wrist]
@@ -262,7 +265,7 @@ def test_bvh_skeleton_has_a_palm(opened):
     wrist_joints = ["thumb_carpal"] + [f"{d}_metacarpal" for d in DIGITS[1:]]
     assert sorted(seen["bones"]) == sorted([ROOT, *wrist_joints, *BONES[1:]])
     for t, pose in zip(SAMPLED, seen["poses"], strict=True):
-        joints = blender_from_camera(track.joints[t])
+        joints = blender_from_camera(track.hand.joints(track.poses[t]))
         assert palm_bones(pose, joints) == list(DIGITS)
         lengths = [np.linalg.norm(np.subtract(pose["tail"][b], pose["head"][b]))
                    for b in seen["bones"]]  # fmt: skip

@@ -102,8 +102,10 @@ def test_a_left_hand_recording_saved_and_loaded_is_the_same(left_recording, tmp_
     assert back.shape.side == "left" and back.shape.length == 178.0
     assert back.fps == 30.0 and back.name == "dex-human-hand-video"
     np.testing.assert_array_equal(back.detections, left_recording.detections)
-    # G(x) of the loaded hand gives the stored joints: the shape, not only its size
-    np.testing.assert_allclose(back.hand.joints(back.poses[2]), back.joints[2], atol=1e-9)
+    # the loaded hand gives the stored points (a recording's: the fingertips and the
+    # thumb's base where a detector marks them): the shape, not only its size
+    assert back.hand.tips == "pad"
+    np.testing.assert_allclose(back.hand.landmarks(back.poses[2]), back.joints[2], atol=1e-9)
 
 
 def test_the_surface_model_comes_back(recovered, tmp_path):
@@ -211,7 +213,7 @@ def test_a_saved_track_gives_its_hand_as_a_shape(recovered, tmp_path):
 def test_a_given_shape_is_the_hand_tracked_and_is_held():
     """With keypoints the track fits the hand's proportions to its first 12 frames; a
     shape given is tracked as it is (a left hand of 170 mm here, where the default is a
-    right hand of 185 mm): the track's hand is that shape, its joints that hand's G(x)."""
+    right hand of 185 mm): the track's hand is that shape, its points that hand's."""
     from handvar.data import example_path
 
     given = HandShape.from_size(170.0, side="left")
@@ -222,8 +224,33 @@ def test_a_given_shape_is_the_hand_tracked_and_is_held():
     assert held.shape.side == "left" and held.options["shape"] is True
     for name in ("segments", "bases", "radii"):
         np.testing.assert_array_equal(getattr(held.shape, name), getattr(given, name))
-    np.testing.assert_allclose(held.joints[13], HandModel(given).joints(held.poses[13]),
+    np.testing.assert_allclose(held.joints[13],
+                               HandModel(given, tips="pad").landmarks(held.poses[13]),
                                atol=1e-9)  # fmt: skip
+
+
+def test_a_recordings_points_are_where_the_detector_marks_them():
+    """On a recording the track reports the 21 points where a detector marks them (the
+    fingertips at their pads, the thumb's base up its metacarpal; design §14.6), the
+    points the fit compares with the keypoints: against MediaPipe's own points on the
+    example video, those six lie nearer than the skeleton's joints G(x) do (which BVH
+    and glTF carry), the other fifteen are G(x)'s."""
+    from handvar.data import example_path
+    from handvar.vision.keypoints import read_keypoints
+
+    t = track(example_path("video"), keypoints=example_path("video-keypoints"), frames=14,
+              scale=0.5)  # fmt: skip
+    assert t.options["keypoint_tips"] == "pad" and t.hand.tips == "pad"
+    detected = read_keypoints(example_path("video-keypoints"))
+    cam = t.rig.cameras[0]
+    skeleton = np.stack([cam.project(t.hand.joints(x)) for x in t.poses])
+    moved = [1, 4, 8, 12, 16, 20]  # the thumb's base and the five tips
+    same = [j for j in range(21) if j not in moved]
+    np.testing.assert_allclose(t.projected[0][:, same], skeleton[:, same], atol=1e-9)
+    size = np.linalg.norm(detected.xy[:14, 9] - detected.xy[:14, 0], axis=-1)[:, None]
+    reported = np.linalg.norm(t.projected[0][:, moved] - detected.xy[:14, moved], axis=-1)
+    joints = np.linalg.norm(skeleton[:, moved] - detected.xy[:14, moved], axis=-1)
+    assert np.median(reported / size) < 0.8 * np.median(joints / size)
 
 
 @pytest.mark.parametrize(

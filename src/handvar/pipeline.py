@@ -112,8 +112,10 @@ class Track:
     poses : (T, 26) ndarray
         Fitted poses, the 26 parameters of `handvar.params` (mm and degrees).
     joints : (T, 21, 3) ndarray
-        The 21 joints G(x) of every frame, mm, world frame of the rig (the camera frame
-        for one camera).
+        The 21 points of every frame (`HandModel.landmarks`: on a recording G(x) with
+        the fingertips and the thumb's base where a detector marks them, the
+        ``keypoint_tips`` option; design §14.6), mm, world frame of the rig (the camera
+        frame for one camera).
     projected : (n_cameras, T, 21, 2) ndarray
         The joints projected into every camera, pixels of the full-resolution frames
         (no camera, ``(0, T, 21, 2)``, when `rig` is None).
@@ -207,10 +209,15 @@ class Track:
 
     @property
     def hand(self):
-        """The tracked `HandModel` (its shape and surface)."""
+        """The tracked `HandModel` (its shape, surface, and the points it reports:
+        ``options["keypoint_tips"]``)."""
         from handvar.hand.kinematics import HandModel
 
-        return HandModel(self.shape, surface=self.options.get("model", "spheres"))
+        return HandModel(
+            self.shape,
+            surface=self.options.get("model", "spheres"),
+            tips=self.options.get("keypoint_tips") or "end",
+        )
 
     def save(
         self, directory: str | os.PathLike, *, video: bool = True, overlays: bool = True

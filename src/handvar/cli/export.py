@@ -68,9 +68,8 @@ def _load_hands(track_dir, calib):
 def _tracked(hands) -> list:
     """The hands of `_load_hands` as the exports take them (`TrackedHand`)."""
     from handvar.export.hands import TrackedHand
-    from handvar.hand.kinematics import HandModel
 
-    return [TrackedHand(t.poses, HandModel(t.shape), id=k, confidence=_confidence(t),
+    return [TrackedHand(t.poses, t.hand, id=k, confidence=_confidence(t),
                         support=_support(t)) for k, t in hands]  # fmt: skip
 
 
@@ -144,7 +143,6 @@ def export_command(track_dir, fmt, out, corrective, units, up, calib):
     import numpy as np
 
     from handvar.atomic import check_output_dir, check_output_file
-    from handvar.hand.kinematics import HandModel
 
     if not Path(track_dir).is_dir():
         raise ValueError(f"TRACK_DIR: expected a track directory; got {track_dir}")
@@ -169,7 +167,7 @@ def export_command(track_dir, fmt, out, corrective, units, up, calib):
     if fmt == "json":
         from handvar.export.keypoints import keypoint_frames, write_keypoints_json
 
-        doc = keypoint_frames(track.poses, HandModel(track.shape), track.rig,
+        doc = keypoint_frames(track.poses, track.hand, track.rig,
                               confidence=_confidence(track), support=_support(track))  # fmt: skip
         write_keypoints_json(out, doc)
     elif fmt == "openpose":
@@ -177,7 +175,7 @@ def export_command(track_dir, fmt, out, corrective, units, up, calib):
 
         if track.rig is None:
             raise ValueError("--calib: expected the cameras (the track holds none); got none")
-        frames = openpose_frames(track.poses, HandModel(track.shape), track.rig,
+        frames = openpose_frames(track.poses, track.hand, track.rig,
                                  confidence=_confidence(track),
                                  support=_support(track))  # fmt: skip
         write_openpose(out, frames, track.rig.names)

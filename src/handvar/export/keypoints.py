@@ -127,7 +127,7 @@ def joint_reach(hand) -> np.ndarray:
     """
     x = np.zeros(26)
     centres, radii = hand.world_spheres(x)  # (P, 2, 3), (P, 2)
-    joints = hand.joints(x)
+    joints = hand.landmarks(x)
     a, b = centres[:, 0], centres[:, 1]  # (P, 3)
     axis = b - a
     length2 = np.maximum(np.sum(axis * axis, axis=1), 1e-12)
@@ -156,7 +156,7 @@ def joint_visibility(hand, x, camera, *, tolerance: float = VISIBILITY_TOLERANCE
     tolerance : float, keyword-only
         mm.
     """
-    joints = hand.joints(x)
+    joints = hand.landmarks(x)
     centre = camera.center
     directions = joints - centre  # a hit at ray parameter s lies at centre + s·direction
     depth = hand.intersect_rays(x, np.broadcast_to(centre, joints.shape), directions)
@@ -286,7 +286,7 @@ def _point_scores(t, confidence, support, visible, inside, scores: PointScores):
 
 def _views(hand, x, rig):
     """Per camera: pixels (21, 2), camera-frame points (21, 3), visible, in image."""
-    joints = hand.joints(x)
+    joints = hand.landmarks(x)
     out = []
     for camera in rig.cameras:
         cam = camera.camera_from_world(joints)
@@ -346,7 +346,7 @@ def keypoint_frames(poses, hand, rig=None, *, confidence=None, support=None,
         record = {
             "frame": t,
             "confidence": None if confidence is None else float(confidence[t]),
-            "world": _rounded(hand.joints(x), 4) if present[t] else None,
+            "world": _rounded(hand.landmarks(x), 4) if present[t] else None,
             "views": [],
         }
         if not present[t]:

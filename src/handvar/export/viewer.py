@@ -508,15 +508,12 @@ def hands_viewer_html(
     str
         A complete HTML document with plotly.js embedded.
     """
-    from handvar.hand.kinematics import HandModel
-
     layers = []
     for h in checked_hands(hands):
-        model = HandModel(h.hand.shape)
         poses, present = hand_frames(h.poses, f"hands ({h.side}) poses", (None, N_PARAMS))
         joints = np.full((len(poses), len(JOINTS), 3), np.nan)
         for t in np.flatnonzero(present):
-            joints[t] = model.joints(poses[t])
+            joints[t] = h.hand.landmarks(poses[t])
         vertices, triangles = hand_surface(h.hand.shape, poses, n_vertices=n_vertices)
         if colours is None:
             skin, bones = _SKIN, _BONE_COLOURS

@@ -54,7 +54,7 @@ from numba import njit
 
 from handvar.hand.anthropometry import BONES, JOINTS, HandShape, bone_index
 from handvar.params import N_PARAMS, check_pose
-from handvar.validate import as_instance, as_int
+from handvar.validate import as_instance, as_int, one_of
 
 DEG = math.pi / 180.0
 N_BONES = len(BONES)
@@ -350,10 +350,16 @@ class HandModel:
         mesh (`mesh`, :mod:`handvar.hand.mesh`, design §15). Both are driven by the
         same bone frames, so G(x) is the same; the sphere-mesh stays available either
         way (`world_spheres`).
+    tips : {"end", "pad"}, optional
+        Which 21 points the model reports (`landmarks`): G(x) itself ("end", default),
+        or the points a detector marks, the fingertips at their pads and the thumb's
+        base up its metacarpal ("pad", `keypoint_points`; design §14.6).
 
     Attributes
     ----------
     shape : HandShape
+    tips : str
+        Which 21 points `landmarks` reports.
     primitives : Primitives
         The cone-spheres of the surface: ``bone (P,)``, ``centres (P, 2, 3)`` in their
         bone's frame, ``radii (P, 2)``.
@@ -381,8 +387,11 @@ class HandModel:
         pool_size: int = 100_000,
         compiled: bool = True,
         surface: str = "spheres",
+        tips: str = "end",
     ) -> None:
         from handvar.hand.surface import hand_primitives
+
+        one_of(tips, TIPS, "tips")
 
         if shape is None:
             shape = HandShape.from_size()
@@ -395,6 +404,7 @@ class HandModel:
         local = np.zeros((N_JOINTS, 3))
         local[4::4, 1] = shape.segments[:, 2]  # fingertips: end of the distal bones
         self._joint_local = local
+        self.tips = tips
         self._cache: tuple[bytes, _Pose] | None = None
         self._pool = None
         self._lock = threading.Lock()
@@ -437,6 +447,13 @@ class HandModel:
         little finger MCP, PIP, DIP, tip.
         """
         return self._pose(x).joints.copy()
+
+    def landmarks(self, x) -> np.ndarray:
+        """The 21 points the model reports at pose `x`, (21, 3) mm, world, in G(x)'s
+        order: G(x) with ``tips="end"``, the points a detector marks with ``"pad"``
+        (`keypoint_points`).  What a track's joints, keypoint files, overlays and viewer
+        show."""
+        return keypoint_points(self, x, self.tips)
 
     def joints_jacobian(self, x) -> np.ndarray:
         """d G / d x: (21, 3, 26), mm per mm (translation) or mm per degree (angles)."""
@@ -659,6 +676,66 @@ class HandModel:
 
 #: Surfaces a `HandModel` renders with.
 SURFACES: tuple[str, ...] = ("spheres", "mesh")
+
+
+#: Where the detected fingertips are compared with the model (design §14.6): the end of
+#: the distal bone, G(x)'s tip ("end"), or the centre of the fingertip's pad with the
+#: thumb's base up its metacarpal ("pad").
+TIPS = ("end", "pad")
+#: Where a detector marks the thumb's base with ``tips="pad"``: this share of the thumb
+#: metacarpal's length from the carpometacarpal joint towards the MCP.  MediaPipe's
+#: median on the realistic benchmark's renders, against the true joints (quartiles 0.31
+#: and 0.43; `studies/detector_joints.py --cases DIR`).
+THUMB_BASE = 0.36
+
+
+def keypoint_attachment(hand, tips: str = "end") -> tuple[np.ndarray, np.ndarray]:
+    """Where the 21 points compared with keypoints sit on the hand's bones.
+
+    Parameters
+    ----------
+    hand : HandModel
+    tips : {"end", "pad"}
+        G(x)'s points (`HandModel.joint_attachment`), or the points a detector marks:
+        each fingertip one tip radius short of the end, at the centre of its pad
+        (``HandShape.tip_offsets``), and the thumb's base `THUMB_BASE` up its
+        metacarpal (design §14.6).
+
+    Returns
+    -------
+    bone : (21,) int ndarray
+        Each point's bone (index into `BONES`).
+    local : (21, 3) ndarray
+        Its position in that bone's frame, mm.
+
+    Examples
+    --------
+    >>> hand = HandModel()
+    >>> _, end = keypoint_attachment(hand)
+    >>> _, pad = keypoint_attachment(hand, "pad")
+    >>> [round(float(d), 1) for d in end[4::4, 1] - pad[4::4, 1]]  # the tip radii, mm
+    [8.0, 6.6, 6.8, 6.5, 5.9]
+    """
+    one_of(tips, TIPS, "tips")
+    bone, local = hand.joint_attachment()
+    if tips == "pad":
+        local[4::4, 1] = hand.shape.tip_offsets  # fingertips: the thumb's and each finger's
+        local[1, 1] = THUMB_BASE * hand.shape.segments[0, 0]  # on the thumb's metacarpal
+    return bone, local
+
+
+def keypoint_points(hand, x, tips: str = "end", *, jacobian: bool = False):
+    """The 21 points of pose `x` compared with keypoints, (21, 3) mm, world.
+
+    ``tips="end"``: G(x) (`HandModel.joints`); ``"pad"``: the same with the fingertips
+    at the centres of their pads and the thumb's base up its metacarpal
+    (`keypoint_attachment`).  With `jacobian`, also their Jacobian (21, 3, 26), as
+    ``(points, jacobian)``.
+    """
+    one_of(tips, TIPS, "tips")
+    if tips == "end":
+        return hand.joints_with_jacobian(x) if jacobian else hand.joints(x)
+    return hand.points(x, *keypoint_attachment(hand, tips), jacobian=jacobian)
 
 
 def _points_jacobian(pose: _Pose, bone: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -896,8 +973,12 @@ __all__ = [
     "JOINTS",
     "POSE_NAMES",
     "SURFACES",
+    "THUMB_BASE",
+    "TIPS",
     "HandModel",
     "euler_from_matrix",
+    "keypoint_attachment",
+    "keypoint_points",
     "named_pose",
     "world_from_hand_rotation",
 ]

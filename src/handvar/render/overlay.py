@@ -214,7 +214,7 @@ def overlay_views(hand, rig: Rig, backgrounds, pose, *, thickness: int = 2) -> l
     if not np.all(np.isfinite(np.asarray(pose, dtype=float))):
         return [draw_overlay(b, cam, None) for b, cam in zip(backgrounds, rig, strict=True)]
     model = silhouettes(hand, pose, rig)
-    joints = hand.joints(pose)
+    joints = hand.landmarks(pose)
     return [
         draw_overlay(b, cam, joints, mask=m, thickness=thickness)
         for b, cam, m in zip(backgrounds, rig, model, strict=True)

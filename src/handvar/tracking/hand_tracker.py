@@ -37,6 +37,7 @@ import numpy as np
 from handvar.camera import Rig
 from handvar.hand.anthropometry import SIDES, HandShape
 from handvar.params import N_PARAMS
+from handvar.tracking.keypoint_cost import keypoint_points
 from handvar.tracking.recovery import _Frame, _frame_quality, _present
 from handvar.validate import as_float, as_instance, as_int, one_of
 
@@ -54,7 +55,9 @@ class FrameResult:
     pose : (26,) ndarray
         The fitted pose (`handvar.params`, mm and degrees); NaN without a hand.
     joints : (21, 3) ndarray
-        The joints G(x), mm, in the first camera's frame; NaN without a hand.
+        The hand's 21 points, mm, in the first camera's frame: G(x) with the fingertips
+        and the thumb's base where a detector marks them (``keypoint_tips``, "pad" by
+        default; design §14.6); NaN without a hand.
     projected : (n_cameras, 21, 2) ndarray
         The joints in every camera, pixels of the frames given; NaN without a hand.
     keypoints : list of (21, 3) ndarray or None
@@ -203,6 +206,7 @@ class HandTracker:
         self.frames, self.seconds, self.frame_count = [], [], 0
         self._carriers, self._skin, self._votes = None, None, None  # the side is decided
         self.side = tracker.hand.shape.side
+        self.tips = tracker.settings.cost.keypoint_tips
         return self
 
     # -- one frame ----------------------------------------------------------------------
@@ -275,7 +279,7 @@ class HandTracker:
         n = len(self.rig)
         joints, projected = np.full((21, 3), np.nan), np.full((n, 21, 2), np.nan)
         if np.all(np.isfinite(pose)):
-            joints = self.recovery.hand.joints(pose)
+            joints = keypoint_points(self.recovery.hand, pose, self.tips)
             projected = np.stack([cam.project(joints) for cam in self.rig.cameras])
         if quality is None:
             quality = _frame_quality(None, True)

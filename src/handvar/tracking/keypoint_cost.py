@@ -53,7 +53,8 @@ from numba import njit
 
 from handvar.geometry.distortion import project_point
 from handvar.hand.anthropometry import MIDDLE_MCP, WRIST  # the hand size L: their distance
-from handvar.validate import as_array, one_of
+from handvar.hand.kinematics import THUMB_BASE, TIPS, keypoint_attachment, keypoint_points
+from handvar.validate import as_array
 
 __all__ = [
     "LOSSES",
@@ -73,67 +74,6 @@ def hand_length(hand) -> float:
     """L = |G_0 − G_9|, wrist to middle MCP of the model, mm (rigid, pose independent)."""
     G = hand.joints(np.zeros(26))
     return float(np.linalg.norm(G[WRIST] - G[MIDDLE_MCP]))
-
-
-#: Where the detected fingertips are compared with the model (module notes): the end of
-#: the distal bone, G(x)'s tip ("end"), or the centre of the fingertip's pad with the
-#: thumb's base up its metacarpal ("pad").
-TIPS = ("end", "pad")
-#: Where a detector marks the thumb's base with ``tips="pad"``: this share of the thumb
-#: metacarpal's length from the carpometacarpal joint towards the MCP.  MediaPipe's
-#: median on the realistic benchmark's renders, against the true joints (quartiles 0.31
-#: and 0.43; `studies/detector_joints.py --cases DIR`).
-THUMB_BASE = 0.36
-
-
-def keypoint_attachment(hand, tips: str = "end") -> tuple[np.ndarray, np.ndarray]:
-    """Where the 21 points compared with keypoints sit on the hand's bones.
-
-    Parameters
-    ----------
-    hand : HandModel
-    tips : {"end", "pad"}
-        G(x)'s points (`HandModel.joint_attachment`), or the points a detector marks:
-        each fingertip one tip radius short of the end, at the centre of its pad
-        (``HandShape.tip_offsets``), and the thumb's base `THUMB_BASE` up its
-        metacarpal (module notes).
-
-    Returns
-    -------
-    bone : (21,) int ndarray
-        Each point's bone (index into `BONES`).
-    local : (21, 3) ndarray
-        Its position in that bone's frame, mm.
-
-    Examples
-    --------
-    >>> from handvar.hand import HandModel
-    >>> hand = HandModel()
-    >>> _, end = keypoint_attachment(hand)
-    >>> _, pad = keypoint_attachment(hand, "pad")
-    >>> [round(float(d), 1) for d in end[4::4, 1] - pad[4::4, 1]]  # the tip radii, mm
-    [8.0, 6.6, 6.8, 6.5, 5.9]
-    """
-    one_of(tips, TIPS, "tips")
-    bone, local = hand.joint_attachment()
-    if tips == "pad":
-        local[4::4, 1] = hand.shape.tip_offsets  # fingertips: the thumb's and each finger's
-        local[1, 1] = THUMB_BASE * hand.shape.segments[0, 0]  # on the thumb's metacarpal
-    return bone, local
-
-
-def keypoint_points(hand, x, tips: str = "end", *, jacobian: bool = False):
-    """The 21 points of pose `x` compared with keypoints, (21, 3) mm, world.
-
-    ``tips="end"``: G(x) (`HandModel.joints`); ``"pad"``: the same with the fingertips
-    at the centres of their pads and the thumb's base up its metacarpal
-    (`keypoint_attachment`).  With `jacobian`, also their Jacobian (21, 3, 26), as
-    ``(points, jacobian)``.
-    """
-    one_of(tips, TIPS, "tips")
-    if tips == "end":
-        return hand.joints_with_jacobian(x) if jacobian else hand.joints(x)
-    return hand.points(x, *keypoint_attachment(hand, tips), jacobian=jacobian)
 
 
 def frame_keypoints(keypoints, n_cameras: int, name: str = "keypoints") -> np.ndarray | None:

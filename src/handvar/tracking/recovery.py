@@ -1009,7 +1009,8 @@ class Recovery:
                 f"all {len(frames)} are empty"
             )
         max_it = self.tracker.settings.smd.max_iterations
-        return _assemble(frames, self.hand, len(self.rig), max_it, self.init_seconds,
+        tips = self.tracker.settings.cost.keypoint_tips
+        return _assemble(frames, self.hand, tips, len(self.rig), max_it, self.init_seconds,
                          np.asarray(seconds, dtype=float))  # fmt: skip
 
     def run(self, frames: Iterable, x0=None, *, keypoints=None, world=None,
@@ -1216,8 +1217,9 @@ def _frame_quality(r, empty: bool) -> FrameQuality:
     return FrameQuality(r.mean_iou, r.keypoint_error, r.cost, bool(r.lost and not empty))
 
 
-def _assemble(frames, hand, n_cams, max_it, init_seconds, seconds) -> RecoveredTrack:
-    """The `TrackResult` and `TrackQuality` of the frames kept by `Recovery`."""
+def _assemble(frames, hand, tips, n_cams, max_it, init_seconds, seconds) -> RecoveredTrack:
+    """The `TrackResult` and `TrackQuality` of the frames kept by `Recovery`, its joints
+    the points `tips` places (`keypoint_points`)."""
     n = len(frames)
     poses = np.array([f.pose for f in frames])
     costs = np.full((n, max_it), np.nan)
@@ -1246,7 +1248,10 @@ def _assemble(frames, hand, n_cams, max_it, init_seconds, seconds) -> RecoveredT
         empty_cams[t] = r.empty
         lost[t] = r.lost and not f.empty
     joints = np.stack(
-        [hand.joints(x) if np.all(np.isfinite(x)) else np.full((21, 3), np.nan) for x in poses]
+        [
+            keypoint_points(hand, x, tips) if np.all(np.isfinite(x)) else np.full((21, 3), np.nan)
+            for x in poses
+        ]
     )
     track = TrackResult(
         poses, joints, starts, costs, iterations, parts, iou, final, kp_err, lost, empty_cams

@@ -636,7 +636,8 @@ class Tracker:
             iou[t], final[t], kp_err[t], lost[t], empty[t] = (
                 r.iou, r.cost, r.keypoint_error, r.lost, r.empty
             )  # fmt: skip
-        joints = np.stack([self.hand.joints(x) for x in poses])
+        tips = self.settings.cost.keypoint_tips
+        joints = np.stack([keypoint_points(self.hand, x, tips) for x in poses])
         return TrackResult(
             poses, joints, starts, costs, iterations, seconds, iou, final, kp_err, lost, empty
         )
