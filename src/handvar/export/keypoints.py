@@ -19,8 +19,10 @@ A frame without a hand (its pose NaN as a whole, `handvar.export.absent`) is wri
 without points: ``world`` null, confidence 0 and no ``views`` in the JSON, no
 ``people`` in OpenPose's.
 
-The keypoints are G(x) (`HandModel.joints`) in the order of `JOINTS`, which is the
-21-point order of MediaPipe Hands and OpenPose's hand model.
+The keypoints are the hand's reported points (`HandModel.landmarks`: on a recording's
+track the fingertips and the thumb's base where a detector marks them, otherwise G(x))
+in the order of `JOINTS`, which is the 21-point order of MediaPipe Hands and OpenPose's
+hand model.
 
 A point's confidence in a camera is its frame's fit confidence (`fit_confidence`)
 times what the point's own evidence leaves of it (`point_support`, `PointScores`:
@@ -114,9 +116,10 @@ def joint_reach(hand) -> np.ndarray:
     radius at the keypoint's closest axis point is r and whose axis is e away from the
     keypoint (e ≤ r), a ray reaching the keypoint has entered that cone-sphere at most
     r + e in front of it. The largest such r + e over the cone-spheres holding the
-    keypoint, at the rest pose (all 26 parameters 0): a joint on its finger's axis gets
-    the finger's radius, a fingertip (on the surface) the tip's diameter, a knuckle
-    inside the palm the palm's thickness there.
+    keypoint (`HandModel.landmarks`), at the rest pose (all 26 parameters 0): a joint on
+    its finger's axis gets the finger's radius, a fingertip at the finger's end (on the
+    surface) the tip's diameter, at its pad's centre its radius, a knuckle inside the palm
+    the palm's thickness there.
 
     Examples
     --------
@@ -313,7 +316,8 @@ def keypoint_frames(poses, hand, rig=None, *, confidence=None, support=None,
     poses : (T, 26) array_like
         The track's poses, mm and degrees; NaN as a whole on a frame without a hand.
     hand : HandModel
-        The tracked model (its shape gives G(x) and the surface for visibility).
+        The tracked model (its shape and ``tips`` give the points, `HandModel.landmarks`;
+        its surface the visibility).
     rig : Rig, optional
         Cameras; without it only the world keypoints are written.
     confidence : (T,) array_like, keyword-only, optional

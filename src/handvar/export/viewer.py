@@ -438,7 +438,8 @@ def viewer_html(
     Parameters
     ----------
     joints : (T, 21, 3) array_like
-        G(x) per frame, mm, world frame; NaN as a whole on a frame without a hand,
+        The 21 points per frame (a track's joints), mm, world frame; NaN as a whole on a
+        frame without a hand,
         which shows no skeleton.
     surface : tuple (vertices, triangles), keyword-only, optional
         The hand's surface: (T, K, 3) vertices per frame, mm, NaN as a whole on frames

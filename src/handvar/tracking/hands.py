@@ -168,6 +168,7 @@ import cv2
 import numpy as np
 
 from handvar.hand.anthropometry import other_side
+from handvar.hand.kinematics import keypoint_points
 from handvar.validate import as_int
 from handvar.vision.keypoints import PALM_MM, RAY_GAP, ray_points
 
@@ -866,7 +867,7 @@ class HandsTracker:
         pose = other.tracker.frames[t].pose
         if not np.isfinite(pose).all():
             return False
-        joints = other.tracker.hand.joints(pose)
+        joints = keypoint_points(other.tracker.hand, pose, other.tracker.tips)  # as detected
         return any(k is not None and _distance(cam.project(joints), k) < DUPLICATE
                    for cam, k in zip(self.rig.cameras, kps, strict=True))  # fmt: skip
 
