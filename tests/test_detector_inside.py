@@ -403,6 +403,11 @@ def test_hand_tracker_in_a_users_loop_follows_the_detections():
     size = np.linalg.norm(shipped.xy[14, MCP[1]] - shipped.xy[14, 0])
     error = np.linalg.norm(r.projected[0] - shipped.xy[14], axis=1)
     assert np.median(error) < 0.2 * size
+    # the points it reports are where a detector marks them, as a saved track's are
+    from handvar.hand.kinematics import keypoint_points
+
+    np.testing.assert_allclose(r.joints, keypoint_points(tracker.hand, r.pose, "pad"))
+    assert not np.allclose(r.joints, tracker.hand.joints(r.pose))
 
 
 def test_hand_tracker_holds_a_shape_given():

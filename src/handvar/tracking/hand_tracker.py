@@ -36,8 +36,8 @@ import numpy as np
 
 from handvar.camera import Rig
 from handvar.hand.anthropometry import SIDES, HandShape
+from handvar.hand.kinematics import keypoint_points
 from handvar.params import N_PARAMS
-from handvar.tracking.keypoint_cost import keypoint_points
 from handvar.tracking.recovery import _Frame, _frame_quality, _present
 from handvar.validate import as_float, as_instance, as_int, one_of
 

@@ -42,8 +42,9 @@ the thumb's base `THUMB_BASE` of the metacarpal up from the joint.  ``tips="pad"
 distal cone-sphere's last sphere, one tip radius (`HandShape.radii`) short of G(x)'s
 tip on the distal bone (`HandShape.tip_offsets`), and the detected thumb base with
 that point of the thumb's metacarpal; the other 15 points are G(x)'s.
-`keypoint_attachment` and `keypoint_points` give these points; ``tips="end"`` (the
-default) gives G(x) itself.
+`keypoint_attachment` and `keypoint_points` (`handvar.hand.kinematics`, where a
+track's reported points come from too: `HandModel.landmarks`) give these points;
+``tips="end"`` (the default) gives G(x) itself.
 """
 
 from __future__ import annotations
