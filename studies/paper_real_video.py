@@ -20,9 +20,11 @@ so that the predictor is what differs.  Printed per predictor:
 
 - lost: frames the recovery flagged lost (``quality.lost``);
 - reinit: frames re-initialised by a pose search (``quality.reinit``);
-- PCK@0.2: the fraction of the 21 projected joints within 0.2 hand sizes of the
-  keypoints (hand size: the keypoints' wrist → middle-MCP length in that frame;
-  `handvar.evaluation.metrics.pck_2d`), over the frames where MediaPipe has all 21;
+- PCK@0.2: the fraction of the 21 projected points the track reports (the fingertips
+  and the thumb's base where a detector marks them; ``--skeleton``: G(x)'s joints)
+  within 0.2 hand sizes of the keypoints (hand size: the keypoints' wrist → middle-MCP
+  length in that frame; `handvar.evaluation.metrics.pck_2d`), over the frames where
+  MediaPipe has all 21;
 - off: those frames whose mean joint distance exceeds 0.5 hand sizes (the fit is off
   the hand), and their longest run;
 - ms/frame: the tracking stage per frame (fit, quality checks, searches), not the
@@ -156,11 +158,18 @@ def longest_run(flags: np.ndarray) -> tuple[int, int]:
     return best, start
 
 
-def score(track, keypoints) -> dict:
-    """The track's figures against the detector's keypoints (full-resolution pixels)."""
+def score(track, keypoints, skeleton: bool = False) -> dict:
+    """The track's figures against the detector's keypoints (full-resolution pixels): of
+    the points it reports, or with `skeleton` of its skeleton's joints G(x)."""
     n = track.n_frames
     scored = keypoints.present[:n].all(axis=1)  # frames where MediaPipe has all 21
-    return figures(track, keypoints.xy[:n], track.projected[0][:n], scored)
+    estimate = track.projected[0][:n]
+    if skeleton:
+        camera, hand = track.rig.cameras[0], track.hand
+        estimate = np.full_like(estimate, np.nan)
+        for t in np.flatnonzero(np.isfinite(track.poses[:n]).all(axis=1)):
+            estimate[t] = camera.project(hand.joints(track.poses[t]))
+    return figures(track, keypoints.xy[:n], estimate, scored)
 
 
 def figures(track, reference: np.ndarray, estimate: np.ndarray, scored: np.ndarray) -> dict:
@@ -206,7 +215,7 @@ def person_shape(video: Path, out: Path) -> Path:
 
 
 def run(name: str, predictors, frames: int | None, seed: int, strip: Path | None,
-        recovery=None, shape: Path | None = None) -> dict:  # fmt: skip
+        recovery=None, shape: Path | None = None, skeleton: bool = False) -> dict:  # fmt: skip
     """Track video `name` with each predictor from one first pose (the default hand, or
     the track `shape`'s); their figures."""
     video = example_path(name)
@@ -218,7 +227,7 @@ def run(name: str, predictors, frames: int | None, seed: int, strip: Path | None
         track = handvar.track(video, scale=SCALE, detector="none", predictor=p, init=x0,
                               seed=seed, frames=frames, recovery=recovery,
                               shape=shape)  # fmt: skip
-        rows[p] = score(track, keypoints)
+        rows[p] = score(track, keypoints, skeleton)
         rows[p]["wall"] = time.perf_counter() - t0
         tracks[p] = track
         _print_row(p, rows[p])
@@ -521,6 +530,9 @@ def main() -> None:
                         help="the default example track with seeds 0, 1, 2")  # fmt: skip
     parser.add_argument("--shape", action="store_true",
                         help="the person's hand, as the one command's track fits it")  # fmt: skip
+    parser.add_argument("--skeleton", action="store_true",
+                        help="score the skeleton's joints G(x), not the points the track "
+                             "reports")  # fmt: skip
     parser.add_argument("--largest", action="store_true",
                         help="keep the largest skin component, not the one where the hand "
                              "is expected (RecoverySettings.skin_where_expected)")  # fmt: skip
@@ -547,7 +559,7 @@ def main() -> None:
             print(f"{name}: {example_path(name).name}", flush=True)
             shape = person_shape(example_path(name), Path(tmp) / name) if args.shape else None
             results[name] = run(name, predictors, args.frames, args.seed, args.strip,
-                                recovery, shape)  # fmt: skip
+                                recovery, shape, args.skeleton)  # fmt: skip
     print()
     print(table(results))
     for name, rows in results.items():
