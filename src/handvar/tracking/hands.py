@@ -168,7 +168,6 @@ import cv2
 import numpy as np
 
 from handvar.hand.anthropometry import other_side
-from handvar.hand.kinematics import keypoint_points
 from handvar.validate import as_int
 from handvar.vision.keypoints import PALM_MM, RAY_GAP, ray_points
 
@@ -673,9 +672,9 @@ class HandsTracker:
         self._note_late(results, images, greys)
         for h, r in zip(self.hands, results, strict=True):
             if not r.no_hand and not r.hidden:
-                h.before, h.last, h.missing = h.last, r, 0
+                h.before, h.last, h.missing = h.last, _skeleton(h, r), 0
             elif not r.no_hand:  # carried: its place moves on, it stays expected
-                h.before, h.last = h.last, r
+                h.before, h.last = h.last, _skeleton(h, r)
                 h.missing += 1
             else:
                 h.missing += 1
@@ -867,7 +866,7 @@ class HandsTracker:
         pose = other.tracker.frames[t].pose
         if not np.isfinite(pose).all():
             return False
-        joints = keypoint_points(other.tracker.hand, pose, other.tracker.tips)  # as detected
+        joints = other.tracker.hand.joints(pose)
         return any(k is not None and _distance(cam.project(joints), k) < DUPLICATE
                    for cam, k in zip(self.rig.cameras, kps, strict=True))  # fmt: skip
 
@@ -1220,6 +1219,16 @@ def _labelled_back(pairs: dict[int, int], expected: list, sides: list, found: li
         k = min(near, key=near.get, default=None)
         if k is not None and near[k] < NEW_HAND:
             pairs[h] = k
+
+
+def _skeleton(h: _Hand, r):
+    """`r` with its joints and their projections at the skeleton's joints G(x), as the
+    rules see a hand's last fit: their bounds were chosen so on the two-hand benchmark
+    (the result handed out reports the points where a detector marks them; with those
+    the rules took another hand's identity on `occlude` with MediaPipe)."""
+    joints = h.tracker.hand.joints(r.pose)
+    projected = np.stack([cam.project(joints) for cam in h.tracker.rig.cameras])
+    return dataclasses.replace(r, joints=joints, projected=projected)
 
 
 def _one_view(h: _Hand, kps: list, carried: list) -> None:
