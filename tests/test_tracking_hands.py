@@ -482,6 +482,10 @@ def test_track_hands_keeps_each_true_hand_under_one_id_through_a_crossing(tmp_pa
     }
     for k, t in back.tracks.items():
         np.testing.assert_array_equal(t.poses, result.tracks[k].poses)
+        # the hand it loads reports the track's points (the detector's; the exports' too)
+        posed = np.flatnonzero(np.isfinite(t.poses).all(axis=1))[-1]
+        assert t.hand.tips == "pad"
+        np.testing.assert_allclose(t.hand.landmarks(t.poses[posed]), t.joints[posed], atol=1e-9)
 
 
 def test_track_hands_in_real_time_drops_frames_and_keeps_identities(tmp_path):

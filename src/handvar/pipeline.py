@@ -2231,7 +2231,8 @@ def track_hands(
                      "kind": "camera" if live else "recording", "hands": hands,
                      "scale": played.scale, "hand_length": hand_length, "model": model,
                      "hand": h.side, "keypoints": True, "recover": True,
-                     "keypoint_every": every, "realtime": realtime or live,
+                     "keypoint_every": every, "keypoint_tips": h.tracker.tips,
+                     "realtime": realtime or live,
                      "detector": _detector_name(detector, detectors),
                      "outside_keypoints": outside},
         )  # fmt: skip
