@@ -9,7 +9,8 @@ frames between detections get the detected points carried there by optical flow
 (`handvar.vision.carry`, design §14.5), as `handvar track` does; the detector's own keypoints of
 those frames are withheld from the tracker.  Printed:
 
-- PCK@0.2: the fraction of the 21 projected joints within 0.2 hand sizes of the
+- PCK@0.2: the fraction of the 21 projected points (the fingertips at ``--tips``, as
+  the fit compares them) within 0.2 hand sizes of the
   detector's keypoints (hand size: the detected wrist → middle-MCP distance in that
   frame), over the frames whose keypoints were withheld from the tracker, and over all;
 - the silhouette IoU of the fit per frame (minimum, mean);
@@ -106,7 +107,8 @@ def run(
     bare = np.flatnonzero(~with_detection & ~used.present[:n].any(axis=1)) if every else []
     parts = {i: misfit(pose, m, hand, rig) for i, (pose, m) in fitted.items()}
     q = result.quality
-    scores = np.array([pck(result.poses[t], hand, rig, [truth.frame(t)]) for t in range(n)])
+    scores = np.array([pck(result.poses[t], hand, rig, [truth.frame(t)], tips=tips)
+                       for t in range(n)])  # fmt: skip
     withheld = ~with_detection
     points = {  # the tracked fit's distance to each detected point, hand sizes
         t: joint_distances(result.poses[t], hand, rig, [truth.frame(t)], tips=tips)[0]
@@ -248,7 +250,7 @@ def main() -> None:
     settings = RecoverySettings(refine_iterations=args.refine_iterations)
     print(
         f"example video, scale {args.scale:g}, hand {args.hand_length:g} mm, RVAR, "
-        f"seed {args.seed}, fingertips at the {args.tips}; PCK@0.2 of G(x) against the "
+        f"seed {args.seed}, fingertips at the {args.tips}; PCK@0.2 of those points against the "
         f"detector on every frame; {settings}; keypoints "
         f"carried between detections: {args.carry}"
     )
