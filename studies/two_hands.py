@@ -99,15 +99,20 @@ import cv2
 import numpy as np
 
 
-def fitted_tracks(case, detections, every: int = 1, back: bool = True, look=None):
+def fitted_tracks(case, detections, every: int = 1, back: bool = True, look=None,
+                  recovery=None, split: bool = True):  # fmt: skip
     """Track `case` with the given detections per frame; the tracks as `score_two_hands`
     takes them (camera 0), and the frames/s of the tracker.  `back`: as on a recording,
     a hand found late is carried back (`HandsTracker.back_fill`); `look`: the tracker's
-    second look where a hand expected was missed (`HandsTracker`'s)."""
+    second look where a hand expected was missed (`HandsTracker`'s); `recovery`: every
+    hand's settings; `split`: with the silhouette term, the skin shared between the
+    hands (False: each hand given the skin as one hand would be)."""
     from handvar.tracking.hands import HandsTracker
     from handvar.tracking.keypoint_cost import keypoint_points
 
-    tracker = HandsTracker(case.rig, detector=None, keypoint_every=every, back=back, look=look)
+    tracker = HandsTracker(case.rig, detector=None, keypoint_every=every, back=back, look=look,
+                           recovery=recovery)  # fmt: skip
+    tracker._split = tracker._split and split
     T = case.n_frames
     n = len(case.rig)
     results = []
@@ -566,6 +571,12 @@ def main() -> None:
     parser.add_argument(
         "--cache", default=None, help="a folder keeping MediaPipe's detections per case, for reruns"
     )
+    parser.add_argument("--silhouette-term", type=float, default=0.0,
+                        help="σ of the keypoint fit's silhouette term, hand sizes (handvar "
+                             "track --silhouette-term; 0: off)")  # fmt: skip
+    parser.add_argument("--no-split", action="store_true",
+                        help="with --silhouette-term: each hand given the skin as one hand "
+                             "would be, not its share (HandsTracker, rule 5)")  # fmt: skip
     args = parser.parse_args()
     if args.mirror:
         mirrored_pck(args)
@@ -574,6 +585,9 @@ def main() -> None:
         palm_pairs(args)
         return
     import handvar.tracking.hands as rules
+    from handvar.tracking.recovery import RECOVERY_DEFAULTS
+
+    recovery = RECOVERY_DEFAULTS.with_silhouette_term(args.silhouette_term)
 
     for option, _, constant, _ in RULE_OPTIONS:
         value = getattr(args, option[2:].replace("-", "_"))
@@ -610,7 +624,8 @@ def main() -> None:
             raw = score_two_hands(case, raw_tracks)
             look = "mediapipe" if args.detector == "mediapipe" and not args.no_look else None
             tracks, fps, results = fitted_tracks(case, detections, args.every,
-                                                 not args.forward_only, look)  # fmt: skip
+                                                 not args.forward_only, look, recovery,
+                                                 not args.no_split)  # fmt: skip
             fit = score_two_hands(case, tracks)
             totals["side_det"] += wrong_sides(case, raw, {side: side for side in raw_tracks})
             for right, found in label_runs(case, fit, tracks, results).items():
@@ -657,6 +672,8 @@ def main() -> None:
             totals["sw_det"] += raw.switches
             totals["sw_fit"] += fit.switches
             totals["fps"].append(fps)
+            if args.silhouette_term > 0:
+                totals["skin"] = totals.get("skin", 0) + skin_frames(case)
             row = by_scenario.setdefault(scenario, {"sw_det": 0, "sw_fit": 0, "rows": []})
             row["sw_det"] += raw.switches
             row["sw_fit"] += fit.switches
@@ -693,7 +710,27 @@ def main() -> None:
             f"{held_all}, the mean on {held_mean}; on those frames the detection's PCK@0.2"
             f" against the truth {held_truth}"
           + f"; {np.mean(totals['fps']):.1f} fits/s (both hands)")  # fmt: skip
+    if "skin" in totals:
+        frames = len(args.scenario) * args.seeds * case.n_frames
+        print(f"a skin silhouette (camera 0) on {totals['skin']} of {frames} frames (the "
+              f"others' backgrounds are skin-coloured: no silhouette, no term)")  # fmt: skip
     print_scenarios(by_scenario, totals)
+
+
+def skin_frames(case) -> int:
+    """Camera 0's frames of `case` on which the skin gives a silhouette (the published
+    skin model and clean-up, as the fit's silhouette term has it): one that does not
+    touch every border of the image."""
+    from handvar.vision.skin import SkinModel
+    from handvar.vision.sources import frame_silhouettes
+
+    model = SkinModel()
+    found = 0
+    for t in range(case.n_frames):
+        image = cv2.cvtColor(case.frames[0, t], cv2.COLOR_RGB2BGR)
+        found += bool(frame_silhouettes([image], model, index=t, names=["cam0"], wrist=False,
+                                        allow_empty=True)[0].any())  # fmt: skip
+    return found
 
 
 def print_scenarios(by_scenario, totals) -> None:

@@ -562,6 +562,13 @@ def test_track_hands_from_a_detections_file_as_with_the_detector_inside(tmp_path
     assert (tmp_path / "o" / "hands.json").is_file()
     res = run("--keypoints", str(found), "--realtime", "--out", str(tmp_path / "rt"))
     assert res.exit_code == 0 and "realtime: 20 frames" in res.output, res.output
+    # the silhouette as a cue of each hand's fit, the skin shared between them (rule 5)
+    res = run("--keypoints", str(found), "--silhouette-term", "0.05", "--out", str(tmp_path / "s"))
+    assert res.exit_code == 0, res.output
+    back, without = handvar.HandsTrack.load(tmp_path / "s"), handvar.HandsTrack.load(tmp_path / "o")
+    assert sorted(t.shape.side for t in back.tracks.values()) == ["left", "right"]
+    assert any(not np.allclose(t.poses, without.tracks[k].poses, equal_nan=True)
+               for k, t in back.tracks.items())  # fmt: skip
     short = tmp_path / "short.json"
     write_detections(short, case.detections[0][:-1])
     for bad, says in (
@@ -1175,3 +1182,38 @@ def test_a_hand_found_late_is_carried_back_on_a_recording_but_not_across_a_cut(c
     track = trackers[True].hands[left].tracker.recovered(keypoints=True).track
     assert np.isfinite(track.poses[start:first_found]).all()
     assert np.isnan(track.poses[:start]).all()
+
+
+def test_the_skin_of_two_hands_one_in_front_of_the_other_is_shared_between_them():
+    """Rule 5's split, against the truth: on a rendered occlusion (`occlude`, seed 0;
+    one skin component where the hands overlap), where both hands are expected the
+    hand in front (at the poses their predictors expect) is given most of its own
+    visible pixels and few of the other's (the skin alone gives it all of both), and
+    the hand behind its own and the front hand's (where its hidden parts may lie)."""
+    import cv2
+
+    from handvar.evaluation.two_hands import two_hand_case
+
+    case = two_hand_case("occlude", seed=0, frames=(20, 60), size=(320, 180))
+    tracker = HandsTracker(case.rig, detector=None, look=None)
+    camera = case.rig.cameras[0]
+    own, taken, behind_own = [], [], []
+    for t in range(case.n_frames):
+        image = [cv2.cvtColor(case.frames[0, t], cv2.COLOR_RGB2BGR)]
+        expected = tracker._expected_now()
+        if case.overlap[0, t] and len(expected) == 2:
+            silhouettes = tracker._shares(image, t, expected)()
+            depth = {k: camera.camera_from_world(model.joints(pose))[:, 2].mean()
+                     for k, (model, pose) in expected.items()}  # fmt: skip
+            front, behind = (tracker.hands[k] for k in sorted(depth, key=depth.get))
+            mine = case.masks[0, case.sides.index(front.side), t]
+            other = case.masks[0, case.sides.index(behind.side), t]
+            given = silhouettes[front.id][0]
+            own.append((given & mine).sum() / mine.sum())
+            taken.append((given & other).sum() / other.sum())
+            assert (silhouettes[behind.id][0] >= given).all()
+            behind_own.append((silhouettes[behind.id][0] & other).sum() / other.sum())
+        tracker.process(image, detections=[case.detections[0][t]])
+    assert len(own) >= 20
+    assert np.median(own) > 0.85 and np.median(taken) < 0.5, (np.median(own), np.median(taken))
+    assert np.median(behind_own) > 0.8

@@ -20,6 +20,7 @@ from handvar.vision import (
     silhouettes_from_videos,
 )
 from handvar.vision.keypoints import read_keypoints
+from handvar.vision.silhouette import split_silhouette
 
 VIDEO = example_path("video")
 
@@ -103,6 +104,44 @@ def test_clean_mask_near_keeps_the_component_where_the_hand_is_expected():
     assert two[45, 85] and two[50, 30] and not two[75, 65]
     with pytest.raises(ValueError, match=r"near: expected the mask's shape \(100, 120\)"):
         clean_mask(m, near=np.zeros((10, 10)))
+
+
+def _disc(shape, centre, radius):
+    ys, xs = np.mgrid[: shape[0], : shape[1]]
+    return (xs - centre[0]) ** 2 + (ys - centre[1]) ** 2 <= radius**2
+
+
+def _iou(a, b):
+    return (a & b).sum() / (a | b).sum()
+
+
+@pytest.mark.parametrize("shift", [0, 4])
+def test_split_silhouette_gives_each_hand_what_it_covers_the_front_one_the_overlap(shift):
+    """Two overlapping discs, one component of skin: each share against the pixels the
+    disc shows (the front one whole, the back one where the front does not cover it),
+    with the expected discs `shift` px off, as a prediction is; a far blob (a face)
+    goes to no hand."""
+    shape = (120, 200)
+    front, back = _disc(shape, (80, 60), 30), _disc(shape, (125, 60), 30)
+    face = _disc(shape, (180, 15), 10)
+    skin = front | back | face
+    expected = [_disc(shape, (80 + shift, 60 - shift), 30), _disc(shape, (125 - shift, 60), 30)]
+    a, b = split_silhouette(skin, expected)
+    assert not (a & b).any() and not ((a | b) & face).any()
+    assert _iou(a, front) > 0.9 and _iou(b, back & ~front) > 0.85
+    # back to front: the overlap goes to the other disc
+    b2, a2 = split_silhouette(skin, expected[::-1])
+    assert _iou(b2, back) > 0.9 and _iou(a2, front & ~back) > 0.85
+
+
+def test_split_silhouette_a_hand_expected_nowhere_and_wrong_input():
+    shape = (60, 100)
+    hand, blob = _disc(shape, (25, 30), 15), _disc(shape, (80, 30), 12)
+    first, second = split_silhouette(hand | blob, [_disc(shape, (27, 30), 15), None])
+    assert np.array_equal(first, hand) and np.array_equal(second, blob)
+    assert [int(s.sum()) for s in split_silhouette(np.zeros(shape), [hand, None])] == [0, 0]
+    with pytest.raises(ValueError, match=r"expected\[1\]: expected the mask's shape \(60, 100\)"):
+        split_silhouette(hand, [hand, np.zeros((10, 10))])
 
 
 def test_clean_mask_empty_and_bad_input():

@@ -662,7 +662,6 @@ def track(
             "carry": carry,
             "keypoint_tips": keypoint_tips,
             "recover": recover,
-            "recovery": recovery,
             "on_frame": on_frame,
             "shape": shape,
         }
@@ -674,7 +673,8 @@ def track(
                            model=model, predictor=predictor, seed=seed, frames=frames,
                            progress=progress, detector=detector,
                            keypoint_every=keypoint_every, realtime=realtime,
-                           keypoints=keypoints, allow_short=allow_short)  # fmt: skip
+                           keypoints=keypoints, allow_short=allow_short,
+                           recovery=recovery)  # fmt: skip
     options = TrackOptions.checked(
         keypoints=keypoints, calib=calib, fov=fov, scale=scale, hand=hand,
         hand_length=hand_length, model=model, predictor=predictor, init=init,
@@ -2124,6 +2124,7 @@ def track_hands(
     realtime: bool = False,
     keypoints=None,
     allow_short: bool = False,
+    recovery=None,
 ) -> HandsTrack:
     """Track both hands through a recording (module notes).
 
@@ -2157,6 +2158,11 @@ def track_hands(
         its full-resolution frames.
     allow_short : bool
         As `handvar.track`: a video that stops decoding early is used to where it stops.
+    recovery : RecoverySettings, optional
+        Every hand's (`handvar.tracking.recovery.RecoverySettings`; default
+        ``RECOVERY_DEFAULTS``); with the silhouette term
+        (`RecoverySettings.with_silhouette_term`) the skin is shared between the hands
+        (`HandsTracker`, rule 5).
 
     Returns
     -------
@@ -2188,7 +2194,7 @@ def track_hands(
         tracker = HandsTracker(opened.rig, hands=hands, detector=None, predictor=predictor,
                                hand_length=hand_length, model=model, seed=seed,
                                keypoint_every=every, back=not (realtime or live), look=look,
-                               mirrored=mirrored)  # fmt: skip
+                               mirrored=mirrored, recovery=recovery)  # fmt: skip
         with tracker:
             for index, captured, images, found in items:
                 given = None if found is None else [

@@ -176,15 +176,15 @@ def track_command(
     allow_short = click.get_current_context().meta.get("handvar.allow_short", False)
     _check_sources(seq, camera, realtime, show, scheduler, workers)
     if hands == 2:
-        one_hands = {"--keypoint-tips": keypoint_tips is not None,
-                     "--silhouette-term": silhouette_term > 0, "--shape": shape is not None,
+        one_hands = {"--keypoint-tips": keypoint_tips is not None, "--shape": shape is not None,
                      "--recover" if recover else "--no-recover": recover is not None}  # fmt: skip
         _track_hands(seq, out, video, keypoint_files=keypoint_files, camera=camera,
                      realtime=realtime, show=show, side=side, init=init,
                      keypoint_every=keypoint_every, one_hands=one_hands,
                      carry=carry, predictor=predictor, seed=seed, frames=n_frames,
                      hand_length=hand_length, model=model, detector=detector, calib=calib,
-                     fov=fov, scale=scale, allow_short=allow_short)  # fmt: skip
+                     fov=fov, scale=scale, allow_short=allow_short,
+                     recovery=recovery)  # fmt: skip
         return
     if len(seq) > 1:
         _track_batch(

@@ -30,6 +30,7 @@ Examples
 from __future__ import annotations
 
 import dataclasses
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -211,7 +212,7 @@ class HandTracker:
 
     # -- one frame ----------------------------------------------------------------------
 
-    def process(self, frames, *, keypoints=None, world=None) -> FrameResult:
+    def process(self, frames, *, keypoints=None, world=None, silhouettes=None) -> FrameResult:
         """Track the next frame.
 
         Parameters
@@ -224,6 +225,10 @@ class HandTracker:
         world : (21, 3) array_like, keyword-only, optional
             With `keypoints`: the detector's metric 3D points of the first camera's
             hand, mm (`handvar.vision.keypoints.Detection.world`).
+        silhouettes : (n_cameras, H, W) array_like or callable, keyword-only, optional
+            The hand's silhouette in every camera, instead of the skin the tracker
+            finds in `frames` (a callable ``() -> masks`` is called only where the fit
+            needs them); `HandsTracker` gives each hand its share of the skin.
 
         Returns
         -------
@@ -242,8 +247,11 @@ class HandTracker:
             if self.detectors is not None and not _present(kps):  # no hand seen yet
                 return self._kept(_Frame.without_hand(), 0.0, None)
             self._start()
-        return self.fit(lambda near=None: self._silhouettes(images, near), kps, world,
-                        absent=ran)  # fmt: skip
+        if silhouettes is None:
+            masks = functools.partial(self._silhouettes, images)
+        else:
+            masks = functools.partial(_given_silhouettes, silhouettes, images)
+        return self.fit(masks, kps, world, absent=ran)
 
     def fit(self, masks, keypoints, world=None, *, absent: bool = False) -> FrameResult:
         """Fit the next frame from its silhouettes (or a callable ``near=None -> masks``
@@ -411,6 +419,17 @@ class HandTracker:
         return frame_silhouettes(images, self._skin, index=self.frame_count,
                                  names=self.rig.names, wrist=self.detectors is None,
                                  allow_empty=True, near=near)  # fmt: skip
+
+
+def _given_silhouettes(silhouettes, images, near=None) -> np.ndarray:
+    """The silhouettes given to `HandTracker.process`, checked against its frames
+    (`near`, where the hand is expected, is the skin's choice: not used)."""
+    masks = np.asarray(silhouettes() if callable(silhouettes) else silhouettes)
+    shape = (len(images), *images[0].shape[:2])
+    if masks.shape != shape:
+        raise ValueError(f"silhouettes: expected shape {shape}, one (H, W) mask per camera "
+                         f"of the frames; got {masks.shape}")  # fmt: skip
+    return masks.astype(bool, copy=False)
 
 
 def _images(frames, n: int) -> list[np.ndarray]:

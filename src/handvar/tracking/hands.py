@@ -77,7 +77,14 @@ detector's label:
 5. **One hand hiding the other.**  Per camera, the keypoints of a hand that fall
    inside the other hand's expected outline (the convex hull of its points, widened
    by 0.15 of its size) while the other is nearer the camera by `FRONT` mm or more
-   get their confidence times `HIDDEN_WEIGHT`.
+   get their confidence times `HIDDEN_WEIGHT`.  Where the fit is given the
+   silhouettes (the silhouette term, `RecoverySettings.with_silhouette_term`, or the
+   IoU of `RecoverySettings.keypoint_iou`), the skin is shared between the two hands
+   (`handvar.vision.silhouette.split_silhouette`): each pixel goes to the hand whose
+   model, at its predicted pose, lies nearest it, the one in front where both cover
+   it, and a hand is given its share and the shares of the hands in front of it
+   (where its hidden parts may lie): touching hands make one skin component, and the
+   hand in front is compared with its own part of it.
 6. **A hand the detector misses.**  With a detector that can look at part of a frame
    (``look``: MediaPipe's, `handvar.vision.mediapipe.MediaPipeCrop`), a tracked hand
    in the open (not behind the other, rule 5) that no detection lies near in a camera
@@ -595,6 +602,9 @@ class HandsTracker:
         self.hands = [_Hand(k, "", HandTracker(rig, hand="right", detector=None, **options))
                       for k in range(n_hands)]  # fmt: skip
         self.frame_count = 0
+        fit = self.hands[0].tracker.settings  # every hand's
+        self._split = n_hands > 1 and (fit.keypoint_iou or fit.frame_fit.silhouette > 0)
+        self._skin = None
         # rule 7: the last frames (images, greys) and, per hand found late, what to carry
         self._recent = None
         if back:
@@ -655,6 +665,9 @@ class HandsTracker:
             detections = self._look_again(images, detections)
         given = self._given(detections) if ran else {}
         greys = [cv2.cvtColor(np.ascontiguousarray(i), cv2.COLOR_BGR2GRAY) for i in images]
+        shares = (
+            self._shares(images, self.frame_count, self._expected_now()) if self._split else None
+        )
         results = []
         for h in self.hands:
             kps, world = given.get(h.id, ([None] * n, None))
@@ -668,7 +681,7 @@ class HandsTracker:
             _one_view(h, kps, carried)
             followed = [c if k is None else None for c, k in zip(carried, kps, strict=True)]
             self._down_weighted(h, followed)  # rule 5 on them too, in place
-            results.append(self._fit(h, images, carried, world))
+            results.append(self._fit(h, images, carried, world, shares))
         self._note_late(results, images, greys)
         for h, r in zip(self.hands, results, strict=True):
             if not r.no_hand and not r.hidden:
@@ -812,7 +825,8 @@ class HandsTracker:
                     carried.append(k if k is not None and c.followed >= BACK_POINTS else None)
                 if all(k is None for k in carried) or self._on_fit(other, t, carried):
                     break
-                if not _refit(h, recovery, t, images, carried, out):
+                shares = self._refit_shares(h, recovery, t, images)
+                if not _refit(h, recovery, t, images, carried, out, shares):
                     break
         self._refit_views(out)
         self._take_off(unfound, out)
@@ -855,7 +869,9 @@ class HandsTracker:
                 continue
             recovery = _recovery_from(h, t1)
             for t, kps, images in reversed(run):
-                if h.tracker.frames[t].no_hand or not _refit(h, recovery, t, images, kps, out):
+                shares = self._refit_shares(h, recovery, t, images)
+                if h.tracker.frames[t].no_hand or not _refit(h, recovery, t, images, kps, out,
+                                                             shares):  # fmt: skip
                     break
 
     def _on_fit(self, other: _Hand | None, t: int, kps: list) -> bool:
@@ -1117,8 +1133,9 @@ class HandsTracker:
                 k[inside, 2] *= HIDDEN_WEIGHT
         return kps
 
-    def _fit(self, h: _Hand, images, kps, world):
-        """The hand's frame: fitted to its keypoints, carried hidden, or without it."""
+    def _fit(self, h: _Hand, images, kps, world, shares=None):
+        """The hand's frame: fitted to its keypoints, carried hidden, or without it;
+        `shares`: the frame's skin shared between the hands (`_shares`), or None."""
         tracker = h.tracker
         present = any(k is not None for k in kps)
         if not present and self._hidden(h):
@@ -1127,8 +1144,68 @@ class HandsTracker:
         else:
             if present:
                 h.hidden = 0
-            r = tracker.process(images, keypoints=kps, world=world)
+            mine = None if shares is None else (lambda: shares()[h.id])
+            r = tracker.process(images, keypoints=kps, world=world, silhouettes=mine)
         return dataclasses.replace(r, id=h.id, side=h.side)
+
+    def _shares(self, images, index: int, expected: dict):
+        """Rule 5: a callable giving, once asked, each hand's silhouettes (hand id →
+        (n_cameras, H, W)) in frame `index` of `images`: per camera `split_silhouette`
+        of the skin components where the hands are expected, between their models at
+        the poses `expected` gives (hand id → (model, pose), where expected), front to
+        back by the poses' depths; each hand's share with those of the hands in front
+        of it, where its hidden parts may lie."""
+        from handvar.render import silhouettes
+        from handvar.vision.silhouette import split_silhouette
+        from handvar.vision.skin import SkinModel
+        from handvar.vision.sources import frame_silhouettes
+
+        @functools.cache
+        def shares() -> dict[int, np.ndarray]:
+            if self._skin is None:
+                self._skin = SkinModel()
+            drawn = {k: silhouettes(model, pose, self.rig) for k, (model, pose) in expected.items()}
+            near = np.any(list(drawn.values()), axis=0) if drawn else None
+            skin = frame_silhouettes(images, self._skin, index=index, names=self.rig.names,
+                                     wrist=False, allow_empty=True, near=near,
+                                     cleanup={"keep": len(self.hands)})  # fmt: skip
+            out = {h.id: np.zeros_like(skin) for h in self.hands}
+            joints = {k: model.joints(pose) for k, (model, pose) in expected.items()}
+            for j, camera in enumerate(self.rig.cameras):
+                depth = {k: camera.camera_from_world(g)[:, 2].mean() for k, g in joints.items()}
+                order = sorted(out, key=lambda k: (k not in depth, depth.get(k, 0.0)))
+                split = split_silhouette(skin[j], [drawn[k][j] if k in drawn else None
+                                                   for k in order])  # fmt: skip
+                front = np.zeros_like(skin[j])  # the shares of the hands in front
+                for k, share in zip(order, split, strict=True):
+                    front |= share
+                    out[k][j] = front.copy() if k in drawn else share
+            return out
+
+        return shares
+
+    def _expected_now(self) -> dict:
+        """Rule 5: per hand expected at the frame to come, its model and the pose its
+        predictor expects there (`_shares`), before any hand is fitted to it."""
+        out = {}
+        for h in self.hands:
+            recovery = h.tracker.recovery
+            if h.expected is not None and recovery is not None and recovery.previous is not None:
+                out[h.id] = (recovery.hand, recovery.tracker.prediction())
+        return out
+
+    def _refit_shares(self, h: _Hand, recovery, t: int, images):
+        """Rule 5 for rule 7: the skin of frame t shared between `h`, at the pose
+        `recovery` expects, and the other hands where their tracks put them; None
+        without the split."""
+        if not self._split:
+            return None
+        expected = {h.id: (recovery.hand, recovery.tracker.prediction())}
+        for other in self.hands:
+            pose = other.tracker.frames[t].pose if other is not h else None
+            if pose is not None and np.isfinite(pose).all() and other.tracker.hand is not None:
+                expected[other.id] = (other.tracker.hand, pose)
+        return self._shares(images, t, expected)
 
     def _behind(self, h: _Hand, j: int) -> bool:
         """Rule 6: in camera j, a hand in front of `h` (rule 5) overlaps it by
@@ -1258,14 +1335,18 @@ def _recovery_from(h: _Hand, t: int):
     return recovery
 
 
-def _refit(h: _Hand, recovery, t: int, images, kps: list, out: dict) -> bool:
+def _refit(h: _Hand, recovery, t: int, images, kps: list, out: dict, shares=None) -> bool:
     """Rule 7: frame t of `h` fitted again by `recovery` to `kps` (per camera) and put in
     its track and in `out` (frame → hand id → pose); False, and nothing put, where the
-    fit finds no hand or is lost."""
+    fit finds no hand or is lost.  `shares`: frame t's skin shared (`_refit_shares`)."""
+    from handvar.tracking.hand_tracker import _given_silhouettes
     from handvar.tracking.recovery import _frame_quality
 
-    f, seconds = recovery.step(functools.partial(h.tracker._silhouettes, images), kps, None,
-                               with_keypoints=True)  # fmt: skip
+    if shares is None:
+        masks = functools.partial(h.tracker._silhouettes, images)
+    else:
+        masks = functools.partial(_given_silhouettes, lambda: shares()[h.id], images)
+    f, seconds = recovery.step(masks, kps, None, with_keypoints=True)
     if f.no_hand or _frame_quality(f.result, f.empty).lost:
         return False
     h.tracker.frames[t], h.tracker.seconds[t] = f, h.tracker.seconds[t] + seconds

@@ -15,6 +15,9 @@ turns it into one clean silhouette per camera:
    so does one that touches all four borders of the image (`NotAHandError`): skin
    colour everywhere (a wall, a close-up of skin) is not a hand in view.
 
+`split_silhouette` shares one camera's skin silhouette between several tracked hands
+(`handvar.tracking.hands`): each pixel goes to the hand expected nearest it.
+
 `nearest_silhouette_pixel` gives, for every pixel, the nearest silhouette pixel — the
 ``s*`` of the silhouette cost ``C_s`` (design §4).
 
@@ -49,6 +52,7 @@ __all__ = [
     "nearest_silhouette_pixel",
     "silhouettes_from_frames",
     "silhouettes_from_videos",
+    "split_silhouette",
     "touches_every_border",
 ]
 
@@ -282,6 +286,72 @@ def _fill_holes(mask: np.ndarray, max_hole_area: int | None) -> np.ndarray:
 
 
 # --- distance field --------------------------------------------------------------------
+
+
+def split_silhouette(mask: np.ndarray, expected: Sequence) -> list[np.ndarray]:
+    """Share one camera's skin silhouette between hands by where each is expected.
+
+    Two hands that touch, clap or overlap make one skin component; fitted to it whole,
+    each model would be asked to fill the other hand too.  Each pixel of `mask` goes to
+    the hand whose expected silhouette (its model at its predicted pose) lies nearest
+    it (Euclidean distance transform); a pixel inside several goes to the first of
+    them, so `expected` is ordered front to back and a hand in front keeps the pixels
+    where it covers the other.  Components that overlap no expected silhouette (a face,
+    another arm) go to no hand.  A hand expected nowhere (None: not tracked yet) gets
+    the largest component that overlaps none of the others.
+
+    Parameters
+    ----------
+    mask : (H, W) array_like
+        The camera's silhouette (`clean_mask`, every component that may be a hand).
+    expected : sequence of (H, W) array_like or None
+        Per hand, where it is expected, front to back; None where it is not.
+
+    Returns
+    -------
+    list of (H, W) bool ndarray
+        Each hand's share, in the order of `expected`; disjoint.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> m = np.zeros((20, 40), bool)
+    >>> m[5:15, 2:38] = True                  # two hands touching: one component
+    >>> left = np.zeros_like(m); left[6:14, 4:16] = True
+    >>> right = np.zeros_like(m); right[6:14, 24:36] = True
+    >>> a, b = split_silhouette(m, [left, right])
+    >>> int(a.sum()), int(b.sum()), bool((a & b).any()), bool(a[10, 19]), bool(b[10, 21])
+    (180, 180, False, True, True)
+    """
+    m = as_mask(mask).astype(bool)
+    regions = [None if e is None else as_mask(e, f"expected[{k}]").astype(bool)
+               for k, e in enumerate(expected)]  # fmt: skip
+    for k, r in enumerate(regions):
+        if r is not None and r.shape != m.shape:
+            raise ValueError(f"expected[{k}]: expected the mask's shape {m.shape}; got {r.shape}")
+    shares = [np.zeros_like(m) for _ in regions]
+    present = [k for k, r in enumerate(regions) if r is not None and r.any()]
+    n, labels = cv2.connectedComponents(m.view(np.uint8), connectivity=8)
+    if n <= 1:
+        return shares
+    touched = np.zeros(n, dtype=bool)
+    for k in present:
+        touched[np.unique(labels[regions[k]])] = True
+    touched[0] = False
+    if present:
+        distance = np.stack([cv2.distanceTransform((~regions[k]).view(np.uint8),
+                                                   cv2.DIST_L2, 5) for k in present])  # fmt: skip
+        owner = np.asarray(present)[np.argmin(distance, axis=0)]  # ties: the first
+        kept = touched[labels]
+        for k in present:
+            shares[k] = kept & (owner == k)
+    areas = np.bincount(labels.ravel(), minlength=n)
+    areas[touched] = 0
+    areas[0] = 0
+    free = [k for k, r in enumerate(regions) if k not in present]
+    if free and areas.any():
+        shares[free[0]] = labels == int(np.argmax(areas))
+    return shares
 
 
 def nearest_silhouette_pixel(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
