@@ -339,3 +339,27 @@ def test_a_killed_worker_is_replaced_and_every_recording_finishes(recordings, tm
     assert set(summary.computed) == {"clip_a", "clip_c"} and not summary.failed
     assert (out / "clip_a.attempted").exists() and (out / "clip_c.attempted").exists()
     assert sorted(p.name for p in out.iterdir() if p.is_dir()) == ["clip_a", "clip_c"]
+
+
+def test_the_preview_window_draws_the_points_the_track_reports(monkeypatch):
+    """``--show`` draws each frame as the track's overlay does: the 21 points where the
+    detector marks them (the fingertip pads), not the skeleton's finger ends (over the
+    first frames, before the hand's shape is fitted, the track's own points)."""
+    import handvar.render
+    from handvar.cli.track import _track_one
+
+    drawn = []
+    monkeypatch.setattr(cv2, "imshow", lambda *args: None)
+    monkeypatch.setattr(cv2, "waitKey", lambda *args: -1)
+    monkeypatch.setattr(cv2, "destroyAllWindows", lambda: None)
+    real = handvar.render.overlay_views
+
+    def overlay_views(hand, rig, backgrounds, pose):
+        drawn.append(hand.landmarks(pose) if np.isfinite(pose).all() else None)
+        return real(hand, rig, backgrounds, pose)
+
+    monkeypatch.setattr(handvar.render, "overlay_views", overlay_views)
+    track = _track_one(str(VIDEO), show=True, keypoints=str(KEYPOINTS), hand="right",
+                       hand_length=185.0, model="spheres", frames=3, scale=0.5)  # fmt: skip
+    assert len(drawn) == 3 and drawn[-1] is not None
+    np.testing.assert_allclose(drawn[-1], track.joints[-1], atol=1e-6)

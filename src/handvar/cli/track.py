@@ -494,7 +494,8 @@ def _track_one(source, *, show: bool, **options):
         shape = load_shape(options["shape"])
     else:
         shape = HandShape.from_size(options["hand_length"], side=side)
-    hand = HandModel(shape, surface=options["model"])
+    # the points the track reports: on a recording where a detector marks them (§14.6)
+    hand = HandModel(shape, surface=options["model"], tips=options.get("keypoint_tips") or "pad")
     rig = {}
 
     def draw(i, pose, quality, masks, images=None):
