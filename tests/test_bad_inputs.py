@@ -402,9 +402,6 @@ CASES = [
     _c("track-hands-keypoint-tips",
        "track {r}/skin.avi --hands 2 --keypoint-tips end --out {r}/t1",
        "--keypoint-tips: expected none with --hands 2"),
-    _c("track-hands-silhouette-term",
-       "track {r}/skin.avi --hands 2 --silhouette-term 1 --out {r}/t1",
-       "--silhouette-term: expected none with --hands 2"),
     _c("track-hands-no-recover", "track {r}/skin.avi --hands 2 --no-recover --out {r}/t1",
        "--no-recover: expected none with --hands 2"),
     # detections files (.json) that are not what `handvar keypoints --hands 2` writes

@@ -494,7 +494,7 @@ def _track_one(source, *, show: bool, **options):
         shape = load_shape(options["shape"])
     else:
         shape = HandShape.from_size(options["hand_length"], side=side)
-    # the points the track reports: on a recording where a detector marks them (§14.6)
+    # the points the track reports: on a recording where a detector marks them (design §14.6)
     hand = HandModel(shape, surface=options["model"], tips=options.get("keypoint_tips") or "pad")
     rig = {}
 
