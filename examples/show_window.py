@@ -49,7 +49,8 @@ def main() -> None:
             found = cv2.matchTemplate(screen, image, cv2.TM_SQDIFF_NORMED)
             _, _, (x, y), _ = cv2.minMaxLoc(found)
             h, w = image.shape[:2]
-            cv2.imwrite(str(args.out), screen[y : y + h, x : x + w])
+            cv2.imwrite(str(args.out), screen[y : y + h, x : x + w],
+                        [cv2.IMWRITE_PNG_COMPRESSION, 9])  # fmt: skip
             print(f"frame {args.frame}: the window at ({x}, {y}) -> {args.out}")
         shown.append(name)
 
