@@ -247,11 +247,7 @@ class HandTracker:
             if self.detectors is not None and not _present(kps):  # no hand seen yet
                 return self._kept(_Frame.without_hand(), 0.0, None)
             self._start()
-        if silhouettes is None:
-            masks = functools.partial(self._silhouettes, images)
-        else:
-            masks = functools.partial(_given_silhouettes, silhouettes, images)
-        return self.fit(masks, kps, world, absent=ran)
+        return self.fit(self.masks(images, silhouettes), kps, world, absent=ran)
 
     def fit(self, masks, keypoints, world=None, *, absent: bool = False) -> FrameResult:
         """Fit the next frame from its silhouettes (or a callable ``near=None -> masks``
@@ -409,6 +405,14 @@ class HandTracker:
             self._carriers = [KeypointCarrier(settings) for _ in images]
         kps = kps or [None] * len(images)
         return [c.step(im, k) for c, im, k in zip(self._carriers, images, kps, strict=True)]
+
+    def masks(self, images, silhouettes=None):
+        """The frame's silhouettes as `Recovery.step` takes them, a callable ``near=None
+        -> masks``: `silhouettes` as given to `process` (checked against `images`), or
+        those the skin model finds in `images`."""
+        if silhouettes is None:
+            return functools.partial(self._silhouettes, images)
+        return functools.partial(_given_silhouettes, silhouettes, images)
 
     def _silhouettes(self, images, near=None):
         from handvar.vision.skin import SkinModel

@@ -1339,14 +1339,10 @@ def _refit(h: _Hand, recovery, t: int, images, kps: list, out: dict, shares=None
     """Rule 7: frame t of `h` fitted again by `recovery` to `kps` (per camera) and put in
     its track and in `out` (frame → hand id → pose); False, and nothing put, where the
     fit finds no hand or is lost.  `shares`: frame t's skin shared (`_refit_shares`)."""
-    from handvar.tracking.hand_tracker import _given_silhouettes
     from handvar.tracking.recovery import _frame_quality
 
-    if shares is None:
-        masks = functools.partial(h.tracker._silhouettes, images)
-    else:
-        masks = functools.partial(_given_silhouettes, lambda: shares()[h.id], images)
-    f, seconds = recovery.step(masks, kps, None, with_keypoints=True)
+    mine = None if shares is None else (lambda: shares()[h.id])
+    f, seconds = recovery.step(h.tracker.masks(images, mine), kps, None, with_keypoints=True)
     if f.no_hand or _frame_quality(f.result, f.empty).lost:
         return False
     h.tracker.frames[t], h.tracker.seconds[t] = f, h.tracker.seconds[t] + seconds
