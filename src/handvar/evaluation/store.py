@@ -40,6 +40,7 @@ import dataclasses
 import json
 import os
 import shutil
+import time
 from pathlib import Path
 
 import numpy as np
@@ -362,14 +363,32 @@ def create_store(path: str | os.PathLike, config: ExperimentConfig, sequence) ->
     try:
         ds.to_zarr(tmp / "store.zarr", mode="w-", encoding=encoding, zarr_format=2)
         os.replace(tmp / "store.zarr", path)
-    except OSError as exc:  # a full disk: say so, naming the store
-        new = disk_full(exc, path)
-        if new is exc:
+    except BaseException as exc:
+        _remove_written(tmp)
+        new = disk_full(exc, path) if isinstance(exc, OSError) else exc
+        if new is exc:  # not a full disk
             raise
-        raise new from None
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        raise new from None  # a full disk: say so, naming the store
+    shutil.rmtree(tmp, ignore_errors=True)
     return path
+
+
+def _remove_written(tmp: Path, settle: float = 0.5) -> None:
+    """Remove the temporary store `tmp`, again while files still appear in it.
+
+    Zarr writes a store's chunks from its own event loop, and an error in one chunk (a
+    full disk) reaches us while the others are still being written: they can put files
+    back into `tmp` as it is removed.  So it is removed until it has stayed away for
+    `settle` seconds (a chunk on a full disk fails at once), for 20 s at most."""
+    start = gone_since = time.monotonic()
+    while time.monotonic() - start < 20.0:
+        shutil.rmtree(tmp, ignore_errors=True)
+        now = time.monotonic()
+        if tmp.exists():
+            gone_since = now
+        elif now - gone_since >= settle:
+            return
+        time.sleep(0.02)
 
 
 def _write_region(path: Path, variables: dict, p: int | slice, t: int):
