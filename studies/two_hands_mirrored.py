@@ -170,7 +170,8 @@ def identity_errors(half: dict) -> tuple[int, int]:
     return switches, same_half
 
 
-def study(name: str, out: Path, scale: float, gap: int, pasted: bool = False) -> None:
+def study(name: str, out: Path, scale: float, gap: int, pasted: bool = False,
+          silhouette_term: float = 0.0) -> None:  # fmt: skip
     from handvar.pipeline import HandsTrack
     from handvar.tracking.frame_fit import CHECK_THRESHOLD
     from handvar.vision.keypoints import KEYPOINT_NAMES
@@ -182,7 +183,7 @@ def study(name: str, out: Path, scale: float, gap: int, pasted: bool = False) ->
     fov = wide_fov((width - gap) // 2, width)
     command = [sys.executable, "-m", "handvar", "track", str(video), "--hands", "2",
                "--scale", str(scale), "--fov", f"{fov:.4f}", "--out", str(target),
-               "--no-video"]  # fmt: skip
+               "--no-video", "--silhouette-term", str(silhouette_term)]  # fmt: skip
     t0 = time.perf_counter()
     run = subprocess.run(command, capture_output=True, text=True)
     seconds = time.perf_counter() - t0
@@ -250,10 +251,13 @@ def main() -> None:
     parser.add_argument("--pasted", action="store_true",
                         help="the frames side by side as they are, not as the wider camera "
                              "turned would film them")  # fmt: skip
+    parser.add_argument("--silhouette-term", type=float, default=0.0,
+                        help="the command's --silhouette-term (each hand its share of the "
+                             "skin; 0: off)")  # fmt: skip
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     for name in args.video:
-        study(name, args.out, args.scale, args.gap, args.pasted)
+        study(name, args.out, args.scale, args.gap, args.pasted, args.silhouette_term)
 
 
 if __name__ == "__main__":
