@@ -19,7 +19,9 @@ landmarks in ``keypoints.npz``), this prints per mono case and overall:
   estimate is turned about its wrist onto the truth (`joint_errors(alignment=
   "rotation")`: size and articulation left), the median angle of that turn (the
   orientation error) and of its part about the optical axis (a turn within the image,
-  which the 2D points show); the last column is the median angle between a
+  which the 2D points show), the case's mean turn (what stays over the case: its angle
+  and rotation vector in camera 0's axes) and each frame's angle from it (what varies);
+  the last column is the median angle between a
   fit's orientation and MediaPipe's turned one.  With the 2D-only fits of ``--detector
   mediapipe`` in the same DIR, their row too (the fit given MediaPipe's 2D points alone,
   no world landmarks).
@@ -80,6 +82,15 @@ def orientation_row(truth: np.ndarray, estimate: np.ndarray) -> dict[str, np.nda
         "roll": np.array([roll(R) for R in turns]),
         "turns": turns,
     }
+
+
+def steady_turn(turns) -> tuple[Rotation, np.ndarray]:
+    """The mean of a case's per-frame rotations onto the truth (`Rotation.mean`, the
+    chordal L2 mean) and each frame's angle from it, degrees: the part of the
+    orientation error that stays over the case, and what varies about it."""
+    mean = Rotation.from_matrix(np.stack(turns)).mean()
+    rest = [rotation_angle(R @ mean.as_matrix().T) for R in turns]
+    return mean, np.asarray(rest)
 
 
 def size_table(cases: Path) -> None:
@@ -180,7 +191,8 @@ def orientation_table(cases: Path) -> None:
     names = sorted(p.parent.name for p in cases.glob("*-mono-*/truth.npz")
                    if (cases / "fits" / f"{p.parent.name}-inside-every1").exists())  # fmt: skip
     header = (f"{'case':<26} {'estimate':<24} {'frames':>6} {'MPJPE':>6} {'turned':>6} "
-              f"{'orient.':>7} {'in-img':>6} {'vs MP':>6}")  # fmt: skip
+              f"{'orient.':>7} {'in-img':>6} {'steady':>6} {'about x, y, z':>17} "
+              f"{'rest':>5} {'vs MP':>6}")  # fmt: skip
     print(header)
     pooled: dict[str, dict[str, list]] = {}
     for name in names:
@@ -192,26 +204,34 @@ def orientation_table(cases: Path) -> None:
             mine = [R for R, f in zip(row["turns"], both[row["frames"]], strict=True) if f]
             theirs = [R for R, f in zip(mp["turns"], both[mp["frames"]], strict=True) if f]
             apart = [rotation_angle(a @ b.T) for a, b in zip(mine, theirs, strict=True)]
+            steady, rest = steady_turn(row["turns"])
             acc = pooled.setdefault(label, {"wrist": [], "turned": [], "angle": [], "roll": [],
-                                            "apart": []})  # fmt: skip
-            for key in ("wrist", "turned", "angle", "roll"):
-                acc[key].extend(row[key])
+                                            "apart": [], "steady": [], "rest": []})  # fmt: skip
+            for key in ("wrist", "turned", "angle", "roll", "rest"):
+                acc[key].extend(row[key] if key != "rest" else rest)
             acc["apart"].extend(apart)
+            acc["steady"].append(rotation_angle(steady.as_matrix()))
+            axes = ", ".join(f"{v:+.0f}" for v in np.degrees(steady.as_rotvec()))
             vs = "" if label.startswith("MediaPipe") else f"{np.median(apart):>6.1f}"
             print(f"{name:<26} {label:<24} {len(row['wrist']):>6} {row['wrist'].mean():>6.1f} "
                   f"{row['turned'].mean():>6.1f} {np.median(row['angle']):>7.1f} "
-                  f"{np.median(row['roll']):>6.1f} {vs}")  # fmt: skip
+                  f"{np.median(row['roll']):>6.1f} {acc['steady'][-1]:>6.1f} {axes:>17} "
+                  f"{np.median(rest):>5.1f} {vs}")  # fmt: skip
     print()
     for label, acc in pooled.items():
         vs = "" if label.startswith("MediaPipe") else f"{np.median(acc['apart']):>6.1f}"
         print(f"{'all mono':<26} {label:<24} {len(acc['wrist']):>6} {np.mean(acc['wrist']):>6.1f} "
               f"{np.mean(acc['turned']):>6.1f} {np.median(acc['angle']):>7.1f} "
-              f"{np.median(acc['roll']):>6.1f} {vs}")  # fmt: skip
+              f"{np.median(acc['roll']):>6.1f} {np.median(acc['steady']):>6.1f} {'':>17} "
+              f"{np.median(acc['rest']):>5.1f} {vs}")  # fmt: skip
     print(
         "mm, degrees; MPJPE wrist-relative, turned: after each frame's best rotation about "
         "the wrist; orient.: median angle of that rotation; in-img: median of its part about "
-        "the optical axis (a turn within the image); vs MP: median angle between the "
-        "fit's orientation and MediaPipe's turned one"
+        "the optical axis (a turn within the image); steady: the angle of the case's mean "
+        "rotation (all mono: the median over the cases), about x, y, z: its rotation vector "
+        "in camera 0's axes (x right, y down the image, z along the optical axis); rest: "
+        "median angle of each frame's rotation from that mean; vs MP: median angle between "
+        "the fit's orientation and MediaPipe's turned one"
     )
 
 
