@@ -59,7 +59,9 @@ trails the truth by, `handvar.evaluation.metrics.lag`).  The one command decides
 side from the detector's handedness (two cameras: the hand's 3D shape); a track of
 the other side than the case's is scored as it is, as the detector's points are
 whatever their label, and counted under "wrong side".  A run that fails scores every
-frame lost and every point wrong.
+frame lost and every point wrong.  Below the table, per rig, the 2D PCK of the points
+carried by optical flow and of the fit with the detector on every 5th frame, by the
+frames since the detector's (0 on its frames): where they lose between detections.
 
 Run: ``PYTHONPATH=src .venv/bin/python studies/realistic.py`` (about 5–10 minutes on
 two cores); ``--quick`` for a one-minute subset; ``--fast`` for the four cases of the
@@ -368,6 +370,7 @@ def scores(
     truth_2d = case.truth_2d.reshape(-1, 21, 2)
     est_2d = points_2d.reshape(-1, 21, 2)
     row = {"pck": pck_2d(truth_2d, est_2d), "px": mean_point_error(truth_2d, est_2d)[0]}
+    row["frame_pck"] = frame_pck(case.truth_2d, points_2d)
     if points_3d is None:
         row.update(mpjpe=np.nan, pa=np.nan, auc=np.nan, abs=np.nan, accel=np.nan, lag=np.nan)
     else:
@@ -390,6 +393,33 @@ def scores(
     row["track_ms"] = 1000.0 / rate
     row["frames"] = case.n_frames
     return row
+
+
+def frame_pck(truth_2d, points_2d) -> np.ndarray:
+    """(T,) each frame's 2D PCK@0.2 over its cameras ((n_cams, T, 21, 2) pixels)."""
+    truth = np.asarray(truth_2d).reshape(-1, *np.shape(truth_2d)[-3:])
+    est = np.asarray(points_2d).reshape(truth.shape)
+    hits = [[pck_2d(truth[j, t : t + 1], est[j, t : t + 1]) for j in range(len(truth))]
+            for t in range(truth.shape[1])]  # fmt: skip
+    return np.mean(hits, axis=1)
+
+
+def print_by_offset(rows, every: int = 5) -> None:
+    """2D PCK@0.2 by the frames since the detector's last frame (0 … `every` − 1), per
+    rig, of the runs with the detector on every `every`-th frame: where the fit and the
+    points carried by optical flow lose between the detections."""
+    for rig in ("mono", "stereo"):
+        for run in ("carried every 5", "fit every 5"):
+            hits = [r["frame_pck"] for c, k, r in rows
+                    if k == run and f"-{rig}-" in c and "frame_pck" in r]  # fmt: skip
+            if not hits:
+                continue
+            cells = ", ".join(f"{np.mean(np.concatenate([h[o::every] for h in hits])):.3f}"
+                              for o in range(every))  # fmt: skip
+            print(
+                f"{rig}, {run}: PCK@0.2 on the frames 0, 1, ..., {every - 1} after the "
+                f"detector's: {cells}"
+            )
 
 
 def failed_row(case) -> dict[str, float]:
@@ -662,6 +692,7 @@ def main() -> None:
         rows += overall([r for r in rows if not r[0].startswith("**")], "all", lambda c: True)
         print_table(rows)
         _print_gross_failures(rows)
+        print_by_offset([r for r in rows if not r[0].startswith("**")])
         print(f"\n{len(todo)} cases in {time.perf_counter() - started:.0f} s")
 
 
