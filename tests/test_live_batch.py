@@ -15,6 +15,8 @@ from click.testing import CliRunner
 
 from handvar.cli import main
 from handvar.data import example_path
+from handvar.hand.anthropometry import HandShape
+from handvar.hand.kinematics import HandModel
 
 VIDEO = example_path("video")
 KEYPOINTS = example_path("video-keypoints")
@@ -343,8 +345,9 @@ def test_a_killed_worker_is_replaced_and_every_recording_finishes(recordings, tm
 
 def test_the_preview_window_draws_the_points_the_track_reports(monkeypatch):
     """``--show`` draws each frame as the track's overlay does: the 21 points where the
-    detector marks them (the fingertip pads), not the skeleton's finger ends (over the
-    first frames, before the hand's shape is fitted, the track's own points)."""
+    detector marks them (the fingertip pads), not the skeleton's finger ends, on the
+    hand as its shape is fitted (after the first 12 frames with keypoints, the track's
+    own points), not as given."""
     import handvar.render
     from handvar.cli.track import _track_one
 
@@ -360,6 +363,9 @@ def test_the_preview_window_draws_the_points_the_track_reports(monkeypatch):
 
     monkeypatch.setattr(handvar.render, "overlay_views", overlay_views)
     track = _track_one(str(VIDEO), show=True, keypoints=str(KEYPOINTS), hand="right",
-                       hand_length=185.0, model="spheres", frames=3, scale=0.5)  # fmt: skip
-    assert len(drawn) == 3 and drawn[-1] is not None
+                       hand_length=185.0, model="spheres", frames=14, scale=0.5)  # fmt: skip
+    assert len(drawn) == 14 and drawn[-1] is not None
     np.testing.assert_allclose(drawn[-1], track.joints[-1], atol=1e-6)
+    given = HandModel(HandShape.from_size(185.0, side="right"), tips="pad")
+    moved = np.linalg.norm(given.landmarks(track.poses[-1]) - track.joints[-1], axis=1)
+    assert moved.max() > 1.0  # mm: the fitted shape is not the given one

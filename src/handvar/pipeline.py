@@ -612,7 +612,9 @@ def track(
         With recovery: called as ``on_frame(i, pose, quality, masks)`` after every frame
         tracked, i its index in the recording (`track_with_recovery`), for instance to
         keep the silhouettes fitted; a callback with a parameter ``images`` also gets
-        the frame's colour images (BGR, one per camera, at `scale`) by that name.
+        the frame's colour images (BGR, one per camera, at `scale`) by that name, one
+        with ``hand`` the tracked `HandModel` (its shape as fitted so far: the given
+        one until the shape fit over the first frames).
     realtime : bool
         A recording only, with recovery: play it at its own frame rate and track the
         newest frame each time the tracker is free, skipping the others (module notes
@@ -1199,7 +1201,7 @@ def _run_stream(tracker, stream: _Stream, x0, settings, on_frame, bar):
     try:
         for i, (masks, kps, world, absent) in enumerate(items):
             r = step.fit(masks, kps, world, absent=absent)
-            done(i, r.pose, r.quality, masks)
+            done(i, r.pose, r.quality, masks, step.hand)
         return step.recovered(keypoints=stream.keyed)
     except ValueError:
         if stream.exhausted and not stream.live and not stream.keyed:  # no hand anywhere:
@@ -1779,17 +1781,16 @@ class _Stream:
     def on_frame(self, user: Callable | None):
         """`track_with_recovery`'s callback: the finish time, then the user's."""
 
-        images = user is not None and "images" in inspect.signature(user).parameters
+        takes = set() if user is None else set(inspect.signature(user).parameters)
 
-        def done(i, pose, quality, masks):
+        def done(i, pose, quality, masks, hand):
             self.finish.append(self.clock() - self.t0)
             if user is None:
                 return
             masks = masks() if callable(masks) else masks  # keypoints alone: computed now
-            if images:  # the colour frame too, for a callback that takes it
-                user(self.indices[i], pose, quality, masks, images=self.images)
-            else:
-                user(self.indices[i], pose, quality, masks)
+            extra = {"images": self.images, "hand": hand}  # for a callback that takes them
+            user(self.indices[i], pose, quality, masks,
+                 **{k: v for k, v in extra.items() if k in takes})  # fmt: skip
 
         return done
 

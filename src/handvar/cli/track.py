@@ -485,27 +485,29 @@ def _track_one(source, *, show: bool, **options):
     from handvar.hand.kinematics import HandModel
     from handvar.render import overlay_views, side_by_side
 
-    # the side as given; with the detector's side ("auto", the default) the window draws
-    # a right hand's outline (the track itself has the side the detector says)
-    side = options["hand"] if options.get("hand") in ("right", "left") else "right"
-    if options.get("shape") is not None:
-        from handvar.pipeline import load_shape
-
-        shape = load_shape(options["shape"])
-    else:
-        shape = HandShape.from_size(options["hand_length"], side=side)
     # the points the track reports: on a recording where a detector marks them (design §14.6)
-    hand = HandModel(shape, surface=options["model"], tips=options.get("keypoint_tips") or "pad")
-    rig = {}
+    tips = options.get("keypoint_tips") or "pad"
+    drawn = {}  # the rig, and the model drawn for the tracked hand's shape
 
-    def draw(i, pose, quality, masks, images=None):
-        if "rig" not in rig:  # the tracked frames' cameras: the camera's, or the recording's
-            rig["rig"] = _tracked_rig(source, options, masks)
+    def model(tracked):
+        """The model drawn: the tracked hand's shape (as fitted so far, its side as
+        decided) with the reported points; a right hand of the given length before."""
+        shape = tracked.shape if tracked is not None else HandShape.from_size(
+            options["hand_length"], side=options["hand"] if options.get("hand") == "left"
+            else "right")  # fmt: skip
+        if drawn.get("shape") is not shape:
+            drawn["shape"] = shape
+            drawn["hand"] = HandModel(shape, surface=options["model"], tips=tips)
+        return drawn["hand"]
+
+    def draw(i, pose, quality, masks, images=None, hand=None):
+        if "rig" not in drawn:  # the tracked frames' cameras: the camera's, or the recording's
+            drawn["rig"] = _tracked_rig(source, options, masks)
         # the model and its skeleton over the camera's image (over the silhouettes for a
         # frame read ahead without it); a frame without a hand shows the image alone
         backgrounds = masks if images is None else [
             cv2.cvtColor(im, cv2.COLOR_BGR2RGB) for im in images]  # fmt: skip
-        views = overlay_views(hand, rig["rig"], backgrounds, pose)
+        views = overlay_views(model(hand), drawn["rig"], backgrounds, pose)
         image = side_by_side(views, [f"frame {i}"] * len(views))
         cv2.imshow("handvar", cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
         if cv2.waitKey(1) & 0xFF == ord("q") and hasattr(source, "stop"):
