@@ -806,6 +806,35 @@ def test_the_embedded_clusters_workers_leave_ctrl_c_to_the_client():
     assert run.stdout.strip() == "True", run.stderr
 
 
+WORKER_LOGS = """
+import logging
+from handvar.evaluation.experiment import local_client
+
+def logs():
+    logging.getLogger("distributed.worker").error("an error the worker logs")
+    return 1
+
+if __name__ == "__main__":
+    client, cluster = local_client(1)
+    print(client.submit(logs).result())
+    client.close()
+    cluster.close()
+"""
+
+
+def test_the_embedded_clusters_workers_log_nothing_before_the_commands_line(tmp_path):
+    """An error a worker of `local_client` logs (as when the cluster closes under it
+    after a failure: a lost heartbeat) is not printed: a failing command prints its one
+    line alone.  The task's result still comes back."""
+    script = tmp_path / "worker_logs.py"
+    script.write_text(WORKER_LOGS)
+    run = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                         timeout=120)  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip() == "1"
+    assert "an error the worker logs" not in run.stderr + run.stdout
+
+
 def test_every_option_and_command_the_library_names_exists():
     options = cli_option_names()
     named = named_options_and_commands()

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import logging
 import os
 import time
 from collections.abc import Callable
@@ -154,7 +155,10 @@ def local_client(workers: int | None):
     """An embedded Dask cluster of `workers` processes, one thread each: (client, cluster).
 
     Default: one worker per core.  The workers leave Ctrl-C to the client
-    (`WORKER_PRELOAD`).  Close both when done.
+    (`WORKER_PRELOAD`).  Close both when done.  The cluster logs only what is
+    critical: a task's error reaches the caller through the client, and the errors
+    the workers log when the cluster is closed under them (after a failure, a lost
+    heartbeat) would be printed before the command's one line.
     """
     from distributed import Client, LocalCluster
 
@@ -164,7 +168,7 @@ def local_client(workers: int | None):
         threads_per_worker=1,
         processes=True,
         dashboard_address=":0",
-        silence_logs=40,
+        silence_logs=logging.CRITICAL,
         preload=[WORKER_PRELOAD],
     )
     return Client(cluster), cluster
