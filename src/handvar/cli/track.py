@@ -487,14 +487,16 @@ def _track_one(source, *, show: bool, **options):
 
     # the points the track reports: on a recording where a detector marks them (design §14.6)
     tips = options.get("keypoint_tips") or "pad"
+    # before the first hand (no pose to draw): a hand of the given length and side
+    given = HandShape.from_size(
+        options["hand_length"], side="left" if options.get("hand") == "left" else "right"
+    )
     drawn = {}  # the rig, and the model drawn for the tracked hand's shape
 
     def model(tracked):
         """The model drawn: the tracked hand's shape (as fitted so far, its side as
-        decided) with the reported points; a right hand of the given length before."""
-        shape = tracked.shape if tracked is not None else HandShape.from_size(
-            options["hand_length"], side=options["hand"] if options.get("hand") == "left"
-            else "right")  # fmt: skip
+        decided) with the reported points."""
+        shape = given if tracked is None else tracked.shape
         if drawn.get("shape") is not shape:
             drawn["shape"] = shape
             drawn["hand"] = HandModel(shape, surface=options["model"], tips=tips)
