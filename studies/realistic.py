@@ -59,9 +59,10 @@ trails the truth by, `handvar.evaluation.metrics.lag`).  The one command decides
 side from the detector's handedness (two cameras: the hand's 3D shape); a track of
 the other side than the case's is scored as it is, as the detector's points are
 whatever their label, and counted under "wrong side".  A run that fails scores every
-frame lost and every point wrong.  Below the table, per rig, the 2D PCK of the points
-carried by optical flow and of the fit with the detector on every 5th frame, by the
-frames since the detector's (0 on its frames): where they lose between detections.
+frame lost and every point wrong.  Below the table, per rig, the 2D PCK of the
+detections interpolated, the points carried by optical flow and the fit with the
+detector on every 5th frame, by the frames since the detector's (0 on its frames):
+where they lose between detections.
 
 Run: ``PYTHONPATH=src .venv/bin/python studies/realistic.py`` (about 5–10 minutes on
 two cores); ``--quick`` for a one-minute subset; ``--fast`` for the four cases of the
@@ -406,10 +407,11 @@ def frame_pck(truth_2d, points_2d) -> np.ndarray:
 
 def print_by_offset(rows, every: int = 5) -> None:
     """2D PCK@0.2 by the frames since the detector's last frame (0 … `every` − 1), per
-    rig, of the runs with the detector on every `every`-th frame: where the fit and the
-    points carried by optical flow lose between the detections."""
+    rig, of the runs with the detector on every `every`-th frame: where the fit, the
+    points carried by optical flow and the detections interpolated lose between the
+    detections."""
     for rig in ("mono", "stereo"):
-        for run in ("carried every 5", "fit every 5"):
+        for run in ("interpolated every 5", "carried every 5", "fit every 5"):
             hits = [r["frame_pck"] for c, k, r in rows
                     if k == run and f"-{rig}-" in c and "frame_pck" in r]  # fmt: skip
             if not hits:
