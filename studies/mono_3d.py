@@ -207,8 +207,9 @@ def orientation_table(cases: Path) -> None:
             steady, rest = steady_turn(row["turns"])
             acc = pooled.setdefault(label, {"wrist": [], "turned": [], "angle": [], "roll": [],
                                             "apart": [], "steady": [], "rest": []})  # fmt: skip
-            for key in ("wrist", "turned", "angle", "roll", "rest"):
-                acc[key].extend(row[key] if key != "rest" else rest)
+            for key in ("wrist", "turned", "angle", "roll"):
+                acc[key].extend(row[key])
+            acc["rest"].extend(rest)
             acc["apart"].extend(apart)
             acc["steady"].append(rotation_angle(steady.as_matrix()))
             axes = ", ".join(f"{v:+.0f}" for v in np.degrees(steady.as_rotvec()))
