@@ -103,6 +103,11 @@ def make_inputs(root: Path) -> Path:
         fs.write("image_width", 64)
         fs.write("image_height", 48)
         fs.release()
+    (root / "fisheye.toml").write_text(  # an anipose camera group of a fisheye camera
+        '[cam_0]\nname = "A"\nsize = [ 64, 48,]\nmatrix = [ [ 60.0, 0.0, 31.5,], '
+        "[ 0.0, 60.0, 23.5,], [ 0.0, 0.0, 1.0,],]\ndistortions = [ 0.1, 0.0, 0.0, 0.0,]\n"
+        "rotation = [ 0.0, 0.0, 0.0,]\ntranslation = [ 0.0, 0.0, 0.0,]\nfisheye = true\n"
+    )
     # a sequence of 2 frames, and damaged copies of it
     seq = make_sequence("benchmark", n_frames=2)
     write_sequence(seq, root / "seq")
@@ -388,6 +393,8 @@ CASES = [
        "k22.yml: key 'camera_matrix': expected a pinhole matrix (K[2][2] = 1", subprocess=True),
     _c("init-calib-skew", "init {r}/short.avi --calib {r}/skew.yml --out {r}/existing.txt",
        "skew.yml: key 'camera_matrix': expected no skew (K[0][1] = 0", subprocess=True),
+    _c("track-calib-fisheye", "track {r}/skin.avi --calib {r}/fisheye.toml --out {r}/t1",
+       "fisheye.toml: camera [cam_0] is a fisheye camera; expected a pinhole camera"),
     # both hands
     _c("track-hands-three", "track {r}/skin.avi --hands 3 --out {r}/t1", "--hands"),
     _c("track-hands-keypoints",

@@ -233,6 +233,80 @@ def test_reads_legacy_yaml_and_single_camera(tmp_path):
     np.testing.assert_array_equal(cam.dist, [-0.1, 0.02, 0.0, 0.0, 0.0])
 
 
+def anipose_toml(rig: Rig, rvecs) -> str:
+    """`rig` as aniposelib's ``CameraGroup.dump`` writes it (the ``toml`` package's style:
+    a table per camera, lists with a trailing comma, then the group's metadata)."""
+
+    def row(values) -> str:
+        return "[ " + " ".join(f"{float(v)!r}," for v in values) + "]"
+
+    text = []
+    for i, (cam, rvec) in enumerate(zip(rig.cameras, rvecs, strict=True)):
+        matrix = "[ " + " ".join(row(r) + "," for r in cam.K) + "]"
+        text += [
+            f"[cam_{i}]", f'name = "{rig.names[i]}"',
+            f"size = [ {cam.size[0]}, {cam.size[1]},]", f"matrix = {matrix}",
+            f"distortions = {row(cam.dist)}", f"rotation = {row(rvec)}",
+            f"translation = {row(cam.t)}", "",
+        ]  # fmt: skip
+    return "\n".join([*text, "[metadata]", "adjusted = false", "error = 0.31", ""])
+
+
+def test_reads_an_anipose_camera_group(tmp_path):
+    """A camera group as anipose writes it projects as aniposelib does: cv2.projectPoints
+    with each camera's matrix, distortions, Rodrigues rotation and translation."""
+    rng = np.random.default_rng(8)
+    cams = [random_camera(rng, DISTORTIONS["k1k2p1p2k3"]) for _ in range(3)]
+    rvecs = [cv2.Rodrigues(c.R)[0].ravel() for c in cams]
+    path = tmp_path / "calibration.toml"
+    path.write_text(anipose_toml(Rig(tuple(cams), ("A", "B", "C")), rvecs))
+    rig = Rig.load(path)
+    assert rig.names == ("A", "B", "C") and rig[2].size == (640, 480)
+    X = points_in_view(cams[0], rng, 50)
+    for cam, rvec, mine in zip(cams, rvecs, rig.cameras, strict=True):
+        theirs, _ = cv2.projectPoints(X, rvec, cam.t, cam.K, cam.dist)
+        np.testing.assert_allclose(mine.project(X), theirs[:, 0], atol=1e-6)
+
+    fisheye = tmp_path / "fisheye.toml"
+    fisheye.write_text(path.read_text().replace('name = "B"', 'name = "B"\nfisheye = true'))
+    with pytest.raises(ValueError, match=r"fisheye\.toml: camera \[cam_1\] is a fisheye camera"):
+        Rig.load(fisheye)
+    broken = tmp_path / "broken.toml"
+    broken.write_text(path.read_text().replace("rotation = [", "rotations = ["))
+    with pytest.raises(ValueError, match=r"broken\.toml: missing key \[cam_0\]\.rotation"):
+        Rig.load(broken)
+    broken.write_text("[cam_0\nname = 1")
+    with pytest.raises(ValueError, match=r"broken\.toml: not a readable TOML calibration file"):
+        Rig.load(broken)
+
+
+def test_reads_a_rectified_pair_from_its_projection_matrices(tmp_path):
+    """``P1``, ``P2`` of cv2.stereoRectify (no image size in the file): the rectified
+    cameras project a point as P @ [X; 1] does, and onto the same image row."""
+    left, right = Rig.default()
+    R_rel = right.R @ left.R.T
+    t_rel = right.t - R_rel @ left.t
+    R1, R2, P1, P2, Q, _, _ = cv2.stereoRectify(
+        left.K, left.dist, right.K, right.dist, left.size, R_rel, t_rel.reshape(3, 1)
+    )
+    path = tmp_path / "extrinsics.yml"  # as OpenCV's stereo calibration sample writes it
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+    for key, value in (("R", R_rel), ("T", t_rel), ("R1", R1), ("R2", R2), ("P1", P1),
+                       ("P2", P2), ("Q", Q)):  # fmt: skip
+        fs.write(key, value)
+    fs.release()
+    with pytest.raises(ValueError, match=r"extrinsics\.yml: missing key 'image_width'"):
+        Rig.load(path)
+    rig = Rig.load(path, default_size=(640, 480))
+    assert rig.names == ("left", "right") and rig[1].size == (640, 480)
+    X = np.random.default_rng(9).normal(size=(30, 3)) * 60 + [0, 0, 600]
+    for cam, P in zip(rig.cameras, (P1, P2), strict=True):
+        h = np.column_stack([X, np.ones(len(X))]) @ P.T
+        np.testing.assert_allclose(cam.project(X), h[:, :2] / h[:, 2:], atol=1e-6)
+    np.testing.assert_allclose(rig[0].project(X)[:, 1], rig[1].project(X)[:, 1], atol=1e-6)
+    assert Rig.load(path, size=(320, 240), default_size=(640, 480))[0].size == (320, 240)
+
+
 def test_calibration_errors_name_file_and_key(tmp_path):
     missing = tmp_path / "none.yml"
     with pytest.raises(FileNotFoundError, match=r"none\.yml"):

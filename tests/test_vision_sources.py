@@ -216,6 +216,16 @@ def test_calibration_that_does_not_fit(tmp_path):
     assert source.rig["left"].allclose(Rig.default()["left"].scaled(0.5))
 
 
+def test_a_calibration_without_an_image_size_is_taken_for_the_frames(tmp_path):
+    folder = write_folder(tmp_path / "cam", random_frames(2, size=(320, 240)))
+    calib = tmp_path / "camera.yml"  # no image_width, image_height
+    fs = cv2.FileStorage(str(calib), cv2.FILE_STORAGE_WRITE)
+    fs.write("camera_matrix", np.array([[300.0, 0, 160], [0, 300, 120], [0, 0, 1]]))
+    fs.release()
+    source = open_source([folder], calib, scale=0.5)
+    assert source.full_rig[0].size == (320, 240) and source.rig[0].size == (160, 120)
+
+
 def test_empty_silhouette_names_the_file_and_frame(tmp_path):
     grey = np.full((64, 96, 3), 120, np.uint8)  # no skin colour anywhere
     source = open_source(write_folder(tmp_path / "cam", [grey, grey]))

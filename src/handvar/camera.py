@@ -33,11 +33,26 @@ layout::
 - the single-camera layout of OpenCV's calibration sample: ``camera_matrix`` (or ``K``),
   ``distortion_coefficients`` (or ``dist_coeffs``, ``D``), optional ``R``, ``T``.
 
+- the rectified stereo layout ``cv2.stereoRectify`` writes: ``P1`` and ``P2``, the 3×4
+  projection matrices of the rectified cameras, in a file without ``K1``/``M1`` (with
+  both, the frames are taken as not rectified); the world is the rectified camera 1's
+  frame and the cameras have no distortion.
+
 In every layout the image size is ``image_width`` and ``image_height`` or a two-element
-sequence ``image_size``/``imageSize`` (width, height); the stereo layout has one size for
-both cameras. When a file has no size, pass ``size=`` to :meth:`Rig.load`. A
+sequence ``image_size``/``imageSize`` (width, height); the stereo layouts have one size
+for both cameras. When a file has no size, pass ``size=`` or ``default_size=`` to
+:meth:`Rig.load` (the recordings' size, when they are opened with it). A
 ``camera_matrix`` may be spelled ``K`` and ``dist_coeffs`` ``D`` or
 ``distortion_coefficients`` everywhere; ``T`` may be ``t``.
+
+A ``.toml`` file is read as the camera group anipose writes (``aniposelib``'s
+``CameraGroup.dump``; FreeMoCap's calibrations are the same): one table per camera
+(``cam_0``, ``cam_1``, … taken in the order ``aniposelib`` loads them, their names
+sorted; ``metadata`` skipped) with ``name``, ``size`` (width, height), ``matrix`` (K),
+``distortions``, ``rotation`` (a Rodrigues vector) and ``translation``, world → camera.
+Its lengths are taken as millimetres (anipose and FreeMoCap measure the board in mm).
+A fisheye camera (``fisheye = true``) is refused: the model holds OpenCV's pinhole
+distortion only.
 
 One concept in one module, the calibrated camera: its model, the rig of several and
 their calibration files. The distortion's formula lives in `handvar.geometry.distortion`.
@@ -47,6 +62,7 @@ from __future__ import annotations
 
 import functools
 import os
+import tomllib
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -700,16 +716,25 @@ class Rig:
         write_atomic(path, write)
 
     @classmethod
-    def load(cls, path: str | os.PathLike, *, size: tuple[int, int] | None = None) -> Rig:
-        """Read a rig from an OpenCV ``FileStorage`` file (any layout in the module docs).
+    def load(
+        cls,
+        path: str | os.PathLike,
+        *,
+        size: tuple[int, int] | None = None,
+        default_size: tuple[int, int] | None = None,
+    ) -> Rig:
+        """Read a rig from a calibration file (any layout in the module docs).
 
         Parameters
         ----------
         path : path-like
-            YAML, XML or JSON file.
+            An OpenCV ``FileStorage`` file (YAML, XML or JSON), or an anipose camera
+            group (``.toml``).
         size : (int, int), optional
-            Image (width, height) for files that do not store it (e.g. the output of
-            OpenCV's stereo calibration sample); overrides the file otherwise.
+            Image (width, height) of every camera; overrides the file.
+        default_size : (int, int), optional
+            Image (width, height) of a camera the file gives no size (e.g. the output of
+            OpenCV's stereo calibration sample).
 
         Raises
         ------
@@ -722,6 +747,10 @@ class Rig:
         path = Path(path)
         if not path.is_file():
             raise FileNotFoundError(f"{path}: calibration file not found")
+        size = _size_or_none(size, "size")
+        default_size = _size_or_none(default_size, "default_size")
+        if path.suffix.lower() == ".toml":
+            return _rig_from_anipose(path, size, default_size)
         try:
             fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
         except Exception as exc:  # cv2.error or SystemError from the parser
@@ -730,16 +759,19 @@ class Rig:
         if not fs.isOpened():
             raise ValueError(f"{path}: not a readable OpenCV calibration file")
         try:
-            reader = _NodeReader(fs.root(), path)
+            reader = _NodeReader(fs.root(), path, default_size=default_size)
             if not fs.getNode("cameras").empty():
-                return _rig_from_cameras(fs.getNode("cameras"), path, size)
+                return _rig_from_cameras(fs.getNode("cameras"), path, size, default_size)
             if reader.has("K1", "M1"):
                 return _rig_from_stereo(reader, size)
+            if reader.has("P1") and reader.has("P2"):
+                return _rig_from_rectified(reader, size)
             if reader.has("camera_matrix", "K"):
                 cam = _camera_from_node(reader, size, where=str(path))
                 return cls((cam,), ("cam0",))
             raise ValueError(
-                f"{path}: missing key 'cameras' (or stereo 'K1', or single 'camera_matrix')"
+                f"{path}: missing key 'cameras' (or stereo 'K1', rectified 'P1' and 'P2', "
+                "or single 'camera_matrix')"
             )
         finally:
             fs.release()
@@ -787,10 +819,11 @@ def check_in_front(joints, rig: Rig, name: str) -> None:
 class _NodeReader:
     """Typed access to a ``cv2.FileNode`` map with errors naming the file and the key."""
 
-    def __init__(self, node, path: Path, prefix: str = "") -> None:
+    def __init__(self, node, path: Path, prefix: str = "", default_size=None) -> None:
         self.node = node
         self.path = path
         self.prefix = prefix
+        self.default_size = default_size  # where the file has none
 
     def _get(self, key: str):
         node = self.node.getNode(key)
@@ -840,6 +873,8 @@ class _NodeReader:
         if self.has("image_width") or self.has("image_height"):
             return (int(self.number("image_width")), int(self.number("image_height")))
         vec = self.matrix("image_size", "imageSize", required=False)
+        if vec is None and self.default_size is not None:
+            return self.default_size
         if vec is None:
             raise ValueError(
                 f"{self.path}: missing key {self.prefix}'image_width' (or 'image_size'); "
@@ -909,12 +944,12 @@ def _camera_from_node(reader: _NodeReader, size, where: str) -> Camera:
     )
 
 
-def _rig_from_cameras(seq, path: Path, size) -> Rig:
+def _rig_from_cameras(seq, path: Path, size, default_size) -> Rig:
     if not seq.isSeq() or seq.size() == 0:
         raise ValueError(f"{path}: key 'cameras' expected a non-empty sequence")
     cams, names = [], []
     for i in range(seq.size()):
-        reader = _NodeReader(seq.at(i), path, prefix=f"cameras[{i}].")
+        reader = _NodeReader(seq.at(i), path, f"cameras[{i}].", default_size)
         cams.append(_camera_from_node(reader, size, str(path)))
         names.append(reader.string("name") or f"cam{i}")
     return Rig(tuple(cams), tuple(names))
@@ -932,3 +967,76 @@ def _rig_from_stereo(reader: _NodeReader, size) -> Rig:
     cam1 = _camera_from_params(K1, D1, None, None, wh, where, key="K1")
     cam2 = _camera_from_params(K2, D2, R, T, wh, where, key="K2")
     return Rig((cam1, cam2), ("left", "right"))
+
+
+def _rig_from_rectified(reader: _NodeReader, size) -> Rig:
+    """Two rectified cameras from their projection matrices P = K [R | t] (module docs)."""
+    where = str(reader.path)
+    wh = reader.image_size(size)
+    cams = []
+    for key in ("P1", "P2"):
+        P = reader.matrix(key)
+        if P.shape != (3, 4) or not np.all(np.isfinite(P)):
+            raise ValueError(f"{where}: key {key!r} expected a finite 3x4 matrix; got {P.shape}")
+        K, R, centre = cv2.decomposeProjectionMatrix(P)[:3]
+        if abs(centre[3, 0]) < 1e-12 * np.abs(centre).max():
+            raise ValueError(f"{where}: key {key!r} is not a camera's projection matrix")
+        K = K / K[2, 2]
+        K[np.abs(K) < 1e-9 * np.abs(K).max()] = 0.0  # the decomposition's rounding
+        t = -R @ (centre[:3, 0] / centre[3, 0])
+        cams.append(_camera_from_params(K, None, R, t, wh, where, key=key))
+    return Rig(tuple(cams), ("left", "right"))
+
+
+def _rig_from_anipose(path: Path, size, default_size) -> Rig:
+    """The cameras of an anipose camera group, a ``.toml`` file (module docs)."""
+    try:
+        with path.open("rb") as f:
+            group = tomllib.load(f)
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{path}: not a readable TOML calibration file ({exc})") from None
+    keys = sorted(k for k, v in group.items() if k != "metadata" and isinstance(v, dict))
+    if not keys:
+        raise ValueError(f"{path}: expected one table per camera ([cam_0], …); got none")
+    cams = []
+    for key in keys:
+        table = group[key]
+        if table.get("fisheye", False):
+            raise ValueError(
+                f"{path}: camera [{key}] is a fisheye camera; expected a pinhole camera "
+                "(OpenCV's standard distortion model)"
+            )
+        field = functools.partial(_toml_numbers, table, path, key)
+        if size is None and ("size" in table or default_size is None):
+            wh = tuple(int(v) for v in field("size", (2,)))
+        else:
+            wh = size or default_size
+        K, dist = field("matrix", (3, 3)), field("distortions", None)
+        R, t = cv2.Rodrigues(field("rotation", (3,)))[0], field("translation", (3,))
+        cams.append(_camera_from_params(K, dist, R, t, wh, str(path), f"[{key}].", "matrix"))
+    return Rig(tuple(cams), tuple(str(group[k].get("name", k)) for k in keys))
+
+
+def _toml_numbers(table: dict, path: Path, key: str, name: str, shape) -> np.ndarray:
+    """Entry `name` of camera table `key` as finite numbers of `shape` (None: any length)."""
+    if name not in table:
+        raise ValueError(f"{path}: missing key [{key}].{name}")
+    try:
+        a = np.array(table[name], dtype=float)
+    except (TypeError, ValueError):
+        a = np.array([np.nan])
+    if (shape is not None and a.shape != shape) or not np.all(np.isfinite(a)):
+        what = "a list of" if shape is None else "x".join(map(str, shape))
+        raise ValueError(
+            f"{path}: key [{key}].{name} expected {what} finite numbers; got {table[name]!r:.60}"
+        )
+    return a
+
+
+def _size_or_none(size, name: str) -> tuple[int, int] | None:
+    if size is None:
+        return None
+    wh = tuple(as_array(size, name, what="(width, height) in pixels").ravel())
+    if len(wh) != 2 or min(wh) < 1 or any(v != int(v) for v in wh):
+        raise ValueError(f"{name}: expected (width, height), two positive integers; got {size!r}")
+    return (int(wh[0]), int(wh[1]))

@@ -85,8 +85,9 @@ def _recording_options(func):
     options = [
         click.option(
             "--calib", type=click.Path(dir_okay=False), default=None,
-            help="Recordings only: OpenCV calibration file, one camera per recording "
-            "[default: for one video, an assumed camera, see --fov].",
+            help="Recordings only: calibration file, one camera per recording (OpenCV "
+            "YAML/XML/JSON or an anipose .toml) [default: for one video, an assumed "
+            "camera, see --fov].",
         ),
         click.option(
             "--fov", type=_FiniteRange(1.0, 179.0), default=None,

@@ -578,9 +578,11 @@ def open_source(
         One video file or image folder per camera, in the order of the calibration's
         cameras.
     calibration : path-like or Rig, optional
-        An OpenCV calibration file (`Rig.load`: the ``cameras`` layout, the stereo
-        ``K1 D1 K2 D2 R T`` layout or a single ``camera_matrix``) or a `Rig`.  Without
-        one, a single recording gets `assumed_camera` (see the module notes on depth).
+        A calibration file (`Rig.load`: OpenCV's ``cameras`` layout, the stereo
+        ``K1 D1 K2 D2 R T`` or rectified ``P1 P2`` layout, a single ``camera_matrix``, or
+        an anipose ``.toml``; a file without an image size is taken for the frames') or a
+        `Rig`.  Without one, a single recording gets `assumed_camera` (see the module
+        notes on depth).
     fov : float, keyword-only, optional
         Horizontal field of view (degrees) of the assumed camera
         (`SourceSettings.fov`); only without `calibration`.
@@ -647,7 +649,9 @@ def _source_rig(readers, calibration, fov) -> tuple[Rig, bool]:
         if isinstance(calibration, Rig):
             rig, where = calibration, "calibration"
         else:
-            rig, where = Rig.load(calibration), str(calibration)
+            sizes = {tuple(r.size) for r in readers}  # a file without a size: the frames'
+            default = sizes.pop() if len(sizes) == 1 else None
+            rig, where = Rig.load(calibration, default_size=default), str(calibration)
         calibrated = True
         if len(rig) != len(readers):
             raise ValueError(
