@@ -20,7 +20,8 @@ within the joint limits, where
   rather than only the starting point); its weight follows how well the predictor
   predicted the last frames;
 - W(x) are the joints and w the detector's own 3D joints (MediaPipe's world landmarks,
-  metric), both relative to the wrist, σ_w their noise (`FrameFitSettings.world_noise`):
+  metric), both relative to the wrist, σ_w their noise (`FrameFitSettings.world_noise`,
+  three times larger where a second camera's keypoints give the depth):
   a weak cue, used only when the detector gives it.  The detector infers w from a crop
   around the hand, so w is the hand as a camera looking straight at the crop sees it:
   it is turned into the first camera's axes, from the ray through the palm's keypoints
@@ -134,6 +135,13 @@ class FrameFitSettings:
         (within 0.2 of the kept points) can still fail.
     world_noise : float
         σ_w, noise of the detector's 3D joints relative to the wrist, mm; 20.
+    world_noise_seen_twice : float
+        Factor on σ_w in a frame where two or more cameras have keypoints; 3.  The
+        detector's 3D stands in for the depth one view cannot see; where a second view
+        sees the hand its keypoints give the depth, and the learned 3D adds mostly its
+        own bias.  Chosen among 1, 3 and ∞ (the 3D left out) on the realistic benchmark
+        with the detector inside, its fast gestures and the still hands before a stereo
+        pair (docs/keypoint-fit.md, "the fit of one frame").
     iterations : int
         Levenberg–Marquardt steps at most (before the outliers are dropped); 12.
     polish : int
@@ -157,6 +165,7 @@ class FrameFitSettings:
     huber: float = 0.1
     reject: float = 0.25
     world_noise: float = 20.0
+    world_noise_seen_twice: float = 3.0
     iterations: int = 12
     polish: int = 3
     tolerance: float = 1e-3
@@ -169,6 +178,7 @@ class FrameFitSettings:
         as_float(self.noise, "noise", minimum=0.0, exclusive_minimum=True)
         as_float(self.reject, "reject", minimum=0.0, exclusive_minimum=True)
         as_float(self.world_noise, "world_noise", minimum=0.0, exclusive_minimum=True)
+        as_float(self.world_noise_seen_twice, "world_noise_seen_twice", minimum=1.0)
         as_int(self.iterations, "iterations", minimum=1)
         as_int(self.polish, "polish", minimum=0)
         one_of(self.tips, TIPS, "tips")
@@ -320,6 +330,10 @@ class _Problem:
             ok[WRIST] = False
             self.world = w - w[WRIST]
             self.world_points = np.flatnonzero(ok)  # the joints with a row
+            seen = np.count_nonzero((kp[:, :, 2] > 0).any(axis=1))
+            self.world_noise = settings.world_noise * (
+                settings.world_noise_seen_twice if seen > 1 else 1.0
+            )
         self.silhouettes = silhouettes if settings.silhouette > 0 else None
         self.sizes = np.array([hand_size_px(hand, start, cam) for cam in rig])
         self.present = [np.flatnonzero(k[:, 2] > 0) for k in kp]
@@ -349,7 +363,7 @@ class _Problem:
             r = np.empty(3 * ok.size)
             J = np.empty((3 * ok.size, N_PARAMS)) if jacobian else _NO_ROWS
             _world_rows(G, _NO_JG if JG is None else JG, ok, self.R0, self.world,
-                        s.world_noise, r, J, jacobian)  # fmt: skip
+                        self.world_noise, r, J, jacobian)  # fmt: skip
             rows.append(r)
             if jacobian:
                 jac.append(J)
