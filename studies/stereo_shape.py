@@ -26,7 +26,9 @@ is off by the size's ratio.
 each camera's repeated frames instead (``handvar keypoints CAM --hand SIDE --out
 mediapipe{j}.npz``, its points given to ``init`` and ``track`` as ``.npy`` files:
 MediaPipe's handedness names the other side on some renders, and the study gives the
-true one), as a user with a real stereo pair has them; its 21 points are scored
+true one; with ``--npz`` the ``.npz`` files themselves and ``--hand auto``, MediaPipe's
+3D and handedness included, as the README's stereo way has them), as a user with a
+real stereo pair has them; its 21 points are scored
 against the true ones, where it marks a joint elsewhere than the truth both estimates
 carry that, and a case where it misses the hand in a view is reported and left out.
 
@@ -75,7 +77,7 @@ def marked(joints: np.ndarray, labels: str) -> np.ndarray:
 
 
 def make_case(k: int, spread: float, repeat: int, noise: float, labels: str,
-              directory: Path):  # fmt: skip
+              directory: Path, npz: bool = False):  # fmt: skip
     """Case `k`: one frame repeated, its noisy keypoints; the case and its files."""
     motion = MOTIONS[k % len(MOTIONS)]
     rng = np.random.default_rng([k, 7])
@@ -94,7 +96,7 @@ def make_case(k: int, spread: float, repeat: int, noise: float, labels: str,
         if labels == "mediapipe":
             found = detected(folder, side, directory / f"mediapipe{j}.npz")
             np.save(directory / f"mediapipe{j}.npy", points_2d(found))
-            keypoints.append(directory / f"mediapipe{j}.npy")
+            keypoints.append(found if npz else directory / f"mediapipe{j}.npy")
             continue
         points = case.rig.cameras[j].project(marked(case.joints[0], labels))
         points = points + noise * rng.standard_normal((21, 2))
@@ -123,7 +125,8 @@ def points_2d(path: Path) -> np.ndarray:
 
 def run(directory: Path, side: str, keypoints: list[Path], name: str = "fit") -> Path:
     """The user's way on the cameras of `keypoints` (the first one alone when given
-    one file: its calibration written beside the pair's)."""
+    one file: its calibration written beside the pair's); with ``.npz`` files the side
+    is ``auto``."""
     env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
     calib = directory / "one" / "calib.yml"
     if len(keypoints) == 1:
@@ -131,7 +134,7 @@ def run(directory: Path, side: str, keypoints: list[Path], name: str = "fit") ->
         calib = directory / "one" / "calib-cam0.yml"
         Rig([rig.cameras[0]], [rig.names[0]]).save(calib)
     cams = [str(directory / f"cam{j}") for j in range(len(keypoints))]
-    common = ["--calib", str(calib), "--hand", side]
+    common = ["--calib", str(calib), "--hand", "auto" if keypoints[0].suffix == ".npz" else side]
     kps = [a for p in keypoints for a in ("--keypoints", str(p))]
     x0, out = directory / f"{name}-x0.txt", directory / name
     for cmd in ([*HANDVAR, "init", *cams, *common, *kps, "--out", str(x0)],
@@ -167,8 +170,16 @@ def main() -> None:
         default="truth",
         help="where the keypoints mark the joints (function marked), or MediaPipe's points",
     )
+    parser.add_argument(
+        "--npz", action="store_true",
+        help="with --labels mediapipe: give init and track MediaPipe's .npz files as "
+        "handvar keypoints writes them (its 3D and handedness too) with --hand auto, the "
+        "README's stereo way; by default its 2D points (.npy) and the true side",
+    )  # fmt: skip
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args()
+    if args.npz and args.labels != "mediapipe":
+        parser.error("--npz: expected --labels mediapipe")
     base = args.out or Path(tempfile.mkdtemp(prefix="stereo-shape-"))
     points = ("MediaPipe's points" if args.labels == "mediapipe"
               else f"keypoint noise {args.noise} px, labels {args.labels}")  # fmt: skip
@@ -181,7 +192,7 @@ def main() -> None:
     for k in range(args.cases):
         directory = base / f"case{k}"
         case, keypoints = make_case(k, args.proportions, args.repeat, args.noise, args.labels,
-                                    directory)  # fmt: skip
+                                    directory, args.npz)  # fmt: skip
         truth = case.joints[0]
         xy = np.stack([points_2d(p) for p in keypoints])
         if not np.isfinite(xy).all():
