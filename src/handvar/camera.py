@@ -25,14 +25,13 @@ layout::
         R: 3x3                      # world -> camera rotation
         T: 3x1                      # world -> camera translation, mm
 
-:meth:`Rig.load` also reads two layouts written by other OpenCV programs:
+:meth:`Rig.load` also reads three layouts written by other OpenCV programs:
 
 - the stereo layout of ``cv2.stereoCalibrate`` users: ``K1`` (or ``M1``), ``D1``,
   ``K2`` (or ``M2``), ``D2``, ``R``, ``T`` where ``R``, ``T`` map camera-1 coordinates to
   camera-2 coordinates; camera 1 is put at the world origin (``R = I``, ``T = 0``);
 - the single-camera layout of OpenCV's calibration sample: ``camera_matrix`` (or ``K``),
-  ``distortion_coefficients`` (or ``dist_coeffs``, ``D``), optional ``R``, ``T``.
-
+  ``distortion_coefficients`` (or ``dist_coeffs``, ``D``), optional ``R``, ``T``;
 - the rectified stereo layout ``cv2.stereoRectify`` writes: ``P1`` and ``P2``, the 3×4
   projection matrices of the rectified cameras, in a file without ``K1``/``M1`` (with
   both, the frames are taken as not rectified); the world is the rectified camera 1's
@@ -1006,13 +1005,13 @@ def _rig_from_anipose(path: Path, size, default_size) -> Rig:
                 f"{path}: camera [{key}] is a fisheye camera; expected a pinhole camera "
                 "(OpenCV's standard distortion model)"
             )
-        field = functools.partial(_toml_numbers, table, path, key)
+        entry = functools.partial(_toml_numbers, table, path, key)
         if size is None and ("size" in table or default_size is None):
-            wh = tuple(int(v) for v in field("size", (2,)))
+            wh = tuple(int(v) for v in entry("size", (2,)))
         else:
             wh = size or default_size
-        K, dist = field("matrix", (3, 3)), field("distortions", None)
-        R, t = cv2.Rodrigues(field("rotation", (3,)))[0], field("translation", (3,))
+        K, dist = entry("matrix", (3, 3)), entry("distortions", None)
+        R, t = cv2.Rodrigues(entry("rotation", (3,)))[0], entry("translation", (3,))
         cams.append(_camera_from_params(K, dist, R, t, wh, str(path), f"[{key}].", "matrix"))
     return Rig(tuple(cams), tuple(str(group[k].get("name", k)) for k in keys))
 

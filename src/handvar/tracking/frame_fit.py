@@ -141,7 +141,8 @@ class FrameFitSettings:
         sees the hand its keypoints give the depth, and the learned 3D adds mostly its
         own bias.  Chosen among 1, 3 and ∞ (the 3D left out) on the realistic benchmark
         with the detector inside, its fast gestures and the still hands before a stereo
-        pair (docs/keypoint-fit.md, "the fit of one frame").
+        pair; on the two-hand benchmark's stereo runs it costs 3D (docs/keypoint-fit.md,
+        "the fit of one frame").
     iterations : int
         Levenberg–Marquardt steps at most (before the outliers are dropped); 12.
     polish : int
