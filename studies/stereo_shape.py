@@ -31,6 +31,10 @@ true one; with ``--npz`` the ``.npz`` files themselves and ``--hand auto``, Medi
 real stereo pair has them; its 21 points are scored
 against the true ones, where it marks a joint elsewhere than the truth both estimates
 carry that, and a case where it misses the hand in a view is reported and left out.
+Last it prints how alike the keypoints err in the two views (their errors less the true
+points' projections, in each view's hand size: the correlation across and along the
+image rows, the spread in a view and of the two views' difference), what
+`FrameFitSettings.view_correlation` stands for.
 
 Run: ``PYTHONPATH=src .venv/bin/python studies/stereo_shape.py [--cases 8] [--out DIR]``.
 """
@@ -154,6 +158,14 @@ def fitted(out: Path) -> tuple[np.ndarray, float]:
     return points, float(shape.bases[2, 1] + shape.segments[2].sum())
 
 
+def view_errors(case, xy: np.ndarray) -> np.ndarray:
+    """(2, 21, 2) the keypoints `xy` (2, 21, 2) less the true points' projections, in
+    each view's true wrist → middle-MCP length."""
+    true = np.stack([cam.project(case.joints[0]) for cam in case.rig.cameras])
+    size = np.linalg.norm(true[:, MIDDLE_MCP] - true[:, WRIST], axis=-1)[:, None, None]
+    return (xy - true) / size
+
+
 def palm(points: np.ndarray) -> float:
     return float(np.linalg.norm(points[..., MIDDLE_MCP, :] - points[..., WRIST, :], axis=-1).mean())
 
@@ -188,7 +200,7 @@ def main() -> None:
     print(f"{'case':28s} {'length: true':>12s} {'fit':>6s} {'stereo fit':>10s} "
           f"{'tri.':>6s} {'ratio':>6s} {'palm: true':>10s} {'fit':>6s} {'tri.':>6s} "
           f"{'mono fit':>8s}")  # fmt: skip
-    rows, joints, spread = [], [], []
+    rows, joints, spread, errors = [], [], [], []
     for k in range(args.cases):
         directory = base / f"case{k}"
         case, keypoints = make_case(k, args.proportions, args.repeat, args.noise, args.labels,
@@ -206,6 +218,7 @@ def main() -> None:
         rows.append(e)
         joints.append([np.linalg.norm(p - truth, axis=-1).mean(axis=0) for p in (fit, tri)])
         spread.append(float(np.nanstd(tri, axis=0).mean()))
+        errors.append(view_errors(case, xy[:, -1]))
         print(f"{case.name:28s} {case.hand_length:12.1f} {length:6.1f} {e[0]:10.1f} "
               f"{e[1]:6.1f} {e[0] / e[1]:6.2f} {palm(truth):10.1f} {palm(fit):6.1f} "
               f"{palm(tri):6.1f} {e[2]:8.1f}")  # fmt: skip
@@ -221,9 +234,14 @@ def main() -> None:
         "the triangulated points' spread over the repeated frames, per case (mean "
         "standard deviation, mm): " + " ".join(f"{v:.1f}" for v in spread)
     )
-    for name, errors in zip(("fit", "triangulated"), np.mean(joints, axis=0), strict=True):
+    for name, e in zip(("fit", "triangulated"), np.mean(joints, axis=0), strict=True):
         print(f"per joint (wrist, thumb CMC … little tip), {name}: "
-              + " ".join(f"{v:.0f}" for v in errors))  # fmt: skip
+              + " ".join(f"{v:.0f}" for v in e))  # fmt: skip
+    e = np.concatenate(errors, axis=1)  # (2, n, 2): the views' errors, hand sizes
+    corr = [np.corrcoef(e[0, :, c], e[1, :, c])[0, 1] for c in range(2)]
+    print(f"the keypoints' errors in the two views (hand sizes): correlation {corr[0]:.2f} "
+          f"across the rows, {corr[1]:.2f} along them; spread {e.std():.3f} in a view, "
+          f"{(e[0] - e[1]).std():.3f} of their difference")  # fmt: skip
 
 
 if __name__ == "__main__":

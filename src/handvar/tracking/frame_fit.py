@@ -41,6 +41,20 @@ within the joint limits, where
   them within 0.1 hand sizes of it: the segmentation found something else) has no
   silhouette rows in that frame.
 
+Where two or more cameras see joint i, their keypoints' errors are not independent:
+a learned detector marks a joint at nearly the same place on the hand from both
+sides.  The rows a_i = (√c_ij β(d_ij) e_ij / σ_k)_j of the joint's views are taken as
+Gaussian with covariance Σ_i = (1 − ρ) I + σ_o² P_i P_iᵀ: a 3D offset of the joint
+that all its views share (P_i: their projections' Jacobians with respect to the
+joint, in the rows' units, at the starting pose; σ_o² such that the offset makes the
+share ρ = `FrameFitSettings.view_correlation` of a view's variance on average) plus
+a part each view has alone.  They enter E as ½ a_iᵀ Σ_i⁻¹ a_i (rows L_i⁻¹ a_i,
+Σ_i = L_i L_iᵀ): the views' disagreement, the depth, weighs more than either view's
+point.  Only where the views agree (the joint placed in 3D by one linear step from the
+model's reprojects within σ_k of its keypoint in every view); a joint whose views
+disagree (a gross error in one) keeps its independent rows, so that Huber's loss and
+the rejection act view by view.
+
 E is minimised by Levenberg–Marquardt on the exact Jacobians of G(x)
 (`handvar.tracking.keypoint_cost.keypoint_points`) and of the projection
 (`handvar.camera.Camera.project_jacobian`), Huber's loss by iteratively
@@ -143,6 +157,20 @@ class FrameFitSettings:
         with the detector inside, its fast gestures and the still hands before a stereo
         pair; on the two-hand benchmark's stereo runs it costs 3D (docs/keypoint-fit.md,
         "the fit of one frame").
+    view_correlation : float
+        ρ, the share of the detector's error that a joint's views have alike (module
+        notes); 0.9.  A learned detector looking at one hand from two cameras marks a
+        joint at nearly the same place on the hand in both: MediaPipe's errors on the
+        still hands before a stereo pair correlate at 0.85 across the rows and 0.96
+        along them (`studies/stereo_shape.py`, its MediaPipe run), so the views'
+        disagreement, the depth, is known better than either point.  Used by this fit
+        and the shape fit.  Chosen among 0 (the views independent), 0.9, and 0.9 in
+        this fit alone (0.7 tried on the fast gestures), on the still hands before a
+        stereo pair, the realistic benchmark's stereo cases and fast gestures with the
+        detector inside and the two-hand benchmark with two cameras
+        (docs/keypoint-fit.md, "the fit of one frame"): the 3D error falls on all of
+        them, the fast gestures' 2D to the detector's.  A detector whose views err
+        independently (the benchmark's simulated one) would want 0.
     iterations : int
         Levenberg–Marquardt steps at most (before the outliers are dropped); 12.
     polish : int
@@ -167,6 +195,7 @@ class FrameFitSettings:
     reject: float = 0.25
     world_noise: float = 20.0
     world_noise_seen_twice: float = 3.0
+    view_correlation: float = 0.9
     iterations: int = 12
     polish: int = 3
     tolerance: float = 1e-3
@@ -180,6 +209,7 @@ class FrameFitSettings:
         as_float(self.reject, "reject", minimum=0.0, exclusive_minimum=True)
         as_float(self.world_noise, "world_noise", minimum=0.0, exclusive_minimum=True)
         as_float(self.world_noise_seen_twice, "world_noise_seen_twice", minimum=1.0)
+        as_float(self.view_correlation, "view_correlation", minimum=0.0, maximum=0.99)
         as_int(self.iterations, "iterations", minimum=1)
         as_int(self.polish, "polish", minimum=0)
         one_of(self.tips, TIPS, "tips")
@@ -338,6 +368,7 @@ class _Problem:
         self.silhouettes = silhouettes if settings.silhouette > 0 else None
         self.sizes = np.array([hand_size_px(hand, start, cam) for cam in rig])
         self.present = [np.flatnonzero(k[:, 2] > 0) for k in kp]
+        self.shared = self._shared_whitening(start) if settings.view_correlation > 0 else None
         if self.silhouettes is not None:
             self.agree = _agreeing_cameras(self.silhouettes, kp, self.sizes)
         self.R0 = rig.cameras[0].R
@@ -353,6 +384,8 @@ class _Problem:
         for j, cam in enumerate(self.rig):
             if self.present[j].size:
                 self._keypoint_rows(j, cam, G, JG, rows, jac)
+        if self.shared is not None:
+            self._shared_rows(rows, jac)
         if self.silhouettes is not None:
             self._silhouette_rows(G, JG, rows, jac)
         if self.prior is not None:
@@ -397,6 +430,72 @@ class _Problem:
         if jacobian:
             Je = np.einsum("nij,njp->nip", Jp, JG[ok]) / self.sizes[j]
             jac.append((w[:, :, None] * Je).reshape(-1, N_PARAMS))
+
+    def _shared_whitening(self, start):
+        """The (n', 21) mask of the points each camera with keypoints sees and the
+        (21, 2n', 2n') whitening L⁻¹ of each point's rows over those n' cameras (module
+        notes: errors alike in the views; the identity for a point seen once or whose
+        views disagree); None where no point is seen twice.  P, the views' Jacobians
+        with respect to the point, is taken at the starting pose and held in the frame,
+        as the hand sizes are."""
+        cams = [j for j, ok in enumerate(self.present) if ok.size]
+        seen = np.zeros((len(cams), self.kp.shape[1]), dtype=bool)
+        for c, j in enumerate(cams):
+            seen[c, self.present[j]] = True
+        multi = seen.sum(axis=0) > 1
+        if not multi.any():
+            return None
+        G = keypoint_points(self.hand, start, self.s.tips)
+        px, Jp = zip(*(self.rig.cameras[j].project_jacobian(G) for j in cams), strict=True)
+        # P: a 3D offset of each point (mm) in row units (hand sizes over σ_k), per view
+        scale = (self.sizes[cams] * self.s.noise)[:, None, None, None]
+        P = np.stack(Jp) / scale
+        b = (self.kp[cams, :, :2] - np.stack(px)) / scale[..., 0]  # (n, 21, 2)
+        rho = self.s.view_correlation
+        n = len(cams)
+        W = np.tile(np.eye(2 * n), (G.shape[0], 1, 1))
+        groups: dict[tuple, list[int]] = {}  # the points seen by the same cameras
+        for i in np.flatnonzero(multi):
+            groups.setdefault(tuple(np.flatnonzero(seen[:, i])), []).append(i)
+        for views, points in groups.items():
+            v, pts = np.array(views), np.array(points)
+            Pi = P[v][:, pts].transpose(1, 0, 2, 3).reshape(len(pts), -1, 3)  # (k, 2m, 3)
+            bi = b[v][:, pts].transpose(1, 0, 2).reshape(len(pts), -1)
+            PT = Pi.transpose(0, 2, 1)
+            # one linear step (damped a trifle: views from one centre do not place it)
+            step = np.linalg.solve(PT @ Pi + 1e-9 * np.eye(3), PT @ bi[..., None])
+            agree = np.abs(Pi @ step - bi[..., None]).max(axis=(1, 2)) <= 1.0
+            if not agree.any():  # the views disagree: independent rows
+                continue
+            Pi, pts = Pi[agree], pts[agree]
+            share = rho / np.mean(np.sum(Pi**2, axis=2), axis=1)
+            cov = share[:, None, None] * Pi @ Pi.transpose(0, 2, 1) + (1.0 - rho) * np.eye(
+                2 * v.size
+            )
+            idx = (2 * v[:, None] + np.arange(2)).ravel()
+            W[np.ix_(pts, idx, idx)] = np.linalg.inv(np.linalg.cholesky(cov))
+        return seen, W
+
+    def _shared_rows(self, rows, jac) -> None:
+        """The keypoint rows (one array per camera with keypoints, first in `rows` and
+        `jac`) whitened for errors alike in the views: each point's rows over its
+        cameras times L⁻¹ (module notes)."""
+        seen, W = self.shared
+        n, n_pts = seen.shape
+        a = np.zeros((n_pts, n, 2))
+        for c in range(n):
+            a[seen[c], c] = rows[c].reshape(-1, 2)
+        a = np.einsum("pij,pj->pi", W, a.reshape(n_pts, 2 * n)).reshape(n_pts, n, 2)
+        for c in range(n):
+            rows[c] = a[seen[c], c].ravel()
+        if jac:
+            Ja = np.zeros((n_pts, n, 2, N_PARAMS))
+            for c in range(n):
+                Ja[seen[c], c] = jac[c].reshape(-1, 2, N_PARAMS)
+            Ja = np.einsum("pij,pjk->pik", W, Ja.reshape(n_pts, 2 * n, N_PARAMS))
+            Ja = Ja.reshape(n_pts, n, 2, N_PARAMS)
+            for c in range(n):
+                jac[c] = Ja[seen[c], c].reshape(-1, N_PARAMS)
 
     def _silhouette_rows(self, G, JG, rows, jac) -> None:
         """Append the silhouette term's rows (module notes) at joints G (Jacobian JG)."""
