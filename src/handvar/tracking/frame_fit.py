@@ -523,16 +523,20 @@ class _Problem:
 
     def distances(self, x) -> np.ndarray:
         """d_ij at `x` (n_cams, 21) in hand sizes (the model's at `x`); NaN where none."""
-        G = keypoint_points(self.hand, x, self.s.tips)
-        d = np.full(self.kp.shape[:2], np.nan)
-        for j, cam in enumerate(self.rig):
-            ok = self.present[j]
-            if ok.size:
-                px = cam.project(G[ok])
-                d[j, ok] = np.linalg.norm(px - self.kp[j, ok, :2], axis=1) / hand_size_px(
-                    self.hand, x, cam
-                )
-        return d
+        return _distances(self.hand, self.rig, self.kp, x, self.s.tips)
+
+
+def _distances(hand, rig, kp, x, tips: str) -> np.ndarray:
+    """d_ij at `x` (n_cams, 21) of keypoints `kp` (n_cams, 21, 3), in the model's hand
+    sizes at `x`; NaN where there is no keypoint."""
+    G = keypoint_points(hand, x, tips)
+    d = np.full(kp.shape[:2], np.nan)
+    for j, cam in enumerate(rig):
+        ok = np.flatnonzero(kp[j, :, 2] > 0)
+        if ok.size:
+            px = cam.project(G[ok])
+            d[j, ok] = np.linalg.norm(px - kp[j, ok, :2], axis=1) / hand_size_px(hand, x, cam)
+    return d
 
 
 def _world_in_first_camera(world, kp, camera) -> np.ndarray:
@@ -757,7 +761,7 @@ def fit_frame(
         x, cost, m = _solve(problem, x, settings.polish)
         n += m
         d = problem.distances(x)
-        d[rejected] = _Problem(hand, rig, kp, None, None, None, settings, x).distances(x)[rejected]
+        d[rejected] = _distances(hand, rig, kp, x, settings.tips)[rejected]
         rejected = present & (d > settings.reject)
     return FrameFit(x, d, rejected, cost, n)
 
@@ -769,7 +773,7 @@ def keypoint_distances(
     the keypoints, in the model's hand sizes at `x`; NaN where there is no keypoint."""
     kp = _clean(keypoints, len(rig), settings.min_confidence)
     x = np.asarray(x, dtype=float)
-    return _Problem(hand, rig, kp, None, None, None, settings, x).distances(x)
+    return _distances(hand, rig, kp, x, settings.tips)
 
 
 def reinitialise(
